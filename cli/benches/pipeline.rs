@@ -1,0 +1,13 @@
+//! Criterion benchmarks of the pipeline stage (filled in with the stage).
+
+use criterion::{criterion_group, criterion_main, Criterion};
+
+fn placeholder(c: &mut Criterion) {
+    c.bench_function("pipeline/q16_mul", |b| {
+        let x = lfdepth::Q16::from_raw(123_456);
+        b.iter(|| criterion::black_box(x) * criterion::black_box(x))
+    });
+}
+
+criterion_group!(benches, placeholder);
+criterion_main!(benches);

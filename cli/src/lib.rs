@@ -1,0 +1,4 @@
+//! The std side of lfdepth: file formats, scene loading, the parallel engine and the
+//! commands of the `lfdepth` tool.
+
+pub mod engine;

@@ -1,0 +1,32 @@
+//! # lfdepth
+//!
+//! Dense depth (disparity) from a light field — a grid of views from a camera array or
+//! a plenoptic camera — after Javidnia & Corcoran, "Total Variation-Based Dense Depth
+//! from Multi-Camera Array": initial disparity from the structure tensor on
+//! epipolar-plane images, refined by weighted total variation solved in the dual with
+//! the parallel proximal algorithm.
+//!
+//! The crate is `no_std` and never allocates: every stage writes into caller-owned
+//! outputs and takes caller-owned scratch sized by its `scratch_len(&Plan)`. Kernels are
+//! generic over [`Scalar`] (`f32` or the Q16.16 fixed-point [`Q16`]).
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
+pub mod epi;
+pub mod error;
+pub mod geometry;
+pub mod lightfield;
+pub mod metrics;
+pub mod plan;
+pub mod scalar;
+pub mod synth;
+pub mod tv;
+
+pub use error::{Error, Result};
+pub use geometry::Homography;
+pub use lightfield::{Epi, Grid, Layout, LightField, Sample, View};
+pub use plan::{Params, Plan};
+pub use scalar::{Scalar, Q16};

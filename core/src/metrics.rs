@@ -1,0 +1,1 @@
+//! HCI 4D Light Field Benchmark metrics: BadPix, MSE×100, Q25.

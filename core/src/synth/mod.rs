@@ -1,0 +1,1 @@
+//! Analytically rendered light fields with exact disparity ground truth.
