@@ -85,6 +85,10 @@ impl Hypotheses {
     pub fn max(&self) -> f32 {
         self.max
     }
+    /// Distance between shears (0 without shear).
+    pub fn step(&self) -> f32 {
+        self.step
+    }
     /// Largest residual slope a hypothesis accepts.
     pub fn window(&self) -> f32 {
         self.window

@@ -150,6 +150,28 @@ pub(crate) fn centre_weights<T: Scalar>(sigma: f32, len: usize, centre: usize, o
     }
 }
 
+/// Gaussian weights (σ = `sigma`) centred on row `centre` of `len` rows, truncated to the
+/// rows that exist and renormalised to sum to one.
+pub(crate) fn truncated_gaussian(sigma: f32, len: usize, centre: usize, out: &mut [f32]) {
+    let mut g = [0.0; MAX_TAPS];
+    let r = gaussian_f32(sigma, &mut g);
+    let mut sum = 0.0;
+    for (j, o) in out.iter_mut().enumerate().take(len) {
+        let offset = j as isize - centre as isize + r as isize;
+        *o = if (0..=2 * r as isize).contains(&offset) {
+            g[offset as usize]
+        } else {
+            0.0
+        };
+        sum += *o;
+    }
+    if sum > 0.0 {
+        for o in out.iter_mut().take(len) {
+            *o /= sum;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,7 +3,7 @@
 //! every shear hypothesis.
 
 use super::hypotheses::Hypotheses;
-use super::kernels::{centre_weights, Kernel};
+use super::kernels::{centre_weights, truncated_gaussian, Kernel};
 use super::{ColorMode, EpiParams};
 use crate::error::{Error, Result};
 use crate::lightfield::GRID_MAX;
@@ -17,14 +17,23 @@ pub(crate) struct LineEstimator<T: Scalar> {
     outer: Kernel<T>,
     /// Outer (Gaussian) smoothing across views, evaluated at the centre view only.
     weights: [T; GRID_MAX],
+    /// Row k: the weights over views of the inner Gaussian followed by the Scharr
+    /// cross smoothing (for the along-line gradient) at view k, borders clamped.
+    mix_smooth: [[T; GRID_MAX]; GRID_MAX],
+    /// Row k: the inner Gaussian followed by the across-view derivative at view k
+    /// (central; one-sided at the first and last view so that the ends keep the scale).
+    mix_derivative: [[T; GRID_MAX]; GRID_MAX],
     views: usize,
     centre: usize,
     channels: usize,
     hypotheses: Hypotheses,
+    interpolate: bool,
 }
 
-/// Scores below every coherence: an estimate outside its hypothesis' window (`coherence −
-/// 2`) and a degenerate tensor (no texture, or an orientation the window can never hold).
+/// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
+/// (`coherence − 1`), an estimate outside its hypothesis' window (`coherence − 2`) and a
+/// degenerate tensor (no texture, or an orientation the window can never hold).
+const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
 
@@ -38,24 +47,65 @@ impl<T: Scalar> LineEstimator<T> {
         channels: usize,
     ) -> Self {
         let mut weights = [T::ZERO; GRID_MAX];
-        centre_weights(
-            params.outer_sigma,
-            views.min(GRID_MAX),
-            centre,
-            &mut weights,
-        );
+        let views = views.min(GRID_MAX);
+        centre_weights(params.outer_sigma, views, centre, &mut weights);
+        let mut mix_smooth = [[T::ZERO; GRID_MAX]; GRID_MAX];
+        let mut mix_derivative = [[T::ZERO; GRID_MAX]; GRID_MAX];
+        // Inner Gaussian across views, truncated at the first and last view and
+        // renormalised; then per view a Scharr cross smoothing ([3, 10, 3], renormalised
+        // at the ends) and a central difference (one-sided at the ends). Averaging
+        // per-view differences keeps the slope scale exact at the ends of the EPI,
+        // where clamped ("nearest") borders would flatten the signal.
+        let mut gauss = [[0.0f32; GRID_MAX]; GRID_MAX];
+        for (k, row) in gauss.iter_mut().enumerate().take(views) {
+            truncated_gaussian(params.inner_sigma, views, k, row);
+        }
+        let last = views.saturating_sub(1);
+        let mut smooth = [[0.0f32; GRID_MAX]; GRID_MAX];
+        let mut diff = [[0.0f32; GRID_MAX]; GRID_MAX];
+        for i in 0..views {
+            let (im, ip) = (i.saturating_sub(1), (i + 1).min(last));
+            let side = if im < i { 3.0 } else { 0.0 } + if ip > i { 3.0 } else { 0.0 };
+            let norm = 10.0 + side;
+            smooth[i][i] += 10.0 / norm;
+            if im < i {
+                smooth[i][im] += 3.0 / norm;
+            }
+            if ip > i {
+                smooth[i][ip] += 3.0 / norm;
+            }
+            if ip > im {
+                let scale = 1.0 / (ip - im) as f32;
+                diff[i][ip] += scale;
+                diff[i][im] -= scale;
+            }
+        }
+        for k in 0..views {
+            for j in 0..views {
+                let (mut s, mut d) = (0.0, 0.0);
+                for i in 0..views {
+                    s += gauss[k][i] * smooth[i][j];
+                    d += gauss[k][i] * diff[i][j];
+                }
+                mix_smooth[k][j] = T::from_f32(s);
+                mix_derivative[k][j] = T::from_f32(d);
+            }
+        }
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
             outer: Kernel::gaussian(params.outer_sigma),
             weights,
-            views: views.min(GRID_MAX),
+            mix_smooth,
+            mix_derivative,
+            views,
             centre,
             channels: match params.color {
                 ColorMode::Gray => 1,
                 ColorMode::Tensor => channels.clamp(1, 3),
             },
             hypotheses,
+            interpolate: params.interpolate,
         }
     }
 
@@ -66,7 +116,7 @@ impl<T: Scalar> LineEstimator<T> {
 
     /// Work elements (of `T`) for a line of `n` samples.
     pub(crate) fn work_len(views: usize, channels: usize, n: usize) -> usize {
-        (2 * views * channels + 2 * views + 7) * n
+        (2 * views * channels + 2 * views + 12) * n
     }
 
     /// Estimates one line of `n` samples. `load(view, channel, out)` fills `out` (length `n`)
@@ -105,7 +155,12 @@ impl<T: Scalar> LineEstimator<T> {
         let (jkk, rest) = rest.split_at_mut(n);
         let (sxx, rest) = rest.split_at_mut(n);
         let (sxk, rest) = rest.split_at_mut(n);
-        let skk = &mut rest[..n];
+        let (skk, rest) = rest.split_at_mut(n);
+        let (score, rest) = rest.split_at_mut(n);
+        let (prev_r, rest) = rest.split_at_mut(n);
+        let (prev_c, rest) = rest.split_at_mut(n);
+        let (gx, rest) = rest.split_at_mut(n);
+        let gk = &mut rest[..n];
 
         // Filtering along the line commutes with the shear (a shift along the line), so the
         // inner smoothing and the along-line parts of the Scharr filters run once per line.
@@ -121,22 +176,26 @@ impl<T: Scalar> LineEstimator<T> {
         let best_d = &mut disparity[..n];
         let best_c = &mut confidence[..n];
         let lowest = T::from_f32(DEGENERATE - 1.0);
-        for (d, c) in best_d.iter_mut().zip(best_c.iter_mut()) {
+        for ((d, c), sc) in best_d
+            .iter_mut()
+            .zip(best_c.iter_mut())
+            .zip(score.iter_mut())
+        {
             *d = T::ZERO;
-            *c = lowest;
+            *c = T::ZERO;
+            *sc = lowest;
         }
         let h = &self.hypotheses;
         let window = T::from_f32(h.window());
+        let step = T::from_f32(h.step());
         let degenerate = T::from_f32(DEGENERATE);
+        let single = T::from_f32(SINGLE);
         let out_of_window = T::from_f32(OUT_OF_WINDOW);
         let tiny_trace = T::from_f32(1e-6).max(T::EPSILON);
         let min_den = T::from_f32(1.0 / 64.0);
+        let min_gap = T::from_f32(1.0 / 256.0);
         let two = T::from_i32(2);
-        let (side, middle, half) = (
-            T::from_f32(3.0 / 16.0),
-            T::from_f32(10.0 / 16.0),
-            T::from_f32(0.5),
-        );
+        let mut previous_shear = T::ZERO;
         for i in 0..h.count() {
             let shear = h.shear(i);
             let shear_t = T::from_f32(shear);
@@ -155,23 +214,28 @@ impl<T: Scalar> LineEstimator<T> {
                     if w == T::ZERO {
                         continue;
                     }
-                    let (km, kp) = (k.saturating_sub(1), (k + 1).min(k_n - 1));
-                    // One-sided difference at the first and last view: same scale as the
-                    // central one, so the end views do not bias the slope towards zero.
-                    let half = if kp - km == 2 { half } else { T::ONE };
-                    let (dm, d0, dp) = (
-                        &sh_d[km * n..km * n + n],
-                        &sh_d[k * n..k * n + n],
-                        &sh_d[kp * n..kp * n + n],
-                    );
-                    let (sm, sp) = (&sh_s[km * n..km * n + n], &sh_s[kp * n..kp * n + n]);
+                    // Gradients of view k across the views: rows of the mixing matrices.
+                    for v in gx.iter_mut().chain(gk.iter_mut()) {
+                        *v = T::ZERO;
+                    }
+                    for j in 0..k_n {
+                        let (ms, md) = (self.mix_smooth[k][j], self.mix_derivative[k][j]);
+                        if ms != T::ZERO {
+                            for (g, &v) in gx.iter_mut().zip(&sh_d[j * n..j * n + n]) {
+                                *g += ms * v;
+                            }
+                        }
+                        if md != T::ZERO {
+                            for (g, &v) in gk.iter_mut().zip(&sh_s[j * n..j * n + n]) {
+                                *g += md * v;
+                            }
+                        }
+                    }
                     for t in 0..n {
-                        let gx = side * (dm[t] + dp[t]) + middle * d0[t];
-                        let gk = half * (sp[t] - sm[t]);
-                        let wgx = w * gx;
-                        jxx[t] += wgx * gx;
-                        jxk[t] += wgx * gk;
-                        jkk[t] += w * gk * gk;
+                        let wgx = w * gx[t];
+                        jxx[t] += wgx * gx[t];
+                        jxk[t] += wgx * gk[t];
+                        jkk[t] += w * gk[t] * gk[t];
                     }
                 }
             }
@@ -180,37 +244,69 @@ impl<T: Scalar> LineEstimator<T> {
             self.outer.apply(jkk, skk);
             for t in 0..n {
                 let trace = sxx[t] + skk[t];
-                let (score, d) = if trace <= tiny_trace {
-                    (degenerate, T::ZERO)
+                // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
+                let (r, coherence) = if trace <= tiny_trace {
+                    (T::ZERO, degenerate)
                 } else {
                     // Normalised by the trace so that fixed point never overflows:
-                    // a, b ∈ [−1, 1], coherence r = √(a² + b²) ∈ [0, 1], and the slope of
-                    // the dominant eigenvector is b / (a + r) = 2Jxk / (Jxx − Jkk + √…).
+                    // a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the
+                    // dominant eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
                     let a = (sxx[t] - skk[t]) / trace;
                     let b = two * sxk[t] / trace;
-                    let r = (a * a + b * b).sqrt().min(T::ONE);
-                    let den = a + r;
+                    let coherence = (a * a + b * b).sqrt().min(T::ONE);
+                    let den = a + coherence;
                     if den <= min_den {
-                        (degenerate, T::ZERO)
+                        (T::ZERO, degenerate)
                     } else {
-                        let d = b / den;
-                        if d.abs() <= window {
-                            (r, d)
-                        } else {
-                            (r + out_of_window, d.clamp(-window, window))
-                        }
+                        (b / den, coherence)
                     }
                 };
-                if score > best_c[t] {
-                    best_c[t] = score;
-                    best_d[t] = shear_t + d;
+                let valid = coherence >= T::ZERO;
+                let inside = valid && r.abs() <= window;
+                let (mut cand_score, mut cand_d) = if !valid {
+                    (degenerate, shear_t)
+                } else if inside {
+                    (coherence + single, shear_t + r)
+                } else {
+                    (
+                        coherence + out_of_window,
+                        shear_t + r.clamp(-window, window),
+                    )
+                };
+                if self.interpolate && i > 0 {
+                    // The residual slope falls linearly through zero between the two
+                    // shears that bracket the disparity; its zero crossing cancels the
+                    // tensor's slope-proportional bias.
+                    let (pr, pc) = (prev_r[t], prev_c[t]);
+                    if inside && pc >= T::ZERO && pr >= T::ZERO && r <= T::ZERO {
+                        let gap = pr - r;
+                        if gap > min_gap {
+                            let crossing = previous_shear + step * (pr / gap).min(T::ONE);
+                            let both = pc.min(coherence);
+                            if both > cand_score {
+                                cand_score = both;
+                                cand_d = crossing;
+                            }
+                        }
+                    }
+                }
+                if cand_score > score[t] {
+                    score[t] = cand_score;
+                    best_d[t] = cand_d;
+                    best_c[t] = coherence.max(T::ZERO);
+                }
+                if inside {
+                    prev_r[t] = r;
+                    prev_c[t] = coherence;
+                } else {
+                    prev_c[t] = degenerate;
                 }
             }
+            previous_shear = shear_t;
         }
         let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
-        for (d, c) in best_d.iter_mut().zip(best_c.iter_mut()) {
+        for d in best_d.iter_mut() {
             *d = d.clamp(lo, hi);
-            *c = c.max(T::ZERO);
         }
         Ok(())
     }

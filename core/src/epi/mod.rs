@@ -84,6 +84,9 @@ pub struct EpiParams {
     pub shear_step: f32,
     /// Largest residual slope a hypothesis accepts, in units of `shear_step`, 0.5…2.
     pub window: f32,
+    /// Between adjacent shears, take the zero crossing of the residual slope (off: the
+    /// single most coherent hypothesis, as in the reference).
+    pub interpolate: bool,
     /// Fusion of the two directions.
     pub fusion: Fusion,
     /// Colour handling.
@@ -99,6 +102,7 @@ impl Default for EpiParams {
             shear: true,
             shear_step: 1.0,
             window: 1.0,
+            interpolate: true,
             fusion: Fusion::Coherence,
             color: ColorMode::Tensor,
         }
