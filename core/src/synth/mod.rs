@@ -31,6 +31,7 @@ mod rng;
 mod scene;
 mod surface;
 mod texture;
+mod trig;
 
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Grid, Layout};

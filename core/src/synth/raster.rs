@@ -15,7 +15,7 @@
 use super::camera::{ViewCamera, NOISE_STREAM};
 use super::rng::Rng;
 use super::scene::{Scene, MAX_SURFACES};
-use super::surface::ViewSurface;
+use super::surface::{Quad, ViewSurface};
 use super::texture::WAVES;
 use super::SynthSpec;
 
@@ -38,6 +38,29 @@ struct Prepared {
     geometry: ViewSurface,
     base: [f64; 3],
     waves: [ViewWave; WAVES],
+    /// `(cos gx, sin gx)` per wave: the phase step from one pixel to the next in a row.
+    steps: [(f64, f64); WAVES],
+}
+
+/// Pixels after which a running phasor is recomputed exactly (bounds rounding drift to
+/// ~1e-14).
+const PHASOR_RUN: u32 = 64;
+
+/// `(cos θ, sin θ)` of every wave of one plane at the pixel `next`, advanced along a row
+/// by complex multiplication: one exact evaluation per run instead of one per pixel.
+#[derive(Clone, Copy, Debug)]
+struct Phasors {
+    next: usize,
+    run: u32,
+    waves: [(f64, f64); WAVES],
+}
+
+/// What a pixel sees.
+enum Footprint {
+    /// Only plane `k`, over the whole pixel: integrate in closed form.
+    Plane(usize),
+    /// Several surfaces or a cap: the mean of the samples' radiance.
+    Mixed([f64; 3]),
 }
 
 /// `sin(t)/t`, continuous at 0.
@@ -63,9 +86,11 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
             beta: 0.0,
             gamma: 0.0,
             bounds: [0.0; 4],
+            outline: None,
         },
         base: [0.0; 3],
         waves: [ViewWave::default(); WAVES],
+        steps: [(1.0, 0.0); WAVES],
     }; MAX_SURFACES];
     for (p, s) in prepared.iter_mut().zip(surfaces) {
         p.geometry = s.prepare(u, v);
@@ -93,6 +118,9 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
                 amplitude: t.amplitude.map(|a| a * response),
             };
         }
+        for (step, w) in p.steps.iter_mut().zip(&p.waves) {
+            *step = super::trig::sincos(w.gx);
+        }
     }
     let prepared = prepared.get(..surfaces.len()).unwrap_or(&[]);
 
@@ -107,9 +135,28 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
     let sigma = spec.noise_sigma as f64;
     let mut noise = Rng::stream(spec.seed, NOISE_STREAM, spec.grid.index(row, col) as u64);
     let width = spec.width;
+    // Along a row the phase is linear in x only for rectified views.
+    let mut phasors = [Phasors {
+        next: usize::MAX,
+        run: 0,
+        waves: [(1.0, 0.0); WAVES],
+    }; MAX_SURFACES];
     for (index, pixel) in out.chunks_exact_mut(channels).enumerate() {
         let (i, j) = ((index % width) as f64, (index / width) as f64);
-        let radiance = pixel_radiance(&camera, surfaces, prepared, offsets, i, j, u, v);
+        let radiance = match pixel_radiance(&camera, surfaces, prepared, offsets, i, j, u, v) {
+            Footprint::Mixed(value) => value,
+            Footprint::Plane(k) => {
+                let (Some(p), Some(phasor)) = (prepared.get(k), phasors.get_mut(k)) else {
+                    continue;
+                };
+                if camera.misaligned {
+                    let (x, y) = camera.ideal_point(i, j);
+                    analytic(p, x, y)
+                } else {
+                    running_analytic(p, phasor, index, i, j)
+                }
+            }
+        };
         for (value, linear) in pixel.iter_mut().zip(radiance) {
             let stored = camera.photometric(linear.clamp(0.0, 1.0)) * 255.0;
             let noisy = if sigma > 0.0 {
@@ -117,7 +164,8 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
             } else {
                 stored
             };
-            *value = libm::round(noisy.clamp(0.0, 255.0)) as u8;
+            // Round half up (values are non-negative).
+            *value = (noisy.clamp(0.0, 255.0) + 0.5) as u8;
         }
     }
 }
@@ -133,44 +181,56 @@ fn pixel_radiance(
     j: f64,
     u: f64,
     v: f64,
-) -> [f64; 3] {
+) -> Footprint {
     // Footprint of the pixel in ideal coordinates.
-    let footprint = if camera.misaligned {
-        let mut b = [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
+    let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
+    let quad: Quad = corners.map(|(dx, dy)| camera.ideal_point(i + dx, j + dy));
+    let mut footprint = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for &(x, y) in &quad {
+        footprint = [
+            footprint[0].min(x),
+            footprint[1].min(y),
+            footprint[2].max(x),
+            footprint[3].max(y),
         ];
-        for (dx, dy) in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
-            let (x, y) = camera.ideal_point(i + dx, j + dy);
-            b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
-        }
-        b
-    } else {
-        [i - 0.5, j - 0.5, i + 0.5, j + 0.5]
-    };
+    }
+    // Surfaces that may be seen in the pixel, with their disparity range there.
     let mut candidates = [0u8; MAX_SURFACES];
+    let mut ranges = [(0.0f64, 0.0f64); MAX_SURFACES];
     let mut count = 0;
-    for (k, p) in prepared.iter().enumerate() {
+    for (k, (s, p)) in surfaces.iter().zip(prepared).enumerate() {
         let b = p.geometry.bounds;
-        if b[0] <= footprint[2]
+        let overlaps = b[0] <= footprint[2]
             && b[2] >= footprint[0]
             && b[1] <= footprint[3]
-            && b[3] >= footprint[1]
-        {
-            if let Some(c) = candidates.get_mut(count) {
-                *c = k as u8;
-                count += 1;
-            }
+            && b[3] >= footprint[1];
+        if !overlaps || s.misses(&p.geometry, &quad) {
+            continue;
+        }
+        if let (Some(c), Some(r)) = (candidates.get_mut(count), ranges.get_mut(count)) {
+            *c = k as u8;
+            *r = s.disparity_range(&p.geometry, &quad);
+            count += 1;
         }
     }
     let candidates = candidates.get(..count).unwrap_or(&[]);
-    let (ci, cj) = camera.ideal_point(i, j);
-    if let [only] = candidates {
-        let k = *only as usize;
-        if surfaces.get(k).is_some_and(|s| s.is_plane()) {
-            return analytic(prepared, k, ci, cj);
+    let ranges = ranges.get(..count).unwrap_or(&[]);
+    // A plane covering the pixel and nearer than anything else there is all it shows.
+    for (n, (&k, &(lo, _))) in candidates.iter().zip(ranges).enumerate() {
+        let Some((s, p)) = surfaces.get(k as usize).zip(prepared.get(k as usize)) else {
+            continue;
+        };
+        let in_front = ranges
+            .iter()
+            .enumerate()
+            .all(|(m, &(_, hi))| m == n || hi < lo);
+        if in_front && s.is_plane() && s.covers(&p.geometry, &quad) {
+            return Footprint::Plane(k as usize);
         }
     }
 
@@ -207,7 +267,7 @@ fn pixel_radiance(
     if single {
         if let Some(&(k, _, _)) = hits.first() {
             if surfaces.get(k as usize).is_some_and(|s| s.is_plane()) {
-                return analytic(prepared, k as usize, ci, cj);
+                return Footprint::Plane(k as usize);
             }
         }
     }
@@ -221,22 +281,42 @@ fn pixel_radiance(
         }
     }
     let inv = 1.0 / samples.max(1) as f64;
-    sum.map(|a| a * inv)
+    Footprint::Mixed(sum.map(|a| a * inv))
 }
 
-/// Exact box-filtered radiance of plane `k` for the pixel centred at ideal point `(x, y)`.
+/// Exact box-filtered radiance of a plane for the pixel centred at ideal point `(x, y)`.
 #[inline]
-fn analytic(prepared: &[Prepared], k: usize, x: f64, y: f64) -> [f64; 3] {
-    let Some(p) = prepared.get(k) else {
-        return [0.0; 3];
-    };
+fn analytic(p: &Prepared, x: f64, y: f64) -> [f64; 3] {
     let mut value = p.base;
     for w in &p.waves {
-        let c = libm::cos(w.gx * x + w.gy * y + w.psi);
+        let c = super::trig::cos(w.gx * x + w.gy * y + w.psi);
         for (a, b) in value.iter_mut().zip(w.amplitude) {
             *a += b * c;
         }
     }
+    value
+}
+
+/// [`analytic`] at rectified pixel `(i, j)` (linear `index`), continuing the plane's
+/// running phasors when the previous pixel of the row used them.
+#[inline]
+fn running_analytic(p: &Prepared, phasor: &mut Phasors, index: usize, i: f64, j: f64) -> [f64; 3] {
+    if phasor.next != index || phasor.run >= PHASOR_RUN || i == 0.0 {
+        for (state, w) in phasor.waves.iter_mut().zip(&p.waves) {
+            *state = super::trig::sincos(w.gx * i + w.gy * j + w.psi);
+        }
+        phasor.run = 0;
+    }
+    let mut value = p.base;
+    for ((state, w), step) in phasor.waves.iter_mut().zip(&p.waves).zip(&p.steps) {
+        let (c, s) = *state;
+        for (a, b) in value.iter_mut().zip(w.amplitude) {
+            *a += b * c;
+        }
+        *state = (c * step.0 - s * step.1, s * step.0 + c * step.1);
+    }
+    phasor.next = index + 1;
+    phasor.run += 1;
     value
 }
 
@@ -248,6 +328,7 @@ pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
         beta: 0.0,
         gamma: 0.0,
         bounds: [0.0; 4],
+        outline: None,
     }; MAX_SURFACES];
     for (p, s) in prepared.iter_mut().zip(surfaces) {
         *p = s.prepare(0.0, 0.0);

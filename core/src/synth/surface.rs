@@ -106,6 +106,39 @@ pub(crate) struct ViewSurface {
     pub(crate) gamma: f64,
     /// Bounds `[x0, y0, x1, y1]` in view coordinates outside which no ray hits.
     pub(crate) bounds: [f64; 4],
+    /// For planes on a rectangle: the parallelogram of view points whose rays hit it
+    /// (the view → surface map of a plane is affine), vertices in order.
+    pub(crate) outline: Option<[(f64, f64); 4]>,
+}
+
+/// A pixel's footprint in ideal view coordinates: its four corners in order.
+pub(crate) type Quad = [(f64, f64); 4];
+
+fn cross(o: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+}
+
+/// Whether every point of `quad` lies in the convex polygon `outline`.
+fn outline_contains(outline: &Quad, quad: &Quad) -> bool {
+    let orientation = cross(outline[0], outline[1], outline[2]);
+    quad.iter()
+        .all(|&q| (0..4).all(|e| cross(outline[e], outline[(e + 1) % 4], q) * orientation >= 0.0))
+}
+
+/// Whether an edge normal of the parallelogram `outline` separates it from `quad`
+/// (a sufficient condition for them to be disjoint).
+fn outline_separated(outline: &Quad, quad: &Quad) -> bool {
+    (0..2).any(|e| {
+        let (a, b) = (outline[e], outline[e + 1]);
+        let normal = (a.1 - b.1, b.0 - a.0);
+        let project = |p: &(f64, f64)| p.0 * normal.0 + p.1 * normal.1;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in outline {
+            lo = lo.min(project(p));
+            hi = hi.max(project(p));
+        }
+        quad.iter().all(|q| project(q) < lo) || quad.iter().all(|q| project(q) > hi)
+    })
 }
 
 impl Surface {
@@ -179,11 +212,36 @@ impl Surface {
                     }
                     shift_bounds([x0, y0, x1, y1], lo, hi, u, v)
                 };
+                let outline = match support {
+                    Support::All => None,
+                    Support::Rect {
+                        cx,
+                        cy,
+                        cos,
+                        sin,
+                        half_length,
+                        half_width,
+                    } => {
+                        let corner = |sl: f64, sw: f64| {
+                            let x = cx + sl * half_length * cos - sw * half_width * sin;
+                            let y = cy + sl * half_length * sin + sw * half_width * cos;
+                            let d = a + b * x + c * y;
+                            (x - d * u, y - d * v)
+                        };
+                        Some([
+                            corner(1.0, 1.0),
+                            corner(-1.0, 1.0),
+                            corner(-1.0, -1.0),
+                            corner(1.0, -1.0),
+                        ])
+                    }
+                };
                 ViewSurface {
                     alpha,
                     beta,
                     gamma,
                     bounds,
+                    outline,
                 }
             }
             Shape::Cap {
@@ -203,7 +261,46 @@ impl Surface {
                     u,
                     v,
                 ),
+                outline: None,
             },
+        }
+    }
+
+    /// Whether the surface certainly covers the whole footprint `quad`.
+    pub(crate) fn covers(&self, prepared: &ViewSurface, quad: &Quad) -> bool {
+        match (self.shape, prepared.outline) {
+            (
+                Shape::Plane {
+                    support: Support::All,
+                    ..
+                },
+                _,
+            ) => true,
+            (Shape::Plane { .. }, Some(outline)) => outline_contains(&outline, quad),
+            _ => false,
+        }
+    }
+
+    /// Whether the surface certainly misses the footprint `quad` (beyond `bounds`).
+    pub(crate) fn misses(&self, prepared: &ViewSurface, quad: &Quad) -> bool {
+        prepared
+            .outline
+            .is_some_and(|outline| outline_separated(&outline, quad))
+    }
+
+    /// Bounds of the disparity the surface can show inside the footprint `quad`.
+    pub(crate) fn disparity_range(&self, prepared: &ViewSurface, quad: &Quad) -> (f64, f64) {
+        match self.shape {
+            Shape::Plane { .. } => {
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for &(x, y) in quad {
+                    let d = prepared.alpha + prepared.beta * x + prepared.gamma * y;
+                    lo = lo.min(d);
+                    hi = hi.max(d);
+                }
+                (lo, hi)
+            }
+            Shape::Cap { base, height, .. } => (base, base + height),
         }
     }
 

@@ -275,3 +275,234 @@ fn subpixel_agreement_of_a_translating_plane() {
         }
     }
 }
+
+#[test]
+fn bad_specs_are_errors() {
+    let ok = small(SceneKind::Planes);
+    assert_eq!(ok.validate(), Ok(()));
+    let cases: [(fn(&mut SynthSpec), &str); 14] = [
+        (|s| s.grid = Grid::new(2, 9), "grid"),
+        (|s| s.grid = Grid::new(9, 18), "grid"),
+        (|s| s.width = 15, "size"),
+        (|s| s.channels = 4, "channels"),
+        (|s| s.channels = 0, "channels"),
+        (|s| s.disparity_min = f32::NAN, "nan"),
+        (|s| s.disparity_max = f32::INFINITY, "inf"),
+        (|s| s.disparity_min = -4.5, "range"),
+        (|s| s.disparity_max = s.disparity_min, "order"),
+        (|s| s.noise_sigma = -1.0, "noise"),
+        (|s| s.photometric = 0.9, "photometric"),
+        (|s| s.supersample = 0, "supersample"),
+        (|s| s.supersample = MAX_SUPERSAMPLE + 1, "supersample"),
+        (
+            |s| {
+                s.misalign = Some(Misalignment {
+                    max_rotation_deg: 1.0,
+                    max_translation_px: f32::NAN,
+                    max_scale: 0.0,
+                    max_perspective: 0.0,
+                })
+            },
+            "misalign",
+        ),
+    ];
+    for (break_it, what) in cases {
+        let mut spec = ok;
+        break_it(&mut spec);
+        assert!(spec.validate().is_err(), "{what}");
+        let mut gt = vec![0.0f32; 64 * 64];
+        assert!(render_ground_truth(&spec, &mut gt).is_err(), "{what}");
+    }
+    let huge = SynthSpec::new(
+        SceneKind::Planes,
+        Grid::new(17, 17),
+        usize::MAX / 4,
+        1 << 40,
+    );
+    assert!(matches!(huge.validate(), Err(Error::SizeOverflow { .. })));
+    // Output sizes.
+    let mut views = vec![0u8; ok.layout().validate().unwrap()];
+    let mut gt = vec![0.0f32; 64 * 64];
+    let mut hs = vec![Homography::IDENTITY; 81];
+    assert!(matches!(
+        render(&ok, &mut views[1..], &mut gt, &mut hs),
+        Err(Error::BufferTooSmall { .. })
+    ));
+    assert!(matches!(
+        render(&ok, &mut views, &mut gt[1..], &mut hs),
+        Err(Error::OutputSize { .. })
+    ));
+    assert!(matches!(
+        render(&ok, &mut views, &mut gt, &mut hs[1..]),
+        Err(Error::BufferTooSmall { .. })
+    ));
+    let mut one = vec![0u8; 64 * 64 * 3];
+    assert!(matches!(
+        render_view(&ok, 9, 0, &mut one),
+        Err(Error::OutOfRange { .. })
+    ));
+    assert!(matches!(
+        render_view(&ok, 0, 0, &mut one[1..]),
+        Err(Error::BufferTooSmall { .. })
+    ));
+    assert!(view_homography(&ok, 0, 9).is_err());
+}
+
+#[test]
+fn noise_has_the_requested_sigma() {
+    let mut spec = small(SceneKind::LowTexture);
+    spec.grid = Grid::new(3, 3);
+    let clean = render_all(&spec);
+    spec.noise_sigma = 4.0;
+    let noisy = render_all(&spec);
+    assert_eq!(clean.gt, noisy.gt);
+    // Mid-gray low-texture scene: no clipping, so the difference is the noise (+ rounding).
+    let diffs: Vec<f64> = clean
+        .views
+        .iter()
+        .zip(&noisy.views)
+        .map(|(&a, &b)| b as f64 - a as f64)
+        .collect();
+    let n = diffs.len() as f64;
+    let mean = diffs.iter().sum::<f64>() / n;
+    let std = (diffs.iter().map(|d| (d - mean) * (d - mean)).sum::<f64>() / n).sqrt();
+    assert!(
+        mean.abs() < 0.1 && (std - 4.0).abs() < 0.3,
+        "mean {mean} std {std}"
+    );
+}
+
+#[test]
+fn photometric_changes_only_the_other_views() {
+    let mut spec = small(SceneKind::Planes);
+    spec.grid = Grid::new(3, 3);
+    let clean = render_all(&spec);
+    spec.photometric = 0.2;
+    let changed = render_all(&spec);
+    assert_eq!(
+        view(&spec, &clean.views, 1, 1),
+        view(&spec, &changed.views, 1, 1)
+    );
+    let mut differing = 0;
+    for (row, col) in [(0, 0), (0, 2), (2, 1), (1, 0)] {
+        let (a, b) = (
+            view(&spec, &clean.views, row, col),
+            view(&spec, &changed.views, row, col),
+        );
+        let mean = |v: &[u8]| v.iter().map(|&x| x as f64).sum::<f64>() / v.len() as f64;
+        let ratio = mean(b) / mean(a);
+        assert!((0.75..=1.25).contains(&ratio), "{ratio}");
+        if a != b {
+            differing += 1;
+        }
+    }
+    assert!(differing >= 3);
+}
+
+#[test]
+fn misaligned_views_are_the_ideal_views_warped_by_the_returned_homographies() {
+    let mut spec = small(SceneKind::Planes);
+    spec.grid = Grid::new(3, 3);
+    let ideal = render_all(&spec);
+    spec.misalign = Some(Misalignment {
+        max_rotation_deg: 2.0,
+        max_translation_px: 3.0,
+        max_scale: 0.02,
+        max_perspective: 0.01,
+    });
+    let moved = render_all(&spec);
+    assert_eq!(ideal.gt, moved.gt);
+    assert_eq!(moved.homographies[4], Homography::IDENTITY);
+    assert_eq!(
+        view(&spec, &ideal.views, 1, 1),
+        view(&spec, &moved.views, 1, 1)
+    );
+    for (row, col) in [(0, 0), (1, 2), (2, 1)] {
+        let h = moved.homographies[spec.grid.index(row, col)];
+        assert_ne!(h, Homography::IDENTITY);
+        assert_eq!(h, view_homography(&spec, row, col).unwrap());
+        let (a, b) = (
+            view(&spec, &ideal.views, row, col),
+            view(&spec, &moved.views, row, col),
+        );
+        // stored(H·p) = ideal(p): compare with H and, as a control, without it.
+        let mut err = [0.0f64; 2];
+        let mut n = 0;
+        for y in 8..56 {
+            for x in 8..56 {
+                let (qx, qy) = h.apply(x as f32, y as f32).unwrap();
+                let warped = bilinear(b, &spec, 1, qx as f64, qy as f64);
+                let unwarped = bilinear(b, &spec, 1, x as f64, y as f64);
+                if let (Some(w), Some(u)) = (warped, unwarped) {
+                    let truth = a[(y * 64 + x) * 3 + 1] as f64;
+                    err[0] += (w - truth).abs();
+                    err[1] += (u - truth).abs();
+                    n += 1;
+                }
+            }
+        }
+        let (with_h, without_h) = (err[0] / n as f64, err[1] / n as f64);
+        assert!(
+            with_h < 4.0 && without_h > 3.0 * with_h,
+            "{with_h} vs {without_h}"
+        );
+    }
+}
+
+#[test]
+fn gray_views_are_gray() {
+    let mut spec = small(SceneKind::Mixed);
+    spec.channels = 1;
+    spec.grid = Grid::new(3, 3);
+    let r = render_all(&spec);
+    assert_eq!(r.views.len(), 9 * 64 * 64);
+    let max = *r.views.iter().max().unwrap();
+    let min = *r.views.iter().min().unwrap();
+    assert!(max - min > 150, "contrast {min}..{max}");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+    /// Any spec either renders (small ones only, to stay fast) or is rejected; never a
+    /// panic, and the gt always lies in the requested range.
+    #[test]
+    fn random_specs_never_panic(
+        kind in 0usize..7,
+        rows in 0usize..20,
+        cols in 0usize..20,
+        width in 0usize..40,
+        height in 0usize..40,
+        channels in 0usize..5,
+        dmin in -6.0f32..6.0,
+        dmax in -6.0f32..6.0,
+        noise in -1.0f32..70.0,
+        photometric in -0.1f32..0.6,
+        misalign in proptest::option::of((0.0f32..12.0, 0.0f32..70.0, 0.0f32..0.3, 0.0f32..0.06)),
+        seed in proptest::prelude::any::<u64>(),
+        supersample in 0usize..10,
+    ) {
+        let mut spec = SynthSpec::new(SceneKind::ALL[kind], Grid::new(rows, cols), width, height);
+        spec.channels = channels;
+        spec.disparity_min = dmin;
+        spec.disparity_max = dmax;
+        spec.noise_sigma = noise;
+        spec.photometric = photometric;
+        spec.misalign = misalign.map(|(r, t, s, p)| Misalignment {
+            max_rotation_deg: r,
+            max_translation_px: t,
+            max_scale: s,
+            max_perspective: p,
+        });
+        spec.seed = seed;
+        spec.supersample = supersample;
+        let mut gt = vec![0.0f32; width * height];
+        match render_ground_truth(&spec, &mut gt) {
+            Err(_) => proptest::prop_assert!(spec.validate().is_err()),
+            Ok(()) => {
+                proptest::prop_assert!(gt.iter().all(|&d| d >= dmin && d <= dmax));
+                let mut out = vec![0u8; width * height * channels];
+                render_view(&spec, rows - 1, 0, &mut out).unwrap();
+            }
+        }
+    }
+}
