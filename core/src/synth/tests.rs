@@ -280,7 +280,8 @@ fn subpixel_agreement_of_a_translating_plane() {
 fn bad_specs_are_errors() {
     let ok = small(SceneKind::Planes);
     assert_eq!(ok.validate(), Ok(()));
-    let cases: [(fn(&mut SynthSpec), &str); 14] = [
+    type Breaker = fn(&mut SynthSpec);
+    let cases: [(Breaker, &str); 14] = [
         (|s| s.grid = Grid::new(2, 9), "grid"),
         (|s| s.grid = Grid::new(9, 18), "grid"),
         (|s| s.width = 15, "size"),
