@@ -68,7 +68,7 @@ fn sinc(t: f64) -> f64 {
     if libm::fabs(t) < 1e-8 {
         1.0
     } else {
-        libm::sin(t) / t
+        super::trig::sincos(t).1 / t
     }
 }
 
@@ -209,7 +209,7 @@ fn pixel_radiance(
             && b[2] >= footprint[0]
             && b[1] <= footprint[3]
             && b[3] >= footprint[1];
-        if !overlaps || s.misses(&p.geometry, &quad) {
+        if !overlaps || s.misses(&p.geometry, &quad, u, v) {
             continue;
         }
         if let (Some(c), Some(r)) = (candidates.get_mut(count), ranges.get_mut(count)) {
@@ -229,8 +229,14 @@ fn pixel_radiance(
             .iter()
             .enumerate()
             .all(|(m, &(_, hi))| m == n || hi < lo);
-        if in_front && s.is_plane() && s.covers(&p.geometry, &quad) {
-            return Footprint::Plane(k as usize);
+        if in_front && s.covers(&p.geometry, &quad, u, v) {
+            if s.is_plane() {
+                return Footprint::Plane(k as usize);
+            }
+            if let Some(value) = curved_analytic(camera, s, &p.geometry, i, j, u, v) {
+                return Footprint::Mixed(value);
+            }
+            break;
         }
     }
 
@@ -266,8 +272,14 @@ fn pixel_radiance(
     let hits = hits.get(..samples).unwrap_or(&[]);
     if single {
         if let Some(&(k, _, _)) = hits.first() {
-            if surfaces.get(k as usize).is_some_and(|s| s.is_plane()) {
+            let (Some(s), Some(p)) = (surfaces.get(k as usize), prepared.get(k as usize)) else {
+                return Footprint::Mixed([0.0; 3]);
+            };
+            if s.is_plane() {
                 return Footprint::Plane(k as usize);
+            }
+            if let Some(value) = curved_analytic(camera, s, &p.geometry, i, j, u, v) {
+                return Footprint::Mixed(value);
             }
         }
     }
@@ -295,6 +307,74 @@ fn analytic(p: &Prepared, x: f64, y: f64) -> [f64; 3] {
         }
     }
     value
+}
+
+/// Largest deviation of a curved surface's local view → surface Jacobian from the
+/// identity for which a pixel is integrated through its linearisation; steeper parts
+/// (near the rim of a cap) are supersampled instead.
+const MAX_CURVED_SHEAR: f64 = 0.5;
+/// Largest second-order term (surface pixels) of the linearisation over a pixel.
+const MAX_CURVED_ERROR: f64 = 1e-3;
+
+/// Box-filtered radiance of a curved surface (a cap) seen over the whole pixel `(i, j)`,
+/// through the local affine approximation of the view → surface map at the pixel centre.
+/// `None` (supersample instead) where the neglected second-order term, measured by
+/// second differences, could exceed [`MAX_CURVED_ERROR`] over the pixel, or near the rim.
+fn curved_analytic(
+    camera: &ViewCamera,
+    surface: &super::surface::Surface,
+    geometry: &ViewSurface,
+    i: f64,
+    j: f64,
+    u: f64,
+    v: f64,
+) -> Option<[f64; 3]> {
+    const STEP: f64 = 0.25;
+    let (x, y) = camera.ideal_point(i, j);
+    let hit = |dx: f64, dy: f64| surface.hit(geometry, x + dx, y + dy, u, v);
+    let (_, cx, cy) = hit(0.0, 0.0)?;
+    let (_, rx, ry) = hit(STEP, 0.0)?;
+    let (_, lx, ly) = hit(-STEP, 0.0)?;
+    let (_, dx, dy) = hit(0.0, STEP)?;
+    let (_, ux, uy) = hit(0.0, -STEP)?;
+    let map = [
+        (rx - lx) / (2.0 * STEP),
+        (dx - ux) / (2.0 * STEP),
+        (ry - ly) / (2.0 * STEP),
+        (dy - uy) / (2.0 * STEP),
+    ];
+    let shear = libm::fabs(map[0] - 1.0)
+        .max(libm::fabs(map[1]))
+        .max(libm::fabs(map[2]))
+        .max(libm::fabs(map[3] - 1.0));
+    // |p''|·(½)²/2 along each axis, from second differences.
+    let second = |a: f64, b: f64, centre: f64| libm::fabs(a + b - 2.0 * centre) / (STEP * STEP);
+    let curvature = second(rx, lx, cx)
+        .max(second(ry, ly, cy))
+        .max(second(dx, ux, cx))
+        .max(second(dy, uy, cy));
+    if shear > MAX_CURVED_SHEAR || curvature * 0.125 > MAX_CURVED_ERROR {
+        return None;
+    }
+    // Stored pixel → surface: the camera footprint, then the surface map.
+    let c = camera.jacobian;
+    let total = [
+        map[0] * c[0] + map[1] * c[2],
+        map[0] * c[1] + map[1] * c[3],
+        map[2] * c[0] + map[3] * c[2],
+        map[2] * c[1] + map[3] * c[3],
+    ];
+    let mut value = surface.texture.base;
+    for w in &surface.texture.waves {
+        let gx = w.fx * total[0] + w.fy * total[2];
+        let gy = w.fx * total[1] + w.fy * total[3];
+        let response = sinc(gx / 2.0) * sinc(gy / 2.0);
+        let phase = super::trig::cos(w.fx * cx + w.fy * cy + w.phase);
+        for (a, b) in value.iter_mut().zip(w.amplitude) {
+            *a += b * response * phase;
+        }
+    }
+    Some(value)
 }
 
 /// [`analytic`] at rectified pixel `(i, j)` (linear `index`), continuing the plane's

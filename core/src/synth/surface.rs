@@ -266,8 +266,12 @@ impl Surface {
         }
     }
 
-    /// Whether the surface certainly covers the whole footprint `quad`.
-    pub(crate) fn covers(&self, prepared: &ViewSurface, quad: &Quad) -> bool {
+    /// Whether the surface certainly covers the whole footprint `quad`, given the offset
+    /// `(u, v)` of the view.
+    ///
+    /// For caps: the view points whose rays hit the cap are the projection (along the
+    /// rays) of the solid half-ellipsoid, a convex set, so four hit corners suffice.
+    pub(crate) fn covers(&self, prepared: &ViewSurface, quad: &Quad, u: f64, v: f64) -> bool {
         match (self.shape, prepared.outline) {
             (
                 Shape::Plane {
@@ -277,15 +281,49 @@ impl Surface {
                 _,
             ) => true,
             (Shape::Plane { .. }, Some(outline)) => outline_contains(&outline, quad),
+            (Shape::Cap { .. }, _) => quad
+                .iter()
+                .all(|&(x, y)| self.hit(prepared, x, y, u, v).is_some()),
             _ => false,
         }
     }
 
     /// Whether the surface certainly misses the footprint `quad` (beyond `bounds`).
-    pub(crate) fn misses(&self, prepared: &ViewSurface, quad: &Quad) -> bool {
-        prepared
-            .outline
-            .is_some_and(|outline| outline_separated(&outline, quad))
+    ///
+    /// For caps: hits lie within `radius` of the segment swept by the disk centre
+    /// `c − d·(u, v)` for `d` in `[base, base + height]`.
+    pub(crate) fn misses(&self, prepared: &ViewSurface, quad: &Quad, u: f64, v: f64) -> bool {
+        match self.shape {
+            Shape::Plane { .. } => prepared
+                .outline
+                .is_some_and(|outline| outline_separated(&outline, quad)),
+            Shape::Cap {
+                cx,
+                cy,
+                radius,
+                base,
+                height,
+            } => {
+                let (mx, my) = (
+                    quad.iter().map(|q| q.0).sum::<f64>() / 4.0,
+                    quad.iter().map(|q| q.1).sum::<f64>() / 4.0,
+                );
+                let reach = quad
+                    .iter()
+                    .map(|q| libm::hypot(q.0 - mx, q.1 - my))
+                    .fold(0.0, f64::max);
+                let (ax, ay) = (cx - base * u, cy - base * v);
+                let (sx, sy) = (-height * u, -height * v);
+                let length2 = sx * sx + sy * sy;
+                let t = if length2 > 0.0 {
+                    (((mx - ax) * sx + (my - ay) * sy) / length2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let distance = libm::hypot(mx - ax - t * sx, my - ay - t * sy);
+                distance > radius + reach + 1e-9
+            }
+        }
     }
 
     /// Bounds of the disparity the surface can show inside the footprint `quad`.
@@ -423,5 +461,62 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn coverage_tests_agree_with_dense_hits() {
+        let cap = surface(Shape::Cap {
+            cx: 20.0,
+            cy: 24.0,
+            radius: 9.0,
+            base: 0.3,
+            height: 2.0,
+        });
+        let bar = surface(Shape::Plane {
+            a: 0.5,
+            b: 0.02,
+            c: -0.01,
+            support: Support::Rect {
+                cx: 25.0,
+                cy: 20.0,
+                cos: libm::cos(1.1),
+                sin: libm::sin(1.1),
+                half_length: 10.0,
+                half_width: 1.5,
+            },
+        });
+        let (mut covered, mut missed, mut partial) = (0, 0, 0);
+        for s in [cap, bar] {
+            for (u, v) in [(0.0, 0.0), (3.0, -4.0), (-2.0, 1.0)] {
+                let p = s.prepare(u, v);
+                for yi in 0..50 {
+                    for xi in 0..50 {
+                        let (x, y) = (xi as f64 + 0.1, yi as f64 - 0.2);
+                        let quad = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+                            .map(|(dx, dy)| (x + dx, y + dy));
+                        let mut hits = 0;
+                        for k in 0..49 {
+                            let sx = x + (k % 7) as f64 / 6.0 - 0.5;
+                            let sy = y + (k / 7) as f64 / 6.0 - 0.5;
+                            hits += usize::from(s.hit(&p, sx, sy, u, v).is_some());
+                        }
+                        if s.covers(&p, &quad, u, v) {
+                            assert_eq!(hits, 49, "covers at {x},{y}");
+                            covered += 1;
+                        } else if s.misses(&p, &quad, u, v) {
+                            assert_eq!(hits, 0, "misses at {x},{y}");
+                            missed += 1;
+                        } else {
+                            partial += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // The tests decide most pixels; only those near an outline are left to sampling.
+        assert!(
+            covered > 500 && missed > 5000 && partial < 1000,
+            "{covered} {missed} {partial}"
+        );
     }
 }
