@@ -4,12 +4,16 @@
 //! area, then saturated to `[0, 1]` (the camera's tone curve), photometrically changed,
 //! noised and quantised to 8 bits.
 //!
-//! * Pixels that see a single plane over their whole area (decided from `n × n` visibility
-//!   samples, or from bounds alone when only the background can be there) are integrated
-//!   in closed form: a plane maps pixels affinely to the surface, and the integral of
-//!   `cos(g·p + ψ)` over a unit square is `cos(g·p₀ + ψ)·sinc(gx/2)·sinc(gy/2)`. For
-//!   misaligned views the footprint uses the homography's Jacobian at the image centre.
-//! * Other pixels (occlusion edges, spherical caps) average the `n × n` point samples
+//! * Pixels that see a single plane over their whole area (decided geometrically: the
+//!   plane's hit region covers the pixel and nothing nearer can reach it; or, failing
+//!   that, all `n × n` visibility samples agree) are integrated in closed form: a plane
+//!   maps pixels affinely to the surface, and the integral of `cos(g·p + ψ)` over a unit
+//!   square is `cos(g·p₀ + ψ)·sinc(gx/2)·sinc(gy/2)`. For misaligned views the footprint
+//!   uses the homography's Jacobian at the image centre (its variation across the image
+//!   changes the response by < 1e-3 for the allowed perspective).
+//! * Pixels wholly on a spherical cap use the same formula with the cap's local affine
+//!   map at the pixel centre, where its second-order term stays below 1e-3 px.
+//! * Other pixels (occlusion edges, cap rims) average `n × n` point samples
 //!   (`n` = `supersample`) on a regular grid.
 
 use super::camera::{ViewCamera, NOISE_STREAM};
@@ -63,13 +67,22 @@ enum Footprint {
     Mixed([f64; 3]),
 }
 
-/// `sin(t)/t`, continuous at 0.
+/// `sin(t)/t`, continuous at 0. Texture frequencies keep |t| ≲ 1 for pixel box filters,
+/// where the Taylor series to t¹⁴ is exact to 1e-12.
+#[inline]
 fn sinc(t: f64) -> f64 {
-    if libm::fabs(t) < 1e-8 {
-        1.0
-    } else {
-        super::trig::sincos(t).1 / t
+    if libm::fabs(t) > 1.5 {
+        return super::trig::sincos(t).1 / t;
     }
+    let t2 = t * t;
+    let p = -1.0 / 1_307_674_368_000.0;
+    let p = 1.0 / 6_227_020_800.0 + t2 * p;
+    let p = -1.0 / 39_916_800.0 + t2 * p;
+    let p = 1.0 / 362_880.0 + t2 * p;
+    let p = -1.0 / 5_040.0 + t2 * p;
+    let p = 1.0 / 120.0 + t2 * p;
+    let p = -1.0 / 6.0 + t2 * p;
+    1.0 + t2 * p
 }
 
 /// Renders view `(row, col)` of a validated spec into `out` (`width · height · channels`).
@@ -423,5 +436,21 @@ pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
             }
         }
         *value = best as f32;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sinc_is_accurate_everywhere() {
+        let mut t = -6.0;
+        while t < 6.0 {
+            let exact = if t == 0.0 { 1.0 } else { libm::sin(t) / t };
+            assert!((sinc(t) - exact).abs() < 1e-11, "{t}");
+            t += 0.001;
+        }
+        assert_eq!(sinc(0.0), 1.0);
     }
 }

@@ -310,8 +310,9 @@ impl Surface {
                 );
                 let reach = quad
                     .iter()
-                    .map(|q| libm::hypot(q.0 - mx, q.1 - my))
+                    .map(|q| (q.0 - mx) * (q.0 - mx) + (q.1 - my) * (q.1 - my))
                     .fold(0.0, f64::max);
+                let reach = libm::sqrt(reach);
                 let (ax, ay) = (cx - base * u, cy - base * v);
                 let (sx, sy) = (-height * u, -height * v);
                 let length2 = sx * sx + sy * sy;
@@ -320,7 +321,8 @@ impl Surface {
                 } else {
                     0.0
                 };
-                let distance = libm::hypot(mx - ax - t * sx, my - ay - t * sy);
+                let (ex, ey) = (mx - ax - t * sx, my - ay - t * sy);
+                let distance = libm::sqrt(ex * ex + ey * ey);
                 distance > radius + reach + 1e-9
             }
         }
