@@ -30,6 +30,7 @@
 //! | cap + bar scene, pixels seeing one surface | 3 | 0.2499 levels | 0.78 |
 //! | same, pixels straddling an occlusion edge | 3 | 2.31 levels | 22.9 |
 //! | same, edge pixels | 6 | 0.80 levels | 7.9 |
+//! | misaligned slanted plane (5°, 4 px, 10 %, 0.05) | 3 | 0.2462 levels | 0.514 |
 //!
 //! Inside surfaces this is the 8-bit rounding alone (uniform rounding error: mean 0.25,
 //! max 0.5; the small excess is the reference's own quadrature error), i.e. 0.013 px of

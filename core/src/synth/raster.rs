@@ -9,8 +9,7 @@
 //!   that, all `n × n` visibility samples agree) are integrated in closed form: a plane
 //!   maps pixels affinely to the surface, and the integral of `cos(g·p + ψ)` over a unit
 //!   square is `cos(g·p₀ + ψ)·sinc(gx/2)·sinc(gy/2)`. For misaligned views the footprint
-//!   uses the homography's Jacobian at the image centre (its variation across the image
-//!   changes the response by < 1e-3 for the allowed perspective).
+//!   is the homography linearised at the pixel centre.
 //! * Pixels wholly on a spherical cap use the same formula with the cap's local affine
 //!   map at the pixel centre, where its second-order term stays below 1e-3 px.
 //! * Other pixels (occlusion edges, cap rims) average `n × n` point samples
@@ -33,7 +32,10 @@ struct ViewWave {
     gx: f64,
     gy: f64,
     psi: f64,
+    /// Amplitude times the box filter's response for a rectified pixel.
     amplitude: [f64; 3],
+    /// The texture's amplitude (misaligned pixels apply their own response).
+    raw: [f64; 3],
 }
 
 /// Everything about one surface that depends on the view.
@@ -114,21 +116,18 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
         let ViewSurface {
             alpha, beta, gamma, ..
         } = p.geometry;
-        let j = camera.jacobian;
         for (w, t) in p.waves.iter_mut().zip(&s.texture.waves) {
             // Surface point p = p' + d(p')·(u, v) with d = alpha + beta·x' + gamma·y'.
             let gx = t.fx * (1.0 + u * beta) + t.fy * v * beta;
             let gy = t.fx * u * gamma + t.fy * (1.0 + v * gamma);
             let psi = t.phase + alpha * (t.fx * u + t.fy * v);
-            // Frequencies per stored pixel: through the footprint Jacobian.
-            let hx = gx * j[0] + gy * j[2];
-            let hy = gx * j[1] + gy * j[3];
-            let response = sinc(hx / 2.0) * sinc(hy / 2.0);
+            let response = sinc(gx / 2.0) * sinc(gy / 2.0);
             *w = ViewWave {
                 gx,
                 gy,
                 psi,
                 amplitude: t.amplitude.map(|a| a * response),
+                raw: t.amplitude,
             };
         }
         for (step, w) in p.steps.iter_mut().zip(&p.waves) {
@@ -164,7 +163,7 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
                 };
                 if camera.misaligned {
                     let (x, y) = camera.ideal_point(i, j);
-                    analytic(p, x, y)
+                    analytic_footprint(p, x, y, camera.jacobian_at(i, j))
                 } else {
                     running_analytic(p, phasor, index, i, j)
                 }
@@ -309,13 +308,18 @@ fn pixel_radiance(
     Footprint::Mixed(sum.map(|a| a * inv))
 }
 
-/// Exact box-filtered radiance of a plane for the pixel centred at ideal point `(x, y)`.
+/// Box-filtered radiance of a plane for a misaligned pixel centred at ideal point
+/// `(x, y)` whose footprint has Jacobian `jacobian` (stored → ideal; the homography is
+/// linearised over the pixel, a ~1e-5 px approximation for the allowed perspective).
 #[inline]
-fn analytic(p: &Prepared, x: f64, y: f64) -> [f64; 3] {
+fn analytic_footprint(p: &Prepared, x: f64, y: f64, jacobian: [f64; 4]) -> [f64; 3] {
     let mut value = p.base;
     for w in &p.waves {
-        let c = super::trig::cos(w.gx * x + w.gy * y + w.psi);
-        for (a, b) in value.iter_mut().zip(w.amplitude) {
+        let hx = w.gx * jacobian[0] + w.gy * jacobian[2];
+        let hy = w.gx * jacobian[1] + w.gy * jacobian[3];
+        let response = sinc(hx / 2.0) * sinc(hy / 2.0);
+        let c = super::trig::cos(w.gx * x + w.gy * y + w.psi) * response;
+        for (a, b) in value.iter_mut().zip(w.raw) {
             *a += b * c;
         }
     }
@@ -370,7 +374,7 @@ fn curved_analytic(
         return None;
     }
     // Stored pixel → surface: the camera footprint, then the surface map.
-    let c = camera.jacobian;
+    let c = camera.jacobian_at(i, j);
     let total = [
         map[0] * c[0] + map[1] * c[2],
         map[0] * c[1] + map[1] * c[3],
@@ -390,7 +394,8 @@ fn curved_analytic(
     Some(value)
 }
 
-/// [`analytic`] at rectified pixel `(i, j)` (linear `index`), continuing the plane's
+/// Exact box-filtered radiance of a plane at rectified pixel `(i, j)` (linear `index`):
+/// `base + Σ amplitude·cos(gx·i + gy·j + ψ)`, continuing the plane's
 /// running phasors when the previous pixel of the row used them.
 #[inline]
 fn running_analytic(p: &Prepared, phasor: &mut Phasors, index: usize, i: f64, j: f64) -> [f64; 3] {
