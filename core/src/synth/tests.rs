@@ -566,6 +566,10 @@ fn misaligned_views_are_the_ideal_views_warped_by_the_returned_homographies() {
             }
         }
         let (with_h, without_h) = (err[0] / n as f64, err[1] / n as f64);
+        std::eprintln!(
+            "misaligned view ({row},{col}): |stored(H·p) − ideal(p)| {with_h:.2} levels \
+             (bilinear), without H {without_h:.2}"
+        );
         assert!(
             with_h < 4.0 && without_h > 3.0 * with_h,
             "{with_h} vs {without_h}"
