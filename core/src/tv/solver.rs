@@ -11,7 +11,7 @@
 //!   graph `P ↦ P − W∇s` with `s` zero on the other colour.
 //!
 //! PPXA (Combettes & Pesquet, Algorithm 10.27 of "Proximal splitting methods in signal
-//! processing", equal weights ω = 1/3): `p_k = prox_{γf_k/ω}(y_k)`, `p = Σ ω p_k`,
+//! processing", weights ω = (1/2, 1/4, 1/4)): `p_k = prox_{γf_k/ω}(y_k)`, `p = Σ ω p_k`,
 //! `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`. The primal follows from the dual as
 //! `x = D − λ A⁻¹ WᵀF` (Eq. 16). Every loop walks rows of structure-of-arrays buffers,
 //! so the `f32` instantiation vectorises.
@@ -25,6 +25,12 @@ use super::weights::{colour_step, edge_weight};
 
 /// Buffers of the graph size the solver keeps in scratch.
 const BUFFERS: usize = 18;
+
+/// The solver iterates on `DUAL_SCALE · F` (constraint radius `DUAL_SCALE`, targets
+/// `DUAL_SCALE · τ`): every iterate scales exactly, so nothing changes in f32 (a power of
+/// two), while Q16.16 gains five bits of resolution on the dual — which matters because
+/// the primal `D − λ A⁻¹ WᵀF` amplifies dual errors by `λ/a`, up to `λ/ℸ`.
+const DUAL_SCALE: f32 = 32.0;
 
 /// The per-pixel inputs of the stage: EPI disparity and confidence, row-major, top row
 /// first, `width × height` each.
@@ -217,8 +223,8 @@ pub fn solve<S: Scalar, P: Sample>(
     graph.write_primal(maps, params, region, core, out.disparity, out.stride);
     if let Some(dual) = out.dual {
         for (i, pair) in dual.chunks_exact_mut(2).enumerate() {
-            pair[0] = graph.fh[i].to_f32();
-            pair[1] = graph.fv[i].to_f32();
+            pair[0] = graph.fh[i].to_f32() / DUAL_SCALE;
+            pair[1] = graph.fv[i].to_f32() / DUAL_SCALE;
         }
     }
     Ok(report)
@@ -362,7 +368,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
             }
         }
         let lambda = params.lambda;
-        let gamma = 3.0 * params.step; // γ / ω with ω = 1/3
+        let gamma = 4.0 * params.step; // γ / ω with ω = 1/4 for each quadratic part
         for y in 0..h {
             for x in 0..w {
                 let i = y * w + x;
@@ -383,7 +389,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 }
                 let gk = gamma * lambda * lambda / a;
                 let sig = gk / (1.0 + gk * c2);
-                self.tau[i] = S::from_f32(a * d / lambda);
+                self.tau[i] = S::from_f32(DUAL_SCALE * a * d / lambda);
                 let black = (x + y) % 2 == 0;
                 self.sig_black[i] = S::from_f32(if black { sig } else { 0.0 });
                 self.sig_white[i] = S::from_f32(if black { 0.0 } else { sig });
@@ -406,7 +412,12 @@ impl<'s, S: Scalar> Graph<'s, S> {
     fn iterate(&mut self, params: &TvParams, history: &mut [f32]) -> SolveReport {
         let rho = S::from_f32(params.relaxation);
         let two = S::from_i32(2);
-        let third = S::from_f32(1.0 / 3.0);
+        // PPXA weights ω = (1/2, 1/4, 1/4): powers of two, so the average is exact in
+        // both f32 and Q16.16 (a rounded 1/3 would bias the fixed point towards zero).
+        let half = S::from_f32(0.5);
+        let quarter = S::from_f32(0.25);
+        let radius = S::from_f32(DUAL_SCALE);
+        let inv_radius = S::from_f32(1.0 / DUAL_SCALE);
         let tol2 = params.tolerance * params.tolerance;
         let mut report = SolveReport::default();
         for it in 0..params.max_iterations {
@@ -438,9 +449,9 @@ impl<'s, S: Scalar> Graph<'s, S> {
             let mut norm = 0.0f32;
             let n = self.fh.len();
             for i in 0..n {
-                let (p1h, p1v) = project(self.y1h[i], self.y1v[i], params.norm);
-                let ph = (p1h + self.p2h[i] + self.p3h[i]) * third;
-                let pv = (p1v + self.p2v[i] + self.p3v[i]) * third;
+                let (p1h, p1v) = project(self.y1h[i], self.y1v[i], params.norm, radius, inv_radius);
+                let ph = p1h * half + (self.p2h[i] + self.p3h[i]) * quarter;
+                let pv = p1v * half + (self.p2v[i] + self.p3v[i]) * quarter;
                 let (fh, fv) = (self.fh[i], self.fv[i]);
                 let (th, tv) = (two * ph - fh, two * pv - fv);
                 self.y1h[i] += rho * (th - p1h);
@@ -462,6 +473,8 @@ impl<'s, S: Scalar> Graph<'s, S> {
             }
             report.iterations = it + 1;
             // ‖F‖ vanishes where there is nothing to regularise: floor it at an RMS of 0.1.
+            let change = change / (DUAL_SCALE * DUAL_SCALE);
+            let norm = norm / (DUAL_SCALE * DUAL_SCALE);
             if change <= tol2 * norm.max(0.01 * n as f32) {
                 report.converged = true;
                 break;
@@ -492,7 +505,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 let a = data_weight(conf, params);
                 let u = self.node[ry * self.width + rx].to_f32();
                 if let Some(o) = out.get_mut(y * stride + x) {
-                    *o = d - params.lambda * u / a;
+                    *o = d - params.lambda * u / (DUAL_SCALE * a);
                 }
             }
         }
@@ -542,13 +555,15 @@ fn view_weights<P: Sample>(
     (weight(right), weight(below))
 }
 
-/// Projection of one node's dual pair onto its constraint set.
+/// Projection of one node's dual pair onto its constraint set of radius `radius`.
 #[inline(always)]
-fn project<S: Scalar>(h: S, v: S, norm: TvNorm) -> (S, S) {
+fn project<S: Scalar>(h: S, v: S, norm: TvNorm, radius: S, inv_radius: S) -> (S, S) {
     match norm {
-        TvNorm::L1 => (h.clamp(-S::ONE, S::ONE), v.clamp(-S::ONE, S::ONE)),
+        TvNorm::L1 => (h.clamp(-radius, radius), v.clamp(-radius, radius)),
         TvNorm::L2 => {
-            let n2 = h * h + v * v;
+            // The norm in units of the radius, so its square stays far from Q16.16's range.
+            let (uh, uv) = (h * inv_radius, v * inv_radius);
+            let n2 = uh * uh + uv * uv;
             if n2 > S::ONE {
                 let r = n2.sqrt();
                 (h / r, v / r)
@@ -640,6 +655,7 @@ fn prox_quadratic<S: Scalar>(
 mod tests {
     extern crate std;
     use super::*;
+    use crate::scalar::Q16;
     use std::vec;
     use std::vec::Vec;
 
@@ -721,10 +737,18 @@ mod tests {
 
     #[test]
     fn projections_land_in_the_constraint_sets() {
-        assert_eq!(project(3.0f32, -0.5, TvNorm::L1), (1.0, -0.5));
-        let (h, v) = project(3.0f32, 4.0, TvNorm::L2);
+        assert_eq!(project(3.0f32, -0.5, TvNorm::L1, 1.0, 1.0), (1.0, -0.5));
+        let (h, v) = project(3.0f32, 4.0, TvNorm::L2, 1.0, 1.0);
         assert!((h - 0.6).abs() < 1e-6 && (v - 0.8).abs() < 1e-6);
-        assert_eq!(project(0.3f32, 0.4, TvNorm::L2), (0.3, 0.4));
+        assert_eq!(project(0.3f32, 0.4, TvNorm::L2, 1.0, 1.0), (0.3, 0.4));
+        let (h, v) = project(
+            Q16::from_f32(96.0),
+            Q16::from_f32(128.0),
+            TvNorm::L2,
+            Q16::from_f32(32.0),
+            Q16::from_f32(1.0 / 32.0),
+        );
+        assert!((h.to_f32() - 19.2).abs() < 1e-3 && (v.to_f32() - 25.6).abs() < 1e-3);
     }
 
     #[test]
