@@ -53,8 +53,8 @@ impl Default for TvParams {
             norm: TvNorm::L2,
             max_iterations: 300,
             tolerance: 1e-3,
-            step: 1.0,
-            relaxation: 1.5,
+            step: 2.0,
+            relaxation: 1.9,
             tile: 128,
             halo: 16,
         }

@@ -293,6 +293,9 @@ struct Graph<'s, S> {
     sig_white: &'s mut [S],
     /// Node temporary `s`.
     node: &'s mut [S],
+    /// Range of `D` over the region: the minimiser lies inside it (truncating to it lowers
+    /// both terms), so the primal of a not yet converged dual is clamped to it.
+    range: (f32, f32),
     /// PPXA copies of the dual for the three functions, their average `F`, and the
     /// proximity results of the two quadratic parts.
     y1h: &'s mut [S],
@@ -323,6 +326,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
             sig_black: next(),
             sig_white: next(),
             node: next(),
+            range: (0.0, 0.0),
             y1h: next(),
             y1v: next(),
             y2h: next(),
@@ -367,6 +371,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 self.wv[i] = S::from_f32(if y + 1 < h { ev } else { 0.0 });
             }
         }
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         let lambda = params.lambda;
         let gamma = 4.0 * params.step; // γ / ω with ω = 1/4 for each quadratic part
         for y in 0..h {
@@ -374,6 +379,8 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 let i = y * w + x;
                 let gi = (region.y + y) * maps.width + region.x + x;
                 let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
+                lo = lo.min(d);
+                hi = hi.max(d);
                 let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
                 let a = data_weight(conf, params);
                 let sq = |v: S| {
@@ -395,6 +402,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 self.sig_white[i] = S::from_f32(if black { 0.0 } else { sig });
             }
         }
+        self.range = (lo, hi);
         for buf in [
             &mut *self.y1h,
             &mut *self.y1v,
@@ -410,14 +418,17 @@ impl<'s, S: Scalar> Graph<'s, S> {
     }
 
     fn iterate(&mut self, params: &TvParams, history: &mut [f32]) -> SolveReport {
-        let rho = S::from_f32(params.relaxation);
-        let two = S::from_i32(2);
         // PPXA weights ω = (1/2, 1/4, 1/4): powers of two, so the average is exact in
         // both f32 and Q16.16 (a rounded 1/3 would bias the fixed point towards zero).
-        let half = S::from_f32(0.5);
-        let quarter = S::from_f32(0.25);
-        let radius = S::from_f32(DUAL_SCALE);
-        let inv_radius = S::from_f32(1.0 / DUAL_SCALE);
+        let constants = Constants {
+            rho: S::from_f32(params.relaxation),
+            two: S::from_i32(2),
+            half: S::from_f32(0.5),
+            quarter: S::from_f32(0.25),
+            radius: S::from_f32(DUAL_SCALE),
+            inv_radius: S::from_f32(1.0 / DUAL_SCALE),
+            norm: params.norm,
+        };
         let tol2 = params.tolerance * params.tolerance;
         let mut report = SolveReport::default();
         for it in 0..params.max_iterations {
@@ -445,36 +456,29 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 self.p3h,
                 self.p3v,
             );
-            let mut change = 0.0f32;
-            let mut norm = 0.0f32;
             let n = self.fh.len();
-            for i in 0..n {
-                let (p1h, p1v) = project(self.y1h[i], self.y1v[i], params.norm, radius, inv_radius);
-                let ph = p1h * half + (self.p2h[i] + self.p3h[i]) * quarter;
-                let pv = p1v * half + (self.p2v[i] + self.p3v[i]) * quarter;
-                let (fh, fv) = (self.fh[i], self.fv[i]);
-                let (th, tv) = (two * ph - fh, two * pv - fv);
-                self.y1h[i] += rho * (th - p1h);
-                self.y1v[i] += rho * (tv - p1v);
-                self.y2h[i] += rho * (th - self.p2h[i]);
-                self.y2v[i] += rho * (tv - self.p2v[i]);
-                self.y3h[i] += rho * (th - self.p3h[i]);
-                self.y3v[i] += rho * (tv - self.p3v[i]);
-                let (dh, dv) = (rho * (ph - fh), rho * (pv - fv));
-                let (nh, nv) = (fh + dh, fv + dv);
-                self.fh[i] = nh;
-                self.fv[i] = nv;
-                let (dh, dv, nh, nv) = (dh.to_f32(), dv.to_f32(), nh.to_f32(), nv.to_f32());
-                change += dh * dh + dv * dv;
-                norm += nh * nh + nv * nv;
-            }
+            let (change, norm) = combine(
+                &constants,
+                [
+                    &mut *self.y1h,
+                    &mut *self.y1v,
+                    &mut *self.y2h,
+                    &mut *self.y2v,
+                    &mut *self.y3h,
+                    &mut *self.y3v,
+                    &mut *self.fh,
+                    &mut *self.fv,
+                ],
+                [&*self.p2h, &*self.p2v, &*self.p3h, &*self.p3v],
+            );
+            // Back to the units of F.
+            let change = change / (DUAL_SCALE * DUAL_SCALE);
+            let norm = norm / (DUAL_SCALE * DUAL_SCALE);
             if let Some(h) = history.get_mut(it) {
                 *h += change;
             }
             report.iterations = it + 1;
             // ‖F‖ vanishes where there is nothing to regularise: floor it at an RMS of 0.1.
-            let change = change / (DUAL_SCALE * DUAL_SCALE);
-            let norm = norm / (DUAL_SCALE * DUAL_SCALE);
             if change <= tol2 * norm.max(0.01 * n as f32) {
                 report.converged = true;
                 break;
@@ -483,7 +487,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
         report
     }
 
-    /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16).
+    /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`.
     fn write_primal(
         &mut self,
         maps: &Maps<'_>,
@@ -505,7 +509,8 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 let a = data_weight(conf, params);
                 let u = self.node[ry * self.width + rx].to_f32();
                 if let Some(o) = out.get_mut(y * stride + x) {
-                    *o = d - params.lambda * u / (DUAL_SCALE * a);
+                    let x = d - params.lambda * u / (DUAL_SCALE * a);
+                    *o = x.clamp(self.range.0, self.range.1);
                 }
             }
         }
@@ -555,20 +560,167 @@ fn view_weights<P: Sample>(
     (weight(right), weight(below))
 }
 
-/// Projection of one node's dual pair onto its constraint set of radius `radius`.
+/// Constants of the PPXA combination step.
+struct Constants<S> {
+    rho: S,
+    two: S,
+    half: S,
+    quarter: S,
+    radius: S,
+    inv_radius: S,
+    norm: TvNorm,
+}
+
+/// Lanes of the blocks the combination step walks, so the `f32` loop vectorises
+/// (fixed-length blocks, per-lane sums).
+const LANES: usize = 16;
+
+/// The PPXA combination: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`, `y_k += ρ(2p − F − p_k)`,
+/// `F += ρ(p − F)`. Returns `(‖ΔF‖², ‖F‖²)` (in the scaled units).
+fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4]) -> (f32, f32) {
+    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
+    let [p2h, p2v, p3h, p3v] = prox;
+    let mut sums = Sums {
+        change: [0.0; LANES],
+        norm: [0.0; LANES],
+    };
+    let n = fh.len();
+    let mut start = 0;
+    while start < n {
+        let len = LANES.min(n - start);
+        let r = start..start + len;
+        let state = [
+            &mut y1h[r.clone()],
+            &mut y1v[r.clone()],
+            &mut y2h[r.clone()],
+            &mut y2v[r.clone()],
+            &mut y3h[r.clone()],
+            &mut y3v[r.clone()],
+            &mut fh[r.clone()],
+            &mut fv[r.clone()],
+        ];
+        let prox = [&p2h[r.clone()], &p2v[r.clone()], &p3h[r.clone()], &p3v[r]];
+        if len == LANES {
+            combine_lanes::<S, LANES>(c, state, prox, &mut sums);
+        } else {
+            combine_lanes::<S, 1>(c, state, prox, &mut sums);
+        }
+        start += len;
+    }
+    (sums.change.iter().sum(), sums.norm.iter().sum())
+}
+
+/// Per-lane sums of `‖ΔF‖²` and `‖F‖²`.
+struct Sums {
+    change: [f32; LANES],
+    norm: [f32; LANES],
+}
+
+/// Fixed-size groups of `L` nodes (`L` divides the slice length): every buffer is seen as
+/// `[S; L]` so the `f32` loop has no bounds checks and vectorises.
 #[inline(always)]
-fn project<S: Scalar>(h: S, v: S, norm: TvNorm, radius: S, inv_radius: S) -> (S, S) {
-    match norm {
-        TvNorm::L1 => (h.clamp(-radius, radius), v.clamp(-radius, radius)),
+fn combine_lanes<S: Scalar, const L: usize>(
+    c: &Constants<S>,
+    state: [&mut [S]; 8],
+    prox: [&[S]; 4],
+    sums: &mut Sums,
+) {
+    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
+    let [p2h, p2v, p3h, p3v] = prox;
+    let groups = y1h
+        .chunks_exact_mut(L)
+        .zip(y1v.chunks_exact_mut(L))
+        .zip(y2h.chunks_exact_mut(L).zip(y2v.chunks_exact_mut(L)))
+        .zip(y3h.chunks_exact_mut(L).zip(y3v.chunks_exact_mut(L)))
+        .zip(fh.chunks_exact_mut(L).zip(fv.chunks_exact_mut(L)))
+        .zip(
+            (p2h.chunks_exact(L).zip(p2v.chunks_exact(L)))
+                .zip(p3h.chunks_exact(L).zip(p3v.chunks_exact(L))),
+        );
+    for (((((y1h, y1v), (y2h, y2v)), (y3h, y3v)), (fh, fv)), ((p2h, p2v), (p3h, p3v))) in groups {
+        let (
+            Ok(y1h),
+            Ok(y1v),
+            Ok(y2h),
+            Ok(y2v),
+            Ok(y3h),
+            Ok(y3v),
+            Ok(fh),
+            Ok(fv),
+            Ok(p2h),
+            Ok(p2v),
+            Ok(p3h),
+            Ok(p3v),
+        ) = (
+            <&mut [S; L]>::try_from(y1h),
+            <&mut [S; L]>::try_from(y1v),
+            <&mut [S; L]>::try_from(y2h),
+            <&mut [S; L]>::try_from(y2v),
+            <&mut [S; L]>::try_from(y3h),
+            <&mut [S; L]>::try_from(y3v),
+            <&mut [S; L]>::try_from(fh),
+            <&mut [S; L]>::try_from(fv),
+            <&[S; L]>::try_from(p2h),
+            <&[S; L]>::try_from(p2v),
+            <&[S; L]>::try_from(p3h),
+            <&[S; L]>::try_from(p3v),
+        )
+        else {
+            continue; // chunks_exact yields exactly L elements
+        };
+        // p₁ = P_B(y₁) first, in its own passes, so the sqrt (a call, not a vector op)
+        // runs only on nodes outside the set and the other passes vectorise.
+        let mut p1h = *y1h;
+        let mut p1v = *y1v;
+        project_lanes(&mut p1h, &mut p1v, c);
+        for j in 0..L {
+            let ph = p1h[j] * c.half + (p2h[j] + p3h[j]) * c.quarter;
+            let pv = p1v[j] * c.half + (p2v[j] + p3v[j]) * c.quarter;
+            let (f0h, f0v) = (fh[j], fv[j]);
+            let (th, tv) = (c.two * ph - f0h, c.two * pv - f0v);
+            y1h[j] += c.rho * (th - p1h[j]);
+            y1v[j] += c.rho * (tv - p1v[j]);
+            y2h[j] += c.rho * (th - p2h[j]);
+            y2v[j] += c.rho * (tv - p2v[j]);
+            y3h[j] += c.rho * (th - p3h[j]);
+            y3v[j] += c.rho * (tv - p3v[j]);
+            let (dh, dv) = (c.rho * (ph - f0h), c.rho * (pv - f0v));
+            let (nh, nv) = (f0h + dh, f0v + dv);
+            fh[j] = nh;
+            fv[j] = nv;
+            let (dh, dv, nh, nv) = (dh.to_f32(), dv.to_f32(), nh.to_f32(), nv.to_f32());
+            sums.change[j % LANES] += dh * dh + dv * dv;
+            sums.norm[j % LANES] += nh * nh + nv * nv;
+        }
+    }
+}
+
+/// Projects `L` dual pairs onto their constraint sets in place.
+#[inline(always)]
+fn project_lanes<S: Scalar, const L: usize>(h: &mut [S; L], v: &mut [S; L], c: &Constants<S>) {
+    match c.norm {
+        TvNorm::L1 => {
+            for (h, v) in h.iter_mut().zip(v.iter_mut()) {
+                *h = h.clamp(-c.radius, c.radius);
+                *v = v.clamp(-c.radius, c.radius);
+            }
+        }
         TvNorm::L2 => {
-            // The norm in units of the radius, so its square stays far from Q16.16's range.
-            let (uh, uv) = (h * inv_radius, v * inv_radius);
-            let n2 = uh * uh + uv * uv;
-            if n2 > S::ONE {
-                let r = n2.sqrt();
-                (h / r, v / r)
-            } else {
-                (h, v)
+            // Squared norms in units of the radius (so Q16.16 squares stay in range).
+            let mut n2 = [S::ZERO; L];
+            for ((n2, &h), &v) in n2.iter_mut().zip(h.iter()).zip(v.iter()) {
+                let (uh, uv) = (h * c.inv_radius, v * c.inv_radius);
+                *n2 = uh * uh + uv * uv;
+            }
+            if n2.iter().all(|&n| n <= S::ONE) {
+                return;
+            }
+            for ((h, v), &n2) in h.iter_mut().zip(v.iter_mut()).zip(n2.iter()) {
+                if n2 > S::ONE {
+                    let r = n2.sqrt();
+                    *h = *h / r;
+                    *v = *v / r;
+                }
             }
         }
     }
@@ -735,20 +887,31 @@ mod tests {
         }
     }
 
+    fn constants<S: Scalar>(norm: TvNorm, radius: f32) -> Constants<S> {
+        Constants {
+            rho: S::ONE,
+            two: S::from_i32(2),
+            half: S::from_f32(0.5),
+            quarter: S::from_f32(0.25),
+            radius: S::from_f32(radius),
+            inv_radius: S::from_f32(1.0 / radius),
+            norm,
+        }
+    }
+
     #[test]
     fn projections_land_in_the_constraint_sets() {
-        assert_eq!(project(3.0f32, -0.5, TvNorm::L1, 1.0, 1.0), (1.0, -0.5));
-        let (h, v) = project(3.0f32, 4.0, TvNorm::L2, 1.0, 1.0);
-        assert!((h - 0.6).abs() < 1e-6 && (v - 0.8).abs() < 1e-6);
-        assert_eq!(project(0.3f32, 0.4, TvNorm::L2, 1.0, 1.0), (0.3, 0.4));
-        let (h, v) = project(
-            Q16::from_f32(96.0),
-            Q16::from_f32(128.0),
-            TvNorm::L2,
-            Q16::from_f32(32.0),
-            Q16::from_f32(1.0 / 32.0),
-        );
-        assert!((h.to_f32() - 19.2).abs() < 1e-3 && (v.to_f32() - 25.6).abs() < 1e-3);
+        let (mut h, mut v) = ([3.0f32, 0.3], [-0.5f32, 0.4]);
+        project_lanes(&mut h, &mut v, &constants(TvNorm::L1, 1.0));
+        assert_eq!((h, v), ([1.0, 0.3], [-0.5, 0.4]));
+        let (mut h, mut v) = ([3.0f32, 0.3], [4.0f32, 0.4]);
+        project_lanes(&mut h, &mut v, &constants(TvNorm::L2, 1.0));
+        assert!((h[0] - 0.6).abs() < 1e-6 && (v[0] - 0.8).abs() < 1e-6);
+        assert_eq!((h[1], v[1]), (0.3, 0.4));
+        let q = Q16::from_f32;
+        let (mut h, mut v) = ([q(96.0)], [q(128.0)]);
+        project_lanes(&mut h, &mut v, &constants(TvNorm::L2, 32.0));
+        assert!((h[0].to_f32() - 19.2).abs() < 1e-3 && (v[0].to_f32() - 25.6).abs() < 1e-3);
     }
 
     #[test]
