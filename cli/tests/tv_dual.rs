@@ -53,6 +53,7 @@ fn params(norm: TvNorm) -> TvParams {
         lambda: 0.5,
         tikhonov: 0.05,
         confidence_threshold: 0.3,
+        confidence_power: 2.0,
         norm,
         max_iterations: 4000,
         tolerance: 0.0,
@@ -67,7 +68,7 @@ fn data_weights(p: &Problem, params: &TvParams) -> Vec<f64> {
     p.c.iter()
         .map(|&c| {
             let m = if c >= params.confidence_threshold && c > 0.0 {
-                c as f64
+                (c as f64).powf(params.confidence_power as f64)
             } else {
                 0.0
             };

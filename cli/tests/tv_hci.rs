@@ -24,6 +24,7 @@ fn params_from_env() -> TvParams {
         lambda: env_f32("TV_LAMBDA", d.lambda),
         tikhonov: env_f32("TV_TIKHONOV", d.tikhonov),
         confidence_threshold: env_f32("TV_THRESHOLD", d.confidence_threshold),
+        confidence_power: env_f32("TV_POWER", d.confidence_power),
         edge_sigma: env_f32("TV_SIGMA", d.edge_sigma),
         edge_floor: env_f32("TV_FLOOR", d.edge_floor),
         norm: if std::env::var("TV_NORM").as_deref() == Ok("l1") {

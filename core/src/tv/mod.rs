@@ -9,8 +9,8 @@
 //! ```
 //!
 //! with `D` the EPI disparity, `W` the incidence matrix of the graph with edge weights
-//! `w_e` from the centre view ([`TvParams::edge_sigma`]), `v_i` the EPI confidence (the
-//! data weights `V⁻¹`), `m_i ∈ {0, 1}` the reliable-pixel selection `M`
+//! `w_e` from the centre view ([`TvParams::edge_sigma`]), `v_i = c_i^p` from the EPI
+//! confidence `c_i` ([`TvParams::confidence_power`]; the data weights `V⁻¹`), `m_i ∈ {0, 1}` the reliable-pixel selection `M`
 //! (`v_i ≥` [`TvParams::confidence_threshold`]) and `ℸ` ([`TvParams::tikhonov`]) a weak
 //! fidelity `ℸ/2 ‖Z(x − D)‖²` with `Z = I` that keeps the problem strictly convex where
 //! `M` selects nothing. `B` is the product over nodes of the constraint sets of each

@@ -20,6 +20,9 @@ pub struct TvParams {
     pub tikhonov: f32,
     /// Pixels whose confidence is below this are unreliable (`M` drops them).
     pub confidence_threshold: f32,
+    /// Data weight of a reliable pixel: `confidence^power` (structure-tensor coherence
+    /// crowds near 1, a power spreads it).
+    pub confidence_power: f32,
     /// Scale σ of the centre-view colour step for edge weights `1 / (1 + (Δ/σ)²)`,
     /// Δ in unit intensity (max over channels). Zero disables edge weighting.
     pub edge_sigma: f32,
@@ -48,7 +51,8 @@ impl Default for TvParams {
             lambda: 0.5,
             tikhonov: 0.01,
             confidence_threshold: 0.0,
-            edge_sigma: 0.05,
+            confidence_power: 1.0,
+            edge_sigma: 0.02,
             edge_floor: 0.05,
             norm: TvNorm::L2,
             max_iterations: 300,
@@ -89,6 +93,12 @@ impl TvParams {
             self.confidence_threshold,
             (0.0..=1.0).contains(&self.confidence_threshold),
             "must be in [0, 1]",
+        )?;
+        finite_in(
+            "tv.confidence_power",
+            self.confidence_power,
+            self.confidence_power > 0.0 && self.confidence_power <= 1000.0,
+            "must be in (0, 1000]",
         )?;
         finite_in(
             "tv.edge_sigma",

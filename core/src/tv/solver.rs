@@ -517,13 +517,13 @@ impl<'s, S: Scalar> Graph<'s, S> {
     }
 }
 
-/// `a_i = m_i v_i + ℸ`: the confidence where it reaches the threshold, plus the weak
-/// fidelity everywhere.
+/// `a_i = m_i v_i + ℸ`: `v_i = confidence^power` where the confidence reaches the
+/// threshold, plus the weak fidelity everywhere.
 #[inline]
 pub(crate) fn data_weight(confidence: f32, params: &TvParams) -> f32 {
     let c = confidence.clamp(0.0, 1.0);
     let reliable = if c >= params.confidence_threshold && c > 0.0 {
-        c
+        libm::powf(c, params.confidence_power)
     } else {
         0.0
     };
