@@ -113,3 +113,35 @@ fn tv_hci_dev_harness() {
         write_pfm(path.as_ref(), w, h, &out);
     }
 }
+
+/// The engine's EPI stage on an HCI scene: (disparity, confidence).
+fn engine_epi(dir: &std::path::Path) -> (usize, usize, Vec<f32>, Vec<f32>) {
+    use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+    let (views, layout) = load_hci(dir);
+    let lf = lfdepth::LightField::new(&views, layout).unwrap();
+    let options = EstimateOptions {
+        params: Params::default(),
+        stage: StageSelect::Epi,
+        threads: None,
+    };
+    let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
+    (e.width, e.height, e.disparity, e.confidence)
+}
+
+#[test]
+#[ignore = "development aid: writes the engine's EPI disparity and confidence of both HCI scenes to TV_DUMP_DIR"]
+fn tv_dump_engine_epi_inputs() {
+    let (Some(data), Ok(out)) = (shared_data("the EPI dump"), std::env::var("TV_DUMP_DIR")) else {
+        eprintln!("SKIPPED: needs ../shared/data and TV_DUMP_DIR");
+        return;
+    };
+    for (scene, name) in [
+        ("stratified/backgammon", "backgammon"),
+        ("training/cotton", "cotton"),
+    ] {
+        let (w, h, d, c) = engine_epi(&data.join("hci").join(scene));
+        let out = PathBuf::from(&out);
+        write_pfm(&out.join(format!("{name}_epi.pfm")), w, h, &d);
+        write_pfm(&out.join(format!("{name}_epi_conf.pfm")), w, h, &c);
+    }
+}

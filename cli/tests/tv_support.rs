@@ -116,3 +116,15 @@ pub fn scores(est: &[f32], gt: &[f32], w: usize, h: usize) -> (f64, f64) {
     }
     (100.0 * bad as f64 / n as f64, 100.0 * se / n as f64)
 }
+
+/// The 81 views of an HCI scene, packed RGB, with their layout.
+pub fn load_hci(dir: &Path) -> (Vec<u8>, Layout) {
+    let mut data = Vec::new();
+    let (mut w, mut h) = (0, 0);
+    for i in 0..81 {
+        let (vw, vh, rgb) = read_rgb_png(&dir.join(format!("input_Cam{i:03}.png")));
+        (w, h) = (vw, vh);
+        data.extend_from_slice(&rgb);
+    }
+    (data, Layout::packed(Grid::new(9, 9), w, h, 3))
+}
