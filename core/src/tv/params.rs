@@ -56,7 +56,7 @@ impl Default for TvParams {
             edge_floor: 0.05,
             norm: TvNorm::L2,
             max_iterations: 300,
-            tolerance: 1e-3,
+            tolerance: 3e-3,
             step: 2.0,
             relaxation: 1.9,
             tile: 128,
