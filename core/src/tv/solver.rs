@@ -114,13 +114,21 @@ pub struct Rect {
 
 impl Rect {
     fn pixels(&self) -> usize {
-        self.width * self.height
+        self.width.saturating_mul(self.height)
     }
     fn contains(&self, other: &Rect) -> bool {
-        other.x >= self.x
-            && other.y >= self.y
-            && other.x + other.width <= self.x + self.width
-            && other.y + other.height <= self.y + self.height
+        let end = |start: usize, len: usize| start.checked_add(len);
+        match (
+            end(self.x, self.width),
+            end(self.y, self.height),
+            end(other.x, other.width),
+            end(other.y, other.height),
+        ) {
+            (Some(sx), Some(sy), Some(ox), Some(oy)) => {
+                other.x >= self.x && other.y >= self.y && ox <= sx && oy <= sy
+            }
+            _ => false,
+        }
     }
 }
 
@@ -189,7 +197,9 @@ pub fn solve<S: Scalar, P: Sample>(
     let out_needed = if core.pixels() == 0 {
         0
     } else {
-        (core.height - 1) * out.stride + core.width
+        checked_product(&[core.height - 1, out.stride], "the output")?
+            .checked_add(core.width)
+            .ok_or(Error::SizeOverflow { what: "the output" })?
     };
     if out.disparity.len() < out_needed {
         return Err(Error::BufferTooSmall {
@@ -215,7 +225,7 @@ pub fn solve<S: Scalar, P: Sample>(
             got: scratch.len(),
         });
     }
-    check_guide(maps, guide)?;
+    check_guide(maps, guide, region)?;
 
     let mut graph = Graph::split(&mut scratch[..needed], region.width, region.height);
     graph.setup(maps, guide, params, region);
@@ -230,7 +240,7 @@ pub fn solve<S: Scalar, P: Sample>(
     Ok(report)
 }
 
-fn check_guide<P: Sample>(maps: &Maps<'_>, guide: &Guide<'_, P>) -> Result<()> {
+fn check_guide<P: Sample>(maps: &Maps<'_>, guide: &Guide<'_, P>, region: Rect) -> Result<()> {
     match guide {
         Guide::View(view) => {
             if view.width() != maps.width || view.height() != maps.height {
@@ -239,9 +249,13 @@ fn check_guide<P: Sample>(maps: &Maps<'_>, guide: &Guide<'_, P>) -> Result<()> {
                     reason: "must have the size of the disparity map",
                 });
             }
+            // Only the region (one row and column beyond it for the edges) is read.
+            let ch = view.channels();
+            let x0 = region.x * ch;
+            let x1 = ((region.x + region.width + 1).min(view.width())) * ch;
             let mut finite = true;
-            for y in 0..view.height() {
-                if let Some(row) = view.row(y) {
+            for y in region.y..(region.y + region.height + 1).min(view.height()) {
+                if let Some(row) = view.row(y).and_then(|r| r.get(x0..x1)) {
                     finite &= row.iter().all(|s| s.is_finite());
                 }
             }
@@ -986,5 +1000,31 @@ mod tests {
         assert!(report.converged, "{report:?}");
         assert!(out.iter().all(|&v| (v - 0.5).abs() < 1e-3), "{out:?}");
         assert!(Maps::new(w, h, &d[1..], &c).is_err());
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn solve_never_panics(
+            w in 1usize..10, h in 1usize..10,
+            rx in 0usize..12, ry in 0usize..12, rw in 0usize..12, rh in 0usize..12,
+            cx in 0usize..12, cy in 0usize..12, cw in 0usize..12, ch in 0usize..12,
+            stride in 0usize..12, out_len in 0usize..120, scratch_len in 0usize..2000,
+            huge in proptest::bool::ANY,
+        ) {
+            let d: Vec<f32> = (0..w * h).map(|i| (i % 7) as f32 * 0.3 - 1.0).collect();
+            let c: Vec<f32> = (0..w * h).map(|i| (i % 5) as f32 * 0.25).collect();
+            let maps = Maps::new(w, h, &d, &c).unwrap();
+            let ones = vec![0.5f32; w * h];
+            let guide: Guide<'_, u8> = Guide::Weights { horizontal: &ones, vertical: &ones };
+            let params = TvParams { max_iterations: 3, ..TvParams::default() };
+            let region = Rect { x: rx, y: ry, width: if huge { usize::MAX } else { rw }, height: rh };
+            let core = Rect { x: cx, y: cy, width: cw, height: ch };
+            let mut out = vec![0.0f32; out_len];
+            let mut hist = vec![0.0f32; 2];
+            let mut scratch = vec![Q16::ZERO; scratch_len];
+            let _ = solve(&maps, &guide, &params, region, core, SolveOutput {
+                disparity: &mut out, stride, history: &mut hist, dual: None,
+            }, &mut scratch);
+        }
     }
 }
