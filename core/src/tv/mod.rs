@@ -10,8 +10,9 @@
 //!
 //! with `D` the EPI disparity, `W` the incidence matrix of the graph with edge weights
 //! `w_e` from the centre view ([`TvParams::edge_sigma`]), `v_i = c_i^p` from the EPI
-//! confidence `c_i` ([`TvParams::confidence_power`]; the data weights `V⁻¹`), `m_i ∈ {0, 1}` the reliable-pixel selection `M`
-//! (`v_i ≥` [`TvParams::confidence_threshold`]) and `ℸ` ([`TvParams::tikhonov`]) a weak
+//! confidence `c_i` ([`TvParams::confidence_power`]; the data weights `V⁻¹`),
+//! `m_i ∈ {0, 1}` the reliable-pixel selection `M` (`c_i ≥`
+//! [`TvParams::confidence_threshold`]) and `ℸ` ([`TvParams::tikhonov`]) a weak
 //! fidelity `ℸ/2 ‖Z(x − D)‖²` with `Z = I` that keeps the problem strictly convex where
 //! `M` selects nothing. `B` is the product over nodes of the constraint sets of each
 //! node's two forward edges: the unit ℓ∞ box ([`TvNorm::L1`], anisotropic TV) or the
@@ -28,7 +29,13 @@
 //! operators are closed form: `ι_B` (per-node projection) and the quadratic split over
 //! the two colours of the checkerboard — the edges incident to nodes of one colour are
 //! disjoint, so each node's term is a rank-one quadratic on its own edges. See
-//! [`solver`].
+//! [`solver`]. The primal of a not fully converged dual is clamped to the range of `D`
+//! over the region, where the minimiser lies.
+//!
+//! # Residuals
+//! Each solve adds `‖Fₙ − Fₙ₋₁‖²` of every iteration to a history; [`refine`] (or a
+//! parallel caller summing tile histories in tile order, then [`normalise_history`])
+//! turns it into the RMS dual update per node and iteration.
 //!
 //! # Tiles
 //! The image is cut into `tile × tile` cores, each solved on the core plus a `halo` of
