@@ -22,6 +22,7 @@ pub mod lightfield;
 pub mod metrics;
 pub mod pipeline;
 pub mod plan;
+pub mod refine;
 pub mod scalar;
 pub mod synth;
 pub mod tv;

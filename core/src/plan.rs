@@ -5,6 +5,7 @@
 use crate::epi::EpiParams;
 use crate::error::{checked_product, Result};
 use crate::lightfield::Layout;
+use crate::refine::RefineParams;
 use crate::tv::TvParams;
 
 /// Parameters of every stage.
@@ -12,6 +13,8 @@ use crate::tv::TvParams;
 pub struct Params {
     /// Initial disparity from EPIs.
     pub epi: EpiParams,
+    /// Photometric refinement of the EPI disparity over many views.
+    pub refine: RefineParams,
     /// Total-variation refinement.
     pub tv: TvParams,
 }
@@ -29,6 +32,7 @@ impl Plan {
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         layout.validate()?;
         params.epi.validate()?;
+        params.refine.validate()?;
         params.tv.validate()?;
         let pixels = checked_product(&[layout.width, layout.height], "the disparity map")?;
         Ok(Plan {

@@ -1,0 +1,140 @@
+//! The full pipeline (EPI → refine → TV) on the shared HCI scenes, release only, and an
+//! ignored development harness for tuning (parameters from environment variables).
+
+#[path = "tv_support.rs"]
+mod tv_support;
+
+use std::path::Path;
+use std::time::Instant;
+
+use lfdepth::refine::{self, RefineParams, ViewSet};
+use lfdepth::tv::{self, Guide, Maps, TvParams};
+use lfdepth::{LightField, Params, Plan};
+use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use tv_support::*;
+
+fn env_f32(name: &str, default: f32) -> f32 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn params_from_env() -> Params {
+    let r = RefineParams::default();
+    let t = TvParams::default();
+    Params {
+        refine: RefineParams {
+            enabled: env_f32("RF_ON", 1.0) > 0.0, // on unless RF_ON=0
+            views: match std::env::var("RF_VIEWS").as_deref() {
+                Ok("all") => ViewSet::All,
+                Ok("diag") => ViewSet::CrossDiagonals,
+                Ok("cross") => ViewSet::Cross,
+                _ => r.views,
+            },
+            iterations: env_f32("RF_ITERS", r.iterations as f32) as usize,
+            radius: env_f32("RF_RADIUS", r.radius as f32) as usize,
+            max_step: env_f32("RF_STEP", r.max_step),
+            occlusion: env_f32("RF_OCC", 1.0) > 0.0,
+            confidence_scale: env_f32("RF_SCALE", r.confidence_scale),
+            robust_scale: env_f32("RF_ROBUST", r.robust_scale),
+            band_rows: r.band_rows,
+        },
+        tv: TvParams {
+            lambda: env_f32("TV_LAMBDA", t.lambda),
+            confidence_threshold: env_f32("TV_THRESHOLD", t.confidence_threshold),
+            confidence_power: env_f32("TV_POWER", t.confidence_power),
+            edge_sigma: env_f32("TV_SIGMA", t.edge_sigma),
+            max_iterations: env_f32("TV_ITERS", t.max_iterations as f32) as usize,
+            tolerance: env_f32("TV_TOL", t.tolerance),
+            ..t
+        },
+        ..Params::default()
+    }
+}
+
+/// EPI (engine, all threads), then refine and TV serially, with the scores and CPU-side
+/// timings of each stage: (epi, refined, tv) maps.
+fn stages(dir: &Path, params: Params) -> [(Vec<f32>, f64); 3] {
+    let (views, layout) = load_hci(dir);
+    let lf = LightField::new(&views, layout).unwrap();
+    let plan = Plan::new(layout, params).unwrap();
+    let options = EstimateOptions {
+        params,
+        stage: StageSelect::Epi,
+        threads: Some(1),
+    };
+    let t = Instant::now();
+    let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
+    let epi_s = t.elapsed().as_secs_f64();
+    let mut scratch = vec![0.0f32; lfdepth::epi::scratch_len(&plan)];
+    let hyps = lfdepth::epi::hypotheses(&plan, &lf, &mut scratch).unwrap();
+    let range = (hyps.min(), hyps.max());
+    let mut input = e.disparity.clone();
+    if std::env::var("RF_FROM_GT").is_ok() {
+        input = read_pfm(&dir.join("gt_disp_lowres.pfm")).2;
+    }
+    let (mut d, mut c) = (input.clone(), e.confidence.clone());
+    let t = Instant::now();
+    if params.refine.enabled {
+        let mut scratch = vec![0.0f32; refine::scratch_len(&plan)];
+        refine::refine(&plan, &lf, range, &input, &mut d, &mut c, &mut scratch).unwrap();
+    }
+    let refine_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let maps = Maps::new(layout.width, layout.height, &d, &c).unwrap();
+    let mut out = vec![0.0f32; plan.pixels()];
+    let mut scratch = vec![0.0f32; tv::scratch_len(&plan)];
+    tv::refine(
+        &plan,
+        &maps,
+        &Guide::View(lf.center_view()),
+        &mut out,
+        &mut [],
+        &mut scratch,
+    )
+    .unwrap();
+    let tv_s = t.elapsed().as_secs_f64();
+    if std::env::var("RF_DUMP").is_ok() {
+        let w = layout.width;
+        let h = layout.height;
+        let scene = dir_name(dir);
+        let name = format!("{}/{scene}_", std::env::var("RF_DUMP").unwrap());
+        write_pfm(Path::new(&(name.clone() + "refined.pfm")), w, h, &d);
+        write_pfm(Path::new(&(name.clone() + "refined_conf.pfm")), w, h, &c);
+        write_pfm(Path::new(&(name + "tv.pfm")), w, h, &out);
+    }
+    [(input, epi_s), (d, refine_s), (out, tv_s)]
+}
+
+#[test]
+#[ignore = "development harness: RF_* and TV_* environment variables"]
+fn pipeline_hci_dev_harness() {
+    let Some(data) = shared_data("the pipeline harness") else {
+        return;
+    };
+    let params = params_from_env();
+    println!("{params:?}");
+    for scene in ["stratified/backgammon", "training/cotton"] {
+        let dir = data.join("hci").join(scene);
+        let (w, h, gt) = read_pfm(&dir.join("gt_disp_lowres.pfm"));
+        let maps = stages(&dir, params);
+        let s: Vec<(f64, f64)> = maps.iter().map(|(m, _)| scores(m, &gt, w, h)).collect();
+        println!(
+            "{scene:24} epi {:.2}/{:.3}  refine {:.2}/{:.3}  +tv {:.2}/{:.3}   ms {:.0} {:.0} {:.0}",
+            s[0].0,
+            s[0].1,
+            s[1].0,
+            s[1].1,
+            s[2].0,
+            s[2].1,
+            maps[0].1 * 1e3,
+            maps[1].1 * 1e3,
+            maps[2].1 * 1e3
+        );
+    }
+}
+
+fn dir_name(dir: &Path) -> String {
+    dir.file_name().unwrap().to_string_lossy().to_string()
+}

@@ -1,0 +1,162 @@
+//! Parameters of the photometric refinement stage.
+
+use crate::error::{Error, Result};
+
+/// Which views enter the photo-consistency.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewSet {
+    /// The centre row and column of the grid (the views the EPI stage saw).
+    Cross,
+    /// The cross and both diagonals through the centre.
+    CrossDiagonals,
+    /// Every view of the grid.
+    All,
+}
+
+impl ViewSet {
+    /// Whether the view at offset `(dr, dc)` from the centre belongs to the set
+    /// (the centre itself never does).
+    pub fn contains(&self, dr: isize, dc: isize) -> bool {
+        if dr == 0 && dc == 0 {
+            return false;
+        }
+        match self {
+            ViewSet::Cross => dr == 0 || dc == 0,
+            ViewSet::CrossDiagonals => dr == 0 || dc == 0 || dr == dc || dr == -dc,
+            ViewSet::All => true,
+        }
+    }
+}
+
+/// Parameters of the refinement stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefineParams {
+    /// Run the stage (off, the default: the paper's EPI → TV pipeline).
+    pub enabled: bool,
+    /// Views compared with the centre view.
+    pub views: ViewSet,
+    /// Gauss–Newton iterations, 1…16.
+    pub iterations: usize,
+    /// Radius of the square aggregation window (px), 0…4.
+    pub radius: usize,
+    /// Largest disparity change of one iteration (px), in (0, 2].
+    pub max_step: f32,
+    /// Per pixel, drop the half of the views (left/right, up/down) whose residual is much
+    /// larger than the other half's: those views see an occluder.
+    pub occlusion: bool,
+    /// Residual scale (unit intensity) of the Cauchy weight of each view and pixel:
+    /// views that disagree by much more count little. Zero: plain least squares.
+    pub robust_scale: f32,
+    /// Disparity error (px) at which the output confidence is one half.
+    pub confidence_scale: f32,
+    /// Image rows per band (the unit of parallel work), 1…4096.
+    pub band_rows: usize,
+}
+
+impl Default for RefineParams {
+    fn default() -> Self {
+        RefineParams {
+            enabled: false,
+            views: ViewSet::Cross,
+            iterations: 3,
+            radius: 1,
+            max_step: 0.5,
+            occlusion: true,
+            robust_scale: 0.01,
+            confidence_scale: 0.3,
+            band_rows: 64,
+        }
+    }
+}
+
+impl RefineParams {
+    /// The stage switched on with the default settings. Off by default: on the HCI
+    /// scenes it helps cotton but hurts backgammon (docs/bench-pipeline.md).
+    pub fn on() -> Self {
+        RefineParams {
+            enabled: true,
+            ..Self::default()
+        }
+    }
+
+    /// Checks every parameter.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, reason| Err(Error::InvalidParameter { name, reason });
+        if !(1..=16).contains(&self.iterations) {
+            return bad("refine.iterations", "must be in 1..=16");
+        }
+        if self.radius > 4 {
+            return bad("refine.radius", "must be at most 4 pixels");
+        }
+        if !(self.max_step.is_finite() && self.max_step > 0.0 && self.max_step <= 2.0) {
+            return bad("refine.max_step", "must be in (0, 2] pixels");
+        }
+        if !(self.confidence_scale.is_finite()
+            && self.confidence_scale > 0.0
+            && self.confidence_scale <= 10.0)
+        {
+            return bad("refine.confidence_scale", "must be in (0, 10] pixels");
+        }
+        if !(self.robust_scale.is_finite() && (0.0..=1.0).contains(&self.robust_scale)) {
+            return bad("refine.robust_scale", "must be in [0, 1] (unit intensity)");
+        }
+        if !(1..=4096).contains(&self.band_rows) {
+            return bad("refine.band_rows", "must be in 1..=4096");
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_bad_values_are_named() {
+        RefineParams::default().validate().unwrap();
+        RefineParams::on().validate().unwrap();
+        for (bad, name) in [
+            (
+                RefineParams {
+                    iterations: 0,
+                    ..RefineParams::default()
+                },
+                "refine.iterations",
+            ),
+            (
+                RefineParams {
+                    max_step: f32::NAN,
+                    ..RefineParams::default()
+                },
+                "refine.max_step",
+            ),
+            (
+                RefineParams {
+                    radius: 9,
+                    ..RefineParams::default()
+                },
+                "refine.radius",
+            ),
+        ] {
+            assert!(
+                matches!(bad.validate(), Err(Error::InvalidParameter { name: n, .. }) if n == name)
+            );
+        }
+    }
+
+    #[test]
+    fn view_sets_nest() {
+        let mut counts = [0; 3];
+        for dr in -4..=4 {
+            for dc in -4..=4 {
+                for (i, set) in [ViewSet::Cross, ViewSet::CrossDiagonals, ViewSet::All]
+                    .iter()
+                    .enumerate()
+                {
+                    counts[i] += usize::from(set.contains(dr, dc));
+                }
+            }
+        }
+        assert_eq!(counts, [16, 32, 80]);
+    }
+}
