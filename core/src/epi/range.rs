@@ -1,6 +1,6 @@
 //! Automatic disparity range: probe every `RANGE_LINE_STEP`-th line of both directions with
 //! integer shears over the whole supported range, histogram the confident estimates and
-//! keep the 1st…99th percentile, padded.
+//! keep the 2nd…98th percentile, padded.
 
 use super::hypotheses::Hypotheses;
 use super::{check_layout, scratch_len, BandEstimator, Direction};
@@ -14,12 +14,12 @@ pub const RANGE_LINE_STEP: usize = 8;
 /// Probed disparities (integer shears ±PROBE_REACH, each accepting ±1 px residuals).
 const PROBE_REACH: f32 = 4.0;
 /// Only estimates at least this coherent enter the histogram.
-const MIN_COHERENCE: f32 = 0.5;
+const MIN_COHERENCE: f32 = 0.8;
 /// Histogram resolution (px).
 const BIN: f32 = 0.05;
 const BINS: usize = 2 * ((PROBE_REACH + 1.0) / BIN) as usize;
 /// Share of confident samples left out on each side, and the padding added back.
-const TAIL: f32 = 0.01;
+const TAIL: f32 = 0.02;
 const PAD: f32 = 0.3;
 /// Samples this close to a line end see clamped (constant) views and are not probed.
 const MARGIN: usize = 16;
