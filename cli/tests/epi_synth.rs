@@ -23,18 +23,14 @@ fn scene(kind: SceneKind, min: f32, max: f32, size: usize) -> (SynthSpec, Vec<u8
     (spec, views, gt)
 }
 
-/// Share of pixels (15 px border excluded) within `tol` of the truth.
-fn share_within(est: &[f32], gt: &[f32], size: usize, tol: f32) -> f64 {
+/// Share of pixels within 0.07 px by the core's HCI metrics (15 px border excluded).
+fn share_within_007(est: &[f32], gt: &[f32], size: usize) -> f64 {
     let mut scratch = vec![0.0; scratch_len(size, size)];
     let s = evaluate(est, gt, size, size, &EvalOptions::default(), &mut scratch).unwrap();
-    let bad = match tol {
-        t if t == 0.07 => s.badpix_007,
-        t if t == 0.03 => s.badpix_003,
-        _ => s.badpix_001,
-    };
-    1.0 - bad / 100.0
+    1.0 - s.badpix_007 / 100.0
 }
 
+/// Share of pixels (15 px border excluded) within `tol` of the truth.
 fn within(est: &[f32], gt: &[f32], size: usize, tol: f32) -> f64 {
     let (mut good, mut all) = (0, 0);
     for y in 15..size - 15 {
@@ -109,7 +105,7 @@ fn occluding_planes_over_wide_ranges() {
         let (spec, views, gt) = scene(SceneKind::Planes, min, max, size);
         let d = run_default(&spec, &views);
         let share = within(&d, &gt, size, 0.02);
-        let share7 = share_within(&d, &gt, size, 0.07);
+        let share7 = share_within_007(&d, &gt, size);
         eprintln!(
             "planes scene [{min}, {max}]: {:.2} % within 0.02 px, {:.2} % within 0.07 px",
             100.0 * share,
