@@ -82,3 +82,18 @@ fn full_stage_outputs_stay_inside_the_given_range() {
         .count();
     assert!(good > 32 * 6 * 8 / 10, "{good}");
 }
+
+/// Fixed single-thread workload for `perf stat` comparisons of kernel changes on a busy
+/// machine (cycles are steadier than wall time there):
+/// `perf stat -e cycles:u cargo test --release -p lfdepth-cli --test epi_engine -- --ignored workload`.
+#[test]
+#[ignore]
+fn workload_three_estimates_of_a_512_scene() {
+    let (data, layout) = epi_support::plane_scene(Grid::new(9, 9), 512, 512, -0.3);
+    let lf = LightField::new(&data, layout).unwrap();
+    let start = std::time::Instant::now();
+    for _ in 0..3 {
+        estimate(&lf, &options(1, EpiParams::default()), &mut |_, _, _| {}).unwrap();
+    }
+    eprintln!("3 estimates: {:?}", start.elapsed());
+}

@@ -98,6 +98,14 @@ fn variants_table() {
         ("window 0.5", EpiParams { window: 0.5, ..d }),
         ("window 1.5", EpiParams { window: 1.5, ..d }),
         (
+            "gray, step 1",
+            EpiParams {
+                color: ColorMode::Gray,
+                shear_step: 1.0,
+                ..d
+            },
+        ),
+        (
             "A: outer 2, inner 0.5, step 0.5, weighted",
             EpiParams {
                 outer_sigma: 2.0,
