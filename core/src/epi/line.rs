@@ -369,8 +369,8 @@ fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
             *o = wa * x + wb * y;
         }
     }
-    for t in hi..n {
-        out[t] = edge(t);
+    for (t, o) in out.iter_mut().enumerate().skip(hi) {
+        *o = edge(t);
     }
 }
 
@@ -394,7 +394,7 @@ mod tests {
             -12.5f32, -3.0, -2.75, -0.5, 0.0, 0.5, 1.0, 3.25, 8.0, 8.5, 20.0,
         ] {
             shift(&input, &mut out, offset);
-            for t in 0..5 {
+            for (t, &got) in out.iter().enumerate() {
                 let x = t as f32 - offset;
                 let (i, f) = (x.floor(), x - x.floor());
                 let at = |i: f32| input[(i.max(0.0) as usize).min(4)];
