@@ -23,6 +23,8 @@ pub(crate) struct LineEstimator<T: Scalar> {
     /// Row k: the inner Gaussian followed by the across-view derivative at view k
     /// (central; one-sided at the first and last view so that the ends keep the scale).
     mix_derivative: [[T; GRID_MAX]; GRID_MAX],
+    /// Per view k, the range of views with a nonzero entry in either mixing row.
+    reach: [(usize, usize); GRID_MAX],
     views: usize,
     centre: usize,
     channels: usize,
@@ -93,6 +95,13 @@ impl<T: Scalar> LineEstimator<T> {
                 mix_derivative[k][j] = T::from_f32(d);
             }
         }
+        let mut reach = [(0, 0); GRID_MAX];
+        for (k, r) in reach.iter_mut().enumerate().take(views) {
+            let used = |j: &usize| mix_smooth[k][*j] != T::ZERO || mix_derivative[k][*j] != T::ZERO;
+            let first = (0..views).find(used).unwrap_or(0);
+            let last = (0..views).rev().find(used).map_or(first, |j| j + 1);
+            *r = (first, last);
+        }
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
@@ -100,6 +109,7 @@ impl<T: Scalar> LineEstimator<T> {
             weights,
             mix_smooth,
             mix_derivative,
+            reach,
             views,
             centre,
             channels: match params.color {
@@ -216,14 +226,19 @@ impl<T: Scalar> LineEstimator<T> {
                     }
                     // Gradients of view k across the views (rows of the mixing matrices),
                     // in register-sized chunks so the sums stay out of memory.
-                    let (ms, md) = (&self.mix_smooth[k][..k_n], &self.mix_derivative[k][..k_n]);
+                    // Only the views the two rows reach (the inner Gaussian is short).
+                    let (first, last) = self.reach[k];
+                    let (ms, md) = (
+                        &self.mix_smooth[k][first..last],
+                        &self.mix_derivative[k][first..last],
+                    );
                     let mut t0 = 0;
                     while t0 < n {
                         let len = CHUNK.min(n - t0);
                         let mut ax = [T::ZERO; CHUNK];
                         let mut ak = [T::ZERO; CHUNK];
                         for (j, (&a, &b)) in ms.iter().zip(md).enumerate() {
-                            let at = j * n + t0;
+                            let at = (first + j) * n + t0;
                             let (sd, ss) = (&sh_d[at..at + len], &sh_s[at..at + len]);
                             for (((x, y), &p), &q) in
                                 ax.iter_mut().zip(ak.iter_mut()).zip(sd).zip(ss)
