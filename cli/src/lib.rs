@@ -2,3 +2,4 @@
 //! commands of the `lfdepth` tool.
 
 pub mod engine;
+pub mod io;
