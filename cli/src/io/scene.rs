@@ -410,32 +410,26 @@ pub fn load(dir: &Path, options: &LoadOptions) -> Result<Scene, IoError> {
     let channels = if in_channels == 2 { 1 } else { in_channels };
     let layout = Layout::packed(files.grid, first.width, first.height, channels);
     let total = layout.validate().map_err(|e| IoError::core(dir, e))?;
-    let keep = |i: usize| in_channels != 2 || i % 2 == 0;
     let views = match first.samples {
         Samples::Eight(_) => {
             let mut out = Vec::with_capacity(total);
             for image in &images {
                 if let Samples::Eight(s) = &image.samples {
-                    out.extend(
-                        s.iter()
-                            .enumerate()
-                            .filter(|(i, _)| keep(*i))
-                            .map(|(_, v)| *v),
-                    );
+                    if in_channels == 2 {
+                        out.extend(s.iter().step_by(2));
+                    } else {
+                        out.extend_from_slice(s);
+                    }
                 }
             }
             Views::U8(out)
         }
         Samples::Sixteen(_) => {
             let mut out = Vec::with_capacity(total);
+            let step = if in_channels == 2 { 2 } else { 1 };
             for image in &images {
                 if let Samples::Sixteen(s) = &image.samples {
-                    out.extend(
-                        s.iter()
-                            .enumerate()
-                            .filter(|(i, _)| keep(*i))
-                            .map(|(_, v)| f32::from(*v) / 65535.0),
-                    );
+                    out.extend(s.iter().step_by(step).map(|&v| f32::from(v) / 65535.0));
                 }
             }
             Views::F32(out)
