@@ -177,3 +177,18 @@ fn hostile_pngs_are_errors() {
         assert!(png::decode(&good[..len]).is_err(), "cut at {len}");
     }
 }
+
+#[test]
+fn cfg_parse_never_panics_on_mangled_text() {
+    let text = "[intrinsics]\nfocal_length_mm = 100.0\n[extrinsics]\nnum_cams_x = 9\n[meta]\ndisp_min = -1.6\n";
+    let bytes = text.as_bytes();
+    let specials = [b'[', b']', b'=', b'\n', b'#', b' ', b'-', b'9', 0xff];
+    for i in 0..bytes.len() {
+        for &s in &specials {
+            let mut b = bytes.to_vec();
+            b[i] = s;
+            let _ = cfg::parse(&String::from_utf8_lossy(&b));
+        }
+        let _ = cfg::parse(&text[..i]);
+    }
+}

@@ -77,7 +77,7 @@ pub fn default_misalignment() -> Misalignment {
         max_rotation_deg: 0.5,
         max_translation_px: 2.0,
         max_scale: 0.01,
-        max_perspective: 1e-5,
+        max_perspective: 0.002,
     }
 }
 
@@ -107,8 +107,8 @@ pub struct Rendered {
     pub homographies: Vec<Homography>,
 }
 
-/// Renders a specification: views in parallel when no misalignment is asked for (the
-/// homographies are then identities), else in one call that also returns them.
+/// Renders a specification, one view per task in parallel (the same bytes as the
+/// serial `synth::render`).
 pub fn render(spec: &SynthSpec) -> Result<Rendered, CliError> {
     let fail = |e| CliError::core("rendering the synthetic light field", e);
     spec.validate().map_err(fail)?;
@@ -116,18 +116,17 @@ pub fn render(spec: &SynthSpec) -> Result<Rendered, CliError> {
     let total = layout.validate().map_err(fail)?;
     let mut views = vec![0u8; total];
     let mut gt = vec![0f32; layout.pixels()];
-    let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
-    if spec.misalign.is_some() {
-        synth::render(spec, &mut views, &mut gt, &mut homographies).map_err(fail)?;
-    } else {
-        let cols = layout.grid.cols;
-        views
-            .par_chunks_mut(layout.view_stride)
-            .enumerate()
-            .try_for_each(|(i, view)| synth::render_view(spec, i / cols, i % cols, view))
-            .map_err(fail)?;
-        synth::render_ground_truth(spec, &mut gt).map_err(fail)?;
-    }
+    let cols = layout.grid.cols;
+    views
+        .par_chunks_mut(layout.view_stride)
+        .enumerate()
+        .try_for_each(|(i, view)| synth::render_view(spec, i / cols, i % cols, view))
+        .map_err(fail)?;
+    synth::render_ground_truth(spec, &mut gt).map_err(fail)?;
+    let homographies = (0..layout.grid.len())
+        .map(|i| synth::view_homography(spec, i / cols, i % cols))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(fail)?;
     Ok(Rendered {
         views,
         gt,
