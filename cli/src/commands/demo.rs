@@ -70,7 +70,13 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     // Both pictures share the ground truth's range so their colours compare.
     let range = colormap::finite_range(&gt.data);
     write_colour_png(&dir.join("disparity.png"), w, h, &est.data, range)?;
-    write_colour_png(&dir.join("ground_truth.png"), gt.width, gt.height, &gt.data, range)?;
+    write_colour_png(
+        &dir.join("ground_truth.png"),
+        gt.width,
+        gt.height,
+        &gt.data,
+        range,
+    )?;
     let scores = super::eval::score(&est, &gt, None, &dir.join("disparity.pfm"), &dir)?;
     println!(
         "{} scene, 9x9 views of {}x{} (rendered in {:.2} s), written to {}",

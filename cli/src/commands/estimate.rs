@@ -4,8 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
-use lfdepth::{LightField, Params};
+use lfdepth::LightField;
 
+use super::params::ParamArgs;
 use super::{CliError, Stage, ViewArgs};
 use crate::colormap;
 use crate::engine::{self, Estimate, EstimateOptions};
@@ -42,6 +43,9 @@ pub struct EstimateArgs {
     /// Where and how the views are named.
     #[command(flatten)]
     pub views: ViewArgs,
+    /// Estimator parameters.
+    #[command(flatten)]
+    pub params: ParamArgs,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -98,7 +102,7 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
         }
     );
     let options = EstimateOptions {
-        params: Params::default(),
+        params: args.params.params(scene.files.config.as_ref())?,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
     };

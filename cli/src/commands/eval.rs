@@ -5,9 +5,9 @@ use std::time::Instant;
 
 use clap::Args;
 use lfdepth::metrics::{self, EvalOptions, Scores};
-use lfdepth::Params;
 
 use super::estimate::estimate_scene;
+use super::params::ParamArgs;
 use super::{CliError, Stage, ViewArgs};
 use crate::engine::EstimateOptions;
 use crate::io::pfm::{self, Pfm};
@@ -21,10 +21,19 @@ use crate::report::{self, SceneRow};
 #[derive(Debug, Args)]
 pub struct EvalArgs {
     /// Estimated disparity (PFM) to score.
-    #[arg(value_name = "EST.pfm", required_unless_present = "dataset", conflicts_with = "dataset")]
+    #[arg(
+        value_name = "EST.pfm",
+        required_unless_present = "dataset",
+        conflicts_with = "dataset"
+    )]
     pub estimate: Option<PathBuf>,
     /// Ground-truth disparity (PFM), e.g. a scene's gt_disp_lowres.pfm.
-    #[arg(long, value_name = "GT.pfm", required_unless_present = "dataset", conflicts_with = "dataset")]
+    #[arg(
+        long,
+        value_name = "GT.pfm",
+        required_unless_present = "dataset",
+        conflicts_with = "dataset"
+    )]
     pub gt: Option<PathBuf>,
     /// Only score pixels where this PNG (same size as GT) is non-zero.
     #[arg(long, value_name = "M.png")]
@@ -44,6 +53,9 @@ pub struct EvalArgs {
     /// With --dataset: how the views are named.
     #[command(flatten)]
     pub views: ViewArgs,
+    /// With --dataset: estimator parameters.
+    #[command(flatten)]
+    pub params: ParamArgs,
 }
 
 /// Centre-embeds an estimate cropped symmetrically by `m ≤ BORDER` pixels per side
@@ -129,9 +141,21 @@ pub fn score(
         border: metrics::BORDER,
         mask,
     };
-    metrics::evaluate(&est.data, &gt.data, gt.width, gt.height, &options, &mut scratch).map_err(|e| {
+    metrics::evaluate(
+        &est.data,
+        &gt.data,
+        gt.width,
+        gt.height,
+        &options,
+        &mut scratch,
+    )
+    .map_err(|e| {
         CliError::core(
-            format!("scoring {} against {}", est_path.display(), gt_path.display()),
+            format!(
+                "scoring {} against {}",
+                est_path.display(),
+                gt_path.display()
+            ),
             e,
         )
     })
@@ -186,7 +210,11 @@ pub fn find_scenes(root: &Path) -> Result<Vec<PathBuf>, IoError> {
 
 fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
     if !root.is_dir() {
-        return Err(IoError::format("is not a folder: give the folder holding the scenes").in_file(root).into());
+        return Err(
+            IoError::format("is not a folder: give the folder holding the scenes")
+                .in_file(root)
+                .into(),
+        );
     }
     let scenes = find_scenes(root)?;
     if scenes.is_empty() {
@@ -196,11 +224,6 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
         .in_file(root)
         .into());
     }
-    let options = EstimateOptions {
-        params: Params::default(),
-        stage: args.stage.into(),
-        threads: args.threads.map(usize::from),
-    };
     let mut rows = Vec::new();
     for dir in &scenes {
         let name = dir
@@ -212,6 +235,11 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
             .to_string();
         let start = Instant::now();
         let loaded = scene::load(dir, &args.views.load_options())?;
+        let options = EstimateOptions {
+            params: args.params.params(loaded.files.config.as_ref())?,
+            stage: args.stage.into(),
+            threads: args.threads.map(usize::from),
+        };
         let mut bar = StageProgress::new(false);
         let result = estimate_scene(&loaded, &options, &mut |s, d, t| bar.update(s, d, t));
         bar.finish();
@@ -221,7 +249,10 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
         let gt = pfm::read(&gt_path)?;
         let est = Pfm::new(estimate.width, estimate.height, estimate.disparity)?;
         let scores = score(&est, &gt, None, dir, &gt_path)?;
-        eprintln!("{name}: BadPix0.07 {:.3}, {seconds:.2} s", scores.badpix_007);
+        eprintln!(
+            "{name}: BadPix0.07 {:.3}, {seconds:.2} s",
+            scores.badpix_007
+        );
         rows.push(SceneRow {
             scene: name,
             scores,

@@ -1,9 +1,10 @@
 //! The `lfdepth` command line: argument definitions (clap derive) and dispatch.
 
-// TMP pub mod demo;
+pub mod demo;
 pub mod estimate;
-// TMP pub mod eval;
-// TMP pub mod synth;
+pub mod eval;
+pub mod params;
+pub mod synth;
 
 use std::fmt;
 use std::path::PathBuf;
@@ -28,15 +29,15 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    // TMP/ Render a synthetic light field, estimate its disparity and score it against the
-    // TMP/ exact ground truth.
-    // TMP Demo(demo::DemoArgs),
+    /// Render a synthetic light field, estimate its disparity and score it against the
+    /// exact ground truth.
+    Demo(demo::DemoArgs),
     /// Estimate the disparity of a light field's centre view from a folder of views.
     Estimate(estimate::EstimateArgs),
-    // TMP/ Score disparity maps with the HCI benchmark metrics (one map, or a whole dataset).
-    // TMP Eval(eval::EvalArgs),
-    // TMP/ Write a synthetic light field with exact ground truth in the HCI layout.
-    // TMP Synth(synth::SynthArgs),
+    /// Score disparity maps with the HCI benchmark metrics (one map, or a whole dataset).
+    Eval(eval::EvalArgs),
+    /// Write a synthetic light field with exact ground truth in the HCI layout.
+    Synth(synth::SynthArgs),
 }
 
 /// How views are found in an input folder.
@@ -175,10 +176,10 @@ impl CliError {
 /// Runs one command.
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
-        // TMP Command::Demo(args) => demo::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Estimate(args) => estimate::run(&args),
-        // TMP Command::Eval(args) => eval::run(&args),
-        // TMP Command::Synth(args) => synth::run(&args),
+        Command::Eval(args) => eval::run(&args),
+        Command::Synth(args) => synth::run(&args),
     }
 }
 

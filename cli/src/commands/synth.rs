@@ -147,7 +147,10 @@ pub fn config(spec: &SynthSpec) -> SceneConfig {
         other: vec![
             meta("scene", spec.scene.name().to_string()),
             meta("category", "synthetic".into()),
-            meta("generator", format!("lfdepth synth {}", env!("CARGO_PKG_VERSION"))),
+            meta(
+                "generator",
+                format!("lfdepth synth {}", env!("CARGO_PKG_VERSION")),
+            ),
             meta("seed", spec.seed.to_string()),
             meta("noise_sigma", spec.noise_sigma.to_string()),
             meta("photometric", spec.photometric.to_string()),
@@ -198,7 +201,10 @@ pub fn write_scene(dir: &Path, spec: &SynthSpec, rendered: &Rendered) -> Result<
     cfg::save(&dir.join(CONFIG_FILE), &config(spec))?;
     if spec.misalign.is_some() {
         let path = dir.join(HOMOGRAPHIES_FILE);
-        write_bytes(&path, homographies_text(layout.grid, &rendered.homographies).as_bytes())?;
+        write_bytes(
+            &path,
+            homographies_text(layout.grid, &rendered.homographies).as_bytes(),
+        )?;
     }
     Ok(())
 }
@@ -217,7 +223,11 @@ pub fn run(args: &SynthArgs) -> Result<(), CliError> {
         spec.grid.cols,
         spec.width,
         spec.height,
-        if spec.misalign.is_some() { ", misaligned (see homographies.txt)" } else { "" }
+        if spec.misalign.is_some() {
+            ", misaligned (see homographies.txt)"
+        } else {
+            ""
+        }
     );
     Ok(())
 }
