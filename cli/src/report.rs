@@ -135,3 +135,63 @@ pub fn dataset_json(rows: &[SceneRow]) -> String {
     mean_map.insert("seconds".into(), finite_json(seconds));
     json!({ "scenes": scenes, "mean": Value::Object(mean_map) }).to_string()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scores(b: f64) -> Scores {
+        Scores {
+            badpix_007: b,
+            badpix_003: 2.0 * b,
+            badpix_001: 3.0 * b,
+            mse100: 1.3129,
+            q25: 0.25,
+            invalid_pct: 0.0,
+        }
+    }
+
+    #[test]
+    fn text_lines_are_name_space_value() {
+        let text = scores_text(&scores(2.5942));
+        assert!(text.starts_with("BadPix0.07 2.594\n"), "{text}");
+        assert!(text.contains("\nMSE×100 1.313\n"), "{text}");
+    }
+
+    #[test]
+    fn tables_end_with_the_mean() {
+        let rows = [
+            SceneRow {
+                scene: "a".into(),
+                scores: scores(1.0),
+                seconds: 1.0,
+            },
+            SceneRow {
+                scene: "b".into(),
+                scores: scores(3.0),
+                seconds: 3.0,
+            },
+        ];
+        let md = dataset_markdown(&rows);
+        let last = md.lines().last().unwrap();
+        assert_eq!(
+            last,
+            "| **mean** | 2.000 | 4.000 | 6.000 | 1.313 | 0.250 | 2.00 |"
+        );
+        let json: Value = serde_json::from_str(&dataset_json(&rows)).unwrap();
+        assert_eq!(json["mean"]["badpix001"], json!(6.0));
+        assert_eq!(json["scenes"][1]["scene"], json!("b"));
+        let mut nan = scores(1.0);
+        nan.q25 = f64::NAN;
+        assert!(scores_json(&nan).contains("\"q25\":null"));
+    }
+
+    #[test]
+    fn timings_end_with_the_total() {
+        let t = timings(&[
+            ("epi", Duration::from_millis(1500)),
+            ("tv", Duration::from_millis(500)),
+        ]);
+        assert!(t.lines().last().unwrap().contains("2.000 s"), "{t}");
+    }
+}

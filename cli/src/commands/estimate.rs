@@ -31,6 +31,10 @@ pub struct EstimateArgs {
     /// the range is stored in its text chunks).
     #[arg(long, value_name = "OUT.png")]
     pub png16: Option<PathBuf>,
+    /// Also write depth in metres (PFM) from parameters.cfg with the HCI formula
+    /// z = b·f·D / (d·D + b·f); NaN where the disparity lies at or beyond infinity.
+    #[arg(long, value_name = "DEPTH.pfm")]
+    pub depth: Option<PathBuf>,
     /// Also write the per-pixel confidence in [0, 1] (PFM).
     #[arg(long, value_name = "CONF.pfm")]
     pub confidence: Option<PathBuf>,
@@ -101,8 +105,15 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
             Views::F32(_) => "16-bit",
         }
     );
+    let config = scene.files.config.as_ref();
+    if args.depth.is_some() && config.and_then(|c| c.depth_m(0.0)).is_none() {
+        return Err(CliError::Usage(format!(
+            "--depth needs {} with focal_length_mm, sensor_size_mm, image_resolution_x_px/y_px, baseline_mm and focus_distance_m",
+            args.input.join(scene::CONFIG_FILE).display()
+        )));
+    }
     let options = EstimateOptions {
-        params: args.params.params(scene.files.config.as_ref())?,
+        params: args.params.params(config)?,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
     };
@@ -117,6 +128,14 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     )?;
     if let Some(path) = &args.confidence {
         pfm::write(path, &pfm::Pfm::new(w, h, estimate.confidence.clone())?)?;
+    }
+    if let (Some(path), Some(config)) = (&args.depth, config) {
+        let depth = estimate
+            .disparity
+            .iter()
+            .map(|&d| config.depth_m(f64::from(d)).map_or(f32::NAN, |z| z as f32))
+            .collect();
+        pfm::write(path, &pfm::Pfm::new(w, h, depth)?)?;
     }
     if let Some(path) = &args.png {
         write_colour_png(path, w, h, &estimate.disparity, None)?;

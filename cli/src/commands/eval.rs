@@ -186,7 +186,8 @@ pub fn run(args: &EvalArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Scene folders under `root` (itself included) holding a ground truth, sorted.
+/// Scene folders under `root` (itself included) holding a ground truth and PNG views,
+/// sorted.
 pub fn find_scenes(root: &Path) -> Result<Vec<PathBuf>, IoError> {
     let mut found = Vec::new();
     let mut stack = vec![root.to_path_buf()];
@@ -200,12 +201,22 @@ pub fn find_scenes(root: &Path) -> Result<Vec<PathBuf>, IoError> {
                 stack.push(path);
             }
         }
-        if dir.join(GROUND_TRUTH_FILE).is_file() {
+        if dir.join(GROUND_TRUTH_FILE).is_file() && has_png(&dir) {
             found.push(dir);
         }
     }
     found.sort();
     Ok(found)
+}
+
+fn has_png(dir: &Path) -> bool {
+    std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .flatten()
+                .any(|e| e.file_name().to_string_lossy().ends_with(".png"))
+        })
+        .unwrap_or(false)
 }
 
 fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
@@ -219,7 +230,7 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
     let scenes = find_scenes(root)?;
     if scenes.is_empty() {
         return Err(IoError::format(format!(
-            "holds no scene folder with {GROUND_TRUTH_FILE}: give a folder of HCI scenes"
+            "holds no scene folder with {GROUND_TRUTH_FILE} and PNG views: give a folder of HCI scenes"
         ))
         .in_file(root)
         .into());
