@@ -36,7 +36,7 @@ pub struct EvalArgs {
     )]
     pub gt: Option<PathBuf>,
     /// Only score pixels where this PNG (same size as GT) is non-zero.
-    #[arg(long, value_name = "M.png")]
+    #[arg(long, value_name = "M.png", conflicts_with = "dataset")]
     pub mask: Option<PathBuf>,
     /// Estimate and score every scene under DIR (folders holding gt_disp_lowres.pfm and views).
     #[arg(long, value_name = "DIR")]
@@ -63,6 +63,9 @@ pub struct EvalArgs {
 /// size, as the reference evaluator does. Exact, because only pixels inside the
 /// border are scored. Returns `None` when the sizes do not fit that rule.
 pub fn embed_cropped(est: &Pfm, width: usize, height: usize) -> Option<Pfm> {
+    if est.width == 0 || est.width.checked_mul(est.height) != Some(est.data.len()) {
+        return None;
+    }
     let dw = width.checked_sub(est.width)?;
     let dh = height.checked_sub(est.height)?;
     if !(dw == dh && dh > 0 && dh % 2 == 0 && dh / 2 <= metrics::BORDER) {
@@ -276,4 +279,28 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
         print!("{}", report::dataset_markdown(&rows));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn symmetric_crops_are_centred_in_nan() {
+        let est = Pfm::new(2, 2, vec![1.0, 2.0, 3.0, 4.0]).unwrap();
+        let e = embed_cropped(&est, 4, 4).unwrap();
+        assert_eq!(e.data[5..7], [1.0, 2.0]);
+        assert_eq!(e.data[9..11], [3.0, 4.0]);
+        assert_eq!(e.data.iter().filter(|v| v.is_nan()).count(), 12);
+        // Odd, uneven, too large or growing differences are not crops.
+        assert!(embed_cropped(&est, 5, 5).is_none());
+        assert!(embed_cropped(&est, 4, 6).is_none());
+        assert!(embed_cropped(
+            &est,
+            2 + 2 * (metrics::BORDER + 1),
+            2 + 2 * (metrics::BORDER + 1)
+        )
+        .is_none());
+        assert!(embed_cropped(&Pfm::new(4, 4, vec![0.0; 16]).unwrap(), 2, 2).is_none());
+    }
 }

@@ -33,7 +33,8 @@ pub struct SynthArgs {
     /// Scene: planes, slanted, spheres, occlusion, thin, low-texture or mixed.
     #[arg(long, value_name = "NAME", value_parser = parse_scene)]
     pub scene: SceneKind,
-    /// Disparity range MIN..MAX in pixels between neighbouring views (within -4..4).
+    /// Disparity range MIN..MAX in pixels between neighbouring views, within -4..4
+    /// (default -1.5..1.5).
     #[arg(long, value_name = "A..B", value_parser = parse_range, allow_hyphen_values = true)]
     pub disparity_range: Option<Range>,
     /// Gaussian noise standard deviation in 8-bit grey levels.
