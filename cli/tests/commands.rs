@@ -156,3 +156,60 @@ fn help_lists_every_command() {
     let out = lfdepth(&["eval", "--dataset", "/nonexistent/lfdepth"]);
     common::assert_fails(&out, &["/nonexistent/lfdepth", "not a folder"]);
 }
+
+#[test]
+fn sixteen_bit_views_estimate_like_their_8_bit_originals() {
+    let dir = common::temp();
+    let eight = dir.path().join("eight");
+    ok(&lfdepth(&[
+        "synth",
+        "--scene",
+        "spheres",
+        "--grid",
+        "5x5",
+        "--size",
+        "40",
+        "--out",
+        eight.to_str().unwrap(),
+    ]));
+    let sixteen = dir.path().join("sixteen");
+    std::fs::create_dir(&sixteen).unwrap();
+    for i in 0..25 {
+        let name = format!("input_Cam{i:03}.png");
+        let image = png::read(&eight.join(&name)).unwrap();
+        let png::Samples::Eight(s) = image.samples else {
+            panic!("8-bit views expected")
+        };
+        let wide = png::Image {
+            samples: png::Samples::Sixteen(s.iter().map(|&v| u16::from(v) * 257).collect()),
+            ..image
+        };
+        png::write(&sixteen.join(&name), &wide).unwrap();
+    }
+    let estimate = |input: &std::path::Path, out: &str| {
+        let path = dir.path().join(out);
+        ok(&lfdepth(&[
+            "estimate",
+            input.to_str().unwrap(),
+            "-o",
+            path.to_str().unwrap(),
+            "--stage",
+            "epi",
+            "--disparity-range",
+            "-1.5..1.5",
+        ]));
+        pfm::read(&path).unwrap()
+    };
+    let (a, b) = (estimate(&eight, "a.pfm"), estimate(&sixteen, "b.pfm"));
+    let close = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .filter(|(x, y)| (*x - *y).abs() < 0.01)
+        .count();
+    assert!(
+        close as f64 >= 0.99 * a.data.len() as f64,
+        "{close} of {} agree",
+        a.data.len()
+    );
+}
