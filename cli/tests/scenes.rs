@@ -224,3 +224,24 @@ fn one_row_grids_and_ambiguous_folders_are_refused() {
     let e = load_err(dir.path(), LoadOptions::default());
     assert!(e.contains("--pattern"), "{e}");
 }
+
+#[test]
+fn one_based_index_pattern() {
+    let dir = common::temp();
+    for i in 1..=9 {
+        png::write(
+            &dir.path().join(format!("view{i}.png")),
+            &common::view(16, 16, 3, i),
+        )
+        .unwrap();
+    }
+    let s = scene::locate(dir.path(), &options(Some("view{index}.png"), None)).unwrap();
+    assert_eq!(s.grid, Grid::new(3, 3));
+    assert!(s.paths[0].ends_with("view1.png") && s.paths[8].ends_with("view9.png"));
+    std::fs::remove_file(dir.path().join("view5.png")).unwrap();
+    let e = load_err(
+        dir.path(),
+        options(Some("view{index}.png"), Some(Grid::new(3, 3))),
+    );
+    assert!(e.contains("missing") && e.contains("view5.png"), "{e}");
+}
