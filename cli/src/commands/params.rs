@@ -42,6 +42,13 @@ pub struct ParamArgs {
     /// hypotheses over the range.
     #[arg(long)]
     pub no_shear: bool,
+    /// TV refinement: weight λ of the total variation against the EPI data term
+    /// (larger = smoother; default from the core).
+    #[arg(long, value_name = "F")]
+    pub lambda: Option<f32>,
+    /// TV refinement: most PPXA iterations per tile (default from the core).
+    #[arg(long, value_name = "N")]
+    pub tv_iterations: Option<usize>,
 }
 
 impl Default for ParamArgs {
@@ -49,6 +56,8 @@ impl Default for ParamArgs {
         ParamArgs {
             disparity_range: RangeChoice::Auto,
             no_shear: false,
+            lambda: None,
+            tv_iterations: None,
         }
     }
 }
@@ -60,6 +69,17 @@ impl ParamArgs {
         if self.no_shear {
             params.epi = lfdepth::epi::EpiParams::paper();
         }
+        if let Some(lambda) = self.lambda {
+            params.tv.lambda = lambda;
+        }
+        if let Some(n) = self.tv_iterations {
+            params.tv.max_iterations = n;
+        }
+        // Out-of-range values are reported here, before any view is decoded.
+        params
+            .tv
+            .validate()
+            .map_err(|e| CliError::core("checking the TV flags", e))?;
         params.epi.range = match self.disparity_range {
             RangeChoice::Auto if self.no_shear => params.epi.range,
             RangeChoice::Auto => DisparityRange::Auto,
@@ -79,6 +99,10 @@ impl ParamArgs {
                 }
             }
         };
+        params
+            .epi
+            .validate()
+            .map_err(|e| CliError::core("checking --disparity-range", e))?;
         Ok(params)
     }
 }
@@ -101,7 +125,7 @@ mod tests {
         assert!(parse_range_choice("wide").is_err());
         let args = ParamArgs {
             disparity_range: RangeChoice::Config,
-            no_shear: false,
+            ..ParamArgs::default()
         };
         assert!(args.params(None).is_err());
         let cfg = SceneConfig {
