@@ -133,3 +133,31 @@ fn corrupt_and_overflowing_pfms() {
         &["absent.pfm"],
     );
 }
+
+#[test]
+fn out_of_range_parameters() {
+    let dir = common::temp();
+    common::hci_views(dir.path(), 9, 16);
+    assert_fails(&estimate(dir.path(), &["--lambda", "-1"]), &["tv.lambda"]);
+    assert_fails(
+        &estimate(dir.path(), &["--disparity-range", "-20..20"]),
+        &["--disparity-range", "-8..8"],
+    );
+    assert_fails(
+        &estimate(dir.path(), &["--disparity-range", "cfg"]),
+        &["disp_min", "auto"],
+    );
+    let out = dir.path().join("no/such/folder/out.pfm");
+    let input = dir.path().to_str().unwrap();
+    assert_fails(
+        &lfdepth(&[
+            "estimate",
+            input,
+            "-o",
+            out.to_str().unwrap(),
+            "--stage",
+            "epi",
+        ]),
+        &["out.pfm", "cannot write"],
+    );
+}

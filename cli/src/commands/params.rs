@@ -44,7 +44,7 @@ pub struct ParamArgs {
     pub no_shear: bool,
     /// TV refinement: weight λ of the total variation against the EPI data term
     /// (larger = smoother; default from the core).
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
     pub lambda: Option<f32>,
     /// TV refinement: most PPXA iterations per tile (default from the core).
     #[arg(long, value_name = "N")]
