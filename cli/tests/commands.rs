@@ -83,6 +83,8 @@ fn synth_estimate_eval_pipeline() {
         "2",
         "--disparity-range",
         "cfg",
+        "--png-range",
+        "-2..2",
     ]));
     assert!(
         stdout.contains("load") && stdout.contains("total"),
@@ -93,6 +95,11 @@ fn synth_estimate_eval_pipeline() {
     let c = pfm::read(&conf).unwrap();
     assert!(c.data.iter().all(|v| (0.0..=1.0).contains(v)));
     assert_eq!(png::read(&gray16).unwrap().bit_depth(), 16);
+    let raw = String::from_utf8_lossy(&std::fs::read(&gray16).unwrap()).to_string();
+    assert!(
+        raw.contains("disparity_min\0-2") && raw.contains("disparity_max\02"),
+        "range chunks"
+    );
     assert!(png::read(&colour).unwrap().width > 40);
     let gt = scene.join("gt_disp_lowres.pfm");
     let stdout = ok(&lfdepth(&[

@@ -27,8 +27,12 @@ pub struct EstimateArgs {
     /// Also write the disparity as a colour PNG with a legend bar.
     #[arg(long, value_name = "OUT.png")]
     pub png: Option<PathBuf>,
-    /// Also write the disparity as 16-bit gray PNG (min..max of the map → 0..65535;
-    /// the range is stored in its text chunks).
+    /// Disparity range MIN..MAX of the colour PNG and the 16-bit PNG (default: the
+    /// map's own finite range), e.g. to compare several maps.
+    #[arg(long, value_name = "A..B", value_parser = super::parse_range, allow_hyphen_values = true)]
+    pub png_range: Option<super::Range>,
+    /// Also write the disparity as 16-bit gray PNG (MIN..MAX → 0..65535, MIN..MAX
+    /// from --png-range or the map; the range is stored in its text chunks).
     #[arg(long, value_name = "OUT.png")]
     pub png16: Option<PathBuf>,
     /// Also write depth in metres (PFM) from parameters.cfg with the HCI formula
@@ -138,10 +142,15 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
         pfm::write(path, &pfm::Pfm::new(w, h, depth)?)?;
     }
     if let Some(path) = &args.png {
-        write_colour_png(path, w, h, &estimate.disparity, None)?;
+        let range = args.png_range.map(|r| (r.min, r.max));
+        write_colour_png(path, w, h, &estimate.disparity, range)?;
     }
     if let Some(path) = &args.png16 {
-        let (min, max) = colormap::finite_range(&estimate.disparity).unwrap_or((0.0, 1.0));
+        let (min, max) = args
+            .png_range
+            .map(|r| (r.min, r.max))
+            .or_else(|| colormap::finite_range(&estimate.disparity))
+            .unwrap_or((0.0, 1.0));
         png::write_disparity16(path, w, h, &estimate.disparity, min, max)?;
     }
     let mut stages = vec![("load", load_time)];
