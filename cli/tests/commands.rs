@@ -97,7 +97,7 @@ fn synth_estimate_eval_pipeline() {
     assert_eq!(png::read(&gray16).unwrap().bit_depth(), 16);
     let raw = String::from_utf8_lossy(&std::fs::read(&gray16).unwrap()).to_string();
     assert!(
-        raw.contains("disparity_min\0-2") && raw.contains("disparity_max\02"),
+        raw.contains("disparity_min\x00-2") && raw.contains("disparity_max\x002"),
         "range chunks"
     );
     assert!(png::read(&colour).unwrap().width > 40);
