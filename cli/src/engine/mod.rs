@@ -9,7 +9,8 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use lfdepth::epi::{self, Direction};
-use lfdepth::{LightField, Params, Plan, Sample};
+use lfdepth::tv::{self, Guide, Maps, SolveOutput};
+use lfdepth::{refine, LightField, Params, Plan, Sample};
 use rayon::prelude::*;
 
 /// How far the pipeline runs.
@@ -17,7 +18,8 @@ use rayon::prelude::*;
 pub enum StageSelect {
     /// Initial disparity from EPIs only.
     Epi,
-    /// Everything: (alignment when asked) → EPI → TV.
+    /// Everything: (alignment when asked) → EPI → photometric refinement (when
+    /// `params.refine.enabled`) → TV.
     Full,
 }
 
@@ -87,8 +89,8 @@ pub fn estimate<S: Sample + Sync>(
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
             let result = match &pool {
-                Some(pool) => pool.install(|| estimate_epi(&plan, lf, &tracker)),
-                None => estimate_epi(&plan, lf, &tracker),
+                Some(pool) => pool.install(|| run_stages(&plan, lf, options.stage, &tracker)),
+                None => run_stages(&plan, lf, options.stage, &tracker),
             };
             finished.store(true, Ordering::Release);
             result
@@ -136,13 +138,128 @@ impl Tracker<'_> {
     }
 }
 
-/// The EPI stage in parallel bands (f32 kernels). `StageSelect::Full` is the EPI stage
-/// until the TV refinement is wired in.
+/// The selected stages, one after another, each in parallel.
+fn run_stages<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stage: StageSelect,
+    tracker: &Tracker<'_>,
+) -> Result<Estimate, lfdepth::Error> {
+    let (mut estimate, range) = estimate_epi(plan, lf, tracker)?;
+    if stage == StageSelect::Epi {
+        return Ok(estimate);
+    }
+    if plan.params().refine.enabled {
+        let start = Instant::now();
+        let (d, c) = refine_parallel(plan, lf, range, &estimate.disparity, tracker)?;
+        estimate.disparity = d;
+        estimate.confidence = c;
+        estimate.timings.push((refine::STAGE, start.elapsed()));
+    }
+    let start = Instant::now();
+    let (d, residuals) = tv_parallel(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
+    estimate.disparity = d;
+    estimate.residuals = residuals;
+    estimate.timings.push((tv::STAGE, start.elapsed()));
+    Ok(estimate)
+}
+
+/// The refinement stage in parallel bands.
+fn refine_parallel<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    range: (f32, f32),
+    disparity: &[f32],
+    tracker: &Tracker<'_>,
+) -> Result<(Vec<f32>, Vec<f32>), lfdepth::Error> {
+    let width = plan.layout().width;
+    let band = plan.params().refine.band_rows * width;
+    tracker.start(refine::STAGE, refine::band_count(plan) as u64);
+    let mut d = vec![0.0f32; plan.pixels()];
+    let mut c = vec![0.0f32; plan.pixels()];
+    d.par_chunks_mut(band)
+        .zip(c.par_chunks_mut(band))
+        .enumerate()
+        .try_for_each_init(
+            || vec![0.0f32; refine::scratch_len(plan)],
+            |scratch, (index, (d, c))| {
+                let rows = refine::band_rows(plan, index)?;
+                refine::refine_band(plan, lf, range, disparity, rows, d, c, scratch)?;
+                tracker.add(1);
+                Ok::<(), lfdepth::Error>(())
+            },
+        )?;
+    Ok((d, c))
+}
+
+/// The TV stage: tiles in parallel into their own buffers, stitched in tile order, their
+/// residual histories summed in tile order (so the sums do not depend on the threads).
+fn tv_parallel<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    disparity: &[f32],
+    confidence: &[f32],
+    tracker: &Tracker<'_>,
+) -> Result<(Vec<f32>, Vec<f32>), lfdepth::Error> {
+    let (width, height) = (plan.layout().width, plan.layout().height);
+    let maps = Maps::new(width, height, disparity, confidence)?;
+    let guide = Guide::View(lf.center_view());
+    let iterations = plan.params().tv.max_iterations;
+    let (cols, rows) = tv::tile_count(plan);
+    tracker.start(tv::STAGE, (cols * rows) as u64);
+    let tiles: Vec<(Vec<f32>, Vec<f32>)> = (0..cols * rows)
+        .into_par_iter()
+        .map_init(
+            || vec![0.0f32; tv::scratch_len(plan)],
+            |scratch, index| {
+                let (core, _) = tv::tile_rects(plan, index)?;
+                let mut out = vec![0.0f32; core.width * core.height];
+                let mut history = vec![0.0f32; iterations];
+                tv::refine_tile(
+                    plan,
+                    &maps,
+                    &guide,
+                    index,
+                    SolveOutput {
+                        disparity: &mut out,
+                        stride: core.width,
+                        history: &mut history,
+                        dual: None,
+                    },
+                    scratch,
+                )?;
+                tracker.add(1);
+                Ok((out, history))
+            },
+        )
+        .collect::<Result<_, lfdepth::Error>>()?;
+    let mut out = vec![0.0f32; width * height];
+    let mut history = vec![0.0f32; iterations];
+    for (index, (core_out, tile_history)) in tiles.iter().enumerate() {
+        let (core, _) = tv::tile_rects(plan, index)?;
+        for y in 0..core.height {
+            let dst = (core.y + y) * width + core.x;
+            out[dst..dst + core.width]
+                .copy_from_slice(&core_out[y * core.width..(y + 1) * core.width]);
+        }
+        for (h, t) in history.iter_mut().zip(tile_history) {
+            *h += t;
+        }
+    }
+    tv::normalise_history(plan, &mut history);
+    // Iterations no tile ran are not part of the curve.
+    while history.last() == Some(&0.0) {
+        history.pop();
+    }
+    Ok((out, history))
+}
+
+/// The EPI stage in parallel bands (f32 kernels), with its output range.
 fn estimate_epi<S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     tracker: &Tracker<'_>,
-) -> Result<Estimate, lfdepth::Error> {
+) -> Result<(Estimate, (f32, f32)), lfdepth::Error> {
     let (width, height) = (plan.layout().width, plan.layout().height);
     let mut timings = Vec::new();
 
@@ -204,12 +321,13 @@ fn estimate_epi<S: Sample + Sync>(
             }
         });
     timings.push(("epi", start.elapsed()));
-    Ok(Estimate {
+    let estimate = Estimate {
         width,
         height,
         disparity,
         confidence,
         timings,
         residuals: Vec::new(),
-    })
+    };
+    Ok((estimate, (hyps.min(), hyps.max())))
 }

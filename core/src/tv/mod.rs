@@ -43,6 +43,9 @@
 //! A tile's result depends only on the inputs inside its core + halo, so tiles can be
 //! solved in any order or in parallel with bit-identical results.
 
+/// Progress stage name.
+pub const STAGE: &str = "tv";
+
 mod params;
 pub mod solver;
 mod tiles;
