@@ -138,3 +138,57 @@ fn pipeline_hci_dev_harness() {
 fn dir_name(dir: &Path) -> String {
     dir.file_name().unwrap().to_string_lossy().to_string()
 }
+
+/// The engine's full pipeline with default parameters on one scene: (BadPix0.07 %,
+/// MSE×100) of the default (EPI → refine → TV) and of the paper's pipeline (EPI → TV).
+fn engine_scores(dir: &Path) -> ((f64, f64), (f64, f64)) {
+    let (views, layout) = load_hci(dir);
+    let (w, h, gt) = read_pfm(&dir.join("gt_disp_lowres.pfm"));
+    let lf = LightField::new(&views, layout).unwrap();
+    let mut run = |params: Params| {
+        let options = EstimateOptions {
+            params,
+            stage: StageSelect::Full,
+            threads: None,
+        };
+        let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
+        assert!(e.disparity.iter().all(|v| v.is_finite()));
+        scores(&e.disparity, &gt, w, h)
+    };
+    let full = run(Params::default());
+    let paper = run(Params {
+        refine: RefineParams::off(),
+        ..Params::default()
+    });
+    (full, paper)
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore)]
+fn full_pipeline_accuracy_on_both_hci_scenes() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: the HCI pipeline accuracy test runs only with --release");
+        return;
+    }
+    let Some(data) = shared_data("the HCI pipeline accuracy test") else {
+        return;
+    };
+    // Measured (docs/bench-pipeline.md) plus a small margin: BadPix0.07 %, MSE×100.
+    for (scene, bad_max, mse_max) in [
+        ("stratified/backgammon", 3.9, 6.1),
+        ("training/cotton", 8.6, 5.7),
+    ] {
+        let (full, paper) = engine_scores(&data.join("hci").join(scene));
+        eprintln!(
+            "{scene}: EPI→refine→TV {:.2} % / {:.3}, paper EPI→TV {:.2} % / {:.3} \
+             (BadPix0.07 / MSE×100)",
+            full.0, full.1, paper.0, paper.1
+        );
+        assert!(full.0 < bad_max, "{scene}: BadPix0.07 {:.2} %", full.0);
+        assert!(full.1 < mse_max, "{scene}: MSE×100 {:.3}", full.1);
+        assert!(
+            full.0 < paper.0,
+            "{scene}: the refinement stage did not lower BadPix0.07"
+        );
+    }
+}

@@ -102,10 +102,7 @@ fn refinement_lowers_the_epi_error_on_smooth_scenes() {
             .disparity
             .iter()
             .all(|v| v.is_finite() && (lo..=hi).contains(v)));
-        assert!(refined
-            .confidence
-            .iter()
-            .all(|c| (0.0..=1.0).contains(c)));
+        assert!(refined.confidence.iter().all(|c| (0.0..=1.0).contains(c)));
     }
 }
 
@@ -119,9 +116,18 @@ fn engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipeline() 
     for threads in [2, 3] {
         let e = run(&s, params(), StageSelect::Full, threads);
         let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
-        assert!(same(&e.disparity, &reference.disparity), "{threads} threads");
-        assert!(same(&e.confidence, &reference.confidence), "{threads} threads");
-        assert!(same(&e.residuals, &reference.residuals), "{threads} threads");
+        assert!(
+            same(&e.disparity, &reference.disparity),
+            "{threads} threads"
+        );
+        assert!(
+            same(&e.confidence, &reference.confidence),
+            "{threads} threads"
+        );
+        assert!(
+            same(&e.residuals, &reference.residuals),
+            "{threads} threads"
+        );
     }
     // The serial core pipeline computes the same map.
     let layout = s.spec.layout();
@@ -144,8 +150,14 @@ fn engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipeline() 
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();
-    assert!(d.iter().zip(&reference.disparity).all(|(a, b)| a.to_bits() == b.to_bits()));
-    assert!(c.iter().zip(&reference.confidence).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(d
+        .iter()
+        .zip(&reference.disparity)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert!(c
+        .iter()
+        .zip(&reference.confidence)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
     let n = reference.residuals.len();
     assert!(history[..n]
         .iter()
@@ -157,7 +169,7 @@ fn engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipeline() 
 fn paper_pipeline_stays_selectable() {
     let s = scene(SceneKind::Planes, 40);
     let paper = Params {
-        refine: RefineParams::default(),
+        refine: RefineParams::off(),
         ..params()
     };
     let e = run(&s, paper, StageSelect::Full, 2);

@@ -54,6 +54,9 @@ const OCCLUSION_RATIO: f32 = 2.0;
 /// Mean squared residual (unit intensity²) below which groups are never dropped:
 /// about the noise of 8-bit images with a little aliasing.
 const OCCLUSION_FLOOR: f32 = 1.0e-4;
+/// Neighbours whose disparity differs by more than this (px) are left out of a pixel's
+/// window: they lie across a depth edge.
+const WINDOW_GATE: f32 = 0.1;
 /// Horizontal and vertical solutions further apart than this (px) disagree.
 const AXIS_AGREEMENT: f32 = 0.05;
 /// Curvature added per term so that textureless pixels keep their disparity.
@@ -70,12 +73,12 @@ fn region_rows(plan: &Plan) -> usize {
     rows.min(plan.layout().height)
 }
 
-/// Scratch (`f32` elements) one band needs: `(1 + 2·12)` values per pixel of the band
-/// and its halo; independent of the image height.
+/// Scratch (`f32` elements) one band needs: `2 + 12` values per pixel of the band and
+/// its halo; independent of the image height.
 pub fn scratch_len(plan: &Plan) -> usize {
     region_rows(plan)
         .saturating_mul(plan.layout().width)
-        .saturating_mul(1 + 2 * STATS)
+        .saturating_mul(2 + STATS)
 }
 
 /// Number of bands.
@@ -172,7 +175,7 @@ pub fn refine_band<S: Sample>(
     let last = (rows.end + halo).min(height);
     let region = last - first;
     let pixels = region * width;
-    let needed = pixels * (1 + 2 * STATS);
+    let needed = pixels * (2 + STATS);
     if scratch.len() < needed {
         return Err(Error::ScratchTooSmall {
             needed,
@@ -180,8 +183,8 @@ pub fn refine_band<S: Sample>(
         });
     }
     let (current, rest) = scratch.split_at_mut(pixels);
-    let (stats, rest) = rest.split_at_mut(pixels * STATS);
-    let rowsum = &mut rest[..pixels * STATS];
+    let (previous, rest) = rest.split_at_mut(pixels);
+    let stats = &mut rest[..pixels * STATS];
     current.copy_from_slice(&disparity[first * width..last * width]);
     if current.iter().any(|v| !v.is_finite()) {
         return Err(Error::NonFinite {
@@ -217,32 +220,28 @@ pub fn refine_band<S: Sample>(
                 stats[i * STATS..(i + 1) * STATS].copy_from_slice(&s);
             }
         }
-        // Window sums, each in a fixed order so that every band sums alike.
-        for y in measured {
-            for x in 0..width {
-                let i = y * width + x;
-                let mut sum = [0.0f32; STATS];
-                for xx in x.saturating_sub(r)..(x + r + 1).min(width) {
-                    let j = (y * width + xx) * STATS;
-                    for (s, v) in sum.iter_mut().zip(&stats[j..j + STATS]) {
-                        *s += v;
-                    }
-                }
-                rowsum[i * STATS..(i + 1) * STATS].copy_from_slice(&sum);
-            }
-        }
+        let span = measured.start * width..measured.end * width;
+        previous[span.clone()].copy_from_slice(&current[span]);
         let last_iteration = iteration + 1 == p.iterations;
         for y in updated {
             for x in 0..width {
+                // Window sum over the neighbours whose disparity is within
+                // `WINDOW_GATE` of this pixel's: the window does not reach across depth
+                // edges. Summed in a fixed order, so every band sums alike.
+                let d = previous[y * width + x];
                 let mut sum = [0.0f32; STATS];
                 for yy in y.saturating_sub(r)..(y + r + 1).min(region) {
-                    let j = (yy * width + x) * STATS;
-                    for (s, v) in sum.iter_mut().zip(&rowsum[j..j + STATS]) {
-                        *s += v;
+                    for xx in x.saturating_sub(r)..(x + r + 1).min(width) {
+                        let j = yy * width + xx;
+                        if libm::fabsf(previous[j] - d) > WINDOW_GATE {
+                            continue;
+                        }
+                        for (s, v) in sum.iter_mut().zip(&stats[j * STATS..(j + 1) * STATS]) {
+                            *s += v;
+                        }
                     }
                 }
                 let i = y * width + x;
-                let d = current[i];
                 let (a, b, e, terms) =
                     select(&sum, &views.terms, area, p.occlusion, d, DAMPING_PER_TERM);
                 let damping = DAMPING_PER_TERM * terms;

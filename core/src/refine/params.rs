@@ -31,7 +31,7 @@ impl ViewSet {
 /// Parameters of the refinement stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RefineParams {
-    /// Run the stage (off, the default: the paper's EPI → TV pipeline).
+    /// Run the stage (off: the paper's EPI → TV pipeline).
     pub enabled: bool,
     /// Views compared with the centre view.
     pub views: ViewSet,
@@ -56,25 +56,29 @@ pub struct RefineParams {
 impl Default for RefineParams {
     fn default() -> Self {
         RefineParams {
-            enabled: false,
+            enabled: true,
             views: ViewSet::Cross,
             iterations: 3,
             radius: 1,
             max_step: 0.5,
             occlusion: true,
             robust_scale: 0.01,
-            confidence_scale: 0.3,
+            confidence_scale: 1.0,
             band_rows: 64,
         }
     }
 }
 
 impl RefineParams {
-    /// The stage switched on with the default settings. Off by default: on the HCI
-    /// scenes it helps cotton but hurts backgammon (docs/bench-pipeline.md).
+    /// The stage switched on with the default settings (as [`Default`]).
     pub fn on() -> Self {
+        Self::default()
+    }
+
+    /// The stage switched off: the paper's EPI → TV pipeline.
+    pub fn off() -> Self {
         RefineParams {
-            enabled: true,
+            enabled: false,
             ..Self::default()
         }
     }
@@ -114,7 +118,7 @@ mod tests {
     #[test]
     fn defaults_are_valid_and_bad_values_are_named() {
         RefineParams::default().validate().unwrap();
-        RefineParams::on().validate().unwrap();
+        RefineParams::off().validate().unwrap();
         for (bad, name) in [
             (
                 RefineParams {

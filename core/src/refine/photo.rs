@@ -119,13 +119,15 @@ impl Views {
             }
             let mut plus = [0.0f32; 3];
             let mut minus = [0.0f32; 3];
+            let mut at = [0.0f32; 3];
             self.bilinear(data, tap, xp, yp, &mut plus);
             self.bilinear(data, tap, xm, ym, &mut minus);
+            self.bilinear(data, tap, xf - d * tap.du, yf - d * tap.dv, &mut at);
             let (mut a, mut b, mut e) = (0.0f32, 0.0f32, 0.0f32);
             let inv = 0.5 / tap.h;
             for c in 0..self.used {
                 let g = (plus[c] - minus[c]) * inv;
-                let r = 0.5 * (plus[c] + minus[c]) - centre[c];
+                let r = at[c] - centre[c];
                 a += g * g;
                 b += g * (g * d - r);
                 e += r * r;
