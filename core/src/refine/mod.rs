@@ -62,10 +62,21 @@ const AXIS_AGREEMENT: f32 = 0.05;
 /// Curvature added per term so that textureless pixels keep their disparity.
 const DAMPING_PER_TERM: f32 = 1.0e-6;
 
+/// Jumps (px) of the propagation rounds, largest first (jump flooding).
+const JUMPS: [usize; 4] = [8, 4, 2, 1];
+/// A neighbour's disparity replaces a pixel's when its photometric cost is below this
+/// share of the pixel's own.
+const PROPAGATION_ACCEPT: f32 = 0.7;
+
+fn jumps(plan: &Plan) -> &'static [usize] {
+    let rounds = plan.params().refine.propagation.min(JUMPS.len());
+    &JUMPS[JUMPS.len() - rounds..]
+}
+
 /// Rows of context a band needs on each side.
 pub fn halo(plan: &Plan) -> usize {
     let p = &plan.params().refine;
-    p.iterations * p.radius
+    p.iterations * p.radius + jumps(plan).iter().sum::<usize>()
 }
 
 fn region_rows(plan: &Plan) -> usize {
@@ -201,6 +212,41 @@ pub fn refine_band<S: Sample>(
     } else {
         f32::MAX
     };
+    // Propagation: each pixel tries the disparities of its four neighbours at each
+    // jump and keeps the one the views agree on best (robust cost of the pixel alone),
+    // which pulls wrong regions to their surroundings' disparity.
+    for &jump in jumps(plan) {
+        previous.copy_from_slice(current);
+        for y in 0..region {
+            for x in 0..width {
+                let i = y * width + x;
+                let cost = |d: f32| -> f32 {
+                    let mut s = [0.0f32; STATS];
+                    views.pixel(data, x, first + y, d, robust, &mut s);
+                    (0..GROUPS).map(|k| s[3 * k + 2]).sum()
+                };
+                let own = previous[i];
+                let mut best = (cost(own) * PROPAGATION_ACCEPT, own);
+                let candidates = [
+                    x.checked_sub(jump).map(|xx| y * width + xx),
+                    (x + jump < width).then(|| y * width + x + jump),
+                    y.checked_sub(jump).map(|yy| yy * width + x),
+                    (y + jump < region).then(|| (y + jump) * width + x),
+                ];
+                for j in candidates.into_iter().flatten() {
+                    let d = previous[j];
+                    if libm::fabsf(d - own) <= WINDOW_GATE {
+                        continue;
+                    }
+                    let c = cost(d);
+                    if c < best.0 {
+                        best = (c, d);
+                    }
+                }
+                current[i] = best.1;
+            }
+        }
+    }
     // Region rows (relative to `first`) within `reach` rows of the band.
     let near = |reach: usize| -> Range<usize> {
         let lo = rows.start.saturating_sub(reach).max(first) - first;

@@ -39,6 +39,10 @@ pub struct RefineParams {
     pub iterations: usize,
     /// Radius of the square aggregation window (px), 0…4.
     pub radius: usize,
+    /// Rounds of propagation before the iterations (0…4): each pixel tries its
+    /// neighbours' disparities at jumps of 1, 2, 4, 8 px (the last `propagation` of
+    /// them, largest first) and keeps the one the views agree on best.
+    pub propagation: usize,
     /// Largest disparity change of one iteration (px), in (0, 2].
     pub max_step: f32,
     /// Per pixel, drop the half of the views (left/right, up/down) whose residual is much
@@ -60,6 +64,7 @@ impl Default for RefineParams {
             views: ViewSet::Cross,
             iterations: 3,
             radius: 1,
+            propagation: 4,
             max_step: 0.5,
             occlusion: true,
             robust_scale: 0.01,
@@ -88,6 +93,9 @@ impl RefineParams {
         let bad = |name, reason| Err(Error::InvalidParameter { name, reason });
         if !(1..=16).contains(&self.iterations) {
             return bad("refine.iterations", "must be in 1..=16");
+        }
+        if self.propagation > 4 {
+            return bad("refine.propagation", "must be at most 4 rounds");
         }
         if self.radius > 4 {
             return bad("refine.radius", "must be at most 4 pixels");

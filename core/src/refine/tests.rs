@@ -216,3 +216,27 @@ fn bad_inputs_are_errors() {
     );
     assert!(band_rows(&plan, band_count(&plan)).is_err());
 }
+
+#[test]
+fn propagation_pulls_a_wrong_block_to_its_surroundings() {
+    let scene = strips(Grid::new(9, 9), 48, 40, 3, 0.6, &[]);
+    let w = scene.layout.width;
+    let mut input = scene.gt.clone();
+    for y in 14..24 {
+        for x in 18..28 {
+            input[y * w + x] += 1.3;
+        }
+    }
+    let plain = RefineParams {
+        propagation: 0,
+        ..RefineParams::default()
+    };
+    let (without, _) = run(&scene, plain, &input);
+    let (with, _) = run(&scene, RefineParams::default(), &input);
+    let (a, b) = (
+        share_within(&scene, &without, 0.07, 10),
+        share_within(&scene, &with, 0.07, 10),
+    );
+    assert!(a < 0.95, "without propagation {a}");
+    assert!(b > 0.99, "with propagation {b}");
+}
