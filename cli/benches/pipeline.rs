@@ -1,13 +1,82 @@
-//! Criterion benchmarks of the pipeline stage (filled in with the stage).
+//! Criterion benchmarks of the whole pipeline (engine, `StageSelect::Full`) on a
+//! 9×9×512×512 light field: HCI cotton when `../shared/data` is present, else a synthetic
+//! Mixed scene; 1 and 2 threads; the default pipeline (EPI → refine → TV), the refinement
+//! without propagation, and the paper's pipeline (EPI → TV).
+
+#[path = "../tests/tv_support.rs"]
+#[allow(dead_code)]
+mod tv_support;
+
+use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use lfdepth::refine::RefineParams;
+use lfdepth::synth::{self, SceneKind, SynthSpec};
+use lfdepth::{Grid, Homography, Layout, LightField, Params};
+use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
 
-fn placeholder(c: &mut Criterion) {
-    c.bench_function("pipeline/q16_mul", |b| {
-        let x = lfdepth::Q16::from_raw(123_456);
-        b.iter(|| criterion::black_box(x) * criterion::black_box(x))
-    });
+/// The views and layout of the benchmark scene, and its name.
+fn scene() -> (Vec<u8>, Layout, &'static str) {
+    let cotton = std::path::PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/data/hci/training/cotton"
+    ));
+    if cotton.is_dir() {
+        let (views, layout) = tv_support::load_hci(&cotton);
+        return (views, layout, "cotton");
+    }
+    eprintln!("../shared/data not found: benchmarking a synthetic Mixed scene instead");
+    let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), 512, 512);
+    let layout = spec.layout();
+    let mut views = vec![0u8; layout.validate().unwrap()];
+    let mut gt = vec![0.0f32; 512 * 512];
+    let mut homographies = vec![Homography::IDENTITY; 81];
+    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
+    (views, layout, "synthetic")
 }
 
-criterion_group!(benches, placeholder);
+fn pipeline(c: &mut Criterion) {
+    let (views, layout, name) = scene();
+    let lf = LightField::new(&views, layout).unwrap();
+    let mut group = c.benchmark_group("pipeline");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(20))
+        .warm_up_time(Duration::from_secs(2));
+    let variants = [
+        ("default", Params::default()),
+        (
+            "no_propagation",
+            Params {
+                refine: RefineParams {
+                    propagation: 0,
+                    ..RefineParams::default()
+                },
+                ..Params::default()
+            },
+        ),
+        (
+            "paper",
+            Params {
+                refine: RefineParams::off(),
+                ..Params::default()
+            },
+        ),
+    ];
+    for threads in [1, 2] {
+        for (variant, params) in variants {
+            let options = EstimateOptions {
+                params,
+                stage: StageSelect::Full,
+                threads: Some(threads),
+            };
+            group.bench_function(format!("{name}_{variant}_{threads}t"), |b| {
+                b.iter(|| estimate(&lf, &options, &mut |_, _, _| {}).unwrap())
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, pipeline);
 criterion_main!(benches);

@@ -146,7 +146,7 @@ fn engine_scores(dir: &Path) -> ((f64, f64), (f64, f64)) {
     let (views, layout) = load_hci(dir);
     let (w, h, gt) = read_pfm(&dir.join("gt_disp_lowres.pfm"));
     let lf = LightField::new(&views, layout).unwrap();
-    let mut run = |params: Params| {
+    let run = |params: Params| {
         let options = EstimateOptions {
             params,
             stage: StageSelect::Full,

@@ -358,9 +358,6 @@ fn select(
     (h.0 + v.0, h.1 + v.1, h.2 + v.2, h.3 + v.3)
 }
 
-/// Bands per progress report.
-const PROGRESS_BANDS: usize = 1;
-
 /// The serial stage with progress: every band in order into `out` / `confidence`
 /// (row-major, `plan.pixels()` each).
 #[allow(clippy::too_many_arguments)]
@@ -386,15 +383,13 @@ pub fn refine_with_progress<S: Sample>(
     let width = plan.layout().width;
     let bands = band_count(plan);
     for band in 0..bands {
-        if band % PROGRESS_BANDS == 0 {
-            let report = Progress {
-                stage: STAGE,
-                done: band as u64,
-                total: bands as u64,
-            };
-            if progress(report).is_break() {
-                return Err(Error::Cancelled);
-            }
+        let report = Progress {
+            stage: STAGE,
+            done: band as u64,
+            total: bands as u64,
+        };
+        if progress(report).is_break() {
+            return Err(Error::Cancelled);
         }
         let rows = band_rows(plan, band)?;
         let span = rows.start * width..rows.end * width;
