@@ -4,7 +4,6 @@
 //! without propagation, and the paper's pipeline (EPI → TV).
 
 #[path = "../tests/tv_support.rs"]
-#[allow(dead_code)]
 mod tv_support;
 
 use std::time::Duration;
