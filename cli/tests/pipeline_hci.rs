@@ -193,3 +193,77 @@ fn full_pipeline_accuracy_on_both_hci_scenes() {
         );
     }
 }
+
+/// CPU seconds (user + system, all threads) of this process so far, from /proc.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let ticks = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    // Fields 14 and 15 of stat (utime, stime), counted after the command name.
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+#[test]
+#[ignore = "timing report: per-stage wall time and CPU time of the engine on cotton"]
+fn pipeline_stage_timings() {
+    let Some(data) = shared_data("the timing report") else {
+        return;
+    };
+    let (views, layout) = load_hci(&data.join("hci/training/cotton"));
+    let lf = LightField::new(&views, layout).unwrap();
+    let no_propagation = Params {
+        refine: RefineParams {
+            propagation: 0,
+            ..RefineParams::default()
+        },
+        ..Params::default()
+    };
+    let paper = Params {
+        refine: RefineParams::off(),
+        ..Params::default()
+    };
+    let repeats = 5;
+    for threads in [1, 2] {
+        for (name, params, stage) in [
+            ("epi only", Params::default(), StageSelect::Epi),
+            ("paper epi+tv", paper, StageSelect::Full),
+            ("refine without propagation", no_propagation, StageSelect::Full),
+            ("default", Params::default(), StageSelect::Full),
+        ] {
+            let options = EstimateOptions {
+                params,
+                stage,
+                threads: Some(threads),
+            };
+            let mut walls: Vec<Vec<(&str, f64)>> = Vec::new();
+            let cpu = cpu_seconds();
+            let t = Instant::now();
+            for _ in 0..repeats {
+                let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
+                walls.push(e.timings.iter().map(|(s, d)| (*s, d.as_secs_f64())).collect());
+            }
+            let wall = t.elapsed().as_secs_f64() / repeats as f64;
+            let cpu = (cpu_seconds() - cpu) / repeats as f64;
+            let stages: Vec<String> = walls[0]
+                .iter()
+                .enumerate()
+                .map(|(i, (s, _))| {
+                    let mut v: Vec<f64> = walls.iter().map(|w| w[i].1).collect();
+                    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+                    format!("{s} {:.0} ms", v[v.len() / 2] * 1e3)
+                })
+                .collect();
+            println!(
+                "{threads} thread(s), {name}: wall {:.0} ms, CPU {:.0} ms per run; median per stage: {}",
+                wall * 1e3,
+                cpu * 1e3,
+                stages.join(", ")
+            );
+        }
+    }
+}
