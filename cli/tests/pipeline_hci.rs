@@ -203,7 +203,12 @@ fn cpu_seconds() -> f64 {
         .unwrap_or("")
         .split_whitespace()
         .collect();
-    let ticks = |i: usize| fields.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
     // Fields 14 and 15 of stat (utime, stime), counted after the command name.
     (ticks(11) + ticks(12)) / 100.0
 }
@@ -232,7 +237,11 @@ fn pipeline_stage_timings() {
         for (name, params, stage) in [
             ("epi only", Params::default(), StageSelect::Epi),
             ("paper epi+tv", paper, StageSelect::Full),
-            ("refine without propagation", no_propagation, StageSelect::Full),
+            (
+                "refine without propagation",
+                no_propagation,
+                StageSelect::Full,
+            ),
             ("default", Params::default(), StageSelect::Full),
         ] {
             let options = EstimateOptions {
@@ -245,7 +254,12 @@ fn pipeline_stage_timings() {
             let t = Instant::now();
             for _ in 0..repeats {
                 let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
-                walls.push(e.timings.iter().map(|(s, d)| (*s, d.as_secs_f64())).collect());
+                walls.push(
+                    e.timings
+                        .iter()
+                        .map(|(s, d)| (*s, d.as_secs_f64()))
+                        .collect(),
+                );
             }
             let wall = t.elapsed().as_secs_f64() / repeats as f64;
             let cpu = (cpu_seconds() - cpu) / repeats as f64;

@@ -215,18 +215,29 @@ pub fn refine_band<S: Sample>(
     // Propagation: each pixel tries the disparities of its four neighbours at each
     // jump and keeps the one the views agree on best (robust cost of the pixel alone),
     // which pulls wrong regions to their surroundings' disparity.
+    // `stats[i · STATS]` caches the cost of pixel i at its current disparity: it is
+    // read and written only for pixel i, so the order of pixels does not matter.
+    let cost = |x: usize, y: usize, d: f32| -> f32 {
+        let mut s = [0.0f32; STATS];
+        views.pixel(data, x, first + y, d, robust, &mut s);
+        (0..GROUPS).map(|k| s[3 * k + 2]).sum()
+    };
+    if !jumps(plan).is_empty() {
+        for y in 0..region {
+            for x in 0..width {
+                let i = y * width + x;
+                stats[i * STATS] = cost(x, y, current[i]);
+            }
+        }
+    }
     for &jump in jumps(plan) {
         previous.copy_from_slice(current);
         for y in 0..region {
             for x in 0..width {
                 let i = y * width + x;
-                let cost = |d: f32| -> f32 {
-                    let mut s = [0.0f32; STATS];
-                    views.pixel(data, x, first + y, d, robust, &mut s);
-                    (0..GROUPS).map(|k| s[3 * k + 2]).sum()
-                };
                 let own = previous[i];
-                let mut best = (cost(own) * PROPAGATION_ACCEPT, own);
+                let mut best = (stats[i * STATS], own);
+                let mut bar = best.0 * PROPAGATION_ACCEPT;
                 let candidates = [
                     x.checked_sub(jump).map(|xx| y * width + xx),
                     (x + jump < width).then(|| y * width + x + jump),
@@ -238,12 +249,14 @@ pub fn refine_band<S: Sample>(
                     if libm::fabsf(d - own) <= WINDOW_GATE {
                         continue;
                     }
-                    let c = cost(d);
-                    if c < best.0 {
+                    let c = cost(x, y, d);
+                    if c < bar {
+                        bar = c;
                         best = (c, d);
                     }
                 }
                 current[i] = best.1;
+                stats[i * STATS] = best.0;
             }
         }
     }

@@ -69,7 +69,7 @@ impl Default for RefineParams {
             occlusion: true,
             robust_scale: 0.01,
             confidence_scale: 1.0,
-            band_rows: 64,
+            band_rows: 128,
         }
     }
 }
