@@ -1,0 +1,140 @@
+// The page in Debian's headless chromium (playwright-core, never a downloaded browser):
+// a synthetic scene end to end in workers, accuracy read back from the page, progress at
+// 100 %, cancel, no console errors, no request beyond the page's own files, a screenshot.
+import { test, before, after } from "node:test";
+import assert from "node:assert/strict";
+import { mkdtempSync, mkdirSync, existsSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { dirname, join, resolve } from "node:path";
+import { fileURLToPath } from "node:url";
+import { chromium } from "playwright-core";
+import { serve } from "./serve.mjs";
+
+const root = process.env.LFDEPTH_ROOT ?? resolve(dirname(fileURLToPath(import.meta.url)), "../..");
+const web = join(root, "web");
+const artifacts = join(root, "tests/artifacts");
+const executablePath = process.env.CHROMIUM_PATH ?? "/usr/bin/chromium";
+
+let server, context, profile;
+const consoleErrors = [];
+const foreign = [];
+
+before(async () => {
+  assert.ok(existsSync(join(web, "pkg/lfdepth_wasm_bg.wasm")), "web/pkg is missing: run wasm-pack build wasm --target web --out-dir ../web/pkg");
+  server = await serve(web);
+  profile = mkdtempSync(join(tmpdir(), "lfdepth-chromium-"));
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath,
+    headless: true,
+    args: ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update", "--no-first-run", "--disable-sync", "--disable-quic"],
+    viewport: { width: 1280, height: 1000 },
+  });
+  context.on("request", (request) => {
+    const url = request.url();
+    if (!url.startsWith(server.origin + "/") && !url.startsWith("blob:") && !url.startsWith("data:")) foreign.push(url);
+  });
+  context.on("console", (message) => {
+    if (message.type() === "error") consoleErrors.push(message.text());
+  });
+  context.on("weberror", (error) => consoleErrors.push(String(error.error())));
+});
+
+after(async () => {
+  await context?.close();
+  await server?.close();
+  if (profile) rmSync(profile, { recursive: true, force: true });
+});
+
+async function open(query) {
+  const page = await context.newPage();
+  page.on("pageerror", (e) => consoleErrors.push(e.message));
+  await page.goto(`${server.origin}/${query}`);
+  return page;
+}
+
+const settled = (page, timeout = 240_000) =>
+  page.waitForFunction(() => ["done", "error", "cancelled"].includes(document.body.dataset.state), null, { timeout, polling: 100 });
+
+test("a synthetic scene runs end to end in workers and is accurate", async () => {
+  const page = await open("?scene=planes&size=128&grid=9&run");
+  await settled(page);
+  const report = await page.evaluate(() => ({
+    state: document.body.dataset.state,
+    error: document.getElementById("error").textContent,
+    progress: document.getElementById("progress").value,
+    progressText: document.getElementById("progress-text").textContent,
+    badpix: Number(document.getElementById("scores").dataset.badpix007),
+    mse: Number(document.getElementById("scores").dataset.mse100),
+    totalMs: Number(document.getElementById("timings").dataset.totalMs),
+    workers: Number(document.getElementById("workers").value),
+    timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
+    downloads: [...document.querySelectorAll("[data-download]")].every((b) => !b.disabled),
+  }));
+  console.log("page report:", JSON.stringify(report));
+  assert.equal(report.state, "done", report.error);
+  assert.equal(report.progress, 100);
+  assert.match(report.progressText, /100 %/);
+  assert.ok(report.badpix < 15, `BadPix(0.07) ${report.badpix}`);
+  assert.ok(report.mse < 3, `MSE×100 ${report.mse}`);
+  assert.ok(report.timings.some((t) => t.startsWith("epi horizontal")), report.timings.join("; "));
+  assert.ok(report.downloads);
+  // Click the centre view: the EPI caption follows.
+  await page.click("#centre", { position: { x: 10, y: 20 } });
+  assert.match(await page.textContent("#epi-where"), /row \d+, column \d+/);
+  mkdirSync(artifacts, { recursive: true });
+  await page.screenshot({ path: join(artifacts, "page.png"), fullPage: true });
+  // A download is produced locally (a blob: URL, no request).
+  const [download] = await Promise.all([page.waitForEvent("download"), page.click("[data-download=pfm]")]);
+  assert.match(download.suggestedFilename(), /_disparity\.pfm$/);
+  await page.close();
+});
+
+test("the page's result is bit-identical to the serial estimator, for 1 and 3 workers", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  const digests = await page.evaluate(async () => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { WorkerPool } = await import("./pool.js");
+    const engine = await import("./engine.js");
+    const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
+    lf.initSync({ module });
+    const spec = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
+    const scene = lf.synthesize(spec);
+    const shape = { rows: 7, cols: 7, width: 80, height: 64, channels: 3 };
+    const serial = new lf.Estimator(scene.views, shape).estimate().disparity;
+    const out = [];
+    for (const size of [1, 3]) {
+      const pool = await WorkerPool.create(module, size);
+      const r = await engine.estimate(pool, { views: scene.views, shape }, {}, {
+        stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal,
+      });
+      pool.terminate();
+      out.push(r.disparity.every((d, i) => Object.is(d, serial[i])));
+    }
+    return out;
+  });
+  assert.deepEqual(digests, [true, true]);
+  await page.close();
+});
+
+test("Cancel stops a running estimation and the page stays usable", async () => {
+  const page = await open("?scene=slanted&size=256&grid=9&workers=2");
+  await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
+  await page.click("#run");
+  await page.waitForFunction(() => document.getElementById("progress").value > 10, null, { timeout: 60_000, polling: 20 });
+  await page.click("#cancel");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "cancelled");
+  assert.equal(await page.textContent("#progress-text"), "cancelled");
+  await page.click("#run");
+  await page.waitForFunction(() => document.body.dataset.state === "running");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done");
+  await page.close();
+});
+
+test("no console errors and no request beyond the page's own files", () => {
+  assert.deepEqual(consoleErrors, []);
+  assert.deepEqual(foreign, []);
+  for (const path of server.requests) assert.match(path, /^\/(|index\.html|[\w-]+\.(js|css)|pkg\/lfdepth_wasm(_bg\.wasm|\.js))$/, path);
+});
