@@ -20,7 +20,9 @@ export class Cancelled extends Error {
  * @param {{stages: string[], onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
  * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, range: number[], timings: {stage: string, ms: number}[]}>}
  */
-export async function estimate(pool, lightField, params, { stages, onProgress, signal }) {
+export async function estimate(pool, lightField, params, { stages, onProgress: report, signal }) {
+  // Bands still in flight when cancelled finish in their workers; say nothing of them.
+  const onProgress = (stage, fraction) => signal.aborted || report(stage, fraction);
   const [rangeStage, horizontalStage, verticalStage] = stages;
   const timings = [];
   const check = () => {

@@ -309,6 +309,7 @@ async function main() {
   if (query.has("workers")) $("workers").value = query.get("workers");
   if (query.has("scene")) {
     $("synth-scene").value = query.get("scene");
+    for (const key of ["size", "grid"]) if (query.has(key)) $(`synth-${key}`).value = query.get(key);
     await generate(query.get("scene"), Number(query.get("size") ?? 256), Number(query.get("grid") ?? 9));
     if (query.has("run")) await run();
   }
