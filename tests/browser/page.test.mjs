@@ -74,9 +74,10 @@ test("a synthetic scene runs end to end in workers and is accurate", async () =>
   assert.equal(report.state, "done", report.error);
   assert.equal(report.progress, 100);
   assert.match(report.progressText, /100 %/);
-  // Measured (EPI stage only): BadPix(0.07) ≈ 8 %, MSE×100 ≈ 5.7 on this scene.
-  assert.ok(report.badpix < 12, `BadPix(0.07) ${report.badpix}`);
-  assert.ok(report.mse < 25, `MSE×100 ${report.mse}`);
+  // Measured (EPI stage only): BadPix(0.07) 5.3 %, MSE×100 5.7 on this scene; an
+  // all-zero map scores about 100 % and 190.
+  assert.ok(report.badpix < 15, `BadPix(0.07) ${report.badpix}`);
+  assert.ok(report.mse < 60, `MSE×100 ${report.mse}`);
   assert.ok(report.timings.some((t) => t.startsWith("epi horizontal")), report.timings.join("; "));
   assert.ok(report.downloads);
   // Click the centre view: the EPI caption follows.
