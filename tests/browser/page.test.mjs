@@ -136,6 +136,43 @@ test("Cancel stops a running estimation and the page stays usable", async () => 
   await page.close();
 });
 
+test("dropped HCI-named views with a ground-truth PFM load, estimate and score", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  // Encode a synthetic 5×5 light field as input_CamNNN.png files plus gt_disp_lowres.pfm
+  // in the page, then drop them as a user would.
+  await page.evaluate(async () => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { writePfm } = await import("./formats.js");
+    const n = 64;
+    const scene = lf.synthesize({ scene: "planes", rows: 5, cols: 5, width: n, height: n, seed: 2 });
+    const views = scene.views;
+    const transfer = new DataTransfer();
+    for (let i = 0; i < 25; i++) {
+      const canvas = new OffscreenCanvas(n, n);
+      const ctx = canvas.getContext("2d");
+      const image = ctx.createImageData(n, n);
+      for (let p = 0; p < n * n; p++) {
+        image.data.set(views.subarray((i * n * n + p) * 3, (i * n * n + p) * 3 + 3), 4 * p);
+        image.data[4 * p + 3] = 255;
+      }
+      ctx.putImageData(image, 0, 0);
+      const blob = await canvas.convertToBlob({ type: "image/png" });
+      transfer.items.add(new File([blob], `input_Cam${String(i).padStart(3, "0")}.png`, { type: "image/png" }));
+    }
+    transfer.items.add(new File([writePfm(scene.groundTruth, n, n)], "gt_disp_lowres.pfm"));
+    document.getElementById("drop").dispatchEvent(new DragEvent("drop", { dataTransfer: transfer, bubbles: true, cancelable: true }));
+  });
+  await page.waitForFunction(() => /5×5 views of 64×64, with ground truth/.test(document.getElementById("lf-info").textContent), null, { timeout: 60_000 });
+  await page.click("#run");
+  await settled(page);
+  const badpix = Number(await page.getAttribute("#scores", "data-badpix007"));
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done");
+  // PNG round trip is lossless, so this is the estimate of the synthetic scene itself.
+  assert.ok(badpix < 30, `BadPix(0.07) ${badpix}`);
+  await page.close();
+});
+
 test("no console errors and no request beyond the page's own files", () => {
   assert.deepEqual(consoleErrors, []);
   assert.deepEqual(foreign, []);
