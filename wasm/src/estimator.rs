@@ -143,10 +143,10 @@ impl Estimator {
     pub fn new(
         #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] views: JsValue,
         #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,
-        #[wasm_bindgen(unchecked_param_type = "EstimateParams | undefined")] params: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
     ) -> Result<Estimator, JsError> {
         let layout = params::layout(&shape)?;
-        let params = params::params(&params)?;
+        let params = params::params(&params.unwrap_or(JsValue::UNDEFINED))?;
         let plan = Plan::new(layout, params).map_err(error)?;
         let views = js::bytes(&views, "views")?;
         LightField::new(&views, layout).map_err(error)?;
@@ -175,10 +175,11 @@ impl Estimator {
         &self,
         #[wasm_bindgen(
             js_name = onProgress,
-            unchecked_param_type = "((progress: Progress) => boolean | void) | undefined"
+            unchecked_param_type = "(progress: Progress) => boolean | void"
         )]
-        on_progress: JsValue,
+        on_progress: Option<JsValue>,
     ) -> Result<EstimateResult, JsValue> {
+        let on_progress = on_progress.unwrap_or(JsValue::UNDEFINED);
         let callback = on_progress.dyn_ref::<js_sys::Function>();
         if callback.is_none() && !on_progress.is_undefined() && !on_progress.is_null() {
             return Err(message("onProgress must be a function").into());

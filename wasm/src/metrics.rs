@@ -37,8 +37,9 @@ pub fn evaluate(
     #[wasm_bindgen(js_name = groundTruth)] ground_truth: &[f32],
     width: usize,
     height: usize,
-    #[wasm_bindgen(unchecked_param_type = "EvalOptions")] options: JsValue,
+    #[wasm_bindgen(unchecked_param_type = "EvalOptions")] options: Option<JsValue>,
 ) -> Result<Scores, JsError> {
+    let options = options.unwrap_or(JsValue::UNDEFINED);
     let f = Fields::new(&options, "options", &["border", "mask"], true)?;
     let border = f.count("border")?.unwrap_or(metrics::BORDER);
     let mask_value = f.get("mask");

@@ -122,7 +122,7 @@ impl SyntheticLightField {
 /// Renders a whole synthetic light field (rectified views).
 #[wasm_bindgen]
 pub fn synthesize(
-    #[wasm_bindgen(unchecked_param_type = "SynthSpec")] spec_object: JsValue,
+    #[wasm_bindgen(js_name = spec, unchecked_param_type = "SynthSpec")] spec_object: JsValue,
 ) -> Result<SyntheticLightField, JsError> {
     let s = spec(&spec_object)?;
     let len = s.layout().validate().map_err(error)?;
@@ -140,7 +140,7 @@ pub fn synthesize(
 /// Renders one view (`height · width · channels` bytes): lets workers share the work.
 #[wasm_bindgen(js_name = renderView)]
 pub fn render_view(
-    #[wasm_bindgen(unchecked_param_type = "SynthSpec")] spec_object: JsValue,
+    #[wasm_bindgen(js_name = spec, unchecked_param_type = "SynthSpec")] spec_object: JsValue,
     row: usize,
     col: usize,
 ) -> Result<Vec<u8>, JsError> {
@@ -153,7 +153,7 @@ pub fn render_view(
 /// The centre view's exact disparity (`width · height`, top row first).
 #[wasm_bindgen(js_name = renderGroundTruth)]
 pub fn render_ground_truth(
-    #[wasm_bindgen(unchecked_param_type = "SynthSpec")] spec_object: JsValue,
+    #[wasm_bindgen(js_name = spec, unchecked_param_type = "SynthSpec")] spec_object: JsValue,
 ) -> Result<Vec<f32>, JsError> {
     let s = spec(&spec_object)?;
     let mut gt = vec![0.0f32; s.width * s.height];

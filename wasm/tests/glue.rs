@@ -46,20 +46,17 @@ fn estimator_accepts_both_byte_array_types() {
     let views: Uint8Array = scene.views();
     let clamped = Uint8ClampedArray::new(&views.buffer());
     let params = object(&[("range", Array::of2(&(-2.0).into(), &2.0.into()).into())]);
-    let a = Estimator::new(views.into(), shape(32), params.clone()).unwrap();
-    let b = Estimator::new(clamped.into(), shape(32), params).unwrap();
-    let (ra, rb) = (
-        a.estimate(JsValue::UNDEFINED).unwrap(),
-        b.estimate(JsValue::UNDEFINED).unwrap(),
-    );
+    let a = Estimator::new(views.into(), shape(32), Some(params.clone())).unwrap();
+    let b = Estimator::new(clamped.into(), shape(32), Some(params)).unwrap();
+    let (ra, rb) = (a.estimate(None).unwrap(), b.estimate(None).unwrap());
     assert_eq!(ra.disparity().to_vec(), rb.disparity().to_vec());
     assert_eq!(a.disparity_range().unwrap(), vec![-2.0, 2.0]);
     let d = ra.disparity().to_vec();
     assert!(d.iter().all(|v| (-2.0..=2.0).contains(v)));
     let gt = scene.ground_truth().to_vec();
-    let scores = evaluate(&d, &gt, 32, 32, object(&[("border", 4.into())])).unwrap();
+    let scores = evaluate(&d, &gt, 32, 32, Some(object(&[("border", 4.into())]))).unwrap();
     assert!((0.0..=100.0).contains(&scores.badpix_007));
-    let e = evaluate(&d, &gt, 32, 32, object(&[("border", 16.into())]))
+    let e = evaluate(&d, &gt, 32, 32, Some(object(&[("border", 16.into())])))
         .err()
         .unwrap();
     assert!(message(e).contains("border"));
@@ -68,9 +65,7 @@ fn estimator_accepts_both_byte_array_types() {
 #[wasm_bindgen_test]
 fn core_errors_cross_as_js_errors_with_the_core_message() {
     let views: JsValue = Uint8Array::new_with_length(10).into();
-    let e = Estimator::new(views, shape(32), JsValue::UNDEFINED)
-        .err()
-        .unwrap();
+    let e = Estimator::new(views, shape(32), None).err().unwrap();
     assert_eq!(
         message(e),
         lfdepth::Error::BufferTooSmall {
@@ -80,14 +75,14 @@ fn core_errors_cross_as_js_errors_with_the_core_message() {
         }
         .to_string()
     );
-    let e = Estimator::new(JsValue::from_str("views"), shape(32), JsValue::UNDEFINED)
+    let e = Estimator::new(JsValue::from_str("views"), shape(32), None)
         .err()
         .unwrap();
     assert!(message(e).contains("Uint8Array or Uint8ClampedArray"));
     let e = Estimator::new(
         Uint8Array::new_with_length(10).into(),
         shape(32),
-        object(&[("outerSigma", JsValue::from_str("wide"))]),
+        Some(object(&[("outerSigma", JsValue::from_str("wide"))])),
     )
     .err()
     .unwrap();
