@@ -52,7 +52,7 @@ impl Tracks {
 
 /// RANSAC threshold of the first round (pixels): misalignment is still in the points.
 const FIRST_THRESHOLD: f32 = 3.0;
-const RANSAC_ROUNDS: usize = 96;
+const RANSAC_ROUNDS: usize = 48;
 /// Sigma clipping of the inlier set once the threshold has settled.
 const CLIP_SIGMAS: f32 = 3.0;
 /// The clipping threshold never goes below this (pixels): tracking noise.
@@ -349,7 +349,7 @@ pub fn run<S: Sample>(
                 0.0
             };
             let guess = (c.x - d * b.0, c.y - d * b.1);
-            let q = track::track(&pair, (c.x, c.y), guess, track::IDENTITY);
+            let q = track::track(&pair, (c.x, c.y), guess, track::IDENTITY, usize::MAX);
             if let Some(q) = q {
                 // q − p ≈ −d · b (misalignment is noise here).
                 d_num[i] -= b.0 * (q.0 - c.x) + b.1 * (q.1 - c.y);
@@ -404,7 +404,7 @@ pub fn run<S: Sample>(
             } else {
                 state.ob(v, i)
             };
-            let q = predicted.and_then(|g| track::track(&pair, (c.x, c.y), g, shape));
+            let q = predicted.and_then(|g| track::track(&pair, (c.x, c.y), g, shape, 0));
             state.set_ob(v, i, q);
         }
     }

@@ -47,15 +47,8 @@ fn template(
     y: f32,
     out: &mut [f32; (SIDE + 2) * (SIDE + 2)],
 ) -> Option<()> {
-    let r = RADIUS + 1;
-    let mut k = 0;
-    for dy in -r..=r {
-        for dx in -r..=r {
-            out[k] = img.sample(x + dx as f32, y + dy as f32)?;
-            k += 1;
-        }
-    }
-    Some(())
+    let r = (RADIUS + 1) as f32;
+    sample_grid(img, x - r, y - r, SIDE + 2, out).then_some(())
 }
 
 /// Sub-pixel position in the view of the corner at `p` of the centre view, starting from
@@ -64,16 +57,22 @@ fn template(
 /// the second, so that rotation and scale between the views do not bias the match.
 /// `None` when the match leaves the image, is ill-conditioned or does not look like the
 /// template.
+///
+/// `coarsest` caps the pyramid level the search starts from: a guess known to within a
+/// pixel or two needs only the full-resolution level.
 pub fn track(
     pair: &Pair<'_>,
     p: (f32, f32),
     guess: (f32, f32),
     shape: [f32; 4],
+    coarsest: usize,
 ) -> Option<(f32, f32)> {
     let a = shape;
     let mut q = guess;
     let mut last_ncc = None;
-    for level in (0..pair.pyramid.levels).rev() {
+    for level in (0..pair.pyramid.levels.min(coarsest.saturating_add(1))).rev() {
+        // Coarse levels only need to bring the next level into its basin.
+        let converged = if level == 0 { 1e-4 } else { 4e-4 };
         let t_img = pair.pyramid.level(pair.center, level);
         let v_img = pair.pyramid.level(pair.view, level);
         let (px, py) = (to_level(p.0, level), to_level(p.1, level));
@@ -114,30 +113,12 @@ pub fn track(
         let mut ok = false;
         for _ in 0..ROUNDS {
             ok = false;
-            let mut mean = 0.0f32;
-            let mut k = 0;
-            let mut inside = true;
-            'sample: for dy in -RADIUS..=RADIUS {
-                for dx in -RADIUS..=RADIUS {
-                    let (ox, oy) = (dx as f32, dy as f32);
-                    let sx = qx + a[0] * ox + a[1] * oy;
-                    let sy = qy + a[2] * ox + a[3] * oy;
-                    match v_img.sample(sx, sy) {
-                        Some(v) => patch[k] = v,
-                        None => {
-                            inside = false;
-                            break 'sample;
-                        }
-                    }
-                    mean += patch[k];
-                    k += 1;
-                }
-            }
+            let inside = sample_patch(&v_img, qx, qy, a, &mut patch);
+            let mean = patch.iter().sum::<f32>() / AREA as f32;
             if !inside {
                 break;
             }
             ok = true;
-            mean /= AREA as f32;
             let (mut bx, mut by) = (0.0f32, 0.0f32);
             for k in 0..AREA {
                 let e = (patch[k] - mean) - (t[k] - t_mean);
@@ -152,7 +133,7 @@ pub fn track(
             // Inverse compositional: the template moved by (dx, dy) ⇒ the view point by −A·(dx, dy).
             qx -= a[0] * dx + a[1] * dy;
             qy -= a[2] * dx + a[3] * dy;
-            if dx * dx + dy * dy < 1e-6 {
+            if dx * dx + dy * dy < converged {
                 break;
             }
         }
@@ -171,6 +152,55 @@ pub fn track(
         Some(c) if c >= MIN_NCC => Some(q),
         _ => None,
     }
+}
+
+/// Samples the `side` × `side` grid with top-left corner `(x0, y0)` and unit steps into
+/// `out`; every sample shares the same bilinear weights. False when it leaves the image.
+fn sample_grid(img: &Image<'_>, x0: f32, y0: f32, side: usize, out: &mut [f32]) -> bool {
+    if !(x0 >= 0.0 && y0 >= 0.0) {
+        return false;
+    }
+    let (ix, iy) = (x0 as usize, y0 as usize);
+    if ix + side >= img.width || iy + side >= img.height || out.len() < side * side {
+        return false;
+    }
+    let (fx, fy) = (x0 - ix as f32, y0 - iy as f32);
+    let (w00, w01) = ((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy));
+    let (w10, w11) = ((1.0 - fx) * fy, fx * fy);
+    let w = img.width;
+    for (j, row) in out.chunks_exact_mut(side).take(side).enumerate() {
+        let start = (iy + j) * w + ix;
+        let (Some(top), Some(bottom)) = (
+            img.data.get(start..start + side + 1),
+            img.data.get(start + w..start + w + side + 1),
+        ) else {
+            return false;
+        };
+        for (i, o) in row.iter_mut().enumerate() {
+            *o = w00 * top[i] + w01 * top[i + 1] + w10 * bottom[i] + w11 * bottom[i + 1];
+        }
+    }
+    true
+}
+
+/// Samples the 9 × 9 patch `q + A·(dx, dy)` of `img`; false when it leaves the image.
+fn sample_patch(img: &Image<'_>, qx: f32, qy: f32, a: [f32; 4], out: &mut [f32; AREA]) -> bool {
+    let r = RADIUS as f32;
+    if a == IDENTITY {
+        return sample_grid(img, qx - r, qy - r, SIDE, out);
+    }
+    let mut k = 0;
+    for dy in -RADIUS..=RADIUS {
+        for dx in -RADIUS..=RADIUS {
+            let (ox, oy) = (dx as f32, dy as f32);
+            match img.sample(qx + a[0] * ox + a[1] * oy, qy + a[2] * ox + a[3] * oy) {
+                Some(v) => out[k] = v,
+                None => return false,
+            }
+            k += 1;
+        }
+    }
+    true
 }
 
 /// Zero-mean normalised correlation of the template with the view patch at `(x, y)`.
@@ -235,7 +265,7 @@ mod tests {
             center: &center,
             view: &view,
         };
-        let q = track(&pair, (40.0, 50.0), (40.0, 50.0), IDENTITY).unwrap();
+        let q = track(&pair, (40.0, 50.0), (40.0, 50.0), IDENTITY, 3).unwrap();
         // Bilinear resampling biases LK by a few hundredths of a pixel on fine texture.
         assert!(
             (q.0 - 45.3).abs() < 0.05 && (q.1 - 46.3).abs() < 0.05,
@@ -252,6 +282,6 @@ mod tests {
             center: &center,
             view: &view,
         };
-        assert!(track(&pair, (40.0, 50.0), (40.0, 50.0), IDENTITY).is_none());
+        assert!(track(&pair, (40.0, 50.0), (40.0, 50.0), IDENTITY, 3).is_none());
     }
 }

@@ -5,7 +5,7 @@ use core::ops::Range;
 
 use crate::error::{checked_product, Error, Result};
 use crate::geometry::Homography;
-use crate::lightfield::{LightField, Sample, View};
+use crate::lightfield::{LightField, Sample};
 
 mod sealed {
     pub trait Sealed {}
@@ -83,45 +83,61 @@ pub fn warp_rows<S: Sample, O: WarpSample>(
             what: "the homography",
         });
     }
-    let src = lf.view(view / grid.cols, view % grid.cols)?;
+    let layout = lf.layout();
+    // The view's samples; validation proved they lie inside the buffer.
+    let start = view * layout.view_stride;
+    let src = Source {
+        data: lf.data().get(start..).unwrap_or(&[]),
+        width,
+        height: lf.height(),
+        channels,
+        row_stride: layout.row_stride,
+    };
     let m = h.m;
     for (y, out_row) in rows.zip(out.chunks_exact_mut(row_len)) {
         let yf = y as f32;
-        for (x, px) in out_row.chunks_exact_mut(channels).enumerate() {
-            let xf = x as f32;
-            let w = m[6] * xf + m[7] * yf + m[8];
-            let u = (m[0] * xf + m[1] * yf + m[2]) / w;
-            let v = (m[3] * xf + m[4] * yf + m[5]) / w;
-            bilinear(&src, u, v, px);
+        // Homogeneous coordinates advance linearly along the row.
+        let (mut nx, mut ny, mut w) = (m[1] * yf + m[2], m[4] * yf + m[5], m[7] * yf + m[8]);
+        for px in out_row.chunks_exact_mut(channels) {
+            src.bilinear(nx / w, ny / w, px);
+            nx += m[0];
+            ny += m[3];
+            w += m[6];
         }
     }
     Ok(())
 }
 
-/// Bilinear sample of every channel at `(u, v)`, clamped to the view.
-#[inline(always)]
-fn bilinear<S: Sample, O: WarpSample>(src: &View<'_, S>, u: f32, v: f32, px: &mut [O]) {
-    let (w, h) = (src.width(), src.height());
-    let (wf, hf) = ((w - 1) as f32, (h - 1) as f32);
-    // NaN (a point at infinity) clamps to the origin: `max` returns the other operand.
-    let u = u.max(0.0).min(wf);
-    let v = v.max(0.0).min(hf);
-    let (x0, y0) = (u as usize, v as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = (u - x0 as f32, v - y0 as f32);
-    let ch = src.channels();
-    let (Some(r0), Some(r1)) = (src.row(y0), src.row(y1)) else {
-        px.fill(O::default());
-        return;
-    };
-    for (c, o) in px.iter_mut().enumerate() {
-        let a = r0[x0 * ch + c].to_unit();
-        let b = r0[x1 * ch + c].to_unit();
-        let top = a + fx * (b - a);
-        let a = r1[x0 * ch + c].to_unit();
-        let b = r1[x1 * ch + c].to_unit();
-        let bottom = a + fx * (b - a);
-        *o = O::from_unit(top + fy * (bottom - top));
+/// One view's samples with its strides.
+struct Source<'a, S> {
+    data: &'a [S],
+    width: usize,
+    height: usize,
+    channels: usize,
+    row_stride: usize,
+}
+
+impl<S: Sample> Source<'_, S> {
+    /// Bilinear sample of every channel at `(u, v)`, clamped to the view.
+    #[inline(always)]
+    fn bilinear<O: WarpSample>(&self, u: f32, v: f32, px: &mut [O]) {
+        let (w, h, ch) = (self.width, self.height, self.channels);
+        // NaN (a point at infinity) clamps to the origin: `max` returns the other operand.
+        let u = u.max(0.0).min((w - 1) as f32);
+        let v = v.max(0.0).min((h - 1) as f32);
+        let (x0, y0) = (u as usize, v as usize);
+        let (fx, fy) = (u - x0 as f32, v - y0 as f32);
+        let dx = if x0 + 1 < w { ch } else { 0 };
+        let dy = if y0 + 1 < h { self.row_stride } else { 0 };
+        let i = y0 * self.row_stride + x0 * ch;
+        for (c, o) in px.iter_mut().enumerate() {
+            let at = |k: usize| self.data.get(k).map_or(0.0, |s| s.to_unit());
+            let (a, b) = (at(i + c), at(i + c + dx));
+            let top = a + fx * (b - a);
+            let (a, b) = (at(i + c + dy), at(i + c + dy + dx));
+            let bottom = a + fx * (b - a);
+            *o = O::from_unit(top + fy * (bottom - top));
+        }
     }
 }
 
