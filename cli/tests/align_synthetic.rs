@@ -27,13 +27,14 @@ fn estimate(data: &[u8], layout: Layout, params: &AlignParams) -> (AlignReport, 
     let lf = LightField::new(data, layout).unwrap();
     let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
     let mut scratch = vec![0.0f32; align::scratch_len(&layout, params).unwrap()];
-    let t = Instant::now();
+    let (t, cpu) = (Instant::now(), align_scene::thread_cpu_ns());
     let report = align::estimate(&lf, params, &mut hs, &mut scratch).unwrap();
     eprintln!(
-        "{:?}/{:?}: {:.1} ms, scratch {} bytes",
+        "{:?}/{:?}: {:.1} ms wall, {:.1} ms on-CPU (this thread), scratch {} bytes",
         params.mode,
         params.model,
         t.elapsed().as_secs_f64() * 1e3,
+        (align_scene::thread_cpu_ns() - cpu) as f64 * 1e-6,
         scratch.len() * 4
     );
     (report, hs)

@@ -17,8 +17,9 @@ pub struct Corner {
 }
 
 /// Smallest structure-tensor eigenvalue accepted (5×5 window, intensities in [0, 1]):
-/// about a 1 % intensity step per pixel across the window, well above 8-bit noise.
-const MIN_STRENGTH: f32 = 25.0 * 1.0e-4;
+/// gradients of about half an 8-bit level per pixel in every direction. Weaker corners
+/// are noise; a view without stronger ones is textureless.
+const MIN_STRENGTH: f32 = 25.0 * 4.0e-6;
 /// Half-size of the structure-tensor window.
 const WINDOW: usize = 2;
 

@@ -104,7 +104,7 @@ impl Default for AlignParams {
         AlignParams {
             mode: AlignMode::Auto,
             model: AlignModel::PerView,
-            features: 320,
+            features: 256,
             target_rms: 0.02,
             max_iterations: 30,
             inlier_threshold: 0.75,

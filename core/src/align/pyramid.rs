@@ -66,6 +66,12 @@ impl Pyramid {
 
     /// Fills `data` (at least `self.len` long) with the gray pyramid of `view`.
     pub fn build<S: Sample>(&self, view: &View<'_, S>, data: &mut [f32]) {
+        self.build_base(view, data);
+        self.reduce(data);
+    }
+
+    /// Fills only level 0 (full resolution, gray) of `data` from `view`.
+    pub fn build_base<S: Sample>(&self, view: &View<'_, S>, data: &mut [f32]) {
         let (w, h) = (self.width[0], self.height[0]);
         let channels = view.channels().min(3);
         let scale = 1.0 / channels as f32;
@@ -79,7 +85,6 @@ impl Pyramid {
                 *o = if sum.is_finite() { sum * scale } else { 0.0 };
             }
         }
-        self.reduce(data);
     }
 
     /// Fills levels 1… from level 0.

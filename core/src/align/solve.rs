@@ -35,8 +35,9 @@ use crate::lightfield::{Grid, LightField, Sample};
 pub enum ViewSet {
     /// Every view.
     All,
-    /// The four neighbours of the centre and the eight outer views (corners and edge
-    /// middles): enough to tell a rectified array from a misaligned one, cheaply.
+    /// The views one and two steps from the centre along the axes and the eight outer
+    /// views (corners and edge middles): enough to tell a rectified array from a
+    /// misaligned one, cheaply; the nearer views predict the parallax in the outer ones.
     Probe,
 }
 
@@ -52,7 +53,7 @@ impl Tracks {
 
 /// RANSAC threshold of the first round (pixels): misalignment is still in the points.
 const FIRST_THRESHOLD: f32 = 3.0;
-const RANSAC_ROUNDS: usize = 48;
+const RANSAC_ROUNDS: usize = 24;
 /// Sigma clipping of the inlier set once the threshold has settled.
 const CLIP_SIGMAS: f32 = 3.0;
 /// The clipping threshold never goes below this (pixels): tracking noise.
@@ -89,6 +90,10 @@ fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
                 (r0, c0 + 1),
                 (r0 - 1, c0),
                 (r0 + 1, c0),
+                (r0, c0.saturating_sub(2)),
+                (r0, (c0 + 2).min(grid.cols - 1)),
+                (r0.saturating_sub(2), c0),
+                ((r0 + 2).min(grid.rows - 1), c0),
                 (0, 0),
                 (0, c0),
                 (0, last_c),
@@ -386,7 +391,8 @@ pub fn run<S: Sample>(
         let centre_to_view = h_v * m_c;
         let shape = jacobian(&centre_to_view, o).unwrap_or(track::IDENTITY);
         let view = lf.view(v / grid.cols, v % grid.cols)?;
-        pyramid.build(&view, view_pyr);
+        // The second pass matches at full resolution only.
+        pyramid.build_base(&view, view_pyr);
         let pair = Pair {
             pyramid: &pyramid,
             center: centre_pyr,
