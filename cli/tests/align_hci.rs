@@ -11,6 +11,9 @@ use std::time::Instant;
 use lfdepth::align::{self, reprojection_rms, AlignMode, AlignParams};
 use lfdepth::{Grid, Homography, Layout, LightField};
 
+/// A packed RGB light field and its layout.
+type Loaded = (Vec<u8>, Layout);
+
 fn data_dir() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"))
 }
@@ -43,7 +46,7 @@ fn read_rgb(path: &Path) -> Option<(usize, usize, Vec<u8>)> {
 }
 
 /// 9×9 views named by `name(row, col)` in `dir`, packed RGB.
-fn load(dir: &Path, name: &dyn Fn(usize, usize) -> String) -> Option<(Vec<u8>, Layout)> {
+fn load(dir: &Path, name: &dyn Fn(usize, usize) -> String) -> Option<Loaded> {
     let mut data = Vec::new();
     let mut size = None;
     for r in 0..9 {
@@ -59,13 +62,13 @@ fn load(dir: &Path, name: &dyn Fn(usize, usize) -> String) -> Option<(Vec<u8>, L
     Some((data, Layout::packed(Grid::new(9, 9), w, h, 3)))
 }
 
-fn hci(scene: &str) -> Option<(Vec<u8>, Layout)> {
+fn hci(scene: &str) -> Option<Loaded> {
     load(&data_dir().join("hci").join(scene), &|r, c| {
         format!("input_Cam{:03}.png", r * 9 + c)
     })
 }
 
-fn lytro() -> Option<(Vec<u8>, Layout)> {
+fn lytro() -> Option<Loaded> {
     load(&data_dir().join("real/lytro-2067"), &|r, c| {
         format!("2067_{:02}_{:02}.png", r + 1, c + 1)
     })
@@ -89,7 +92,7 @@ fn run(data: &[u8], layout: Layout, params: &AlignParams) -> (align::AlignReport
 
 #[test]
 fn rectified_real_arrays_are_left_alone() {
-    let scenes: [(&str, Option<(Vec<u8>, Layout)>); 3] = [
+    let scenes: [(&str, Option<Loaded>); 3] = [
         ("hci/stratified/backgammon", hci("stratified/backgammon")),
         ("hci/training/cotton", hci("training/cotton")),
         ("real/lytro-2067", lytro()),
