@@ -5,6 +5,20 @@ use nalgebra::{Matrix4, Vector4};
 use crate::geometry::Homography;
 use crate::lightfield::Grid;
 
+/// The best gauge transform between two sets of rectifying homographies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GaugeFit {
+    /// Uniform scale `s` (about the image centre).
+    pub scale: f32,
+    /// Translation `t` (pixels).
+    pub translation: (f32, f32),
+    /// Disparity offset `δ`: a point of true disparity `d` has disparity `s·d − δ` in the
+    /// estimated rectified array, so `d = (d_est + δ) / s`.
+    pub disparity_offset: f32,
+    /// RMS distance left after the transform (pixels): the registration error.
+    pub rms: f32,
+}
+
 /// RMS distance in pixels between the rectified frames of `estimate` and `truth`
 /// (both rectified → view pixel coordinates, one per view, row-major grid order), after
 /// removing the best gauge transform `x ↦ s·x + t + δ·b_v` (uniform scale, translation,
@@ -17,6 +31,17 @@ pub fn gauge_rms(
     width: usize,
     height: usize,
 ) -> Option<f32> {
+    gauge_fit(estimate, truth, grid, width, height).map(|g| g.rms)
+}
+
+/// The gauge transform behind [`gauge_rms`] (coordinates about the image centre).
+pub fn gauge_fit(
+    estimate: &[Homography],
+    truth: &[Homography],
+    grid: Grid,
+    width: usize,
+    height: usize,
+) -> Option<GaugeFit> {
     if estimate.len() != grid.len() || truth.len() != grid.len() {
         return None;
     }
@@ -60,7 +85,13 @@ pub fn gauge_rms(
             count += 1;
         }
     }
-    (count > 0).then(|| libm::sqrtf(sum / count as f32))
+    (count > 0).then(|| GaugeFit {
+        scale: g[0],
+        translation: (g[1], g[2]),
+        // e = s·(X − d·b) + t + g₃·b: the estimated disparity is s·d − g₃.
+        disparity_offset: g[3],
+        rms: libm::sqrtf(sum / count as f32),
+    })
 }
 
 /// RMS reprojection error in pixels of `estimate` against `truth` (both rectified →

@@ -17,9 +17,13 @@
 //! Replacing every rectified frame by `x ↦ s·x + t + δ·b_v` (uniform scale `s`,
 //! translation `t`, disparity offset `δ`) gives another exact rectified array. The
 //! estimate fixes these four degrees of freedom by convention: the centre view keeps its
-//! own scale and the position of its image centre, and the view translations have no
-//! mean component along the baselines (zero-mean misalignment). [`gauge_rms`] compares
-//! homographies modulo this gauge.
+//! own scale and the position of its image centre (by default it is the reference and
+//! keeps the identity, see [`Reference`]), and the view translations have no mean
+//! component along the baselines (zero-mean misalignment). [`gauge_rms`] compares
+//! homographies modulo this gauge, [`reprojection_rms`] measures what the EPI stage
+//! sees. A rotation common to all views is observable only through parallax (an error of
+//! θ rotates the parallax of a point by θ·d·|b|), so with small disparities it is weakly
+//! determined; [`Reference::CentreView`] does not estimate it.
 //!
 //! # Entry points
 //! [`scratch_len`] and [`estimate`] fill one homography per view (row-major grid order,
@@ -40,7 +44,7 @@ use crate::error::{checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
 
-pub use gauge::{gauge_rms, reprojection_rms};
+pub use gauge::{gauge_fit, gauge_rms, reprojection_rms, GaugeFit};
 pub use warp::{warp_band, warp_rows, WarpSample};
 
 /// Most corners tracked from the centre view (compile-time capacity).
@@ -75,6 +79,20 @@ pub enum AlignModel {
     PlanePatches,
 }
 
+/// Which rectified frame the homographies map from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Reference {
+    /// The centre camera is the reference: its homography is the identity and every other
+    /// view is rectified onto it (as in the paper). Its roll relative to the baselines,
+    /// which only parallax reveals and only weakly, is left alone, so the disparity map
+    /// stays registered to the centre view as captured.
+    #[default]
+    CentreView,
+    /// The centre view is estimated like the others (its rotation and perspective from
+    /// the parallax directions); scale and position of its image centre are kept.
+    Estimated,
+}
+
 /// Parameters of the alignment stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AlignParams {
@@ -82,6 +100,8 @@ pub struct AlignParams {
     pub mode: AlignMode,
     /// Disparity model used while estimating.
     pub model: AlignModel,
+    /// The frame of the rectified array.
+    pub reference: Reference,
     /// Corners tracked from the centre view (8 … [`MAX_FEATURES`]).
     pub features: usize,
     /// Stop when the RMS reprojection error (pixels) falls below this.
@@ -104,6 +124,7 @@ impl Default for AlignParams {
         AlignParams {
             mode: AlignMode::Auto,
             model: AlignModel::PerView,
+            reference: Reference::CentreView,
             features: 256,
             target_rms: 0.02,
             max_iterations: 30,

@@ -25,7 +25,7 @@ use super::corners::{self, Corner};
 use super::model::{self, Mat, Rng};
 use super::pyramid::Pyramid;
 use super::track::{self, Pair};
-use super::{AlignModel, AlignParams, AlignReport, ViewReport, MAX_FEATURES, MAX_VIEWS};
+use super::{AlignModel, AlignParams, AlignReport, Reference, ViewReport, MAX_FEATURES, MAX_VIEWS};
 use crate::error::{checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{Grid, LightField, Sample};
@@ -425,13 +425,15 @@ fn jacobian(m: &Mat, p: (f32, f32)) -> Option<[f32; 4]> {
     Some([ax.0 - at.0, ay.0 - at.0, ax.1 - at.1, ay.1 - at.1])
 }
 
-/// Fixes the gauge: the centre view keeps its scale and the position of its image
-/// centre, and view translations have no mean component along the baselines.
+/// Fixes the gauge: the centre view is the identity ([`Reference::CentreView`]) or keeps
+/// its scale and the position of its image centre, and view translations have no mean
+/// component along the baselines.
 fn fix_gauge(
     state: &State<'_>,
     maps: &mut [Homography],
     width: usize,
     height: usize,
+    reference: Reference,
 ) -> Option<()> {
     let grid = state.grid;
     let (r0, c0) = grid.center();
@@ -445,18 +447,25 @@ fn fix_gauge(
     if det.abs().partial_cmp(&1e-6) != Some(core::cmp::Ordering::Greater) {
         return None;
     }
-    let s = 1.0 / libm::sqrtf(det.abs());
-    let g = Mat::new(
-        s,
-        0.0,
-        o.0 - s * at.0,
-        0.0,
-        s,
-        o.1 - s * at.1,
-        0.0,
-        0.0,
-        1.0,
-    );
+    let g = match reference {
+        // Express everything in the centre view's frame: its map becomes the identity.
+        Reference::CentreView => mc.try_inverse()?,
+        Reference::Estimated => {
+            let s = 1.0 / libm::sqrtf(det.abs());
+            Mat::new(
+                s,
+                0.0,
+                o.0 - s * at.0,
+                0.0,
+                s,
+                o.1 - s * at.1,
+                0.0,
+                0.0,
+                1.0,
+            )
+        }
+    };
+
     let (mut num, mut den) = (0.0f32, 0.0f32);
     for v in 0..grid.len() {
         if !state.tracked[v] {
@@ -609,7 +618,7 @@ fn alternate(
             })?;
             maps[v] = m;
         }
-        fix_gauge(state, maps, width, height).ok_or(Error::Alignment {
+        fix_gauge(state, maps, width, height, params.reference).ok_or(Error::Alignment {
             view: grid.index(grid.center().0, grid.center().1),
             reason: "the estimated homographies are degenerate: the views are too different",
         })?;
