@@ -6,7 +6,7 @@
 //! (see `align::gauge_fit`) is removed before scoring and reported.
 //! Run with `cargo test --release` (smaller frames in debug).
 
-use lfdepth::align::{self, gauge_fit, AlignMode, AlignModel, AlignParams};
+use lfdepth::align::{self, gauge_fit, AlignMode, AlignModel, AlignParams, Reference};
 use lfdepth::metrics::{self, EvalOptions, BORDER};
 use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, LightField, Params};
@@ -75,10 +75,16 @@ fn aligned_arrays_score_like_rectified_ones() {
             "{} {n}x{n}: BadPix0.07 warped with the true homographies {oracle:.2}",
             scene.name()
         );
-        for model in [AlignModel::PerView, AlignModel::PlanePatches] {
+        let variants = [
+            (AlignModel::PerView, Reference::Estimated),
+            (AlignModel::PerView, Reference::CentreView),
+            (AlignModel::PlanePatches, Reference::Estimated),
+        ];
+        for (model, frame) in variants {
             let params = AlignParams {
                 mode: AlignMode::On,
                 model,
+                reference: frame,
                 ..AlignParams::default()
             };
             let mut est = vec![Homography::IDENTITY; views];
@@ -94,7 +100,7 @@ fn aligned_arrays_score_like_rectified_ones() {
                 .collect();
             let (raw_score, score) = (badpix(&raw, &gt, n), badpix(&corrected, &gt, n));
             eprintln!(
-                "{} {n}x{n} {model:?}: BadPix0.07 rectified {reference:.2} | misaligned {unaligned:.2} | aligned {raw_score:.2} raw, {score:.2} after the unobservable offset {:.4} px / scale {:.5} (track RMS {:.4})",
+                "{} {n}x{n} {model:?}/{frame:?}: BadPix0.07 rectified {reference:.2} | misaligned {unaligned:.2} | aligned {raw_score:.2} raw, {score:.2} after the unobservable offset {:.4} px / scale {:.5} (track RMS {:.4})",
                 scene.name(),
                 gauge.disparity_offset,
                 gauge.scale,

@@ -83,13 +83,15 @@ pub enum AlignModel {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Reference {
     /// The centre camera is the reference: its homography is the identity and every other
-    /// view is rectified onto it (as in the paper). Its roll relative to the baselines,
-    /// which only parallax reveals and only weakly, is left alone, so the disparity map
-    /// stays registered to the centre view as captured.
-    #[default]
+    /// view is rectified onto it (as in the paper). Its roll and perspective relative to
+    /// the baselines are left alone, so the disparity map stays registered to the centre
+    /// view as captured — exact when the centre camera is well mounted, but a misaligned
+    /// centre camera then leaves its error in every EPI.
     CentreView,
     /// The centre view is estimated like the others (its rotation and perspective from
-    /// the parallax directions); scale and position of its image centre are kept.
+    /// the parallax directions, weakly determined when disparities are small); scale and
+    /// position of its image centre are kept.
+    #[default]
     Estimated,
 }
 
@@ -124,7 +126,7 @@ impl Default for AlignParams {
         AlignParams {
             mode: AlignMode::Auto,
             model: AlignModel::PerView,
-            reference: Reference::CentreView,
+            reference: Reference::Estimated,
             features: 256,
             target_rms: 0.02,
             max_iterations: 30,
