@@ -8,8 +8,10 @@ mod align_scene;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use lfdepth::align::{self, reprojection_rms, AlignMode, AlignParams};
-use lfdepth::{Grid, Homography, Layout, LightField};
+use lfdepth::align::{self, gauge_fit, reprojection_rms, AlignMode, AlignParams};
+use lfdepth::metrics::{self, EvalOptions, Scores, BORDER};
+use lfdepth::{Grid, Homography, Layout, LightField, Params};
+use lfdepth_cli::engine::{self, EstimateOptions, StageSelect};
 
 /// A packed RGB light field and its layout.
 type Loaded = (Vec<u8>, Layout);
@@ -72,6 +74,64 @@ fn lytro() -> Option<Loaded> {
     load(&data_dir().join("real/lytro-2067"), &|r, c| {
         format!("2067_{:02}_{:02}.png", r + 1, c + 1)
     })
+}
+
+/// A little-endian or big-endian gray PFM as top-row-first f32.
+fn read_pfm(path: &Path) -> Option<(usize, usize, Vec<f32>)> {
+    let bytes = std::fs::read(path).ok()?;
+    let mut fields = Vec::new();
+    let mut start = 0;
+    let mut pos = 0;
+    while fields.len() < 4 && pos < bytes.len() {
+        if bytes[pos].is_ascii_whitespace() {
+            if pos > start {
+                fields.push(std::str::from_utf8(&bytes[start..pos]).ok()?.to_string());
+            }
+            start = pos + 1;
+        }
+        pos += 1;
+    }
+    if fields.len() < 4 || fields[0] != "Pf" {
+        return None;
+    }
+    let (w, h): (usize, usize) = (fields[1].parse().ok()?, fields[2].parse().ok()?);
+    let little = fields[3].parse::<f32>().ok()? < 0.0;
+    let body = bytes.get(start..start + w * h * 4)?;
+    let mut out = vec![0.0f32; w * h];
+    for (i, c) in body.chunks_exact(4).enumerate() {
+        let b = [c[0], c[1], c[2], c[3]];
+        let v = if little {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        };
+        // Rows are stored bottom to top.
+        let (x, y) = (i % w, h - 1 - i / w);
+        out[y * w + x] = v;
+    }
+    Some((w, h, out))
+}
+
+fn epi_scores(data: &[u8], layout: Layout, gt: &[f32], adjust: &dyn Fn(f32) -> f32) -> Scores {
+    let lf = LightField::new(data, layout).unwrap();
+    let options = EstimateOptions {
+        params: Params::default(),
+        stage: StageSelect::Epi,
+        threads: None,
+    };
+    let est: Vec<f32> = engine::estimate(&lf, &options, &mut |_, _, _| {})
+        .unwrap()
+        .disparity
+        .iter()
+        .map(|&d| adjust(d))
+        .collect();
+    let (w, h) = (layout.width, layout.height);
+    let mut scratch = vec![0.0f32; metrics::scratch_len(w, h)];
+    let eval = EvalOptions {
+        border: BORDER,
+        mask: None,
+    };
+    metrics::evaluate(&est, gt, w, h, &eval, &mut scratch).unwrap()
 }
 
 fn run(data: &[u8], layout: Layout, params: &AlignParams) -> (align::AlignReport, Vec<Homography>) {
@@ -171,6 +231,40 @@ fn misaligned_hci_scenes_are_realigned() {
             report.rms, report.features
         );
         assert!(after < 0.1, "{scene}: {after}");
+        // Disparity accuracy of the EPI stage: original, misaligned, realigned (the
+        // unobservable disparity offset and scale removed, see `align::gauge_fit`).
+        if let Some((_, _, gt)) = read_pfm(
+            &data_dir()
+                .join("hci")
+                .join(scene)
+                .join("gt_disp_lowres.pfm"),
+        ) {
+            let gauge = gauge_fit(&hs, &truth, layout.grid, w, h).unwrap();
+            let mut aligned = vec![0u8; data.len()];
+            let lf = LightField::new(&misaligned[..], layout).unwrap();
+            align::warp_band(&lf, &hs, 0..h, &mut aligned).unwrap();
+            let mut oracle = vec![0u8; data.len()];
+            align::warp_band(&lf, &truth, 0..h, &mut oracle).unwrap();
+            let same = |d: f32| d;
+            let corrected = |d: f32| (d + gauge.disparity_offset) / gauge.scale;
+            for (label, views, adjust) in [
+                ("original (rectified)", &data, &same as &dyn Fn(f32) -> f32),
+                ("misaligned, not aligned", &misaligned, &same),
+                ("misaligned, warped with the true H", &oracle, &same),
+                ("misaligned, aligned (raw)", &aligned, &same),
+                ("misaligned, aligned (offset removed)", &aligned, &corrected),
+            ] {
+                let s = epi_scores(views, layout, &gt, adjust);
+                eprintln!(
+                    "| {scene} | {label} | {:.2} | {:.2} | {:.2} |",
+                    s.badpix_007, s.mse100, s.q25
+                );
+            }
+            eprintln!(
+                "{scene}: disparity offset {:.4} px, scale {:.5}",
+                gauge.disparity_offset, gauge.scale
+            );
+        }
         let (auto, _) = run(&misaligned, layout, &AlignParams::default());
         assert!(
             !auto.skipped,
