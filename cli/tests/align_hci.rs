@@ -152,6 +152,10 @@ fn run(data: &[u8], layout: Layout, params: &AlignParams) -> (align::AlignReport
 
 #[test]
 fn rectified_real_arrays_are_left_alone() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: heavy 512x512 test, run it with `cargo test --release`");
+        return;
+    }
     let scenes: [(&str, Option<Loaded>); 3] = [
         ("hci/stratified/backgammon", hci("stratified/backgammon")),
         ("hci/training/cotton", hci("training/cotton")),
@@ -191,6 +195,10 @@ fn rectified_real_arrays_are_left_alone() {
 
 #[test]
 fn misaligned_hci_scenes_are_realigned() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: heavy 512x512 test, run it with `cargo test --release`");
+        return;
+    }
     for scene in ["stratified/backgammon", "training/cotton"] {
         let Some((data, layout)) = hci(scene) else {
             eprintln!("SKIPPED: ../shared/data not found: hci/{scene} is missing or unreadable");
