@@ -456,4 +456,55 @@ mod mode_tests {
         // Tiny views: estimation may fail, but only with an error.
         let _ = estimate(&lf, &params, &mut hs, &mut scratch);
     }
+
+    #[test]
+    fn random_and_non_finite_inputs_never_panic() {
+        let layout = Layout::packed(Grid::new(3, 3), 40, 36, 3);
+        let len = layout.validate().unwrap();
+        let mut state = 0x1234_5678_u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        let noise: std::vec::Vec<u8> = (0..len).map(|_| next() as u8).collect();
+        let specials = [f32::NAN, f32::INFINITY, -1e30, 1e30, 0.5, -0.0];
+        let floats: std::vec::Vec<f32> = (0..len)
+            .map(|i| {
+                if i % 7 == 0 {
+                    specials[i % 6]
+                } else {
+                    (next() % 1000) as f32 / 999.0
+                }
+            })
+            .collect();
+        for mode in [AlignMode::On, AlignMode::Auto] {
+            for model in [AlignModel::PerView, AlignModel::PlanePatches] {
+                let params = AlignParams {
+                    mode,
+                    model,
+                    ..AlignParams::default()
+                };
+                let mut hs = vec![Homography::IDENTITY; 9];
+                let mut scratch = vec![0.0f32; scratch_len(&layout, &params).unwrap()];
+                let lf = LightField::new(&noise[..], layout).unwrap();
+                if let Ok(r) = estimate(&lf, &params, &mut hs, &mut scratch) {
+                    assert!(
+                        hs.iter().all(|h| h.m.iter().all(|v| v.is_finite())),
+                        "{r:?}"
+                    );
+                }
+                let lf = LightField::new(&floats[..], layout).unwrap();
+                if let Ok(r) = estimate(&lf, &params, &mut hs, &mut scratch) {
+                    assert!(
+                        hs.iter().all(|h| h.m.iter().all(|v| v.is_finite())),
+                        "{r:?}"
+                    );
+                }
+                let mut out = vec![0.0f32; 9 * 36 * 40 * 3];
+                warp_band(&lf, &hs, 0..36, &mut out).unwrap();
+            }
+        }
+    }
 }
