@@ -173,6 +173,31 @@ test("dropped HCI-named views with a ground-truth PFM load, estimate and score",
   await page.close();
 });
 
+test("images with unknown names wait for the user to confirm the grid", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  await page.evaluate(async () => {
+    const transfer = new DataTransfer();
+    for (let i = 0; i < 15; i++) {
+      const canvas = new OffscreenCanvas(32, 24);
+      const ctx = canvas.getContext("2d");
+      ctx.fillStyle = `rgb(${i * 16}, 90, 200)`;
+      ctx.fillRect(0, 0, 32, 24);
+      const blob = await canvas.convertToBlob({ type: "image/png" });
+      transfer.items.add(new File([blob], `shot${i + 1}.png`, { type: "image/png" }));
+    }
+    document.getElementById("drop").dispatchEvent(new DragEvent("drop", { dataTransfer: transfer, bubbles: true, cancelable: true }));
+  });
+  await page.waitForSelector("#grid-form:not([hidden])");
+  assert.match(await page.textContent("#grid-note"), /15 views in name order/);
+  await page.fill("#grid-rows", "3");
+  await page.fill("#grid-cols", "5");
+  await page.click("#grid-form button");
+  await page.waitForFunction(() => /3×5 views of 32×24/.test(document.getElementById("lf-info").textContent));
+  assert.equal(await page.isHidden("#grid-form"), true);
+  await page.close();
+});
+
 test("no console errors and no request beyond the page's own files", () => {
   assert.deepEqual(consoleErrors, []);
   assert.deepEqual(foreign, []);
