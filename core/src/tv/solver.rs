@@ -24,7 +24,11 @@ use super::params::{TvNorm, TvParams};
 use super::weights::{colour_step, edge_weight};
 
 /// Buffers of the graph size the solver keeps in scratch.
-const BUFFERS: usize = 18;
+const BUFFERS: usize = 13;
+
+/// Rows of the region's width the fused sweep keeps in scratch: the node residuals of
+/// both colours for two rows, and one row of each quadratic proximity result.
+const ROW_BUFFERS: usize = 8;
 
 /// The solver iterates on `DUAL_SCALE · F` (constraint radius `DUAL_SCALE`, targets
 /// `DUAL_SCALE · τ`): every iterate scales exactly, so nothing changes in f32 (a power of
@@ -159,7 +163,10 @@ pub struct SolveReport {
 
 /// Scratch elements (of the scalar type) a solve over `width × height` pixels needs.
 pub fn scratch_len_for(width: usize, height: usize) -> usize {
-    width.saturating_mul(height).saturating_mul(BUFFERS)
+    width
+        .saturating_mul(height)
+        .saturating_mul(BUFFERS)
+        .saturating_add(width.saturating_mul(ROW_BUFFERS))
 }
 
 /// Solves the model on `region` (a rectangle of the maps, its border edges cut) and writes
@@ -305,13 +312,10 @@ struct Graph<'s, S> {
     /// `γκ_i/ω / (1 + γκ_i/ω ‖c_i‖²)` on black (resp. white) nodes, zero elsewhere.
     sig_black: &'s mut [S],
     sig_white: &'s mut [S],
-    /// Node temporary `s`.
-    node: &'s mut [S],
     /// Range of `D` over the region: the minimiser lies inside it (truncating to it lowers
     /// both terms), so the primal of a not yet converged dual is clamped to it.
     range: (f32, f32),
-    /// PPXA copies of the dual for the three functions, their average `F`, and the
-    /// proximity results of the two quadratic parts.
+    /// PPXA copies of the dual for the three functions and their average `F`.
     y1h: &'s mut [S],
     y1v: &'s mut [S],
     y2h: &'s mut [S],
@@ -320,16 +324,15 @@ struct Graph<'s, S> {
     y3v: &'s mut [S],
     fh: &'s mut [S],
     fv: &'s mut [S],
-    p2h: &'s mut [S],
-    p2v: &'s mut [S],
-    p3h: &'s mut [S],
-    p3v: &'s mut [S],
+    /// [`ROW_BUFFERS`] rows of `width` for the fused sweep.
+    rows: &'s mut [S],
 }
 
 impl<'s, S: Scalar> Graph<'s, S> {
     fn split(scratch: &'s mut [S], width: usize, height: usize) -> Self {
         let n = width * height;
-        let mut chunks = scratch.chunks_exact_mut(n);
+        let (full, rows) = scratch.split_at_mut((n * BUFFERS).min(scratch.len()));
+        let mut chunks = full.chunks_exact_mut(n.max(1));
         let mut next = || chunks.next().unwrap_or_default();
         Graph {
             width,
@@ -339,7 +342,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
             tau: next(),
             sig_black: next(),
             sig_white: next(),
-            node: next(),
             range: (0.0, 0.0),
             y1h: next(),
             y1v: next(),
@@ -349,10 +351,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
             y3v: next(),
             fh: next(),
             fv: next(),
-            p2h: next(),
-            p2v: next(),
-            p3h: next(),
-            p3v: next(),
+            rows,
         }
     }
 
@@ -446,45 +445,8 @@ impl<'s, S: Scalar> Graph<'s, S> {
         let tol2 = params.tolerance * params.tolerance;
         let mut report = SolveReport::default();
         for it in 0..params.max_iterations {
-            prox_quadratic(
-                self.width,
-                self.wh,
-                self.wv,
-                self.tau,
-                self.sig_black,
-                self.y2h,
-                self.y2v,
-                self.node,
-                self.p2h,
-                self.p2v,
-            );
-            prox_quadratic(
-                self.width,
-                self.wh,
-                self.wv,
-                self.tau,
-                self.sig_white,
-                self.y3h,
-                self.y3v,
-                self.node,
-                self.p3h,
-                self.p3v,
-            );
             let n = self.fh.len();
-            let (change, norm) = combine(
-                &constants,
-                [
-                    &mut *self.y1h,
-                    &mut *self.y1v,
-                    &mut *self.y2h,
-                    &mut *self.y2v,
-                    &mut *self.y3h,
-                    &mut *self.y3v,
-                    &mut *self.fh,
-                    &mut *self.fv,
-                ],
-                [&*self.p2h, &*self.p2v, &*self.p3h, &*self.p3v],
-            );
+            let (change, norm) = self.sweep(&constants);
             // Back to the units of F.
             let change = change / (DUAL_SCALE * DUAL_SCALE);
             let norm = norm / (DUAL_SCALE * DUAL_SCALE);
@@ -501,6 +463,77 @@ impl<'s, S: Scalar> Graph<'s, S> {
         report
     }
 
+    /// One PPXA iteration in a single pass over the rows: row `y` of both quadratic
+    /// proximity results needs the node residuals `s` of rows `y` and `y + 1` only, and
+    /// the residuals of row `y + 1` read the copies `y₂`, `y₃` of rows `y` and `y + 1`,
+    /// so computing them before row `y` is combined keeps every read on the previous
+    /// iterate while each buffer is walked once (no full-size temporaries).
+    /// Returns `(‖ΔF‖², ‖F‖²)` in the scaled units.
+    fn sweep(&mut self, c: &Constants<S>) -> (f32, f32) {
+        let (w, rows) = (self.width, self.height);
+        let mut sums = Sums {
+            change: [0.0; LANES],
+            norm: [0.0; LANES],
+        };
+        let mut row_bufs = self.rows.chunks_exact_mut(w.max(1));
+        let mut next = || row_bufs.next().unwrap_or_default();
+        let (mut s2, mut s2_below, mut s3, mut s3_below) = (next(), next(), next(), next());
+        let (p2h, p2v, p3h, p3v) = (next(), next(), next(), next());
+        let (wh, wv, tau) = (&*self.wh, &*self.wv, &*self.tau);
+        let (sig2, sig3) = (&*self.sig_black, &*self.sig_white);
+        residual_row(0, w, wh, wv, tau, sig2, self.y2h, self.y2v, s2);
+        residual_row(0, w, wh, wv, tau, sig3, self.y3h, self.y3v, s3);
+        for y in 0..rows {
+            let below = y + 1 < rows;
+            if below {
+                residual_row(y + 1, w, wh, wv, tau, sig2, self.y2h, self.y2v, s2_below);
+                residual_row(y + 1, w, wh, wv, tau, sig3, self.y3h, self.y3v, s3_below);
+            }
+            let r = y * w..(y + 1) * w;
+            let (whr, wvr) = (&wh[r.clone()], &wv[r.clone()]);
+            let s2b = if below { Some(&*s2_below) } else { None };
+            let s3b = if below { Some(&*s3_below) } else { None };
+            prox_row(
+                whr,
+                wvr,
+                &self.y2h[r.clone()],
+                &self.y2v[r.clone()],
+                s2,
+                s2b,
+                p2h,
+                p2v,
+            );
+            prox_row(
+                whr,
+                wvr,
+                &self.y3h[r.clone()],
+                &self.y3v[r.clone()],
+                s3,
+                s3b,
+                p3h,
+                p3v,
+            );
+            combine(
+                c,
+                [
+                    &mut self.y1h[r.clone()],
+                    &mut self.y1v[r.clone()],
+                    &mut self.y2h[r.clone()],
+                    &mut self.y2v[r.clone()],
+                    &mut self.y3h[r.clone()],
+                    &mut self.y3v[r.clone()],
+                    &mut self.fh[r.clone()],
+                    &mut self.fv[r],
+                ],
+                [&*p2h, &*p2v, &*p3h, &*p3v],
+                &mut sums,
+            );
+            core::mem::swap(&mut s2, &mut s2_below);
+            core::mem::swap(&mut s3, &mut s3_below);
+        }
+        (sums.change.iter().sum(), sums.norm.iter().sum())
+    }
+
     /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`.
     fn write_primal(
         &mut self,
@@ -511,17 +544,19 @@ impl<'s, S: Scalar> Graph<'s, S> {
         out: &mut [f32],
         stride: usize,
     ) {
-        divergence(self.width, self.wh, self.wv, self.fh, self.fv, self.node);
+        let w = self.width;
+        let div = &mut self.rows[..w];
         for y in 0..core.height {
             let ry = core.y - region.y + y;
             let gy = core.y + y;
+            divergence_row(ry, w, self.wh, self.wv, self.fh, self.fv, div);
             for x in 0..core.width {
                 let rx = core.x - region.x + x;
                 let gi = gy * maps.width + core.x + x;
                 let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
                 let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
                 let a = data_weight(conf, params);
-                let u = self.node[ry * self.width + rx].to_f32();
+                let u = div[rx].to_f32();
                 if let Some(o) = out.get_mut(y * stride + x) {
                     let x = d - params.lambda * u / (DUAL_SCALE * a);
                     *o = x.clamp(self.range.0, self.range.1);
@@ -589,15 +624,13 @@ struct Constants<S> {
 /// (fixed-length blocks, per-lane sums).
 const LANES: usize = 16;
 
-/// The PPXA combination: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`, `y_k += ρ(2p − F − p_k)`,
-/// `F += ρ(p − F)`. Returns `(‖ΔF‖², ‖F‖²)` (in the scaled units).
-fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4]) -> (f32, f32) {
+/// The PPXA combination on one row: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`,
+/// `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`; adds `‖ΔF‖²` and `‖F‖²` (scaled units) to
+/// `sums`.
+#[inline(never)]
+fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4], sums: &mut Sums) {
     let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
     let [p2h, p2v, p3h, p3v] = prox;
-    let mut sums = Sums {
-        change: [0.0; LANES],
-        norm: [0.0; LANES],
-    };
     let n = fh.len();
     let mut start = 0;
     while start < n {
@@ -615,13 +648,12 @@ fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4]) -
         ];
         let prox = [&p2h[r.clone()], &p2v[r.clone()], &p3h[r.clone()], &p3v[r]];
         if len == LANES {
-            combine_lanes::<S, LANES>(c, state, prox, &mut sums);
+            combine_lanes::<S, LANES>(c, state, prox, sums);
         } else {
-            combine_lanes::<S, 1>(c, state, prox, &mut sums);
+            combine_lanes::<S, 1>(c, state, prox, sums);
         }
         start += len;
     }
-    (sums.change.iter().sum(), sums.norm.iter().sum())
 }
 
 /// Per-lane sums of `‖ΔF‖²` and `‖F‖²`.
@@ -726,7 +758,9 @@ fn project_lanes<S: Scalar, const L: usize>(h: &mut [S; L], v: &mut [S; L], c: &
                 let (uh, uv) = (h * c.inv_radius, v * c.inv_radius);
                 *n2 = uh * uh + uv * uv;
             }
-            if n2.iter().all(|&n| n <= S::ONE) {
+            // A branch-free fold (not a short-circuiting `all`), so the test vectorises.
+            let outside = n2.iter().fold(false, |any, &n| any | (n > S::ONE));
+            if !outside {
                 return;
             }
             for ((h, v), &n2) in h.iter_mut().zip(v.iter_mut()).zip(n2.iter()) {
@@ -740,34 +774,103 @@ fn project_lanes<S: Scalar, const L: usize>(h: &mut [S; L], v: &mut [S; L], c: &
     }
 }
 
-/// `out = WᵀF`: `(WᵀF)_i = w_h(i−1) F_h(i−1) + w_v(i−W) F_v(i−W) − w_h(i) F_h(i) − w_v(i) F_v(i)`.
-fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
-    let rows = out.len() / width.max(1);
-    for y in 0..rows {
-        let r = y * width..(y + 1) * width;
-        let (o, whr, wvr, fhr, fvr) = (
-            &mut out[r.clone()],
-            &wh[r.clone()],
-            &wv[r.clone()],
-            &fh[r.clone()],
-            &fv[r.clone()],
-        );
-        for (((o, &a), &b), (&c, &d)) in o.iter_mut().zip(whr).zip(wvr).zip(fhr.iter().zip(fvr)) {
-            *o = -(a * c + b * d);
-        }
-        for ((o, &a), &c) in o[1..].iter_mut().zip(whr).zip(fhr) {
-            *o += a * c;
-        }
-        if y > 0 {
-            let p = (y - 1) * width..y * width;
-            for ((o, &b), &d) in o.iter_mut().zip(&wv[p.clone()]).zip(&fv[p]) {
-                *o += b * d;
-            }
+/// Row `y` of `WᵀF` into `out` (`width` long):
+/// `(WᵀF)_i = w_h(i−1) F_h(i−1) + w_v(i−W) F_v(i−W) − w_h(i) F_h(i) − w_v(i) F_v(i)`.
+fn divergence_row<S: Scalar>(
+    y: usize,
+    width: usize,
+    wh: &[S],
+    wv: &[S],
+    fh: &[S],
+    fv: &[S],
+    out: &mut [S],
+) {
+    let r = y * width..(y + 1) * width;
+    let (whr, wvr, fhr, fvr) = (&wh[r.clone()], &wv[r.clone()], &fh[r.clone()], &fv[r]);
+    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(fhr.iter().zip(fvr)) {
+        *o = -(a * c + b * d);
+    }
+    for ((o, &a), &c) in out.iter_mut().skip(1).zip(whr).zip(fhr) {
+        *o += a * c;
+    }
+    if y > 0 {
+        let p = (y - 1) * width..y * width;
+        for ((o, &b), &d) in out.iter_mut().zip(&wv[p.clone()]).zip(&fv[p]) {
+            *o += b * d;
         }
     }
 }
 
-/// Proximity operator of one colour's quadratic: `p = y − W∇s`, `s = σ ⊙ (Wᵀy − τ)`.
+/// Row `y` of one colour's node residual `s = σ ⊙ (Wᵀy − τ)` into `out`.
+#[allow(clippy::too_many_arguments)]
+fn residual_row<S: Scalar>(
+    y: usize,
+    width: usize,
+    wh: &[S],
+    wv: &[S],
+    tau: &[S],
+    sig: &[S],
+    yh: &[S],
+    yv: &[S],
+    out: &mut [S],
+) {
+    divergence_row(y, width, wh, wv, yh, yv, out);
+    let r = y * width..(y + 1) * width;
+    for ((s, &t), &g) in out.iter_mut().zip(&tau[r.clone()]).zip(&sig[r]) {
+        *s = g * (*s - t);
+    }
+}
+
+/// One row of the proximity operator of a colour's quadratic, `p = y − W∇s`, from the
+/// row's residuals `s` and those of the row below (`None` on the last row, which has no
+/// vertical edges). All slices are one row.
+#[allow(clippy::too_many_arguments)]
+fn prox_row<S: Scalar>(
+    whr: &[S],
+    wvr: &[S],
+    yhr: &[S],
+    yvr: &[S],
+    s: &[S],
+    below: Option<&[S]>,
+    phr: &mut [S],
+    pvr: &mut [S],
+) {
+    // Horizontal: p_h(i) = y_h(i) − w_h(i) (s(i+1) − s(i)); the last column has no edge.
+    for (((p, &yy), &w), (&s0, &s1)) in phr
+        .iter_mut()
+        .zip(yhr)
+        .zip(whr)
+        .zip(s.iter().zip(s.iter().skip(1)))
+    {
+        *p = yy - w * (s1 - s0);
+    }
+    if let (Some(p), Some(&yy)) = (phr.last_mut(), yhr.last()) {
+        *p = yy;
+    }
+    // Vertical: p_v(i) = y_v(i) − w_v(i) (s(i+W) − s(i)).
+    match below {
+        Some(below) => {
+            for (((p, &yy), &w), (&s0, &s1)) in
+                pvr.iter_mut().zip(yvr).zip(wvr).zip(s.iter().zip(below))
+            {
+                *p = yy - w * (s1 - s0);
+            }
+        }
+        None => pvr.copy_from_slice(yvr),
+    }
+}
+
+/// `out = WᵀF` over the whole graph (the row kernel, row after row).
+#[cfg(test)]
+fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
+    for (y, row) in out.chunks_exact_mut(width).enumerate() {
+        divergence_row(y, width, wh, wv, fh, fv, row);
+    }
+}
+
+/// Proximity operator of one colour's quadratic over the whole graph, from the row
+/// kernels the sweep uses: `p = y − W∇s`, `s = σ ⊙ (Wᵀy − τ)`.
+#[cfg(test)]
 #[allow(clippy::too_many_arguments)]
 fn prox_quadratic<S: Scalar>(
     width: usize,
@@ -781,39 +884,23 @@ fn prox_quadratic<S: Scalar>(
     ph: &mut [S],
     pv: &mut [S],
 ) {
-    divergence(width, wh, wv, yh, yv, s);
-    for ((s, &t), &g) in s.iter_mut().zip(tau).zip(sig) {
-        *s = g * (*s - t);
+    for (y, row) in s.chunks_exact_mut(width).enumerate() {
+        residual_row(y, width, wh, wv, tau, sig, yh, yv, row);
     }
-    let rows = s.len() / width.max(1);
+    let rows = s.len() / width;
     for y in 0..rows {
         let r = y * width..(y + 1) * width;
-        let sr = &s[r.clone()];
-        // Horizontal: p_h(i) = y_h(i) − w_h(i) (s(i+1) − s(i)); the last column has no edge.
-        let (phr, yhr, whr) = (&mut ph[r.clone()], &yh[r.clone()], &wh[r.clone()]);
-        for (((p, &yy), &w), (&s0, &s1)) in phr
-            .iter_mut()
-            .zip(yhr)
-            .zip(whr)
-            .zip(sr.iter().zip(&sr[1..]))
-        {
-            *p = yy - w * (s1 - s0);
-        }
-        if let (Some(p), Some(&yy)) = (phr.last_mut(), yhr.last()) {
-            *p = yy;
-        }
-        // Vertical: p_v(i) = y_v(i) − w_v(i) (s(i+W) − s(i)); the last row has no edge.
-        let (pvr, yvr, wvr) = (&mut pv[r.clone()], &yv[r.clone()], &wv[r.clone()]);
-        if y + 1 < rows {
-            let below = &s[(y + 1) * width..(y + 2) * width];
-            for (((p, &yy), &w), (&s0, &s1)) in
-                pvr.iter_mut().zip(yvr).zip(wvr).zip(sr.iter().zip(below))
-            {
-                *p = yy - w * (s1 - s0);
-            }
-        } else {
-            pvr.copy_from_slice(yvr);
-        }
+        let below = (y + 1 < rows).then(|| &s[(y + 1) * width..(y + 2) * width]);
+        prox_row(
+            &wh[r.clone()],
+            &wv[r.clone()],
+            &yh[r.clone()],
+            &yv[r.clone()],
+            &s[r.clone()],
+            below,
+            &mut ph[r.clone()],
+            &mut pv[r],
+        );
     }
 }
 
