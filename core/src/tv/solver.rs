@@ -315,7 +315,9 @@ struct Graph<'s, S> {
     /// Range of `D` over the region: the minimiser lies inside it (truncating to it lowers
     /// both terms), so the primal of a not yet converged dual is clamped to it.
     range: (f32, f32),
-    /// PPXA copies of the dual for the three functions and their average `F`.
+    /// PPXA copies of the dual for the three functions, and their average
+    /// `F = ½y₁ + ¼y₂ + ¼y₃`, formed once after the last iteration (PPXA keeps `F`
+    /// equal to that average, so the iteration forms it on the fly instead of storing it).
     y1h: &'s mut [S],
     y1v: &'s mut [S],
     y2h: &'s mut [S],
@@ -460,7 +462,20 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 break;
             }
         }
+        self.form_average(&constants);
         report
+    }
+
+    /// `F = ½y₁ + ¼y₂ + ¼y₃` (the expression the iteration uses).
+    fn form_average(&mut self, c: &Constants<S>) {
+        let ys = self.y1h.iter().zip(self.y2h.iter()).zip(self.y3h.iter());
+        for (f, ((&y1, &y2), &y3)) in self.fh.iter_mut().zip(ys) {
+            *f = average(c, y1, y2, y3);
+        }
+        let ys = self.y1v.iter().zip(self.y2v.iter()).zip(self.y3v.iter());
+        for (f, ((&y1, &y2), &y3)) in self.fv.iter_mut().zip(ys) {
+            *f = average(c, y1, y2, y3);
+        }
     }
 
     /// One PPXA iteration in a single pass over the rows: row `y` of both quadratic
@@ -522,8 +537,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
                     &mut self.y2v[r.clone()],
                     &mut self.y3h[r.clone()],
                     &mut self.y3v[r.clone()],
-                    &mut self.fh[r.clone()],
-                    &mut self.fv[r],
                 ],
                 [&*p2h, &*p2v, &*p3h, &*p3v],
                 &mut sums,
@@ -628,10 +641,10 @@ const LANES: usize = 16;
 /// `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`; adds `‖ΔF‖²` and `‖F‖²` (scaled units) to
 /// `sums`.
 #[inline(never)]
-fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4], sums: &mut Sums) {
-    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
+fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 6], prox: [&[S]; 4], sums: &mut Sums) {
+    let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
     let [p2h, p2v, p3h, p3v] = prox;
-    let n = fh.len();
+    let n = y1h.len();
     let mut start = 0;
     while start < n {
         let len = LANES.min(n - start);
@@ -643,8 +656,6 @@ fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4], s
             &mut y2v[r.clone()],
             &mut y3h[r.clone()],
             &mut y3v[r.clone()],
-            &mut fh[r.clone()],
-            &mut fv[r.clone()],
         ];
         let prox = [&p2h[r.clone()], &p2v[r.clone()], &p3h[r.clone()], &p3v[r]];
         if len == LANES {
@@ -654,6 +665,12 @@ fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4], s
         }
         start += len;
     }
+}
+
+/// `½a + ¼(b + c)`: the PPXA average of the three copies (weights ω).
+#[inline(always)]
+fn average<S: Scalar>(c: &Constants<S>, a: S, b: S, d: S) -> S {
+    a * c.half + (b + d) * c.quarter
 }
 
 /// Per-lane sums of `‖ΔF‖²` and `‖F‖²`.
@@ -667,23 +684,22 @@ struct Sums {
 #[inline(always)]
 fn combine_lanes<S: Scalar, const L: usize>(
     c: &Constants<S>,
-    state: [&mut [S]; 8],
+    state: [&mut [S]; 6],
     prox: [&[S]; 4],
     sums: &mut Sums,
 ) {
-    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
+    let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
     let [p2h, p2v, p3h, p3v] = prox;
     let groups = y1h
         .chunks_exact_mut(L)
         .zip(y1v.chunks_exact_mut(L))
         .zip(y2h.chunks_exact_mut(L).zip(y2v.chunks_exact_mut(L)))
         .zip(y3h.chunks_exact_mut(L).zip(y3v.chunks_exact_mut(L)))
-        .zip(fh.chunks_exact_mut(L).zip(fv.chunks_exact_mut(L)))
         .zip(
             (p2h.chunks_exact(L).zip(p2v.chunks_exact(L)))
                 .zip(p3h.chunks_exact(L).zip(p3v.chunks_exact(L))),
         );
-    for (((((y1h, y1v), (y2h, y2v)), (y3h, y3v)), (fh, fv)), ((p2h, p2v), (p3h, p3v))) in groups {
+    for ((((y1h, y1v), (y2h, y2v)), (y3h, y3v)), ((p2h, p2v), (p3h, p3v))) in groups {
         let (
             Ok(y1h),
             Ok(y1v),
@@ -691,8 +707,6 @@ fn combine_lanes<S: Scalar, const L: usize>(
             Ok(y2v),
             Ok(y3h),
             Ok(y3v),
-            Ok(fh),
-            Ok(fv),
             Ok(p2h),
             Ok(p2v),
             Ok(p3h),
@@ -704,8 +718,6 @@ fn combine_lanes<S: Scalar, const L: usize>(
             <&mut [S; L]>::try_from(y2v),
             <&mut [S; L]>::try_from(y3h),
             <&mut [S; L]>::try_from(y3v),
-            <&mut [S; L]>::try_from(fh),
-            <&mut [S; L]>::try_from(fv),
             <&[S; L]>::try_from(p2h),
             <&[S; L]>::try_from(p2v),
             <&[S; L]>::try_from(p3h),
@@ -720,9 +732,10 @@ fn combine_lanes<S: Scalar, const L: usize>(
         let mut p1v = *y1v;
         project_lanes(&mut p1h, &mut p1v, c);
         for j in 0..L {
-            let ph = p1h[j] * c.half + (p2h[j] + p3h[j]) * c.quarter;
-            let pv = p1v[j] * c.half + (p2v[j] + p3v[j]) * c.quarter;
-            let (f0h, f0v) = (fh[j], fv[j]);
+            let ph = average(c, p1h[j], p2h[j], p3h[j]);
+            let pv = average(c, p1v[j], p2v[j], p3v[j]);
+            let f0h = average(c, y1h[j], y2h[j], y3h[j]);
+            let f0v = average(c, y1v[j], y2v[j], y3v[j]);
             let (th, tv) = (c.two * ph - f0h, c.two * pv - f0v);
             y1h[j] += c.rho * (th - p1h[j]);
             y1v[j] += c.rho * (tv - p1v[j]);
@@ -732,8 +745,6 @@ fn combine_lanes<S: Scalar, const L: usize>(
             y3v[j] += c.rho * (tv - p3v[j]);
             let (dh, dv) = (c.rho * (ph - f0h), c.rho * (pv - f0v));
             let (nh, nv) = (f0h + dh, f0v + dv);
-            fh[j] = nh;
-            fv[j] = nv;
             let (dh, dv, nh, nv) = (dh.to_f32(), dv.to_f32(), nh.to_f32(), nv.to_f32());
             sums.change[j % LANES] += dh * dh + dv * dv;
             sums.norm[j % LANES] += nh * nh + nv * nv;
