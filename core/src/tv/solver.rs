@@ -27,8 +27,8 @@ use super::weights::{colour_step, edge_weight};
 const BUFFERS: usize = 13;
 
 /// Rows of the region's width the fused sweep keeps in scratch: the node residuals of
-/// both colours for two rows, and one row of each quadratic proximity result.
-const ROW_BUFFERS: usize = 8;
+/// both colours for two rows, and one row of each proximity result.
+const ROW_BUFFERS: usize = 10;
 
 /// The solver iterates on `DUAL_SCALE · F` (constraint radius `DUAL_SCALE`, targets
 /// `DUAL_SCALE · τ`): every iterate scales exactly, so nothing changes in f32 (a power of
@@ -494,6 +494,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
         let mut next = || row_bufs.next().unwrap_or_default();
         let (mut s2, mut s2_below, mut s3, mut s3_below) = (next(), next(), next(), next());
         let (p2h, p2v, p3h, p3v) = (next(), next(), next(), next());
+        let (p1h, p1v) = (next(), next());
         let (wh, wv, tau) = (&*self.wh, &*self.wv, &*self.tau);
         let (sig2, sig3) = (&*self.sig_black, &*self.sig_white);
         residual_row(0, w, wh, wv, tau, sig2, self.y2h, self.y2v, s2);
@@ -539,6 +540,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                     &mut self.y3v[r.clone()],
                 ],
                 [&*p2h, &*p2v, &*p3h, &*p3v],
+                [&mut *p1h, &mut *p1v],
                 &mut sums,
             );
             core::mem::swap(&mut s2, &mut s2_below);
@@ -639,32 +641,60 @@ const LANES: usize = 16;
 
 /// The PPXA combination on one row: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`,
 /// `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`; adds `‖ΔF‖²` and `‖F‖²` (scaled units) to
-/// `sums`.
+/// `sums`. `p1` is room for `p₁` (two rows). The projection couples the two components
+/// of a node, the rest does not: the horizontal and the vertical components are combined
+/// in separate passes, each few enough streams to stay in registers.
 #[inline(never)]
-fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 6], prox: [&[S]; 4], sums: &mut Sums) {
+fn combine<S: Scalar>(
+    c: &Constants<S>,
+    state: [&mut [S]; 6],
+    prox: [&[S]; 4],
+    p1: [&mut [S]; 2],
+    sums: &mut Sums,
+) {
     let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
     let [p2h, p2v, p3h, p3v] = prox;
-    let n = y1h.len();
-    let mut start = 0;
-    while start < n {
-        let len = LANES.min(n - start);
-        let r = start..start + len;
-        let state = [
-            &mut y1h[r.clone()],
-            &mut y1v[r.clone()],
-            &mut y2h[r.clone()],
-            &mut y2v[r.clone()],
-            &mut y3h[r.clone()],
-            &mut y3v[r.clone()],
-        ];
-        let prox = [&p2h[r.clone()], &p2v[r.clone()], &p3h[r.clone()], &p3v[r]];
-        if len == LANES {
-            combine_lanes::<S, LANES>(c, state, prox, sums);
-        } else {
-            combine_lanes::<S, 1>(c, state, prox, sums);
+    let [p1h, p1v] = p1;
+    p1h.copy_from_slice(y1h);
+    p1v.copy_from_slice(y1v);
+    let full = p1h.len() - p1h.len() % LANES;
+    let (lanes_h, rest_h) = p1h.split_at_mut(full);
+    let (lanes_v, rest_v) = p1v.split_at_mut(full);
+    for (h, v) in lanes_h
+        .chunks_exact_mut(LANES)
+        .zip(lanes_v.chunks_exact_mut(LANES))
+    {
+        if let (Ok(h), Ok(v)) = (
+            <&mut [S; LANES]>::try_from(h),
+            <&mut [S; LANES]>::try_from(v),
+        ) {
+            project_lanes(h, v, c);
         }
-        start += len;
     }
+    for (h, v) in rest_h.iter_mut().zip(rest_v.iter_mut()) {
+        let (mut h1, mut v1) = ([*h], [*v]);
+        project_lanes(&mut h1, &mut v1, c);
+        (*h, *v) = (h1[0], v1[0]);
+    }
+    combine_component(c, [y1h, y2h, y3h], [p1h, p2h, p3h], sums);
+    combine_component(c, [y1v, y2v, y3v], [p1v, p2v, p3v], sums);
+}
+
+/// The combination of one component (all horizontal or all vertical duals of a row).
+#[inline(always)]
+fn combine_component<S: Scalar>(c: &Constants<S>, y: [&mut [S]; 3], p: [&[S]; 3], sums: &mut Sums) {
+    let [y1, y2, y3] = y;
+    let [p1, p2, p3] = p;
+    let n = y1.len();
+    let full = n - n % LANES;
+    let (y1, y1r) = y1.split_at_mut(full);
+    let (y2, y2r) = y2.split_at_mut(full);
+    let (y3, y3r) = y3.split_at_mut(full);
+    let (p1, p1r) = p1.split_at(full);
+    let (p2, p2r) = p2.split_at(full);
+    let (p3, p3r) = p3.split_at(full);
+    combine_lanes::<S, LANES>(c, [y1, y2, y3], [p1, p2, p3], sums);
+    combine_lanes::<S, 1>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], sums);
 }
 
 /// `½a + ¼(b + c)`: the PPXA average of the three copies (weights ω).
@@ -684,70 +714,43 @@ struct Sums {
 #[inline(always)]
 fn combine_lanes<S: Scalar, const L: usize>(
     c: &Constants<S>,
-    state: [&mut [S]; 6],
-    prox: [&[S]; 4],
+    y: [&mut [S]; 3],
+    p: [&[S]; 3],
     sums: &mut Sums,
 ) {
-    let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
-    let [p2h, p2v, p3h, p3v] = prox;
-    let groups = y1h
+    let [y1, y2, y3] = y;
+    let [p1, p2, p3] = p;
+    let groups = y1
         .chunks_exact_mut(L)
-        .zip(y1v.chunks_exact_mut(L))
-        .zip(y2h.chunks_exact_mut(L).zip(y2v.chunks_exact_mut(L)))
-        .zip(y3h.chunks_exact_mut(L).zip(y3v.chunks_exact_mut(L)))
+        .zip(y2.chunks_exact_mut(L))
+        .zip(y3.chunks_exact_mut(L))
         .zip(
-            (p2h.chunks_exact(L).zip(p2v.chunks_exact(L)))
-                .zip(p3h.chunks_exact(L).zip(p3v.chunks_exact(L))),
+            p1.chunks_exact(L)
+                .zip(p2.chunks_exact(L))
+                .zip(p3.chunks_exact(L)),
         );
-    for ((((y1h, y1v), (y2h, y2v)), (y3h, y3v)), ((p2h, p2v), (p3h, p3v))) in groups {
-        let (
-            Ok(y1h),
-            Ok(y1v),
-            Ok(y2h),
-            Ok(y2v),
-            Ok(y3h),
-            Ok(y3v),
-            Ok(p2h),
-            Ok(p2v),
-            Ok(p3h),
-            Ok(p3v),
-        ) = (
-            <&mut [S; L]>::try_from(y1h),
-            <&mut [S; L]>::try_from(y1v),
-            <&mut [S; L]>::try_from(y2h),
-            <&mut [S; L]>::try_from(y2v),
-            <&mut [S; L]>::try_from(y3h),
-            <&mut [S; L]>::try_from(y3v),
-            <&[S; L]>::try_from(p2h),
-            <&[S; L]>::try_from(p2v),
-            <&[S; L]>::try_from(p3h),
-            <&[S; L]>::try_from(p3v),
-        )
-        else {
+    for (((y1, y2), y3), ((p1, p2), p3)) in groups {
+        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(p2), Ok(p3)) = (
+            <&mut [S; L]>::try_from(y1),
+            <&mut [S; L]>::try_from(y2),
+            <&mut [S; L]>::try_from(y3),
+            <&[S; L]>::try_from(p1),
+            <&[S; L]>::try_from(p2),
+            <&[S; L]>::try_from(p3),
+        ) else {
             continue; // chunks_exact yields exactly L elements
         };
-        // p₁ = P_B(y₁) first, in its own passes, so the sqrt (a call, not a vector op)
-        // runs only on nodes outside the set and the other passes vectorise.
-        let mut p1h = *y1h;
-        let mut p1v = *y1v;
-        project_lanes(&mut p1h, &mut p1v, c);
         for j in 0..L {
-            let ph = average(c, p1h[j], p2h[j], p3h[j]);
-            let pv = average(c, p1v[j], p2v[j], p3v[j]);
-            let f0h = average(c, y1h[j], y2h[j], y3h[j]);
-            let f0v = average(c, y1v[j], y2v[j], y3v[j]);
-            let (th, tv) = (c.two * ph - f0h, c.two * pv - f0v);
-            y1h[j] += c.rho * (th - p1h[j]);
-            y1v[j] += c.rho * (tv - p1v[j]);
-            y2h[j] += c.rho * (th - p2h[j]);
-            y2v[j] += c.rho * (tv - p2v[j]);
-            y3h[j] += c.rho * (th - p3h[j]);
-            y3v[j] += c.rho * (tv - p3v[j]);
-            let (dh, dv) = (c.rho * (ph - f0h), c.rho * (pv - f0v));
-            let (nh, nv) = (f0h + dh, f0v + dv);
-            let (dh, dv, nh, nv) = (dh.to_f32(), dv.to_f32(), nh.to_f32(), nv.to_f32());
-            sums.change[j % LANES] += dh * dh + dv * dv;
-            sums.norm[j % LANES] += nh * nh + nv * nv;
+            let p = average(c, p1[j], p2[j], p3[j]);
+            let f0 = average(c, y1[j], y2[j], y3[j]);
+            let t = c.two * p - f0;
+            y1[j] += c.rho * (t - p1[j]);
+            y2[j] += c.rho * (t - p2[j]);
+            y3[j] += c.rho * (t - p3[j]);
+            let d = c.rho * (p - f0);
+            let (d, f) = (d.to_f32(), (f0 + d).to_f32());
+            sums.change[j % LANES] += d * d;
+            sums.norm[j % LANES] += f * f;
         }
     }
 }
