@@ -24,11 +24,11 @@ use super::params::{TvNorm, TvParams};
 use super::weights::{colour_step, edge_weight};
 
 /// Buffers of the graph size the solver keeps in scratch.
-const BUFFERS: usize = 13;
+const BUFFERS: usize = 12;
 
 /// Rows of the region's width the fused sweep keeps in scratch: the node residuals of
-/// both colours for two rows, and one row of each proximity result.
-const ROW_BUFFERS: usize = 10;
+/// two rows, and one row of each proximity result.
+const ROW_BUFFERS: usize = 8;
 
 /// The solver iterates on `DUAL_SCALE · F` (constraint radius `DUAL_SCALE`, targets
 /// `DUAL_SCALE · τ`): every iterate scales exactly, so nothing changes in f32 (a power of
@@ -309,21 +309,28 @@ struct Graph<'s, S> {
     wv: &'s mut [S],
     /// `τ_i = a_i D_i / λ`.
     tau: &'s mut [S],
-    /// `γκ_i/ω / (1 + γκ_i/ω ‖c_i‖²)` on black (resp. white) nodes, zero elsewhere.
-    sig_black: &'s mut [S],
-    sig_white: &'s mut [S],
+    /// `σ_i = γκ_i/ω / (1 + γκ_i/ω ‖c_i‖²)`, the rank-one prox factor of node `i` in the
+    /// quadratic part of its colour.
+    sig: &'s mut [S],
     /// Range of `D` over the region: the minimiser lies inside it (truncating to it lowers
     /// both terms), so the primal of a not yet converged dual is clamped to it.
     range: (f32, f32),
     /// PPXA copies of the dual for the three functions, and their average
     /// `F = ½y₁ + ¼y₂ + ¼y₃`, formed once after the last iteration (PPXA keeps `F`
     /// equal to that average, so the iteration forms it on the fly instead of storing it).
+    ///
+    /// The copies of the two quadratic parts are stored by colour relative to the node
+    /// that owns the edges: `own` holds at node `i` the copy of the part of `i`'s colour,
+    /// `other` that of the other colour. A node's residual then reads `own` on its own
+    /// edges and `other` on its left and upper neighbours' edges (those neighbours have
+    /// the other colour), so one pass serves both colours; the PPXA combination treats
+    /// the two parts alike (both weigh ¼), so swapping them node by node changes nothing.
     y1h: &'s mut [S],
     y1v: &'s mut [S],
-    y2h: &'s mut [S],
-    y2v: &'s mut [S],
-    y3h: &'s mut [S],
-    y3v: &'s mut [S],
+    own_h: &'s mut [S],
+    own_v: &'s mut [S],
+    other_h: &'s mut [S],
+    other_v: &'s mut [S],
     fh: &'s mut [S],
     fv: &'s mut [S],
     /// [`ROW_BUFFERS`] rows of `width` for the fused sweep.
@@ -342,15 +349,14 @@ impl<'s, S: Scalar> Graph<'s, S> {
             wh: next(),
             wv: next(),
             tau: next(),
-            sig_black: next(),
-            sig_white: next(),
+            sig: next(),
             range: (0.0, 0.0),
             y1h: next(),
             y1v: next(),
-            y2h: next(),
-            y2v: next(),
-            y3h: next(),
-            y3v: next(),
+            own_h: next(),
+            own_v: next(),
+            other_h: next(),
+            other_v: next(),
             fh: next(),
             fv: next(),
             rows,
@@ -412,19 +418,17 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 let gk = gamma * lambda * lambda / a;
                 let sig = gk / (1.0 + gk * c2);
                 self.tau[i] = S::from_f32(DUAL_SCALE * a * d / lambda);
-                let black = (x + y) % 2 == 0;
-                self.sig_black[i] = S::from_f32(if black { sig } else { 0.0 });
-                self.sig_white[i] = S::from_f32(if black { 0.0 } else { sig });
+                self.sig[i] = S::from_f32(sig);
             }
         }
         self.range = (lo, hi);
         for buf in [
             &mut *self.y1h,
             &mut *self.y1v,
-            &mut *self.y2h,
-            &mut *self.y2v,
-            &mut *self.y3h,
-            &mut *self.y3v,
+            &mut *self.own_h,
+            &mut *self.own_v,
+            &mut *self.other_h,
+            &mut *self.other_v,
             &mut *self.fh,
             &mut *self.fv,
         ] {
@@ -468,11 +472,19 @@ impl<'s, S: Scalar> Graph<'s, S> {
 
     /// `F = ½y₁ + ¼y₂ + ¼y₃` (the expression the iteration uses).
     fn form_average(&mut self, c: &Constants<S>) {
-        let ys = self.y1h.iter().zip(self.y2h.iter()).zip(self.y3h.iter());
+        let ys = self
+            .y1h
+            .iter()
+            .zip(self.own_h.iter())
+            .zip(self.other_h.iter());
         for (f, ((&y1, &y2), &y3)) in self.fh.iter_mut().zip(ys) {
             *f = average(c, y1, y2, y3);
         }
-        let ys = self.y1v.iter().zip(self.y2v.iter()).zip(self.y3v.iter());
+        let ys = self
+            .y1v
+            .iter()
+            .zip(self.own_v.iter())
+            .zip(self.other_v.iter());
         for (f, ((&y1, &y2), &y3)) in self.fv.iter_mut().zip(ys) {
             *f = average(c, y1, y2, y3);
         }
@@ -492,59 +504,51 @@ impl<'s, S: Scalar> Graph<'s, S> {
         };
         let mut row_bufs = self.rows.chunks_exact_mut(w.max(1));
         let mut next = || row_bufs.next().unwrap_or_default();
-        let (mut s2, mut s2_below, mut s3, mut s3_below) = (next(), next(), next(), next());
-        let (p2h, p2v, p3h, p3v) = (next(), next(), next(), next());
+        let (mut s, mut s_below) = (next(), next());
+        let (p_own_h, p_own_v, p_other_h, p_other_v) = (next(), next(), next(), next());
         let (p1h, p1v) = (next(), next());
-        let (wh, wv, tau) = (&*self.wh, &*self.wv, &*self.tau);
-        let (sig2, sig3) = (&*self.sig_black, &*self.sig_white);
-        residual_row(0, w, wh, wv, tau, sig2, self.y2h, self.y2v, s2);
-        residual_row(0, w, wh, wv, tau, sig3, self.y3h, self.y3v, s3);
+        let (wh, wv, tau, sig) = (&*self.wh, &*self.wv, &*self.tau, &*self.sig);
+        let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
+        residual_row(0, w, wh, wv, tau, sig, copies, s);
         for y in 0..rows {
             let below = y + 1 < rows;
             if below {
-                residual_row(y + 1, w, wh, wv, tau, sig2, self.y2h, self.y2v, s2_below);
-                residual_row(y + 1, w, wh, wv, tau, sig3, self.y3h, self.y3v, s3_below);
+                let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
+                residual_row(y + 1, w, wh, wv, tau, sig, copies, s_below);
             }
             let r = y * w..(y + 1) * w;
-            let (whr, wvr) = (&wh[r.clone()], &wv[r.clone()]);
-            let s2b = if below { Some(&*s2_below) } else { None };
-            let s3b = if below { Some(&*s3_below) } else { None };
             prox_row(
-                whr,
-                wvr,
-                &self.y2h[r.clone()],
-                &self.y2v[r.clone()],
-                s2,
-                s2b,
-                p2h,
-                p2v,
-            );
-            prox_row(
-                whr,
-                wvr,
-                &self.y3h[r.clone()],
-                &self.y3v[r.clone()],
-                s3,
-                s3b,
-                p3h,
-                p3v,
+                [&wh[r.clone()], &wv[r.clone()]],
+                [
+                    &self.own_h[r.clone()],
+                    &self.own_v[r.clone()],
+                    &self.other_h[r.clone()],
+                    &self.other_v[r.clone()],
+                ],
+                s,
+                if below { Some(&*s_below) } else { None },
+                [
+                    &mut *p_own_h,
+                    &mut *p_own_v,
+                    &mut *p_other_h,
+                    &mut *p_other_v,
+                ],
             );
             combine(
                 c,
                 [
                     &mut self.y1h[r.clone()],
                     &mut self.y1v[r.clone()],
-                    &mut self.y2h[r.clone()],
-                    &mut self.y2v[r.clone()],
-                    &mut self.y3h[r.clone()],
-                    &mut self.y3v[r.clone()],
+                    &mut self.own_h[r.clone()],
+                    &mut self.own_v[r.clone()],
+                    &mut self.other_h[r.clone()],
+                    &mut self.other_v[r.clone()],
                 ],
-                [&*p2h, &*p2v, &*p3h, &*p3v],
+                [&*p_own_h, &*p_own_v, &*p_other_h, &*p_other_v],
                 [&mut *p1h, &mut *p1v],
                 &mut sums,
             );
-            core::mem::swap(&mut s2, &mut s2_below);
-            core::mem::swap(&mut s3, &mut s3_below);
+            core::mem::swap(&mut s, &mut s_below);
         }
         (sums.change.iter().sum(), sums.norm.iter().sum())
     }
@@ -815,7 +819,9 @@ fn divergence_row<S: Scalar>(
     }
 }
 
-/// Row `y` of one colour's node residual `s = σ ⊙ (Wᵀy − τ)` into `out`.
+/// Row `y` of the node residuals `s = σ ⊙ (Wᵀy − τ)`, each node in the quadratic part
+/// of its own colour: its own edges from `own`, its left and upper neighbours' edges from
+/// `other` (see [`Graph`]). `copies` = `[own_h, own_v, other_h, other_v]`.
 #[allow(clippy::too_many_arguments)]
 fn residual_row<S: Scalar>(
     y: usize,
@@ -824,53 +830,74 @@ fn residual_row<S: Scalar>(
     wv: &[S],
     tau: &[S],
     sig: &[S],
-    yh: &[S],
-    yv: &[S],
+    copies: [&[S]; 4],
     out: &mut [S],
 ) {
-    divergence_row(y, width, wh, wv, yh, yv, out);
+    let [own_h, own_v, other_h, other_v] = copies;
     let r = y * width..(y + 1) * width;
+    let (whr, wvr) = (&wh[r.clone()], &wv[r.clone()]);
+    let (oh, ov) = (&own_h[r.clone()], &own_v[r.clone()]);
+    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(oh.iter().zip(ov)) {
+        *o = -(a * c + b * d);
+    }
+    for ((o, &a), &c) in out.iter_mut().skip(1).zip(whr).zip(&other_h[r.clone()]) {
+        *o += a * c;
+    }
+    if y > 0 {
+        let p = (y - 1) * width..y * width;
+        for ((o, &b), &d) in out.iter_mut().zip(&wv[p.clone()]).zip(&other_v[p]) {
+            *o += b * d;
+        }
+    }
     for ((s, &t), &g) in out.iter_mut().zip(&tau[r.clone()]).zip(&sig[r]) {
         *s = g * (*s - t);
     }
 }
 
-/// One row of the proximity operator of a colour's quadratic, `p = y − W∇s`, from the
-/// row's residuals `s` and those of the row below (`None` on the last row, which has no
-/// vertical edges). All slices are one row.
-#[allow(clippy::too_many_arguments)]
+/// One row of the proximity operators of both quadratic parts, `p = y − W∇s` with `s`
+/// zero off the part's colour: on an edge of node `i`, the part of `i`'s colour sees
+/// `s(i)` only and the other part the residual of the edge's far end only, so
+/// `p_own = own + w s(i)` and `p_other = other − w s(far end)`. `s` is this row's
+/// residuals, `below` the next row's (`None` on the last row, which has no vertical
+/// edges); the last column has no horizontal edge. All slices are one row, in the
+/// order `[own_h, own_v, other_h, other_v]`.
 fn prox_row<S: Scalar>(
-    whr: &[S],
-    wvr: &[S],
-    yhr: &[S],
-    yvr: &[S],
+    weights: [&[S]; 2],
+    copies: [&[S]; 4],
     s: &[S],
     below: Option<&[S]>,
-    phr: &mut [S],
-    pvr: &mut [S],
+    out: [&mut [S]; 4],
 ) {
-    // Horizontal: p_h(i) = y_h(i) − w_h(i) (s(i+1) − s(i)); the last column has no edge.
-    for (((p, &yy), &w), (&s0, &s1)) in phr
+    let [whr, wvr] = weights;
+    let [own_h, own_v, other_h, other_v] = copies;
+    let [p_own_h, p_own_v, p_other_h, p_other_v] = out;
+    for (((p, &y), &w), &s0) in p_own_h.iter_mut().zip(own_h).zip(whr).zip(s) {
+        *p = y + w * s0;
+    }
+    for (((p, &y), &w), &s1) in p_other_h
         .iter_mut()
-        .zip(yhr)
+        .zip(other_h)
         .zip(whr)
-        .zip(s.iter().zip(s.iter().skip(1)))
+        .zip(s.iter().skip(1))
     {
-        *p = yy - w * (s1 - s0);
+        *p = y - w * s1;
     }
-    if let (Some(p), Some(&yy)) = (phr.last_mut(), yhr.last()) {
-        *p = yy;
+    if let (Some(p), Some(&y)) = (p_other_h.last_mut(), other_h.last()) {
+        *p = y;
     }
-    // Vertical: p_v(i) = y_v(i) − w_v(i) (s(i+W) − s(i)).
     match below {
         Some(below) => {
-            for (((p, &yy), &w), (&s0, &s1)) in
-                pvr.iter_mut().zip(yvr).zip(wvr).zip(s.iter().zip(below))
-            {
-                *p = yy - w * (s1 - s0);
+            for (((p, &y), &w), &s0) in p_own_v.iter_mut().zip(own_v).zip(wvr).zip(s) {
+                *p = y + w * s0;
+            }
+            for (((p, &y), &w), &s1) in p_other_v.iter_mut().zip(other_v).zip(wvr).zip(below) {
+                *p = y - w * s1;
             }
         }
-        None => pvr.copy_from_slice(yvr),
+        None => {
+            p_own_v.copy_from_slice(own_v);
+            p_other_v.copy_from_slice(other_v);
+        }
     }
 }
 
@@ -879,42 +906,6 @@ fn prox_row<S: Scalar>(
 fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
     for (y, row) in out.chunks_exact_mut(width).enumerate() {
         divergence_row(y, width, wh, wv, fh, fv, row);
-    }
-}
-
-/// Proximity operator of one colour's quadratic over the whole graph, from the row
-/// kernels the sweep uses: `p = y − W∇s`, `s = σ ⊙ (Wᵀy − τ)`.
-#[cfg(test)]
-#[allow(clippy::too_many_arguments)]
-fn prox_quadratic<S: Scalar>(
-    width: usize,
-    wh: &[S],
-    wv: &[S],
-    tau: &[S],
-    sig: &[S],
-    yh: &[S],
-    yv: &[S],
-    s: &mut [S],
-    ph: &mut [S],
-    pv: &mut [S],
-) {
-    for (y, row) in s.chunks_exact_mut(width).enumerate() {
-        residual_row(y, width, wh, wv, tau, sig, yh, yv, row);
-    }
-    let rows = s.len() / width;
-    for y in 0..rows {
-        let r = y * width..(y + 1) * width;
-        let below = (y + 1 < rows).then(|| &s[(y + 1) * width..(y + 2) * width]);
-        prox_row(
-            &wh[r.clone()],
-            &wv[r.clone()],
-            &yh[r.clone()],
-            &yv[r.clone()],
-            &s[r.clone()],
-            below,
-            &mut ph[r.clone()],
-            &mut pv[r],
-        );
     }
 }
 
@@ -934,9 +925,70 @@ mod tests {
         (*seed >> 40) as f32 / (1u64 << 24) as f32
     }
 
+    /// Both quadratic parts' proximity operators over the whole graph through the row
+    /// kernels of the sweep: copies `y2` (black part) and `y3` (white part) in, `(p2, p3)`
+    /// out, each as `(h, v)`; the kernels' own/other layout is formed and undone here.
+    #[allow(clippy::type_complexity)]
+    fn prox_parts(
+        w: usize,
+        wh: &[f32],
+        wv: &[f32],
+        tau: &[f32],
+        sig: &[f32],
+        y2: (&[f32], &[f32]),
+        y3: (&[f32], &[f32]),
+    ) -> ((Vec<f32>, Vec<f32>), (Vec<f32>, Vec<f32>)) {
+        let n = wh.len();
+        let black = |i: usize| (i % w + i / w) % 2 == 0;
+        let pick = |i: usize, own: bool, a: &[f32], b: &[f32]| {
+            if black(i) == own {
+                a[i]
+            } else {
+                b[i]
+            }
+        };
+        let own_h: Vec<f32> = (0..n).map(|i| pick(i, true, y2.0, y3.0)).collect();
+        let own_v: Vec<f32> = (0..n).map(|i| pick(i, true, y2.1, y3.1)).collect();
+        let other_h: Vec<f32> = (0..n).map(|i| pick(i, false, y2.0, y3.0)).collect();
+        let other_v: Vec<f32> = (0..n).map(|i| pick(i, false, y2.1, y3.1)).collect();
+        let copies = [&own_h[..], &own_v[..], &other_h[..], &other_v[..]];
+        let mut s = vec![0.0f32; n];
+        for (y, row) in s.chunks_exact_mut(w).enumerate() {
+            residual_row(y, w, wh, wv, tau, sig, copies, row);
+        }
+        let mut out = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let rows = n / w;
+        for y in 0..rows {
+            let r = y * w..(y + 1) * w;
+            let below = (y + 1 < rows).then(|| &s[(y + 1) * w..(y + 2) * w]);
+            let [a, b, c, d] = &mut out;
+            prox_row(
+                [&wh[r.clone()], &wv[r.clone()]],
+                copies.map(|c| &c[r.clone()]),
+                &s[r.clone()],
+                below,
+                [
+                    &mut a[r.clone()],
+                    &mut b[r.clone()],
+                    &mut c[r.clone()],
+                    &mut d[r.clone()],
+                ],
+            );
+        }
+        let [poh, pov, pxh, pxv] = &out;
+        let part = |own: bool, o: &[f32], x: &[f32]| -> Vec<f32> {
+            (0..n).map(|i| pick(i, own, o, x)).collect()
+        };
+        (
+            (part(true, poh, pxh), part(true, pov, pxv)),
+            (part(false, poh, pxh), part(false, pov, pxv)),
+        )
+    }
+
     #[test]
     fn quadratic_prox_solves_its_optimality_condition() {
-        // prox_{γg}(y) = p  ⇔  p − y + γ ∇g(p) = 0 with g = Σ_{black} κ/2 ((Wᵀp)_i − τ_i)².
+        // prox_{γg}(y) = p  ⇔  p − y + γ ∇g(p) = 0 with g = Σ_{colour} κ/2 ((Wᵀp)_i − τ_i)²,
+        // for the black part (copy y2) and the white part (copy y3) at once.
         let (w, h) = (5usize, 4usize);
         let n = w * h;
         let mut seed = 7;
@@ -963,42 +1015,50 @@ mod tests {
                 if y > 0 {
                     c2 += wv[i - w] * wv[i - w];
                 }
-                if (x + y) % 2 == 0 {
-                    sig[i] = gamma * kappa[i] / (1.0 + gamma * kappa[i] * c2);
-                }
+                sig[i] = gamma * kappa[i] / (1.0 + gamma * kappa[i] * c2);
             }
         }
-        let yh: Vec<f32> = (0..n).map(|_| r(2.0)).collect();
-        let yv: Vec<f32> = (0..n).map(|_| r(2.0)).collect();
-        let (mut s, mut ph, mut pv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        prox_quadratic(w, &wh, &wv, &tau, &sig, &yh, &yv, &mut s, &mut ph, &mut pv);
-        // ∇g(p) = W∇(mask κ (Wᵀp − τ)) in the sign convention of `divergence`.
-        let mut u = vec![0.0; n];
-        divergence(w, &wh, &wv, &ph, &pv, &mut u);
-        let r_node: Vec<f32> = (0..n)
-            .map(|i| {
+        let copies: Vec<Vec<f32>> = (0..4).map(|_| (0..n).map(|_| r(2.0)).collect()).collect();
+        let (y2, y3) = (
+            (&copies[0][..], &copies[1][..]),
+            (&copies[2][..], &copies[3][..]),
+        );
+        let (p2, p3) = prox_parts(w, &wh, &wv, &tau, &sig, y2, y3);
+        for (colour, (yh, yv), (ph, pv)) in [(0, y2, p2), (1, y3, p3)] {
+            // ∇g(p) = W∇(mask κ (Wᵀp − τ)) in the sign convention of `divergence`.
+            let mut u = vec![0.0; n];
+            divergence(w, &wh, &wv, &ph, &pv, &mut u);
+            let r_node: Vec<f32> = (0..n)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    if (x + y) % 2 == colour {
+                        kappa[i] * (u[i] - tau[i])
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            for i in 0..n {
                 let (x, y) = (i % w, i / w);
-                if (x + y) % 2 == 0 {
-                    kappa[i] * (u[i] - tau[i])
+                let gh = if x + 1 < w {
+                    wh[i] * (r_node[i + 1] - r_node[i])
                 } else {
                     0.0
-                }
-            })
-            .collect();
-        for i in 0..n {
-            let (x, y) = (i % w, i / w);
-            let gh = if x + 1 < w {
-                wh[i] * (r_node[i + 1] - r_node[i])
-            } else {
-                0.0
-            };
-            let gv = if y + 1 < h {
-                wv[i] * (r_node[i + w] - r_node[i])
-            } else {
-                0.0
-            };
-            assert!((ph[i] - yh[i] + gamma * gh).abs() < 1e-4, "h {i}");
-            assert!((pv[i] - yv[i] + gamma * gv).abs() < 1e-4, "v {i}");
+                };
+                let gv = if y + 1 < h {
+                    wv[i] * (r_node[i + w] - r_node[i])
+                } else {
+                    0.0
+                };
+                assert!(
+                    (ph[i] - yh[i] + gamma * gh).abs() < 1e-4,
+                    "colour {colour} h {i}"
+                );
+                assert!(
+                    (pv[i] - yv[i] + gamma * gv).abs() < 1e-4,
+                    "colour {colour} v {i}"
+                );
+            }
         }
     }
 
