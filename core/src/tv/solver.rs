@@ -13,8 +13,15 @@
 //! PPXA (Combettes & Pesquet, Algorithm 10.27 of "Proximal splitting methods in signal
 //! processing", weights ω = (1/2, 1/4, 1/4)): `p_k = prox_{γf_k/ω}(y_k)`, `p = Σ ω p_k`,
 //! `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`. The primal follows from the dual as
-//! `x = D − λ A⁻¹ WᵀF` (Eq. 16). Every loop walks rows of structure-of-arrays buffers,
-//! so the `f32` instantiation vectorises.
+//! `x = D − λ A⁻¹ WᵀF` (Eq. 16). `F` is not stored: PPXA keeps it equal to `Σ ω y_k`,
+//! which the iteration forms where it needs it.
+//!
+//! One iteration is one pass over the rows (`Graph::sweep`): the residuals of row
+//! `y + 1`, then the proximity results and the combination of row `y`. The copies of the
+//! two quadratic parts are stored by colour relative to each edge's owning node (see
+//! `Graph`), so one residual pass serves both parts. Every loop walks rows of
+//! structure-of-arrays buffers in short fixed-size groups, so the `f32` instantiation
+//! vectorises without spilling.
 
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Sample, View};
