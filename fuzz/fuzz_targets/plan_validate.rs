@@ -55,7 +55,7 @@ struct Probe {
 }
 
 /// Buffers above this many samples are not allocated (the plan is still validated).
-const MAX_SAMPLES: usize = 1 << 22;
+const MAX_SAMPLES: usize = 1 << 18;
 
 fuzz_target!(|input: Input| {
     let grid = Grid::new(input.rows.get(), input.cols.get());
