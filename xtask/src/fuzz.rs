@@ -10,6 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::exec::{available, Cmd};
+use crate::install;
 use crate::manifest::target_names;
 use crate::report::{self, Outcome, StepResult};
 
@@ -32,9 +33,7 @@ pub fn run(root: &Path, seconds: u64) -> bool {
         }
     };
     if !available("cargo-fuzz") {
-        let install = Cmd::cargo(&["install", "cargo-fuzz", "--locked"]);
-        println!("install: {install}");
-        if let Err(why) = install.output(root) {
+        if let Err(why) = install::cargo_install("cargo-fuzz", &[], root) {
             eprintln!("error: {why}");
             return false;
         }

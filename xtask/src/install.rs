@@ -8,6 +8,9 @@
 //! | rustfmt, clippy                        | always                     | `rustup component add`                     |
 //! | wasm-pack                              | wasm-pack step runs        | `cargo install wasm-pack --locked`         |
 //! | wasm-bindgen (version of Cargo.lock)   | wasm-pack step runs        | `cargo install wasm-bindgen-cli --version =V --locked` |
+//!
+//! A `cargo install --locked` whose lock file names a dependency version the registry no
+//! longer serves (yanked) is retried once without `--locked`.
 //! | wasm-opt                               | wasm-pack step, root only  | `apt-get install -y binaryen`; otherwise wasm-opt is turned off |
 //! | chromium                               | browser tests, root only   | `apt-get install -y chromium`; otherwise the browser tests are skipped |
 //!
@@ -79,12 +82,29 @@ pub fn rust_toolchain(root: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// `cargo install` of `package` (`args` may pin `--version`): with `--locked` first; if the
+/// registry no longer has a locked dependency (yanked), once more without it.
+pub fn cargo_install(package: &str, args: &[&str], root: &Path) -> Result<(), String> {
+    let locked = Cmd::cargo(&["install", package, "--locked"]).args(args);
+    match quietly(locked, root) {
+        Ok(()) => Ok(()),
+        Err(why) => {
+            let reason = why
+                .lines()
+                .find(|line| line.starts_with("error"))
+                .unwrap_or("see above");
+            println!("install: --locked failed ({reason}); retrying without --locked");
+            quietly(Cmd::cargo(&["install", package]).args(args), root)
+        }
+    }
+}
+
 /// `wasm-pack`, installed from crates.io when missing.
 pub fn wasm_pack(root: &Path) -> Result<(), String> {
     if available("wasm-pack") {
         return Ok(());
     }
-    quietly(Cmd::cargo(&["install", "wasm-pack", "--locked"]), root)
+    cargo_install("wasm-pack", &[], root)
 }
 
 /// The version of `package` recorded in a Cargo.lock text.
@@ -113,9 +133,9 @@ pub fn wasm_bindgen(root: &Path) -> Result<(), String> {
     if installed.split_whitespace().nth(1) == Some(version.as_str()) {
         return Ok(());
     }
-    quietly(
-        Cmd::cargo(&["install", "wasm-bindgen-cli", "--locked", "--version"])
-            .arg(format!("={version}")),
+    cargo_install(
+        "wasm-bindgen-cli",
+        &["--version", &format!("={version}")],
         root,
     )
 }
