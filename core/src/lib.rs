@@ -20,6 +20,7 @@ pub mod error;
 pub mod geometry;
 pub mod lightfield;
 pub mod metrics;
+pub mod pipeline;
 pub mod plan;
 pub mod scalar;
 pub mod synth;

@@ -1,9 +1,16 @@
 //! The native engine: runs the core pipeline over a loaded light field, bands and tiles
 //! in parallel with rayon, and reports progress and per-stage timings.
+//!
+//! Every pixel is computed by the same core code whatever the banding and the number of
+//! threads, so the result is bit-identical for any `threads`.
 
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
-use lfdepth::{LightField, Params, Sample};
+use lfdepth::epi::{self, Direction};
+use lfdepth::{LightField, Params, Plan, Sample};
+use rayon::prelude::*;
 
 /// How far the pipeline runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,6 +49,10 @@ pub struct Estimate {
     pub residuals: Vec<f32>,
 }
 
+/// Lines per parallel band: small enough to balance two threads on small frames, large
+/// enough that per-band overhead (scratch, progress) is negligible.
+pub const BAND_LINES: usize = 16;
+
 /// Estimates the disparity of the centre view. `progress(stage, done, total)` is called
 /// as work completes.
 pub fn estimate<S: Sample + Sync>(
@@ -49,10 +60,156 @@ pub fn estimate<S: Sample + Sync>(
     options: &EstimateOptions,
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, lfdepth::Error> {
-    // Replaced by the EPI stage as it lands; until then no estimator exists.
-    let _ = (lf, options, progress);
-    Err(lfdepth::Error::InvalidParameter {
-        name: "stage",
-        reason: "has no estimator built in yet",
+    let plan = Plan::new(*lf.layout(), options.params)?;
+    let pool = match options.threads {
+        None => None,
+        Some(threads) => Some(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.max(1))
+                .build()
+                .map_err(|_| lfdepth::Error::InvalidParameter {
+                    name: "threads",
+                    reason: "could not start that many threads: use fewer",
+                })?,
+        ),
+    };
+    // The work runs on its own thread; this one forwards progress, so the callback
+    // needs neither `Send` nor `Sync`.
+    let done = AtomicU64::new(0);
+    let total = AtomicU64::new(1);
+    let stage = Mutex::new(epi::STAGE_RANGE);
+    let finished = AtomicBool::new(false);
+    let tracker = Tracker {
+        done: &done,
+        total: &total,
+        stage: &stage,
+    };
+    std::thread::scope(|scope| {
+        let worker = scope.spawn(|| {
+            let result = match &pool {
+                Some(pool) => pool.install(|| estimate_epi(&plan, lf, &tracker)),
+                None => estimate_epi(&plan, lf, &tracker),
+            };
+            finished.store(true, Ordering::Release);
+            result
+        });
+        let mut last = (u64::MAX, "");
+        loop {
+            let end = finished.load(Ordering::Acquire);
+            let now = done.load(Ordering::Relaxed);
+            let name = stage.lock().map(|s| *s).unwrap_or(epi::STAGE_RANGE);
+            if (now, name) != last {
+                progress(name, now, total.load(Ordering::Relaxed));
+                last = (now, name);
+            }
+            if end {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(15));
+        }
+        worker
+            .join()
+            .unwrap_or(Err(lfdepth::Error::InvalidParameter {
+                name: "threads",
+                reason: "a worker thread failed: run with fewer threads",
+            }))
+    })
+}
+
+/// Progress shared between the workers and the reporting thread.
+struct Tracker<'a> {
+    done: &'a AtomicU64,
+    total: &'a AtomicU64,
+    stage: &'a Mutex<&'static str>,
+}
+
+impl Tracker<'_> {
+    fn start(&self, stage: &'static str, total: u64) {
+        if let Ok(mut s) = self.stage.lock() {
+            *s = stage;
+        }
+        self.done.store(0, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+    }
+    fn add(&self, units: u64) {
+        self.done.fetch_add(units, Ordering::Relaxed);
+    }
+}
+
+/// The EPI stage in parallel bands (f32 kernels). `StageSelect::Full` is the EPI stage
+/// until the TV refinement is wired in.
+fn estimate_epi<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    tracker: &Tracker<'_>,
+) -> Result<Estimate, lfdepth::Error> {
+    let (width, height) = (plan.layout().width, plan.layout().height);
+    let mut timings = Vec::new();
+
+    let start = Instant::now();
+    tracker.start(epi::STAGE_RANGE, 1);
+    let mut scratch = vec![0.0f32; epi::scratch_len(plan)];
+    let hyps = epi::hypotheses(plan, lf, &mut scratch)?;
+    drop(scratch);
+    tracker.add(1);
+    timings.push(("epi range", start.elapsed()));
+
+    let start = Instant::now();
+    tracker.start("epi", (width + height) as u64);
+    let bands = |direction: Direction| -> Result<(Vec<f32>, Vec<f32>), lfdepth::Error> {
+        let n = direction.line_len(plan);
+        let lines = direction.lines(plan);
+        let mut d = vec![0.0f32; lines * n];
+        let mut c = vec![0.0f32; lines * n];
+        d.par_chunks_mut(BAND_LINES * n)
+            .zip(c.par_chunks_mut(BAND_LINES * n))
+            .enumerate()
+            .try_for_each_init(
+                || vec![0.0f32; epi::band_scratch_len(plan, direction)],
+                |scratch, (band, (d, c))| {
+                    let first = band * BAND_LINES;
+                    let count = d.len() / n;
+                    epi::estimate_band(
+                        plan,
+                        &hyps,
+                        lf,
+                        direction,
+                        first..first + count,
+                        d,
+                        c,
+                        scratch,
+                    )?;
+                    tracker.add(count as u64);
+                    Ok(())
+                },
+            )?;
+        Ok((d, c))
+    };
+    let (dh, ch) = bands(Direction::Horizontal)?;
+    let (dv, cv) = bands(Direction::Vertical)?;
+    let fusion = plan.params().epi.fusion;
+    let mut disparity = vec![0.0f32; width * height];
+    let mut confidence = vec![0.0f32; width * height];
+    disparity
+        .par_chunks_mut(width)
+        .zip(confidence.par_chunks_mut(width))
+        .enumerate()
+        .for_each(|(y, (d_row, c_row))| {
+            for x in 0..width {
+                let i = y * width + x;
+                let t = x * height + y;
+                let (d, c) = epi::fuse(fusion, dh[i], ch[i], dv[t], cv[t]);
+                d_row[x] = d;
+                c_row[x] = c;
+            }
+        });
+    timings.push(("epi", start.elapsed()));
+    Ok(Estimate {
+        width,
+        height,
+        disparity,
+        confidence,
+        timings,
+        residuals: Vec::new(),
     })
 }

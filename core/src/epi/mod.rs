@@ -1,14 +1,531 @@
-//! Initial disparity from epipolar-plane images (structure tensor).
+//! Initial disparity from epipolar-plane images (structure tensor, Wanner & Goldluecke),
+//! over shear hypotheses so that any disparity in −8…8 px is measured at a small slope.
+//!
+//! The stage works line by line: a horizontal EPI line is one image row of the centre
+//! view (views of the centre camera row), a vertical EPI line is one image column (views
+//! of the centre camera column). Lines are independent, so a band is any run of lines and
+//! the result never depends on how lines are grouped or threaded. Scratch covers one line.
+//! The two directions are fused per pixel with [`fuse`].
 
-use crate::error::Result;
+mod hypotheses;
+mod kernels;
+mod line;
+mod range;
+
+pub use hypotheses::{Hypotheses, MAX_DISPARITY, MAX_HYPOTHESES};
+pub use range::{estimate_range, RANGE_LINE_STEP};
+
+use core::ops::{ControlFlow, Range};
+
+use crate::error::{Error, Result};
+use crate::lightfield::{LightField, Sample};
+use crate::pipeline::Progress;
+use crate::plan::Plan;
+use crate::scalar::Scalar;
+use line::LineEstimator;
+
+/// Intensities enter the kernels as `sample · INTENSITY_SCALE`: it keeps the tensor of
+/// faint textures well above the Q16.16 resolution without overflowing it.
+pub const INTENSITY_SCALE: f32 = 16.0;
+
+/// Where the disparity range comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DisparityRange {
+    /// Estimated from the light field by [`estimate_range`].
+    Auto,
+    /// Given by the user (px between adjacent views).
+    Fixed {
+        /// Smallest disparity.
+        min: f32,
+        /// Largest disparity.
+        max: f32,
+    },
+}
+
+/// How the horizontal and vertical estimates of a pixel are combined.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fusion {
+    /// Keep the estimate with the higher confidence (the paper's rule).
+    Coherence,
+    /// Confidence-weighted mean when both agree within 0.1 px, else the more confident.
+    Weighted,
+}
+
+/// How colour channels enter the tensor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColorMode {
+    /// One tensor summed over the R, G, B channels.
+    Tensor,
+    /// Mean of the channels first (a third of the work).
+    Gray,
+}
+
+/// The two EPI directions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// Image rows, views of the centre camera row.
+    Horizontal,
+    /// Image columns, views of the centre camera column.
+    Vertical,
+}
 
 /// Parameters of the EPI stage.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct EpiParams {}
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EpiParams {
+    /// Gaussian pre-smoothing along the line (px), 0…4.
+    pub inner_sigma: f32,
+    /// Gaussian smoothing of the tensor along the line and across views, 0…5.
+    pub outer_sigma: f32,
+    /// The disparity range (outputs never leave it).
+    pub range: DisparityRange,
+    /// Shear the EPIs over the range (off: the paper's single unsheared EPI).
+    pub shear: bool,
+    /// Distance between shear hypotheses (px), 0.1…2.
+    pub shear_step: f32,
+    /// Largest residual slope a hypothesis accepts, in units of `shear_step`, 0.5…2.
+    pub window: f32,
+    /// Between adjacent shears, take the zero crossing of the residual slope (off: the
+    /// single most coherent hypothesis, as in the reference).
+    pub interpolate: bool,
+    /// Fusion of the two directions.
+    pub fusion: Fusion,
+    /// Colour handling.
+    pub color: ColorMode,
+}
+
+impl Default for EpiParams {
+    fn default() -> Self {
+        EpiParams {
+            inner_sigma: 0.8,
+            outer_sigma: 1.5,
+            range: DisparityRange::Auto,
+            shear: true,
+            shear_step: 1.0,
+            window: 1.0,
+            interpolate: true,
+            fusion: Fusion::Coherence,
+            color: ColorMode::Tensor,
+        }
+    }
+}
 
 impl EpiParams {
+    /// The paper's variant: one unsheared EPI per direction, coherence fusion.
+    pub fn paper() -> Self {
+        EpiParams {
+            shear: false,
+            range: DisparityRange::Fixed {
+                min: -MAX_DISPARITY,
+                max: MAX_DISPARITY,
+            },
+            ..Self::default()
+        }
+    }
+
     /// Checks every parameter.
     pub fn validate(&self) -> Result<()> {
+        let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
+        if !within(self.inner_sigma, 0.0, 4.0) {
+            return Err(Error::InvalidParameter {
+                name: "inner_sigma",
+                reason: "must be between 0 and 4 px",
+            });
+        }
+        if !within(self.outer_sigma, 0.0, 5.0) {
+            return Err(Error::InvalidParameter {
+                name: "outer_sigma",
+                reason: "must be between 0 and 5 px",
+            });
+        }
+        if !within(self.shear_step, 0.1, 2.0) {
+            return Err(Error::InvalidParameter {
+                name: "shear_step",
+                reason: "must be between 0.1 and 2 px",
+            });
+        }
+        if !within(self.window, 0.5, 2.0) {
+            return Err(Error::InvalidParameter {
+                name: "window",
+                reason: "must be between 0.5 and 2 shear steps",
+            });
+        }
+        if let DisparityRange::Fixed { min, max } = self.range {
+            Hypotheses::new(self, min, max)?;
+        }
         Ok(())
     }
 }
+
+impl Direction {
+    /// Number of lines (image rows or columns).
+    pub fn lines(&self, plan: &Plan) -> usize {
+        match self {
+            Direction::Horizontal => plan.layout().height,
+            Direction::Vertical => plan.layout().width,
+        }
+    }
+    /// Samples per line.
+    pub fn line_len(&self, plan: &Plan) -> usize {
+        match self {
+            Direction::Horizontal => plan.layout().width,
+            Direction::Vertical => plan.layout().height,
+        }
+    }
+    /// Views along the EPI and the centre one.
+    fn views(&self, plan: &Plan) -> (usize, usize) {
+        let g = plan.layout().grid;
+        let (r0, c0) = g.center();
+        match self {
+            Direction::Horizontal => (g.cols, c0),
+            Direction::Vertical => (g.rows, r0),
+        }
+    }
+}
+
+fn used_channels(plan: &Plan) -> usize {
+    match plan.params().epi.color {
+        ColorMode::Gray => 1,
+        ColorMode::Tensor => plan.layout().channels.min(3),
+    }
+}
+
+/// Scratch (elements of `T`) one band of `direction` needs; independent of the band size.
+pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
+    let (views, _) = direction.views(plan);
+    let n = direction.line_len(plan);
+    LineEstimator::<f32>::work_len(views, used_channels(plan), n) + 2 * n
+}
+
+/// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`].
+pub fn scratch_len(plan: &Plan) -> usize {
+    band_scratch_len(plan, Direction::Horizontal).max(band_scratch_len(plan, Direction::Vertical))
+}
+
+fn check_layout<S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Result<()> {
+    if lf.layout() != plan.layout() {
+        return Err(Error::InvalidParameter {
+            name: "plan",
+            reason: "was made for a different light-field layout: build it from this light field",
+        });
+    }
+    Ok(())
+}
+
+/// Disparity and confidence of the lines `lines` of `direction`, written line after line
+/// (`(line − lines.start) · line_len + t`): for [`Direction::Vertical`] that is the
+/// transpose of the image layout. `scratch` needs [`band_scratch_len`] elements.
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_band<T: Scalar, S: Sample>(
+    plan: &Plan,
+    hypotheses: &Hypotheses,
+    lf: &LightField<'_, S>,
+    direction: Direction,
+    lines: Range<usize>,
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+) -> Result<()> {
+    check_layout(plan, lf)?;
+    let total = direction.lines(plan);
+    if lines.start > lines.end || lines.end > total {
+        return Err(Error::OutOfRange {
+            what: "band end line",
+            index: lines.end,
+            len: total,
+        });
+    }
+    let n = direction.line_len(plan);
+    let needed = lines.len() * n;
+    if disparity.len() != needed || confidence.len() != needed {
+        return Err(Error::OutputSize {
+            what: "the band disparity/confidence",
+            needed,
+            got: disparity.len().min(confidence.len()),
+        });
+    }
+    let band = BandEstimator::new(plan, *hypotheses, lf, direction);
+    let (d_line, c_line, work) = band.split_scratch(scratch)?;
+    for (i, line) in lines.enumerate() {
+        band.line(line, work, d_line, c_line)?;
+        let out = i * n..(i + 1) * n;
+        write_line(
+            hypotheses,
+            d_line,
+            c_line,
+            &mut disparity[out.clone()],
+            &mut confidence[out],
+        );
+    }
+    Ok(())
+}
+
+/// Converts one line to `f32`, clamped to the output range (fixed-point rounding of the
+/// range ends must not step outside it).
+fn write_line<T: Scalar>(h: &Hypotheses, d: &[T], c: &[T], out_d: &mut [f32], out_c: &mut [f32]) {
+    let (lo, hi) = (h.min(), h.max());
+    for ((o, &v), (oc, &w)) in out_d.iter_mut().zip(d).zip(out_c.iter_mut().zip(c)) {
+        *o = v.to_f32().clamp(lo, hi);
+        *oc = w.to_f32().clamp(0.0, 1.0);
+    }
+}
+
+/// Combines the horizontal `(dh, ch)` and vertical `(dv, cv)` estimates of one pixel.
+#[inline]
+pub fn fuse(fusion: Fusion, dh: f32, ch: f32, dv: f32, cv: f32) -> (f32, f32) {
+    match fusion {
+        Fusion::Coherence => {
+            if cv > ch {
+                (dv, cv)
+            } else {
+                (dh, ch)
+            }
+        }
+        Fusion::Weighted => {
+            let sum = ch + cv;
+            if libm::fabsf(dh - dv) <= 0.1 && sum > 0.0 {
+                ((ch * dh + cv * dv) / sum, ch.max(cv))
+            } else if cv > ch {
+                (dv, cv)
+            } else {
+                (dh, ch)
+            }
+        }
+    }
+}
+
+/// One direction's line estimator bound to a light field.
+pub(crate) struct BandEstimator<'p, 'a, T: Scalar, S: Sample> {
+    estimator: LineEstimator<T>,
+    lf: &'p LightField<'a, S>,
+    direction: Direction,
+    n: usize,
+    views: usize,
+    color: ColorMode,
+}
+
+impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
+    pub(crate) fn new(
+        plan: &Plan,
+        hypotheses: Hypotheses,
+        lf: &'p LightField<'a, S>,
+        direction: Direction,
+    ) -> Self {
+        let (views, centre) = direction.views(plan);
+        let params = &plan.params().epi;
+        BandEstimator {
+            estimator: LineEstimator::new(
+                params,
+                hypotheses,
+                views,
+                centre,
+                plan.layout().channels,
+            ),
+            lf,
+            direction,
+            n: direction.line_len(plan),
+            views,
+            color: params.color,
+        }
+    }
+
+    /// Splits scratch into the line's disparity, confidence and work buffers.
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn split_scratch<'s>(
+        &self,
+        scratch: &'s mut [T],
+    ) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
+        let n = self.n;
+        let needed = LineEstimator::<T>::work_len(self.views, self.estimator.channels(), n) + 2 * n;
+        if scratch.len() < needed {
+            return Err(Error::ScratchTooSmall {
+                needed,
+                got: scratch.len(),
+            });
+        }
+        let (d, rest) = scratch.split_at_mut(n);
+        let (c, work) = rest.split_at_mut(n);
+        Ok((d, c, work))
+    }
+
+    /// Estimates line `line` into `d` / `c` (length `n`, as `T`).
+    pub(crate) fn line(&self, line: usize, work: &mut [T], d: &mut [T], c: &mut [T]) -> Result<()> {
+        let layout = *self.lf.layout();
+        let data = self.lf.data();
+        let ch_n = layout.channels;
+        let grid = layout.grid;
+        let (r0, c0) = grid.center();
+        let color = self.color;
+        let direction = self.direction;
+        // Start of the line in view k, and the step between its samples.
+        let locate = |k: usize| -> (usize, usize) {
+            match direction {
+                Direction::Horizontal => (
+                    grid.index(r0, k) * layout.view_stride + line * layout.row_stride,
+                    ch_n,
+                ),
+                Direction::Vertical => (
+                    grid.index(k, c0) * layout.view_stride + line * ch_n,
+                    layout.row_stride,
+                ),
+            }
+        };
+        let n = self.n;
+        let load = |k: usize, c: usize, out: &mut [T]| -> Result<()> {
+            let (start, step) = locate(k);
+            let end = start + (n - 1) * step + ch_n;
+            let src = data.get(start..end).ok_or(Error::BufferTooSmall {
+                what: "the light-field buffer",
+                needed: end,
+                got: data.len(),
+            })?;
+            match color {
+                ColorMode::Tensor => {
+                    for (o, px) in out.iter_mut().zip(src.chunks(step)) {
+                        *o = T::from_f32(px[c].to_unit() * INTENSITY_SCALE);
+                    }
+                }
+                ColorMode::Gray => {
+                    let used = ch_n.min(3);
+                    let scale = INTENSITY_SCALE / used as f32;
+                    for (o, px) in out.iter_mut().zip(src.chunks(step)) {
+                        let sum: f32 = px[..used].iter().map(|s| s.to_unit()).sum();
+                        *o = T::from_f32(sum * scale);
+                    }
+                }
+            }
+            Ok(())
+        };
+        self.estimator.estimate(n, load, work, d, c)
+    }
+}
+
+/// Resolves the hypotheses of `plan`: the fixed range, or [`estimate_range`] for `Auto`.
+pub fn hypotheses<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    scratch: &mut [T],
+) -> Result<Hypotheses> {
+    let params = &plan.params().epi;
+    match params.range {
+        DisparityRange::Fixed { min, max } => Hypotheses::new(params, min, max),
+        DisparityRange::Auto if !params.shear => {
+            Hypotheses::new(params, -MAX_DISPARITY, MAX_DISPARITY)
+        }
+        DisparityRange::Auto => {
+            let (min, max) = estimate_range(plan, lf, scratch)?;
+            Hypotheses::new(params, min, max)
+        }
+    }
+}
+
+/// Lines per progress report.
+const PROGRESS_LINES: usize = 32;
+
+/// The serial stage with progress: both directions over every line, fused into
+/// `disparity` / `confidence` (row-major, `plan.pixels()` each). Returns the hypotheses.
+pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<Hypotheses> {
+    check_layout(plan, lf)?;
+    let pixels = plan.pixels();
+    if disparity.len() != pixels || confidence.len() != pixels {
+        return Err(Error::OutputSize {
+            what: "the disparity/confidence map",
+            needed: pixels,
+            got: disparity.len().min(confidence.len()),
+        });
+    }
+    let needed = scratch_len(plan);
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
+    let report =
+        |progress: &mut dyn FnMut(Progress) -> ControlFlow<()>, stage, done, total| match progress(
+            Progress {
+                stage,
+                done: done as u64,
+                total: total as u64,
+            },
+        ) {
+            ControlFlow::Continue(()) => Ok(()),
+            ControlFlow::Break(()) => Err(Error::Cancelled),
+        };
+    report(progress, STAGE_RANGE, 0, 1)?;
+    let hyps = hypotheses(plan, lf, scratch)?;
+    report(progress, STAGE_RANGE, 1, 1)?;
+    let width = plan.layout().width;
+    let height = plan.layout().height;
+    let fusion = plan.params().epi.fusion;
+
+    let band = BandEstimator::new(plan, hyps, lf, Direction::Horizontal);
+    let (d_line, c_line, work) = band.split_scratch(scratch)?;
+    for y in 0..height {
+        if y % PROGRESS_LINES == 0 {
+            report(progress, STAGE_HORIZONTAL, y, height)?;
+        }
+        band.line(y, work, d_line, c_line)?;
+        let row = y * width..(y + 1) * width;
+        write_line(
+            &hyps,
+            d_line,
+            c_line,
+            &mut disparity[row.clone()],
+            &mut confidence[row],
+        );
+    }
+    report(progress, STAGE_HORIZONTAL, height, height)?;
+
+    let band = BandEstimator::new(plan, hyps, lf, Direction::Vertical);
+    let (d_line, c_line, work) = band.split_scratch(scratch)?;
+    for x in 0..width {
+        if x % PROGRESS_LINES == 0 {
+            report(progress, STAGE_VERTICAL, x, width)?;
+        }
+        band.line(x, work, d_line, c_line)?;
+        let (lo, hi) = (hyps.min(), hyps.max());
+        for (y, (&dv, &cv)) in d_line.iter().zip(c_line.iter()).enumerate() {
+            let i = y * width + x;
+            let (dv, cv) = (dv.to_f32().clamp(lo, hi), cv.to_f32().clamp(0.0, 1.0));
+            let (d, c) = fuse(fusion, disparity[i], confidence[i], dv, cv);
+            disparity[i] = d;
+            confidence[i] = c;
+        }
+    }
+    report(progress, STAGE_VERTICAL, width, width)?;
+    Ok(hyps)
+}
+
+/// Progress stage names.
+pub const STAGE_RANGE: &str = "epi range";
+/// See [`STAGE_RANGE`].
+pub const STAGE_HORIZONTAL: &str = "epi horizontal";
+/// See [`STAGE_RANGE`].
+pub const STAGE_VERTICAL: &str = "epi vertical";
+
+/// The serial stage: disparity and confidence of the centre view (row-major, `f32`,
+/// `plan.pixels()` each), computed in `T`. `scratch` needs [`scratch_len`] elements.
+pub fn estimate<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+) -> Result<Hypotheses> {
+    estimate_with_progress(plan, lf, disparity, confidence, scratch, &mut |_| {
+        ControlFlow::Continue(())
+    })
+}
+
+#[cfg(test)]
+pub(crate) mod test_scenes;
+
+#[cfg(test)]
+mod tests;

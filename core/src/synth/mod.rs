@@ -1,1 +1,375 @@
 //! Analytically rendered light fields with exact disparity ground truth.
+//!
+//! A scene is a handful of textured surfaces described in centre-view pixel coordinates
+//! by their disparity `d(x, y)` (planes, slanted planes, spherical caps), each with a
+//! band-limited procedural texture attached to its surface points, so every view sees the
+//! same texture shifted by the disparity. The ray through pixel `(x', y')` of the view at
+//! offset `(u, v) = (c − c0, r − r0)` meets the surface point `(x, y) = (x' + d·u,
+//! y' + d·v)` (HCI sign convention), solved in closed form; among the surfaces hit the one
+//! with the largest disparity (nearest) is seen.
+//!
+//! * Ground truth: the disparity of the surface visible at each centre-view pixel CENTRE
+//!   (pixel `(x, y)` covers `[x − ½, x + ½] × [y − ½, y + ½]`), exact up to f32 rounding.
+//! * Pixels: box filter over the pixel area (closed form inside planes, `n × n` samples at
+//!   edges and on caps, `n` = `supersample`), see `raster`.
+//! * The centre view is the reference: never misaligned nor photometrically changed.
+//!   Noise applies to every view.
+//! * Deterministic: only IEEE arithmetic and `libm`, seeded SplitMix64; the same spec gives
+//!   the same bytes on every platform, and `render_view` gives the same bytes as `render`.
+//!
+//! Measured agreement (test `subpixel_agreement_of_a_translating_plane`, 64×64 RGB views
+//! of a 9×9 grid, one textured plane, against an independent 12×12-sample quadrature of
+//! the texture at exact ray hits): fronto-parallel plane at d = 0.37 — mean |diff| 0.2495
+//! levels, max 0.508; slanted plane — mean 0.2480, max 0.507. That is the 8-bit rounding
+//! alone (uniform rounding error has mean 0.25, max 0.5; the 0.008 excess is the
+//! quadrature error of the reference), i.e. 0.013 px of equivalent displacement at the
+//! texture's mean gradient of 18.8 levels/px.
+
+mod camera;
+mod raster;
+mod rng;
+mod scene;
+mod surface;
+mod texture;
+
+use crate::error::{checked_product, Error, Result};
+use crate::lightfield::{Grid, Layout};
+use crate::Homography;
+
+pub use raster::MAX_SUPERSAMPLE;
+
+/// The kinds of synthetic scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SceneKind {
+    /// Fronto-parallel textured rectangles at several disparities over a background.
+    Planes,
+    /// Slanted textured planes (disparity varies linearly across each).
+    Slanted,
+    /// Spherical caps bulging towards the viewer over a background.
+    Spheres,
+    /// Overlapping layers: many occlusion boundaries at different orientations.
+    Occlusion,
+    /// Bars 1–3 px wide in front of larger surfaces.
+    Thin,
+    /// Surfaces with very weak texture (≈ 2 gray levels) and one textured patch.
+    LowTexture,
+    /// A bit of everything.
+    Mixed,
+}
+
+impl SceneKind {
+    /// Every scene kind.
+    pub const ALL: [SceneKind; 7] = [
+        SceneKind::Planes,
+        SceneKind::Slanted,
+        SceneKind::Spheres,
+        SceneKind::Occlusion,
+        SceneKind::Thin,
+        SceneKind::LowTexture,
+        SceneKind::Mixed,
+    ];
+
+    /// Lower-case name (`planes`, `slanted`, `spheres`, `occlusion`, `thin`,
+    /// `low-texture`, `mixed`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            SceneKind::Planes => "planes",
+            SceneKind::Slanted => "slanted",
+            SceneKind::Spheres => "spheres",
+            SceneKind::Occlusion => "occlusion",
+            SceneKind::Thin => "thin",
+            SceneKind::LowTexture => "low-texture",
+            SceneKind::Mixed => "mixed",
+        }
+    }
+
+    /// The kind called `name` (as given by [`SceneKind::name`]; `low_texture` and
+    /// `lowtexture` are accepted too, case-insensitively).
+    pub fn from_name(name: &str) -> Option<Self> {
+        let matches = |candidate: &str| {
+            candidate.len() == name.len()
+                && candidate
+                    .bytes()
+                    .zip(name.bytes())
+                    .all(|(a, b)| a == b.to_ascii_lowercase() || (a == b'-' && b == b'_'))
+        };
+        if name.eq_ignore_ascii_case("lowtexture") {
+            return Some(SceneKind::LowTexture);
+        }
+        SceneKind::ALL.into_iter().find(|k| matches(k.name()))
+    }
+}
+
+/// Per-view misalignment: each non-centre view gets a homography drawn uniformly within
+/// these bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Misalignment {
+    /// Rotation about the image centre, degrees (at most 10).
+    pub max_rotation_deg: f32,
+    /// Translation along each axis, pixels (at most 64).
+    pub max_translation_px: f32,
+    /// Relative scale change about the image centre, e.g. 0.01 (at most 0.2).
+    pub max_scale: f32,
+    /// Perspective: change of the homogeneous coordinate at the image edges, per axis
+    /// (e.g. 0.002; at most 0.05).
+    pub max_perspective: f32,
+}
+
+/// Everything that defines a synthetic light field.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SynthSpec {
+    /// What the scene contains.
+    pub scene: SceneKind,
+    /// The view grid (3×3 … 17×17, odd or even).
+    pub grid: Grid,
+    /// View width in pixels (≥ 16).
+    pub width: usize,
+    /// View height in pixels (≥ 16).
+    pub height: usize,
+    /// 1 (gray) or 3 (RGB).
+    pub channels: usize,
+    /// Smallest disparity in the scene, within −4…4.
+    pub disparity_min: f32,
+    /// Largest disparity in the scene, within −4…4, above `disparity_min`.
+    pub disparity_max: f32,
+    /// Gaussian noise standard deviation in 8-bit levels (0 = off, at most 64).
+    pub noise_sigma: f32,
+    /// Largest relative per-view brightness and contrast change (0 = off, at most 0.5).
+    pub photometric: f32,
+    /// Per-view homography misalignment (`None` = rectified views).
+    pub misalign: Option<Misalignment>,
+    /// Seed of every random choice.
+    pub seed: u64,
+    /// Samples per pixel along each axis at edges (1 … [`MAX_SUPERSAMPLE`]).
+    pub supersample: usize,
+}
+
+impl SynthSpec {
+    /// A spec with sensible defaults: RGB, disparities −1.5…1.5, no noise, no photometric
+    /// change, rectified, seed 0, supersample 3.
+    pub fn new(scene: SceneKind, grid: Grid, width: usize, height: usize) -> Self {
+        SynthSpec {
+            scene,
+            grid,
+            width,
+            height,
+            channels: 3,
+            disparity_min: -1.5,
+            disparity_max: 1.5,
+            noise_sigma: 0.0,
+            photometric: 0.0,
+            misalign: None,
+            seed: 0,
+            supersample: 3,
+        }
+    }
+
+    /// The layout of the rendered views: packed u8, row-major grid order.
+    pub fn layout(&self) -> Layout {
+        Layout::packed(self.grid, self.width, self.height, self.channels)
+    }
+
+    /// Checks every field; the error says which one to change.
+    pub fn validate(&self) -> Result<()> {
+        self.layout().validate()?;
+        checked_product(&[self.width, self.height], "the ground-truth map")?;
+        if self.channels != 1 && self.channels != 3 {
+            return Err(invalid(
+                "channels",
+                "must be 1 (gray) or 3 (RGB) for synthetic light fields",
+            ));
+        }
+        if !self.disparity_min.is_finite() {
+            return Err(Error::NonFinite {
+                what: "disparity_min",
+            });
+        }
+        if !self.disparity_max.is_finite() {
+            return Err(Error::NonFinite {
+                what: "disparity_max",
+            });
+        }
+        if self.disparity_min < -4.0 || self.disparity_max > 4.0 {
+            return Err(invalid(
+                "disparity_min/disparity_max",
+                "must lie within -4..4 pixels per view",
+            ));
+        }
+        if self.disparity_min >= self.disparity_max {
+            return Err(invalid(
+                "disparity_min",
+                "must be smaller than disparity_max",
+            ));
+        }
+        check_range(
+            self.noise_sigma,
+            "noise_sigma",
+            64.0,
+            "must be 0..64 (8-bit levels)",
+        )?;
+        check_range(self.photometric, "photometric", 0.5, "must be 0..0.5")?;
+        if let Some(m) = self.misalign {
+            check_range(
+                m.max_rotation_deg,
+                "misalign.max_rotation_deg",
+                10.0,
+                "must be 0..10 degrees",
+            )?;
+            check_range(
+                m.max_translation_px,
+                "misalign.max_translation_px",
+                64.0,
+                "must be 0..64 pixels",
+            )?;
+            check_range(m.max_scale, "misalign.max_scale", 0.2, "must be 0..0.2")?;
+            check_range(
+                m.max_perspective,
+                "misalign.max_perspective",
+                0.05,
+                "must be 0..0.05",
+            )?;
+        }
+        if !(1..=MAX_SUPERSAMPLE).contains(&self.supersample) {
+            return Err(invalid(
+                "supersample",
+                "must be 1..8 samples per pixel axis",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Elements of one view (`width · height · channels`).
+    fn view_len(&self) -> Result<usize> {
+        checked_product(&[self.width, self.height, self.channels], "a view")
+    }
+}
+
+fn invalid(name: &'static str, reason: &'static str) -> Error {
+    Error::InvalidParameter { name, reason }
+}
+
+fn check_range(value: f32, name: &'static str, max: f32, reason: &'static str) -> Result<()> {
+    if !value.is_finite() {
+        return Err(Error::NonFinite { what: name });
+    }
+    if !(0.0..=max).contains(&value) {
+        return Err(invalid(name, reason));
+    }
+    Ok(())
+}
+
+/// Renders the whole light field.
+///
+/// * `views`: packed u8 in `spec.layout()` (at least `grid · width · height · channels`
+///   elements; extra trailing elements are left untouched);
+/// * `gt`: exactly `width · height` f32, row-major: the exact centre-view disparity;
+/// * `homographies`: at least one per view (row-major grid order): the map from ideal
+///   (rectified) view pixel coordinates to the stored view's pixel coordinates,
+///   `stored(H·p) = ideal(p)`; identity when not misaligned and for the centre view.
+pub fn render(
+    spec: &SynthSpec,
+    views: &mut [u8],
+    gt: &mut [f32],
+    homographies: &mut [Homography],
+) -> Result<()> {
+    spec.validate()?;
+    let needed = spec.layout().validate()?;
+    if views.len() < needed {
+        return Err(Error::BufferTooSmall {
+            what: "the views buffer",
+            needed,
+            got: views.len(),
+        });
+    }
+    let view_count = spec.grid.len();
+    if homographies.len() < view_count {
+        return Err(Error::BufferTooSmall {
+            what: "the homographies slice",
+            needed: view_count,
+            got: homographies.len(),
+        });
+    }
+    render_ground_truth(spec, gt)?;
+    let scene = scene::Scene::build(spec);
+    let view_len = spec.view_len()?;
+    for (index, (view, homography)) in views
+        .chunks_exact_mut(view_len)
+        .zip(homographies.iter_mut())
+        .take(view_count)
+        .enumerate()
+    {
+        let (row, col) = (index / spec.grid.cols, index % spec.grid.cols);
+        raster::render_view(spec, &scene, row, col, view);
+        *homography = camera::ViewCamera::new(spec, row, col).homography();
+    }
+    Ok(())
+}
+
+/// Renders one view `(row, col)` into `out` (exactly `width · height · channels` bytes,
+/// interleaved, row-major): the same bytes `render` writes for that view. For streaming.
+pub fn render_view(spec: &SynthSpec, row: usize, col: usize, out: &mut [u8]) -> Result<()> {
+    spec.validate()?;
+    check_view(spec, row, col)?;
+    let needed = spec.view_len()?;
+    if out.len() != needed {
+        return Err(Error::BufferTooSmall {
+            what: "the view buffer (exactly width*height*channels)",
+            needed,
+            got: out.len(),
+        });
+    }
+    let scene = scene::Scene::build(spec);
+    raster::render_view(spec, &scene, row, col, out);
+    Ok(())
+}
+
+/// The homography of view `(row, col)`: ideal (rectified) pixel coordinates → stored
+/// view pixel coordinates (identity when not misaligned and for the centre view).
+pub fn view_homography(spec: &SynthSpec, row: usize, col: usize) -> Result<Homography> {
+    spec.validate()?;
+    check_view(spec, row, col)?;
+    Ok(camera::ViewCamera::new(spec, row, col).homography())
+}
+
+/// Writes the exact centre-view disparity (`width · height` f32, row-major): the disparity
+/// of the surface visible at each pixel centre. Always within
+/// `[disparity_min, disparity_max]`.
+pub fn render_ground_truth(spec: &SynthSpec, gt: &mut [f32]) -> Result<()> {
+    spec.validate()?;
+    let needed = checked_product(&[spec.width, spec.height], "the ground-truth map")?;
+    if gt.len() != needed {
+        return Err(Error::OutputSize {
+            what: "the ground-truth map",
+            needed,
+            got: gt.len(),
+        });
+    }
+    let scene = scene::Scene::build(spec);
+    raster::ground_truth(spec, &scene, gt);
+    // Guard against f32 rounding at the range ends.
+    for d in gt.iter_mut() {
+        *d = d.clamp(spec.disparity_min, spec.disparity_max);
+    }
+    Ok(())
+}
+
+fn check_view(spec: &SynthSpec, row: usize, col: usize) -> Result<()> {
+    if row >= spec.grid.rows {
+        return Err(Error::OutOfRange {
+            what: "view row",
+            index: row,
+            len: spec.grid.rows,
+        });
+    }
+    if col >= spec.grid.cols {
+        return Err(Error::OutOfRange {
+            what: "view column",
+            index: col,
+            len: spec.grid.cols,
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,218 @@
+//! 1-D correlation kernels (Gaussian, Gaussian-smoothed derivative and Scharr smoothing)
+//! and their application along a line with clamped ("nearest") borders.
+
+use crate::scalar::Scalar;
+
+/// Largest kernel radius: `ceil(3σ) + 1` for the largest σ `EpiParams::validate` accepts.
+pub(crate) const MAX_RADIUS: usize = 16;
+/// Taps of the largest kernel.
+pub(crate) const MAX_TAPS: usize = 2 * MAX_RADIUS + 1;
+
+/// Radius of a Gaussian of standard deviation `sigma` truncated at 3σ (0 for σ ≤ 0).
+pub(crate) fn gaussian_radius(sigma: f32) -> usize {
+    if sigma > 0.0 {
+        libm::ceilf(3.0 * sigma) as usize
+    } else {
+        0
+    }
+}
+
+/// Normalised Gaussian taps at offsets `-r..=r`, `r = gaussian_radius(sigma)`.
+fn gaussian_f32(sigma: f32, taps: &mut [f32; MAX_TAPS]) -> usize {
+    let r = gaussian_radius(sigma).min(MAX_RADIUS - 1);
+    *taps = [0.0; MAX_TAPS];
+    if r == 0 {
+        taps[0] = 1.0;
+        return 0;
+    }
+    let mut sum = 0.0f32;
+    for (i, t) in taps.iter_mut().take(2 * r + 1).enumerate() {
+        let x = i as f32 - r as f32;
+        *t = libm::expf(-0.5 * x * x / (sigma * sigma));
+        sum += *t;
+    }
+    for t in taps.iter_mut().take(2 * r + 1) {
+        *t /= sum;
+    }
+    r
+}
+
+/// A symmetric or antisymmetric correlation kernel: `out[t] = Σ_j taps[j]·in[t + j − radius]`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Kernel<T: Scalar> {
+    taps: [T; MAX_TAPS],
+    radius: usize,
+}
+
+impl<T: Scalar> Kernel<T> {
+    fn from_f32(taps: &[f32; MAX_TAPS], radius: usize) -> Self {
+        let mut out = [T::ZERO; MAX_TAPS];
+        for (o, &t) in out.iter_mut().zip(taps.iter()).take(2 * radius + 1) {
+            *o = T::from_f32(t);
+        }
+        Kernel { taps: out, radius }
+    }
+
+    /// Gaussian smoothing of standard deviation `sigma` (identity for σ ≤ 0).
+    pub(crate) fn gaussian(sigma: f32) -> Self {
+        let mut g = [0.0; MAX_TAPS];
+        let r = gaussian_f32(sigma, &mut g);
+        Self::from_f32(&g, r)
+    }
+
+    /// Gaussian of `sigma` followed by a 3-tap kernel `three` (offsets −1, 0, +1).
+    fn gaussian_then(sigma: f32, three: [f32; 3]) -> Self {
+        let mut g = [0.0; MAX_TAPS];
+        let r = gaussian_f32(sigma, &mut g);
+        let mut c = [0.0f32; MAX_TAPS];
+        // Correlations compose by adding offsets: c[m] = Σ_{i + j = m} g[i]·three[j].
+        for (i, &gi) in g.iter().take(2 * r + 1).enumerate() {
+            for (j, &tj) in three.iter().enumerate() {
+                c[i + j] += gi * tj;
+            }
+        }
+        Self::from_f32(&c, r + 1)
+    }
+
+    /// Gaussian-smoothed central difference `(in[t+1] − in[t−1]) / 2`.
+    pub(crate) fn derivative(sigma: f32) -> Self {
+        Self::gaussian_then(sigma, [-0.5, 0.0, 0.5])
+    }
+
+    /// Gaussian-smoothed Scharr cross smoothing `[3, 10, 3] / 16`.
+    pub(crate) fn scharr_smoothing(sigma: f32) -> Self {
+        Self::gaussian_then(sigma, [3.0 / 16.0, 10.0 / 16.0, 3.0 / 16.0])
+    }
+
+    /// Kernel radius.
+    #[cfg(test)]
+    pub(crate) fn radius(&self) -> usize {
+        self.radius
+    }
+
+    /// Correlates `input` with the kernel into `out` (same length), clamping indices at
+    /// the borders. The summation order of a sample depends only on its position and the
+    /// line length, so results never depend on how lines are grouped into bands.
+    pub(crate) fn apply(&self, input: &[T], out: &mut [T]) {
+        let n = input.len().min(out.len());
+        let r = self.radius;
+        let taps = &self.taps[..2 * r + 1];
+        if n == 0 {
+            return;
+        }
+        let last = n - 1;
+        let clamped = |t: usize, out: &mut T| {
+            let mut acc = T::ZERO;
+            for (j, &k) in taps.iter().enumerate() {
+                let i = (t + j).saturating_sub(r).min(last);
+                acc += k * input[i];
+            }
+            *out = acc;
+        };
+        if n <= 2 * r {
+            for (t, o) in out.iter_mut().enumerate().take(n) {
+                clamped(t, o);
+            }
+            return;
+        }
+        for (t, o) in out.iter_mut().enumerate().take(r) {
+            clamped(t, o);
+        }
+        for (t, o) in out.iter_mut().enumerate().take(n).skip(n - r) {
+            clamped(t, o);
+        }
+        // Interior: tap-major loops over contiguous slices (vectorises for f32).
+        let inner = &mut out[r..n - r];
+        for o in inner.iter_mut() {
+            *o = T::ZERO;
+        }
+        for (j, &k) in taps.iter().enumerate() {
+            for (o, &v) in inner.iter_mut().zip(&input[j..j + n - 2 * r]) {
+                *o += k * v;
+            }
+        }
+    }
+}
+
+/// Weights `w[k]` such that Gaussian smoothing (σ = `sigma`, nearest borders) of a column of
+/// `len` values, evaluated at row `centre`, equals `Σ_k w[k]·value[k]`.
+pub(crate) fn centre_weights<T: Scalar>(sigma: f32, len: usize, centre: usize, out: &mut [T]) {
+    let mut g = [0.0; MAX_TAPS];
+    let r = gaussian_f32(sigma, &mut g);
+    let mut w = [0.0f32; MAX_TAPS];
+    let last = len.saturating_sub(1).min(MAX_TAPS - 1);
+    for (j, &gj) in g.iter().take(2 * r + 1).enumerate() {
+        let k = (centre + j).saturating_sub(r).min(last);
+        w[k] += gj;
+    }
+    for (o, &v) in out.iter_mut().zip(w.iter()).take(len) {
+        *o = T::from_f32(v);
+    }
+}
+
+/// Gaussian weights (σ = `sigma`) centred on row `centre` of `len` rows, truncated to the
+/// rows that exist and renormalised to sum to one.
+pub(crate) fn truncated_gaussian(sigma: f32, len: usize, centre: usize, out: &mut [f32]) {
+    let mut g = [0.0; MAX_TAPS];
+    let r = gaussian_f32(sigma, &mut g);
+    let mut sum = 0.0;
+    for (j, o) in out.iter_mut().enumerate().take(len) {
+        let offset = j as isize - centre as isize + r as isize;
+        *o = if (0..=2 * r as isize).contains(&offset) {
+            g[offset as usize]
+        } else {
+            0.0
+        };
+        sum += *o;
+    }
+    if sum > 0.0 {
+        for o in out.iter_mut().take(len) {
+            *o /= sum;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derivative_of_a_ramp_is_its_slope() {
+        let k = Kernel::<f32>::derivative(0.8);
+        let input: [f32; 40] = core::array::from_fn(|i| 0.25 * i as f32);
+        let mut out = [0.0; 40];
+        k.apply(&input, &mut out);
+        for &v in &out[k.radius()..40 - k.radius()] {
+            assert!((v - 0.25).abs() < 1e-5, "{v}");
+        }
+    }
+
+    #[test]
+    fn smoothing_preserves_constants_everywhere() {
+        for k in [
+            Kernel::<f32>::gaussian(1.5),
+            Kernel::<f32>::scharr_smoothing(0.8),
+        ] {
+            let input = [2.0f32; 7];
+            let mut out = [0.0; 7];
+            k.apply(&input, &mut out);
+            assert!(out.iter().all(|&v| (v - 2.0).abs() < 1e-5), "{out:?}");
+            let input = [3.0f32; 50];
+            let mut out = [0.0; 50];
+            k.apply(&input, &mut out);
+            assert!(out.iter().all(|&v| (v - 3.0).abs() < 1e-5), "{out:?}");
+        }
+    }
+
+    #[test]
+    fn centre_weights_sum_to_one_and_fold_borders() {
+        let mut w = [0.0f32; 9];
+        centre_weights(1.5, 9, 4, &mut w);
+        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        assert!((w[0] - w[8]).abs() < 1e-6 && w[4] > w[3]);
+        let mut w = [0.0f32; 3];
+        centre_weights(1.5, 3, 1, &mut w);
+        assert!((w.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+        assert!(w[0] > 0.2, "border mass folds onto the end rows: {w:?}");
+    }
+}

@@ -1,0 +1,355 @@
+//! The structure tensor of one EPI line: disparity and coherence of every sample of the
+//! centre view along one image row (horizontal EPI) or column (vertical EPI), tested over
+//! every shear hypothesis.
+
+use super::hypotheses::Hypotheses;
+use super::kernels::{centre_weights, truncated_gaussian, Kernel};
+use super::{ColorMode, EpiParams};
+use crate::error::{Error, Result};
+use crate::lightfield::GRID_MAX;
+use crate::scalar::Scalar;
+
+/// Everything that does not change from line to line, converted to `T` once.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LineEstimator<T: Scalar> {
+    derivative: Kernel<T>,
+    smoothing: Kernel<T>,
+    outer: Kernel<T>,
+    /// Outer (Gaussian) smoothing across views, evaluated at the centre view only.
+    weights: [T; GRID_MAX],
+    /// Row k: the weights over views of the inner Gaussian followed by the Scharr
+    /// cross smoothing (for the along-line gradient) at view k, borders clamped.
+    mix_smooth: [[T; GRID_MAX]; GRID_MAX],
+    /// Row k: the inner Gaussian followed by the across-view derivative at view k
+    /// (central; one-sided at the first and last view so that the ends keep the scale).
+    mix_derivative: [[T; GRID_MAX]; GRID_MAX],
+    views: usize,
+    centre: usize,
+    channels: usize,
+    hypotheses: Hypotheses,
+    interpolate: bool,
+}
+
+/// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
+/// (`coherence − 1`), an estimate outside its hypothesis' window (`coherence − 2`) and a
+/// degenerate tensor (no texture, or an orientation the window can never hold).
+const SINGLE: f32 = -1.0;
+const OUT_OF_WINDOW: f32 = -2.0;
+const DEGENERATE: f32 = -3.0;
+
+impl<T: Scalar> LineEstimator<T> {
+    /// `views` cameras along the EPI, the centre one at `centre`, `channels` loaded planes.
+    pub(crate) fn new(
+        params: &EpiParams,
+        hypotheses: Hypotheses,
+        views: usize,
+        centre: usize,
+        channels: usize,
+    ) -> Self {
+        let mut weights = [T::ZERO; GRID_MAX];
+        let views = views.min(GRID_MAX);
+        centre_weights(params.outer_sigma, views, centre, &mut weights);
+        let mut mix_smooth = [[T::ZERO; GRID_MAX]; GRID_MAX];
+        let mut mix_derivative = [[T::ZERO; GRID_MAX]; GRID_MAX];
+        // Inner Gaussian across views, truncated at the first and last view and
+        // renormalised; then per view a Scharr cross smoothing ([3, 10, 3], renormalised
+        // at the ends) and a central difference (one-sided at the ends). Averaging
+        // per-view differences keeps the slope scale exact at the ends of the EPI,
+        // where clamped ("nearest") borders would flatten the signal.
+        let mut gauss = [[0.0f32; GRID_MAX]; GRID_MAX];
+        for (k, row) in gauss.iter_mut().enumerate().take(views) {
+            truncated_gaussian(params.inner_sigma, views, k, row);
+        }
+        let last = views.saturating_sub(1);
+        let mut smooth = [[0.0f32; GRID_MAX]; GRID_MAX];
+        let mut diff = [[0.0f32; GRID_MAX]; GRID_MAX];
+        for i in 0..views {
+            let (im, ip) = (i.saturating_sub(1), (i + 1).min(last));
+            let side = if im < i { 3.0 } else { 0.0 } + if ip > i { 3.0 } else { 0.0 };
+            let norm = 10.0 + side;
+            smooth[i][i] += 10.0 / norm;
+            if im < i {
+                smooth[i][im] += 3.0 / norm;
+            }
+            if ip > i {
+                smooth[i][ip] += 3.0 / norm;
+            }
+            if ip > im {
+                let scale = 1.0 / (ip - im) as f32;
+                diff[i][ip] += scale;
+                diff[i][im] -= scale;
+            }
+        }
+        for k in 0..views {
+            for j in 0..views {
+                let (mut s, mut d) = (0.0, 0.0);
+                for i in 0..views {
+                    s += gauss[k][i] * smooth[i][j];
+                    d += gauss[k][i] * diff[i][j];
+                }
+                mix_smooth[k][j] = T::from_f32(s);
+                mix_derivative[k][j] = T::from_f32(d);
+            }
+        }
+        LineEstimator {
+            derivative: Kernel::derivative(params.inner_sigma),
+            smoothing: Kernel::scharr_smoothing(params.inner_sigma),
+            outer: Kernel::gaussian(params.outer_sigma),
+            weights,
+            mix_smooth,
+            mix_derivative,
+            views,
+            centre,
+            channels: match params.color {
+                ColorMode::Gray => 1,
+                ColorMode::Tensor => channels.clamp(1, 3),
+            },
+            hypotheses,
+            interpolate: params.interpolate,
+        }
+    }
+
+    /// Planes the loader must fill per view.
+    pub(crate) fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// Work elements (of `T`) for a line of `n` samples.
+    pub(crate) fn work_len(views: usize, channels: usize, n: usize) -> usize {
+        (2 * views * channels + 2 * views + 12) * n
+    }
+
+    /// Estimates one line of `n` samples. `load(view, channel, out)` fills `out` (length `n`)
+    /// with the samples of that view along the line, scaled intensities. Writes the
+    /// disparity and the confidence of every sample into `disparity` / `confidence`.
+    pub(crate) fn estimate(
+        &self,
+        n: usize,
+        mut load: impl FnMut(usize, usize, &mut [T]) -> Result<()>,
+        work: &mut [T],
+        disparity: &mut [T],
+        confidence: &mut [T],
+    ) -> Result<()> {
+        let (k_n, c_n) = (self.views, self.channels);
+        let needed = Self::work_len(k_n, c_n, n);
+        if work.len() < needed {
+            return Err(Error::ScratchTooSmall {
+                needed,
+                got: work.len(),
+            });
+        }
+        if disparity.len() < n || confidence.len() < n {
+            return Err(Error::OutputSize {
+                what: "the line output",
+                needed: n,
+                got: disparity.len().min(confidence.len()),
+            });
+        }
+        let (pre_d, rest) = work.split_at_mut(k_n * c_n * n);
+        let (pre_s, rest) = rest.split_at_mut(k_n * c_n * n);
+        let (sh_d, rest) = rest.split_at_mut(k_n * n);
+        let (sh_s, rest) = rest.split_at_mut(k_n * n);
+        let (raw, rest) = rest.split_at_mut(n);
+        let (jxx, rest) = rest.split_at_mut(n);
+        let (jxk, rest) = rest.split_at_mut(n);
+        let (jkk, rest) = rest.split_at_mut(n);
+        let (sxx, rest) = rest.split_at_mut(n);
+        let (sxk, rest) = rest.split_at_mut(n);
+        let (skk, rest) = rest.split_at_mut(n);
+        let (score, rest) = rest.split_at_mut(n);
+        let (prev_r, rest) = rest.split_at_mut(n);
+        let (prev_c, rest) = rest.split_at_mut(n);
+        let (gx, rest) = rest.split_at_mut(n);
+        let gk = &mut rest[..n];
+
+        // Filtering along the line commutes with the shear (a shift along the line), so the
+        // inner smoothing and the along-line parts of the Scharr filters run once per line.
+        for k in 0..k_n {
+            for c in 0..c_n {
+                load(k, c, raw)?;
+                let at = (k * c_n + c) * n;
+                self.derivative.apply(raw, &mut pre_d[at..at + n]);
+                self.smoothing.apply(raw, &mut pre_s[at..at + n]);
+            }
+        }
+
+        let best_d = &mut disparity[..n];
+        let best_c = &mut confidence[..n];
+        let lowest = T::from_f32(DEGENERATE - 1.0);
+        for ((d, c), sc) in best_d
+            .iter_mut()
+            .zip(best_c.iter_mut())
+            .zip(score.iter_mut())
+        {
+            *d = T::ZERO;
+            *c = T::ZERO;
+            *sc = lowest;
+        }
+        let h = &self.hypotheses;
+        let window = T::from_f32(h.window());
+        let step = T::from_f32(h.step());
+        let degenerate = T::from_f32(DEGENERATE);
+        let single = T::from_f32(SINGLE);
+        let out_of_window = T::from_f32(OUT_OF_WINDOW);
+        let tiny_trace = T::from_f32(1e-6).max(T::EPSILON);
+        let min_den = T::from_f32(1.0 / 64.0);
+        let min_gap = T::from_f32(1.0 / 256.0);
+        let two = T::from_i32(2);
+        let mut previous_shear = T::ZERO;
+        for i in 0..h.count() {
+            let shear = h.shear(i);
+            let shear_t = T::from_f32(shear);
+            for v in jxx.iter_mut().chain(jxk.iter_mut()).chain(jkk.iter_mut()) {
+                *v = T::ZERO;
+            }
+            for c in 0..c_n {
+                for k in 0..k_n {
+                    let offset = (k as f32 - self.centre as f32) * shear;
+                    let at = (k * c_n + c) * n;
+                    shift(&pre_d[at..at + n], &mut sh_d[k * n..(k + 1) * n], offset);
+                    shift(&pre_s[at..at + n], &mut sh_s[k * n..(k + 1) * n], offset);
+                }
+                for k in 0..k_n {
+                    let w = self.weights[k];
+                    if w == T::ZERO {
+                        continue;
+                    }
+                    // Gradients of view k across the views: rows of the mixing matrices.
+                    for v in gx.iter_mut().chain(gk.iter_mut()) {
+                        *v = T::ZERO;
+                    }
+                    for j in 0..k_n {
+                        let (ms, md) = (self.mix_smooth[k][j], self.mix_derivative[k][j]);
+                        if ms != T::ZERO {
+                            for (g, &v) in gx.iter_mut().zip(&sh_d[j * n..j * n + n]) {
+                                *g += ms * v;
+                            }
+                        }
+                        if md != T::ZERO {
+                            for (g, &v) in gk.iter_mut().zip(&sh_s[j * n..j * n + n]) {
+                                *g += md * v;
+                            }
+                        }
+                    }
+                    for t in 0..n {
+                        let wgx = w * gx[t];
+                        jxx[t] += wgx * gx[t];
+                        jxk[t] += wgx * gk[t];
+                        jkk[t] += w * gk[t] * gk[t];
+                    }
+                }
+            }
+            self.outer.apply(jxx, sxx);
+            self.outer.apply(jxk, sxk);
+            self.outer.apply(jkk, skk);
+            for t in 0..n {
+                let trace = sxx[t] + skk[t];
+                // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
+                let (r, coherence) = if trace <= tiny_trace {
+                    (T::ZERO, degenerate)
+                } else {
+                    // Normalised by the trace so that fixed point never overflows:
+                    // a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the
+                    // dominant eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
+                    let a = (sxx[t] - skk[t]) / trace;
+                    let b = two * sxk[t] / trace;
+                    let coherence = (a * a + b * b).sqrt().min(T::ONE);
+                    let den = a + coherence;
+                    if den <= min_den {
+                        (T::ZERO, degenerate)
+                    } else {
+                        (b / den, coherence)
+                    }
+                };
+                let valid = coherence >= T::ZERO;
+                let inside = valid && r.abs() <= window;
+                let (mut cand_score, mut cand_d) = if !valid {
+                    (degenerate, shear_t)
+                } else if inside {
+                    (coherence + single, shear_t + r)
+                } else {
+                    (
+                        coherence + out_of_window,
+                        shear_t + r.clamp(-window, window),
+                    )
+                };
+                if self.interpolate && i > 0 {
+                    // The residual slope falls linearly through zero between the two
+                    // shears that bracket the disparity; its zero crossing cancels the
+                    // tensor's slope-proportional bias.
+                    let (pr, pc) = (prev_r[t], prev_c[t]);
+                    if inside && pc >= T::ZERO && pr >= T::ZERO && r <= T::ZERO {
+                        let gap = pr - r;
+                        if gap > min_gap {
+                            let crossing = previous_shear + step * (pr / gap).min(T::ONE);
+                            let both = pc.min(coherence);
+                            if both > cand_score {
+                                cand_score = both;
+                                cand_d = crossing;
+                            }
+                        }
+                    }
+                }
+                if cand_score > score[t] {
+                    score[t] = cand_score;
+                    best_d[t] = cand_d;
+                    best_c[t] = coherence.max(T::ZERO);
+                }
+                if inside {
+                    prev_r[t] = r;
+                    prev_c[t] = coherence;
+                } else {
+                    prev_c[t] = degenerate;
+                }
+            }
+            previous_shear = shear_t;
+        }
+        let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
+        for d in best_d.iter_mut() {
+            *d = d.clamp(lo, hi);
+        }
+        Ok(())
+    }
+}
+
+/// `out[t] = input(t − offset)`, linear interpolation, clamped at the ends. Integer offsets
+/// are exact copies (no interpolation blur).
+fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
+    let n = input.len().min(out.len());
+    if n == 0 {
+        return;
+    }
+    let last = n as isize - 1;
+    let floor = libm::floorf(offset);
+    let whole = floor as isize;
+    let frac = offset - floor;
+    let at = |i: isize| input[i.clamp(0, last) as usize];
+    if frac == 0.0 {
+        for (t, o) in out.iter_mut().enumerate().take(n) {
+            *o = at(t as isize - whole);
+        }
+        return;
+    }
+    let (wa, wb) = (T::from_f32(1.0 - frac), T::from_f32(frac));
+    for (t, o) in out.iter_mut().enumerate().take(n) {
+        let i = t as isize - whole;
+        *o = wa * at(i) + wb * at(i - 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shift_moves_content_and_clamps() {
+        let input = [0.0f32, 1.0, 2.0, 3.0, 4.0];
+        let mut out = [0.0; 5];
+        shift(&input, &mut out, 2.0);
+        assert_eq!(out, [0.0, 0.0, 0.0, 1.0, 2.0]);
+        shift(&input, &mut out, -1.0);
+        assert_eq!(out, [1.0, 2.0, 3.0, 4.0, 4.0]);
+        shift(&input, &mut out, 0.25);
+        assert_eq!(out[2], 1.75);
+    }
+}

@@ -1,0 +1,84 @@
+//! Automatic disparity range: probe every `RANGE_LINE_STEP`-th line of both directions with
+//! integer shears over the whole supported range, histogram the confident estimates and
+//! keep the 1st…99th percentile, padded.
+
+use super::hypotheses::Hypotheses;
+use super::{check_layout, scratch_len, BandEstimator, Direction};
+use crate::error::{Error, Result};
+use crate::lightfield::{LightField, Sample};
+use crate::plan::Plan;
+use crate::scalar::Scalar;
+
+/// Every how many lines the range probe looks.
+pub const RANGE_LINE_STEP: usize = 8;
+/// Probed disparities (integer shears ±PROBE_REACH, each accepting ±1 px residuals).
+const PROBE_REACH: f32 = 4.0;
+/// Only estimates at least this coherent enter the histogram.
+const MIN_COHERENCE: f32 = 0.5;
+/// Histogram resolution (px).
+const BIN: f32 = 0.05;
+const BINS: usize = 2 * ((PROBE_REACH + 1.0) / BIN) as usize;
+/// Share of confident samples left out on each side, and the padding added back.
+const TAIL: f32 = 0.01;
+const PAD: f32 = 0.3;
+/// Samples this close to a line end see clamped (constant) views and are not probed.
+const MARGIN: usize = 16;
+
+/// Estimates the disparity range of the scene. `scratch` needs [`scratch_len`] elements.
+/// Returns the supported extremes when too few samples are confident to tell.
+pub fn estimate_range<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    scratch: &mut [T],
+) -> Result<(f32, f32)> {
+    check_layout(plan, lf)?;
+    let needed = scratch_len(plan);
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
+    let reach = PROBE_REACH + 1.0;
+    let probe = Hypotheses::sheared(-PROBE_REACH, PROBE_REACH, 1.0, 1.0)?;
+    let mut histogram = [0u32; BINS];
+    let mut total = 0u64;
+    for direction in [Direction::Horizontal, Direction::Vertical] {
+        let band = BandEstimator::new(plan, probe, lf, direction);
+        let (d, c, work) = band.split_scratch(scratch)?;
+        let n = direction.line_len(plan);
+        let margin = if n > 4 * MARGIN { MARGIN } else { 0 };
+        let mut line = RANGE_LINE_STEP / 2;
+        while line < direction.lines(plan) {
+            band.line(line, work, d, c)?;
+            for (&dv, &cv) in d[margin..n - margin].iter().zip(&c[margin..n - margin]) {
+                if cv.to_f32() >= MIN_COHERENCE {
+                    let bin = ((dv.to_f32() + reach) / BIN) as usize;
+                    histogram[bin.min(BINS - 1)] += 1;
+                    total += 1;
+                }
+            }
+            line += RANGE_LINE_STEP;
+        }
+    }
+    let limit = PROBE_REACH;
+    if total < 64 {
+        return Ok((-limit, limit));
+    }
+    let tail = (total as f32 * TAIL) as u64;
+    let quantile = |from_low: bool| -> f32 {
+        let mut seen = 0u64;
+        for i in 0..BINS {
+            let bin = if from_low { i } else { BINS - 1 - i };
+            seen += histogram[bin] as u64;
+            if seen > tail {
+                let edge = if from_low { bin } else { bin + 1 };
+                return edge as f32 * BIN - reach;
+            }
+        }
+        0.0
+    };
+    let lo = (quantile(true) - PAD).clamp(-limit, limit);
+    let hi = (quantile(false) + PAD).clamp(-limit, limit);
+    Ok((lo.min(hi), hi.max(lo)))
+}

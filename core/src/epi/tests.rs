@@ -1,0 +1,251 @@
+extern crate std;
+use std::vec;
+use std::vec::Vec;
+
+use core::ops::ControlFlow;
+
+use super::test_scenes::{noise, strips, Scene};
+use super::*;
+use crate::lightfield::{Grid, Layout};
+use crate::plan::Params;
+use crate::scalar::Q16;
+
+fn plan_for(layout: Layout, epi: EpiParams) -> Plan {
+    Plan::new(
+        layout,
+        Params {
+            epi,
+            ..Params::default()
+        },
+    )
+    .unwrap()
+}
+
+fn fixed(min: f32, max: f32) -> EpiParams {
+    EpiParams {
+        range: DisparityRange::Fixed { min, max },
+        ..EpiParams::default()
+    }
+}
+
+fn run<T: Scalar>(scene: &Scene, epi: EpiParams) -> (Vec<f32>, Vec<f32>) {
+    let plan = plan_for(scene.layout, epi);
+    let lf = LightField::new(&scene.data, scene.layout).unwrap();
+    let mut d = vec![0.0; plan.pixels()];
+    let mut c = vec![0.0; plan.pixels()];
+    let mut scratch = vec![T::ZERO; scratch_len(&plan)];
+    estimate(&plan, &lf, &mut d, &mut c, &mut scratch).unwrap();
+    (d, c)
+}
+
+/// Share of interior pixels (`margin` from every border) within `tol` of the truth.
+fn share_within(scene: &Scene, d: &[f32], tol: f32, margin: usize) -> f32 {
+    let (w, h) = (scene.layout.width, scene.layout.height);
+    let (mut good, mut all) = (0, 0);
+    for y in margin..h - margin {
+        for x in margin..w - margin {
+            all += 1;
+            if (d[y * w + x] - scene.gt[y * w + x]).abs() <= tol {
+                good += 1;
+            }
+        }
+    }
+    good as f32 / all as f32
+}
+
+#[test]
+fn planes_across_the_range_are_measured_accurately() {
+    for disparity in [-3.6f32, -2.3, -0.45, 0.0, 0.7, 1.5, 3.2] {
+        // Outer views move up to 4 · 3.6 px: keep the clamped borders out of the count.
+        let scene = strips(Grid::new(9, 9), 60, 52, 1, disparity, &[]);
+        let (d, c) = run::<f32>(&scene, fixed(-4.0, 4.0));
+        let share = share_within(&scene, &d, 0.02, 18);
+        assert!(share > 0.95, "d = {disparity}: {share}");
+        assert!(c.iter().all(|&v| (0.0..=1.0).contains(&v)));
+    }
+}
+
+#[test]
+fn estimates_stay_in_range_and_finite_on_any_input() {
+    let layout = Layout::packed(Grid::new(5, 7), 24, 20, 3);
+    let pattern = noise(layout.validate().unwrap(), 7);
+    let flat = vec![0.5f32; layout.validate().unwrap()];
+    for data in [&pattern, &flat] {
+        for epi in [fixed(-1.3, 2.2), EpiParams::paper(), EpiParams::default()] {
+            let scene = Scene {
+                data: data.clone(),
+                layout,
+                gt: vec![],
+            };
+            for (d, c) in [run::<f32>(&scene, epi), run::<Q16>(&scene, epi)] {
+                let (lo, hi) = match epi.range {
+                    DisparityRange::Fixed { min, max } => (min, max),
+                    DisparityRange::Auto => (-MAX_DISPARITY, MAX_DISPARITY),
+                };
+                let bad = d
+                    .iter()
+                    .find(|v| !(v.is_finite() && (lo..=hi).contains(*v)));
+                assert!(bad.is_none(), "{bad:?} outside [{lo}, {hi}] with {epi:?}");
+                assert!(c.iter().all(|v| (0.0..=1.0).contains(v)));
+            }
+        }
+    }
+}
+
+#[test]
+fn bands_of_any_size_give_the_serial_result_bit_for_bit() {
+    let scene = strips(Grid::new(7, 9), 37, 29, 3, -1.2, &[0.0, 1.6, -1.2, 2.4]);
+    let epi = fixed(-1.5, 2.6);
+    let plan = plan_for(scene.layout, epi);
+    let lf = LightField::new(&scene.data, scene.layout).unwrap();
+    let (serial_d, serial_c) = run::<f32>(&scene, epi);
+    let mut scratch = vec![0.0f32; scratch_len(&plan)];
+    let hyps = hypotheses(&plan, &lf, &mut scratch).unwrap();
+    for band in [1usize, 5, 13, 64] {
+        let mut maps = Vec::new();
+        for direction in [Direction::Horizontal, Direction::Vertical] {
+            let (lines, n) = (direction.lines(&plan), direction.line_len(&plan));
+            let mut d = vec![0.0; lines * n];
+            let mut c = vec![0.0; lines * n];
+            let mut start = 0;
+            while start < lines {
+                let end = (start + band).min(lines);
+                let mut s = vec![0.0f32; band_scratch_len(&plan, direction)];
+                estimate_band(
+                    &plan,
+                    &hyps,
+                    &lf,
+                    direction,
+                    start..end,
+                    &mut d[start * n..end * n],
+                    &mut c[start * n..end * n],
+                    &mut s,
+                )
+                .unwrap();
+                start = end;
+            }
+            maps.push((d, c));
+        }
+        let (w, h) = (scene.layout.width, scene.layout.height);
+        for y in 0..h {
+            for x in 0..w {
+                let (dh, ch) = (maps[0].0[y * w + x], maps[0].1[y * w + x]);
+                let (dv, cv) = (maps[1].0[x * h + y], maps[1].1[x * h + y]);
+                let (d, c) = fuse(epi.fusion, dh, ch, dv, cv);
+                assert_eq!(d.to_bits(), serial_d[y * w + x].to_bits(), "band {band}");
+                assert_eq!(c.to_bits(), serial_c[y * w + x].to_bits(), "band {band}");
+            }
+        }
+    }
+}
+
+#[test]
+fn fixed_point_tracks_f32() {
+    let scene = strips(Grid::new(9, 9), 40, 32, 3, -0.8, &[1.3, 0.0, 2.1]);
+    let epi = fixed(-1.0, 2.5);
+    let (df, _) = run::<f32>(&scene, epi);
+    let (dq, _) = run::<Q16>(&scene, epi);
+    let close = df
+        .iter()
+        .zip(&dq)
+        .filter(|(a, b)| (*a - *b).abs() <= 0.01)
+        .count();
+    assert!(
+        close as f32 >= 0.99 * df.len() as f32,
+        "{close} of {}",
+        df.len()
+    );
+}
+
+#[test]
+fn automatic_range_brackets_the_scene() {
+    for (background, fronts) in [
+        (-2.5f32, [0.5f32, -3.0, 1.0]),
+        (0.2, [2.9, 0.0, 3.5]),
+        (-0.3, [0.1, 0.0, 0.4]),
+        (-3.8, [-3.8, -1.0, -3.8]),
+    ] {
+        let scene = strips(Grid::new(9, 9), 64, 64, 1, background, &fronts);
+        let plan = plan_for(scene.layout, EpiParams::default());
+        let lf = LightField::new(&scene.data, scene.layout).unwrap();
+        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        let (lo, hi) = estimate_range(&plan, &lf, &mut scratch).unwrap();
+        let gmin = scene.gt.iter().copied().fold(f32::MAX, f32::min);
+        let gmax = scene.gt.iter().copied().fold(f32::MIN, f32::max);
+        assert!(lo <= gmin && hi >= gmax, "[{lo}, {hi}] vs [{gmin}, {gmax}]");
+        assert!(
+            lo >= gmin - 1.0 && hi <= gmax + 1.0,
+            "[{lo}, {hi}] vs [{gmin}, {gmax}]"
+        );
+    }
+}
+
+#[test]
+fn bad_buffers_and_cancellation_are_errors() {
+    let scene = strips(Grid::new(3, 3), 16, 16, 1, 0.3, &[]);
+    let plan = plan_for(scene.layout, fixed(-1.0, 1.0));
+    let lf = LightField::new(&scene.data, scene.layout).unwrap();
+    let mut d = vec![0.0; plan.pixels()];
+    let mut c = vec![0.0; plan.pixels()];
+    let mut small = vec![0.0f32; scratch_len(&plan) - 1];
+    assert!(matches!(
+        estimate(&plan, &lf, &mut d, &mut c, &mut small),
+        Err(Error::ScratchTooSmall { .. })
+    ));
+    let mut scratch = vec![0.0f32; scratch_len(&plan)];
+    assert!(matches!(
+        estimate(&plan, &lf, &mut d[1..], &mut c, &mut scratch),
+        Err(Error::OutputSize { .. })
+    ));
+    let hyps = hypotheses(&plan, &lf, &mut scratch).unwrap();
+    assert!(estimate_band(
+        &plan,
+        &hyps,
+        &lf,
+        Direction::Horizontal,
+        3..17,
+        &mut d[..14 * 16],
+        &mut c[..14 * 16],
+        &mut scratch
+    )
+    .is_err());
+    let mut calls = 0;
+    let r = crate::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut scratch, &mut |p| {
+        calls += 1;
+        assert!(p.done <= p.total);
+        if p.stage == STAGE_VERTICAL {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    assert_eq!(r, Err(Error::Cancelled));
+    assert!(calls >= 3);
+    let other = Layout::packed(Grid::new(3, 3), 17, 16, 1);
+    let plan2 = plan_for(other, fixed(-1.0, 1.0));
+    assert!(estimate(&plan2, &lf, &mut d, &mut c, &mut scratch).is_err());
+}
+
+#[test]
+fn invalid_parameters_are_rejected() {
+    for p in [
+        EpiParams {
+            inner_sigma: -1.0,
+            ..EpiParams::default()
+        },
+        EpiParams {
+            outer_sigma: f32::NAN,
+            ..EpiParams::default()
+        },
+        EpiParams {
+            shear_step: 0.0,
+            ..EpiParams::default()
+        },
+        fixed(3.0, -3.0),
+        fixed(-9.0, 0.0),
+    ] {
+        assert!(p.validate().is_err(), "{p:?}");
+    }
+    assert!(EpiParams::default().validate().is_ok());
+    assert!(EpiParams::paper().validate().is_ok());
+}
