@@ -1,4 +1,5 @@
-//! Arbitrary layout numbers and parameters through `Plan::new`; when the plan is valid
+//! Arbitrary layout numbers and EPI parameters through `Plan::new` (and the EPI scratch
+//! sizes of a valid plan); when the plan is valid
 //! and small, a `LightField` over a buffer of the claimed size (and one element short),
 //! probed with arbitrary indices. Every accessor must agree with an independent index
 //! computation: `Some(sample)` inside the light field, `None`/`Err` outside, no panic.
@@ -6,6 +7,7 @@
 
 use libfuzzer_sys::arbitrary::{self, Arbitrary};
 use libfuzzer_sys::fuzz_target;
+use lfdepth::epi::{self, ColorMode, DisparityRange, Direction, EpiParams, Fusion};
 use lfdepth::{Grid, Layout, LightField, Params, Plan};
 
 /// A size or index: mostly small (where valid layouts live), sometimes anything.
@@ -26,6 +28,67 @@ impl Number {
     }
 }
 
+/// A parameter value: mostly on a grid of sixteenths in −8…8 (where the valid ranges
+/// are), sometimes any bit pattern (NaN, infinities, subnormals).
+#[derive(Arbitrary, Debug, Clone, Copy)]
+enum Real {
+    Sixteenths(i8),
+    Any(f32),
+}
+
+impl Real {
+    fn get(self) -> f32 {
+        match self {
+            Real::Sixteenths(n) => n as f32 / 16.0,
+            Real::Any(x) => x,
+        }
+    }
+}
+
+/// Every field of `EpiParams`.
+#[derive(Arbitrary, Debug)]
+struct EpiInput {
+    inner_sigma: Real,
+    outer_sigma: Real,
+    fixed_range: Option<(Real, Real)>,
+    shear: bool,
+    shear_step: Real,
+    window: Real,
+    interpolate: bool,
+    weighted_fusion: bool,
+    gray: bool,
+}
+
+impl EpiInput {
+    fn params(&self) -> EpiParams {
+        EpiParams {
+            inner_sigma: self.inner_sigma.get(),
+            outer_sigma: self.outer_sigma.get(),
+            range: match self.fixed_range {
+                None => DisparityRange::Auto,
+                Some((min, max)) => DisparityRange::Fixed {
+                    min: min.get(),
+                    max: max.get(),
+                },
+            },
+            shear: self.shear,
+            shear_step: self.shear_step.get(),
+            window: self.window.get(),
+            interpolate: self.interpolate,
+            fusion: if self.weighted_fusion {
+                Fusion::Weighted
+            } else {
+                Fusion::Coherence
+            },
+            color: if self.gray {
+                ColorMode::Gray
+            } else {
+                ColorMode::Tensor
+            },
+        }
+    }
+}
+
 #[derive(Arbitrary, Debug)]
 struct Input {
     rows: Number,
@@ -35,6 +98,7 @@ struct Input {
     channels: Number,
     /// Strides as packed plus padding, or as raw numbers.
     strides: Strides,
+    epi: EpiInput,
     probes: Vec<Probe>,
 }
 
@@ -72,16 +136,29 @@ fuzz_target!(|input: Input| {
             layout.view_stride = view.get();
         }
     }
-    // Parameters: the stages' fields are added by their owners; default until then.
-    let params = Params::default();
+    // TvParams has no fields yet: add them here as the TV stage defines them.
+    let params = Params {
+        epi: input.epi.params(),
+        ..Params::default()
+    };
 
     let validated = layout.validate();
+    let epi_valid = params.epi.validate();
     let plan = Plan::new(layout, params);
-    assert_eq!(plan.is_ok(), validated.is_ok(), "Plan::new and Layout::validate disagree");
+    assert_eq!(
+        plan.is_ok(),
+        validated.is_ok() && epi_valid.is_ok(),
+        "Plan::new disagrees with Layout::validate and EpiParams::validate"
+    );
     let (Ok(plan), Ok(needed)) = (plan, validated) else {
         return;
     };
     assert_eq!(plan.pixels(), width * height);
+    // Scratch sizes of a valid plan are computed without panicking (checked arithmetic).
+    let _ = epi::scratch_len(&plan);
+    for direction in [Direction::Horizontal, Direction::Vertical] {
+        let _ = epi::band_scratch_len(&plan, direction);
+    }
     assert!(needed >= grid.len() * width * height * channels);
     if needed > MAX_SAMPLES {
         return;
