@@ -11,7 +11,7 @@
 //!
 //! A `cargo install --locked` whose lock file names a dependency version the registry no
 //! longer serves (yanked) is retried once without `--locked`.
-//! | wasm-opt                               | wasm-pack step, root only  | `apt-get install -y binaryen`; otherwise wasm-opt is turned off |
+//! | wasm-opt                               | wasm-pack step, root only  | `apt-get install -y binaryen`; without it, or older than [`MIN_WASM_OPT`], wasm-opt is turned off |
 //! | chromium                               | browser tests, root only   | `apt-get install -y chromium`; otherwise the browser tests are skipped |
 //!
 //! Nothing downloads a browser or a binary from outside the package registries.
@@ -153,17 +153,40 @@ fn apt_install(package: &str, root: &Path) -> Result<(), String> {
     )
 }
 
-/// Whether `wasm-opt` is on PATH, after installing Debian `binaryen` when root.
-pub fn wasm_opt(root: &Path) -> bool {
-    if available("wasm-opt") {
-        return true;
-    }
-    if is_root() {
-        if let Err(e) = apt_install("binaryen", root) {
-            println!("warning: could not install binaryen: {e}");
+/// Oldest binaryen whose `wasm-opt` the wasm-pack step uses. Debian bookworm's 108 was
+/// seen here to turn wasm-bindgen 0.2.130's externref table into one Node 20 rejects at
+/// `initSync` ("Table.set(): Argument 1 is invalid"), even with every `--enable-*` flag;
+/// versions from 116 on are trusted but were not tested here.
+pub const MIN_WASM_OPT: u32 = 116;
+
+/// The number in `wasm-opt --version` output (`wasm-opt version 108 (…)`).
+pub fn binaryen_version(text: &str) -> Option<u32> {
+    let rest = text.split("version").nth(1)?;
+    let digits: String = rest
+        .trim_start()
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect();
+    digits.parse().ok()
+}
+
+/// Whether the wasm-pack step may run `wasm-opt`: it is on PATH (after installing Debian
+/// `binaryen` when root) and not older than [`MIN_WASM_OPT`]. `Err` says why not.
+pub fn wasm_opt(root: &Path) -> Result<(), String> {
+    if !available("wasm-opt") {
+        if !is_root() {
+            return Err("wasm-opt not found and installing binaryen needs root".into());
         }
+        apt_install("binaryen", root)?;
     }
-    available("wasm-opt")
+    let text = Cmd::new("wasm-opt", &["--version"]).output(root)?;
+    match binaryen_version(&text) {
+        Some(v) if v >= MIN_WASM_OPT => Ok(()),
+        Some(v) => Err(format!(
+            "wasm-opt {v} is older than {MIN_WASM_OPT} and breaks wasm-bindgen's output"
+        )),
+        None => Err(format!("cannot read the version of wasm-opt from {text:?}")),
+    }
 }
 
 /// The path of a Chromium executable, after installing Debian `chromium` when root;
@@ -206,6 +229,16 @@ mod tests {
             missing("thumbv6m-none-eabi-x\n", &["thumbv6m-none-eabi"]),
             ["thumbv6m-none-eabi"]
         );
+    }
+
+    #[test]
+    fn binaryen_versions_are_read() {
+        assert_eq!(binaryen_version("wasm-opt version 108\n"), Some(108));
+        assert_eq!(
+            binaryen_version("wasm-opt version 123 (version_123)"),
+            Some(123)
+        );
+        assert_eq!(binaryen_version("wasm-opt"), None);
     }
 
     #[test]

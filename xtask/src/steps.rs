@@ -291,8 +291,8 @@ fn execute(root: &Path, action: &Action) -> Outcome {
                     &["build", "wasm", "--target", "web", "--release"],
                 )
                 .args(&["--out-dir", "../web/pkg", "--mode", "no-install"]);
-                if !install::wasm_opt(root) {
-                    println!("warning: wasm-opt not found and not installable here (needs root for apt-get install binaryen): building without wasm-opt");
+                if let Err(why) = install::wasm_opt(root) {
+                    println!("warning: building without wasm-opt (larger, slower .wasm): {why}");
                     cmd = cmd.arg("--no-opt");
                 }
                 println!("$ {cmd}");
