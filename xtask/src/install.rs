@@ -192,11 +192,12 @@ pub fn wasm_opt(root: &Path) -> Result<(), String> {
 /// The path of a Chromium executable, after installing Debian `chromium` when root;
 /// `Err` says why there is none.
 pub fn chromium(root: &Path) -> Result<PathBuf, String> {
+    // An absolute path: playwright-core's `executablePath` does not search PATH.
     let find = || {
-        ["chromium", "/usr/bin/chromium"]
-            .into_iter()
-            .find(|p| available(p))
-            .map(PathBuf::from)
+        std::env::split_paths(&std::env::var_os("PATH").unwrap_or_default())
+            .map(|dir| dir.join("chromium"))
+            .chain([PathBuf::from("/usr/bin/chromium")])
+            .find(|path| path.is_file() && available(&path.to_string_lossy()))
     };
     if let Some(path) = find() {
         return Ok(path);
