@@ -44,7 +44,6 @@ pub fn run(root: &Path, filter: Option<&str>) -> bool {
     }
     let (selected, criterion_filter) = select(&benches, filter);
     let cmd = command(&selected, criterion_filter);
-    println!("$ {cmd}");
     let result = cmd.run(root);
     println!(
         "\nCriterion reports: target/criterion/. Record numbers you cite in docs/BENCHMARKS.md, \

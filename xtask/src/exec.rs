@@ -63,8 +63,10 @@ impl Cmd {
         command
     }
 
-    /// Runs with output streamed to ours; `Err` says how it failed.
+    /// Prints `$ <command>`, then runs it with output streamed to ours; `Err` says how
+    /// it failed.
     pub fn run(&self, root: &Path) -> Result<(), String> {
+        println!("$ {self}");
         let status = self
             .command(root)
             .status()

@@ -44,7 +44,7 @@ pub fn run(root: &Path, seconds: u64) -> bool {
     let mut results = Vec::new();
     for target in &targets {
         let cmd = command(target, seconds, nightly);
-        println!("\n==> fuzz {target} for {seconds} s\n$ {cmd}");
+        println!("\n==> fuzz {target} for {seconds} s");
         let start = Instant::now();
         let outcome = match cmd.run(root) {
             Ok(()) => Outcome::Passed,

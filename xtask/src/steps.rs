@@ -279,10 +279,7 @@ fn node_test(root: &Path, files: &[PathBuf]) -> Cmd {
 /// Runs one action, installing what it needs first.
 fn execute(root: &Path, action: &Action) -> Outcome {
     let result = match action {
-        Action::Run(cmd) => {
-            println!("$ {cmd}");
-            cmd.run(root)
-        }
+        Action::Run(cmd) => cmd.run(root),
         Action::WasmPack => install::wasm_pack(root)
             .and_then(|()| install::wasm_bindgen(root))
             .and_then(|()| {
@@ -295,20 +292,15 @@ fn execute(root: &Path, action: &Action) -> Outcome {
                     println!("warning: building without wasm-opt (larger, slower .wasm): {why}");
                     cmd = cmd.arg("--no-opt");
                 }
-                println!("$ {cmd}");
                 cmd.run(root)
             }),
         Action::NpmInstall { lock } => {
             let verb = if *lock { "ci" } else { "install" };
-            let cmd = Cmd::new("npm", &[verb, "--no-audit", "--no-fund"]).dir(&root.join("tests"));
-            println!("$ {cmd}");
-            cmd.run(root)
+            Cmd::new("npm", &[verb, "--no-audit", "--no-fund"])
+                .dir(&root.join("tests"))
+                .run(root)
         }
-        Action::NodeTests(files) => {
-            let cmd = node_test(root, files);
-            println!("$ {cmd}");
-            cmd.run(root)
-        }
+        Action::NodeTests(files) => node_test(root, files).run(root),
         Action::BrowserTests(files) => {
             let chromium = match install::chromium(root) {
                 Ok(path) => path,
@@ -317,9 +309,9 @@ fn execute(root: &Path, action: &Action) -> Outcome {
             if !root.join("tests/node_modules/playwright-core").is_dir() {
                 Err("tests/node_modules/playwright-core is missing: add playwright-core to tests/package.json".to_string())
             } else {
-                let cmd = node_test(root, files).env("CHROMIUM_PATH", &chromium.to_string_lossy());
-                println!("$ {cmd}");
-                cmd.run(root)
+                node_test(root, files)
+                    .env("CHROMIUM_PATH", &chromium.to_string_lossy())
+                    .run(root)
             }
         }
     };
