@@ -7,11 +7,14 @@
 //! | `fmt`            | `cargo fmt --all --check` |
 //! | `clippy`         | `cargo clippy --workspace --all-targets -- -D warnings` |
 //! | `clippy-wasm`    | the same for `-p lfdepth-wasm --target wasm32-unknown-unknown` |
-//! | `test-core`      | `cargo test -p lfdepth` (debug: integer overflow panics) |
+//! | `test-core`      | `cargo test -p lfdepth -- --show-output` (debug: integer overflow panics) |
 //! | `nostd-thumbv7em`, `nostd-thumbv6m` | `cargo build -p lfdepth --release --target …` with `RUSTFLAGS=-D warnings` in `target/nostd` |
 //! | `doc`            | `cargo doc -p lfdepth --no-deps` with `RUSTDOCFLAGS=-D warnings` |
 //! | `wasm-build`     | `cargo build -p lfdepth-wasm --target wasm32-unknown-unknown --release` |
-//! | `test-release`   | `cargo test --workspace --release` (the heavy accuracy tests) |
+//! | `test-release`   | `cargo test --workspace --release -- --show-output` (the heavy accuracy tests) |
+//!
+//! `--show-output` prints what passing tests wrote, so the `SKIPPED: …` lines of tests
+//! whose data (`../shared/data`) is absent, and the accuracy tables, reach the CI log.
 //!
 //! As soon as their inputs exist (otherwise skipped, with the reason printed):
 //!
@@ -184,7 +187,13 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
     });
     steps.push(step(
         "test-core",
-        Action::Run(Cmd::cargo(&["test", "-p", "lfdepth"])),
+        Action::Run(Cmd::cargo(&[
+            "test",
+            "-p",
+            "lfdepth",
+            "--",
+            "--show-output",
+        ])),
     ));
     steps.push(step("nostd-thumbv7em", nostd("thumbv7em-none-eabihf")));
     steps.push(step("nostd-thumbv6m", nostd("thumbv6m-none-eabi")));
@@ -202,7 +211,13 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
         "wasm32-unknown-unknown",
         "--release",
     ]));
-    let test_release = Action::Run(Cmd::cargo(&["test", "--workspace", "--release"]));
+    let test_release = Action::Run(Cmd::cargo(&[
+        "test",
+        "--workspace",
+        "--release",
+        "--",
+        "--show-output",
+    ]));
     let fuzz_check = Action::Run(Cmd::cargo(&[
         "check",
         "--manifest-path",
