@@ -82,3 +82,38 @@ fn full_stage_outputs_stay_inside_the_given_range() {
         .count();
     assert!(good > 32 * 6 * 8 / 10, "{good}");
 }
+
+/// CPU seconds used by this process so far (Linux `/proc/self/stat`, 10 ms resolution).
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = stat.rsplit(')').next()?.split_whitespace().collect();
+    let ticks: f64 = fields.get(11)?.parse::<f64>().ok()? + fields.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0)
+}
+
+/// Fixed single-thread workload for comparing kernel changes on a busy machine, where
+/// CPU time is steadier than wall time:
+/// `cargo test --release -p lfdepth-cli --test epi_engine -- --ignored workload --nocapture`.
+#[test]
+#[ignore]
+fn workload_three_estimates_of_a_512_scene() {
+    use lfdepth::synth::{render, SceneKind, SynthSpec};
+    use lfdepth::Homography;
+    // The scene of `cargo bench --bench epi`: `Mixed`, −1.5…1.5 px, 9×9×512×512 RGB.
+    let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), 512, 512);
+    let mut data = vec![0u8; spec.layout().validate().unwrap()];
+    let mut gt = vec![0.0f32; 512 * 512];
+    let mut h = vec![Homography::IDENTITY; 81];
+    render(&spec, &mut data, &mut gt, &mut h).unwrap();
+    let lf = LightField::new(&data, spec.layout()).unwrap();
+    for _ in 0..3 {
+        let (wall, cpu) = (std::time::Instant::now(), process_cpu_seconds());
+        estimate(&lf, &options(1, EpiParams::default()), &mut |_, _, _| {}).unwrap();
+        let cpu = process_cpu_seconds().zip(cpu).map(|(b, a)| b - a);
+        eprintln!(
+            "1-thread estimate of 9x9x512x512 RGB: wall {:?}, process CPU {:?} s",
+            wall.elapsed(),
+            cpu
+        );
+    }
+}

@@ -96,6 +96,91 @@ fn variants_table() {
             },
         ),
         ("window 0.5", EpiParams { window: 0.5, ..d }),
+        ("window 1.5", EpiParams { window: 1.5, ..d }),
+        (
+            "gray, step 1",
+            EpiParams {
+                color: ColorMode::Gray,
+                shear_step: 1.0,
+                ..d
+            },
+        ),
+        (
+            "A: outer 2, inner 0.5, step 0.5, weighted",
+            EpiParams {
+                outer_sigma: 2.0,
+                inner_sigma: 0.5,
+                shear_step: 0.5,
+                fusion: Fusion::Weighted,
+                ..d
+            },
+        ),
+        (
+            "B: outer 2, inner 0.5, weighted",
+            EpiParams {
+                outer_sigma: 2.0,
+                inner_sigma: 0.5,
+                fusion: Fusion::Weighted,
+                ..d
+            },
+        ),
+        (
+            "C: outer 2, inner 0.5, step 0.5",
+            EpiParams {
+                outer_sigma: 2.0,
+                inner_sigma: 0.5,
+                shear_step: 0.5,
+                ..d
+            },
+        ),
+        (
+            "D: outer 2, inner 0.5, step 0.5, window 0.75",
+            EpiParams {
+                outer_sigma: 2.0,
+                inner_sigma: 0.5,
+                shear_step: 0.5,
+                window: 0.75,
+                ..d
+            },
+        ),
+        (
+            "E: outer 1.75, inner 0.6, step 0.5, weighted",
+            EpiParams {
+                outer_sigma: 1.75,
+                inner_sigma: 0.6,
+                shear_step: 0.5,
+                fusion: Fusion::Weighted,
+                ..d
+            },
+        ),
+        (
+            "outer 1.0",
+            EpiParams {
+                outer_sigma: 1.0,
+                ..d
+            },
+        ),
+        (
+            "outer 2.0",
+            EpiParams {
+                outer_sigma: 2.0,
+                ..d
+            },
+        ),
+        (
+            "inner 0.5",
+            EpiParams {
+                inner_sigma: 0.5,
+                ..d
+            },
+        ),
+        (
+            "inner 1.1",
+            EpiParams {
+                inner_sigma: 1.1,
+                ..d
+            },
+        ),
         (
             "reference-like: range ±1.5, step 0.25, no interpolation",
             EpiParams {

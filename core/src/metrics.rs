@@ -176,7 +176,8 @@ pub fn evaluate(
             libm::fabs(pixel(est, i) - pixel(gt, i)) * 100.0
         };
         let candidates = scratch.get_mut(..finite).unwrap_or(&mut []);
-        let k = ((finite * 25) as f64 / 100.0) as usize;
+        // Python: int(n * 25 / 100.0); exact in f64 for any pixel count.
+        let k = (finite as f64 * 25.0 / 100.0) as usize;
         let (_, nth, _) = candidates
             .select_nth_unstable_by(k, |a, b| scaled_error(a).total_cmp(&scaled_error(b)));
         (squared_sum / finite as f64 * 100.0, scaled_error(nth))

@@ -4,6 +4,7 @@
 //! cargo xtask test [--quick]   every check CI runs (fmt, clippy, tests, no_std, wasm, docs, JS)
 //! cargo xtask bench [FILTER]   the criterion benches of lfdepth-cli
 //! cargo xtask fuzz [SECONDS]   each cargo-fuzz target in fuzz/ for SECONDS (default 60)
+//! cargo xtask web [--port N] [--no-build]   build web/pkg and serve the page (see [`web`])
 //! ```
 //!
 //! `test` first installs what the machine lacks (rustup targets and components), then runs
@@ -20,6 +21,7 @@ mod install;
 mod manifest;
 mod report;
 mod steps;
+mod web;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -33,6 +35,8 @@ enum Command {
     Bench { filter: Option<String> },
     /// Run each fuzz target for this many seconds.
     Fuzz { seconds: u64 },
+    /// Build the wasm package and serve the page.
+    Web(web::WebOptions),
     /// Print usage.
     Help,
 }
@@ -44,6 +48,8 @@ commands:
   test [--quick]    run every check CI runs; --quick skips release tests and wasm/JS steps
   bench [FILTER]    run the criterion benches (cargo bench -p lfdepth-cli); results go in docs/BENCHMARKS.md
   fuzz [SECONDS]    run each fuzz target in fuzz/ for SECONDS (default 60); see docs/FUZZING.md
+  web [--port N] [--no-build]
+                    build the wasm package into web/pkg and serve web/ on 127.0.0.1
   help              print this message";
 
 /// Seconds each fuzz target runs when none are given.
@@ -79,6 +85,7 @@ fn parse_args(args: &[String]) -> Result<Command, String> {
             )),
         },
         ("fuzz", _) => Err("`fuzz` takes at most one SECONDS".to_string()),
+        ("web", options) => web::parse(options).map(Command::Web),
         (other, _) => Err(format!("unknown command `{other}`")),
     }
 }
@@ -110,6 +117,7 @@ fn main() -> ExitCode {
         Command::Test { quick } => steps::run_all(&root, quick),
         Command::Bench { filter } => bench::run(&root, filter.as_deref()),
         Command::Fuzz { seconds } => fuzz::run(&root, seconds),
+        Command::Web(options) => web::run(&root, &options),
     };
     if ok {
         ExitCode::SUCCESS

@@ -297,18 +297,7 @@ fn execute(root: &Path, action: &Action) -> Outcome {
         Action::Run(cmd) => cmd.run(root),
         Action::WasmPack => install::wasm_pack(root)
             .and_then(|()| install::wasm_bindgen(root))
-            .and_then(|()| {
-                let mut cmd = Cmd::new(
-                    "wasm-pack",
-                    &["build", "wasm", "--target", "web", "--release"],
-                )
-                .args(&["--out-dir", "../web/pkg", "--mode", "no-install"]);
-                if let Err(why) = install::wasm_opt(root) {
-                    println!("warning: building without wasm-opt (larger, slower .wasm): {why}");
-                    cmd = cmd.arg("--no-opt");
-                }
-                cmd.run(root)
-            }),
+            .and_then(|()| crate::web::build(root)),
         Action::NpmInstall { lock } => {
             let verb = if *lock { "ci" } else { "install" };
             Cmd::new("npm", &[verb, "--no-audit", "--no-fund"])

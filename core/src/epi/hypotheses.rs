@@ -50,6 +50,18 @@ impl Hypotheses {
     /// Multiples of `step` covering `[min, max]`, accepting residual slopes up to
     /// `window · step`.
     pub(crate) fn sheared(min: f32, max: f32, step: f32, window: f32) -> Result<Self> {
+        if !(step.is_finite() && (0.1..=2.0).contains(&step)) {
+            return Err(Error::InvalidParameter {
+                name: "shear_step",
+                reason: "must be between 0.1 and 2 px",
+            });
+        }
+        if !(window.is_finite() && (0.5..=2.0).contains(&window)) {
+            return Err(Error::InvalidParameter {
+                name: "window",
+                reason: "must be between 0.5 and 2 shear steps",
+            });
+        }
         let lo = libm::roundf(min / step);
         let hi = libm::roundf(max / step);
         let count = (hi - lo) as usize + 1;
@@ -110,6 +122,11 @@ mod tests {
         assert!(Hypotheses::new(&p, 1.0, -1.0).is_err());
         assert!(Hypotheses::new(&p, f32::NAN, 1.0).is_err());
         assert!(Hypotheses::sheared(-8.0, 8.0, 0.1, 1.0).is_err());
+        let zero_step = EpiParams {
+            shear_step: 0.0,
+            ..p
+        };
+        assert!(Hypotheses::new(&zero_step, -1.0, 1.0).is_err());
         let plain = EpiParams { shear: false, ..p };
         let h = Hypotheses::new(&plain, -2.0, 3.0).unwrap();
         assert_eq!((h.count(), h.shear(0)), (1, 0.0));

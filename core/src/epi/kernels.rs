@@ -123,9 +123,7 @@ impl<T: Scalar> Kernel<T> {
         }
         // Interior: tap-major loops over contiguous slices (vectorises for f32).
         let inner = &mut out[r..n - r];
-        for o in inner.iter_mut() {
-            *o = T::ZERO;
-        }
+        inner.fill(T::ZERO);
         for (j, &k) in taps.iter().enumerate() {
             for (o, &v) in inner.iter_mut().zip(&input[j..j + n - 2 * r]) {
                 *o += k * v;

@@ -23,6 +23,8 @@ pub(crate) struct LineEstimator<T: Scalar> {
     /// Row k: the inner Gaussian followed by the across-view derivative at view k
     /// (central; one-sided at the first and last view so that the ends keep the scale).
     mix_derivative: [[T; GRID_MAX]; GRID_MAX],
+    /// Per view k, the range of views with a nonzero entry in either mixing row.
+    reach: [(usize, usize); GRID_MAX],
     views: usize,
     centre: usize,
     channels: usize,
@@ -36,6 +38,8 @@ pub(crate) struct LineEstimator<T: Scalar> {
 const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
+/// Samples per register block of the gradient sums.
+const CHUNK: usize = 16;
 
 impl<T: Scalar> LineEstimator<T> {
     /// `views` cameras along the EPI, the centre one at `centre`, `channels` loaded planes.
@@ -91,6 +95,13 @@ impl<T: Scalar> LineEstimator<T> {
                 mix_derivative[k][j] = T::from_f32(d);
             }
         }
+        let mut reach = [(0, 0); GRID_MAX];
+        for (k, r) in reach.iter_mut().enumerate().take(views) {
+            let used = |j: &usize| mix_smooth[k][*j] != T::ZERO || mix_derivative[k][*j] != T::ZERO;
+            let first = (0..views).find(used).unwrap_or(0);
+            let last = (0..views).rev().find(used).map_or(first, |j| j + 1);
+            *r = (first, last);
+        }
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
@@ -98,6 +109,7 @@ impl<T: Scalar> LineEstimator<T> {
             weights,
             mix_smooth,
             mix_derivative,
+            reach,
             views,
             centre,
             channels: match params.color {
@@ -116,7 +128,7 @@ impl<T: Scalar> LineEstimator<T> {
 
     /// Work elements (of `T`) for a line of `n` samples.
     pub(crate) fn work_len(views: usize, channels: usize, n: usize) -> usize {
-        (2 * views * channels + 2 * views + 12) * n
+        (2 * views * channels + 2 * views + 10) * n
     }
 
     /// Estimates one line of `n` samples. `load(view, channel, out)` fills `out` (length `n`)
@@ -158,9 +170,7 @@ impl<T: Scalar> LineEstimator<T> {
         let (skk, rest) = rest.split_at_mut(n);
         let (score, rest) = rest.split_at_mut(n);
         let (prev_r, rest) = rest.split_at_mut(n);
-        let (prev_c, rest) = rest.split_at_mut(n);
-        let (gx, rest) = rest.split_at_mut(n);
-        let gk = &mut rest[..n];
+        let prev_c = &mut rest[..n];
 
         // Filtering along the line commutes with the shear (a shift along the line), so the
         // inner smoothing and the along-line parts of the Scharr filters run once per line.
@@ -199,9 +209,9 @@ impl<T: Scalar> LineEstimator<T> {
         for i in 0..h.count() {
             let shear = h.shear(i);
             let shear_t = T::from_f32(shear);
-            for v in jxx.iter_mut().chain(jxk.iter_mut()).chain(jkk.iter_mut()) {
-                *v = T::ZERO;
-            }
+            jxx.fill(T::ZERO);
+            jxk.fill(T::ZERO);
+            jkk.fill(T::ZERO);
             for c in 0..c_n {
                 for k in 0..k_n {
                     let offset = (k as f32 - self.centre as f32) * shear;
@@ -214,28 +224,43 @@ impl<T: Scalar> LineEstimator<T> {
                     if w == T::ZERO {
                         continue;
                     }
-                    // Gradients of view k across the views: rows of the mixing matrices.
-                    for v in gx.iter_mut().chain(gk.iter_mut()) {
-                        *v = T::ZERO;
-                    }
-                    for j in 0..k_n {
-                        let (ms, md) = (self.mix_smooth[k][j], self.mix_derivative[k][j]);
-                        if ms != T::ZERO {
-                            for (g, &v) in gx.iter_mut().zip(&sh_d[j * n..j * n + n]) {
-                                *g += ms * v;
+                    // Gradients of view k across the views (rows of the mixing matrices),
+                    // in register-sized chunks so the sums stay out of memory.
+                    // Only the views the two rows reach (the inner Gaussian is short).
+                    let (first, last) = self.reach[k];
+                    let (ms, md) = (
+                        &self.mix_smooth[k][first..last],
+                        &self.mix_derivative[k][first..last],
+                    );
+                    let mut t0 = 0;
+                    while t0 < n {
+                        let len = CHUNK.min(n - t0);
+                        let mut ax = [T::ZERO; CHUNK];
+                        let mut ak = [T::ZERO; CHUNK];
+                        for (j, (&a, &b)) in ms.iter().zip(md).enumerate() {
+                            let at = (first + j) * n + t0;
+                            let (sd, ss) = (&sh_d[at..at + len], &sh_s[at..at + len]);
+                            for (((x, y), &p), &q) in
+                                ax.iter_mut().zip(ak.iter_mut()).zip(sd).zip(ss)
+                            {
+                                *x += a * p;
+                                *y += b * q;
                             }
                         }
-                        if md != T::ZERO {
-                            for (g, &v) in gk.iter_mut().zip(&sh_s[j * n..j * n + n]) {
-                                *g += md * v;
-                            }
+                        let span = t0..t0 + len;
+                        for ((((xx, xk), kk), &gx), &gk) in jxx[span.clone()]
+                            .iter_mut()
+                            .zip(jxk[span.clone()].iter_mut())
+                            .zip(jkk[span].iter_mut())
+                            .zip(ax.iter())
+                            .zip(ak.iter())
+                        {
+                            let wgx = w * gx;
+                            *xx += wgx * gx;
+                            *xk += wgx * gk;
+                            *kk += w * gk * gk;
                         }
-                    }
-                    for t in 0..n {
-                        let wgx = w * gx[t];
-                        jxx[t] += wgx * gx[t];
-                        jxk[t] += wgx * gk[t];
-                        jkk[t] += w * gk[t] * gk[t];
+                        t0 += len;
                     }
                 }
             }
@@ -319,21 +344,48 @@ fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
     if n == 0 {
         return;
     }
-    let last = n as isize - 1;
+    let (input, out) = (&input[..n], &mut out[..n]);
     let floor = libm::floorf(offset);
-    let whole = floor as isize;
     let frac = offset - floor;
+    // out[t] = (1 − f)·in[t − whole] + f·in[t − whole − 1]; with f = 0 only the first term.
+    let whole = floor as isize;
+    let lag = if frac == 0.0 { 0 } else { 1 };
+    let last = n as isize - 1;
     let at = |i: isize| input[i.clamp(0, last) as usize];
+    // Interior: every index in range, t ∈ [whole + lag, last + whole].
+    let lo = (whole + lag as isize).clamp(0, n as isize) as usize;
+    let hi = (last + whole + 1).clamp(lo as isize, n as isize) as usize;
     if frac == 0.0 {
-        for (t, o) in out.iter_mut().enumerate().take(n) {
+        for (t, o) in out.iter_mut().enumerate().take(lo) {
+            *o = at(t as isize - whole);
+        }
+        if hi > lo {
+            let src = (lo as isize - whole) as usize;
+            out[lo..hi].copy_from_slice(&input[src..src + (hi - lo)]);
+        }
+        for (t, o) in out.iter_mut().enumerate().skip(hi) {
             *o = at(t as isize - whole);
         }
         return;
     }
     let (wa, wb) = (T::from_f32(1.0 - frac), T::from_f32(frac));
-    for (t, o) in out.iter_mut().enumerate().take(n) {
+    let edge = |t: usize| {
         let i = t as isize - whole;
-        *o = wa * at(i) + wb * at(i - 1);
+        wa * at(i) + wb * at(i - 1)
+    };
+    for (t, o) in out.iter_mut().enumerate().take(lo) {
+        *o = edge(t);
+    }
+    if hi > lo {
+        let src = (lo as isize - whole) as usize;
+        let a = &input[src..src + (hi - lo)];
+        let b = &input[src - 1..src - 1 + (hi - lo)];
+        for ((o, &x), &y) in out[lo..hi].iter_mut().zip(a).zip(b) {
+            *o = wa * x + wb * y;
+        }
+    }
+    for (t, o) in out.iter_mut().enumerate().skip(hi) {
+        *o = edge(t);
     }
 }
 
@@ -351,5 +403,19 @@ mod tests {
         assert_eq!(out, [1.0, 2.0, 3.0, 4.0, 4.0]);
         shift(&input, &mut out, 0.25);
         assert_eq!(out[2], 1.75);
+        // Every offset agrees with the clamped definition, including huge ones.
+        let input: [f32; 9] = core::array::from_fn(|i| (i * i) as f32);
+        for offset in [
+            -12.5f32, -3.0, -2.75, -0.5, 0.0, 0.5, 1.0, 3.25, 8.0, 8.5, 20.0,
+        ] {
+            shift(&input, &mut out, offset);
+            for (t, &got) in out.iter().enumerate() {
+                let x = t as f32 - offset;
+                let (i, f) = (x.floor(), x - x.floor());
+                let at = |i: f32| input[(i.max(0.0) as usize).min(4)];
+                let want = (1.0 - f) * at(i) + f * at(i + 1.0);
+                assert!((got - want).abs() < 1e-4, "{offset} {t}: {got} vs {want}");
+            }
+        }
     }
 }

@@ -96,11 +96,14 @@ pub struct EpiParams {
 impl Default for EpiParams {
     fn default() -> Self {
         EpiParams {
-            inner_sigma: 0.8,
-            outer_sigma: 1.5,
+            // Chosen on the HCI scenes (docs/bench-epi.md): less inner smoothing keeps fine
+            // texture, more outer smoothing steadies weakly textured surfaces, and half-pixel
+            // shears keep residual slopes small.
+            inner_sigma: 0.5,
+            outer_sigma: 2.0,
             range: DisparityRange::Auto,
             shear: true,
-            shear_step: 1.0,
+            shear_step: 0.5,
             window: 1.0,
             interpolate: true,
             fusion: Fusion::Coherence,
@@ -110,9 +113,12 @@ impl Default for EpiParams {
 }
 
 impl EpiParams {
-    /// The paper's variant: one unsheared EPI per direction, coherence fusion.
+    /// The paper's variant: one unsheared EPI per direction, the usual scales (0.8, 1.5),
+    /// coherence fusion.
     pub fn paper() -> Self {
         EpiParams {
+            inner_sigma: 0.8,
+            outer_sigma: 1.5,
             shear: false,
             range: DisparityRange::Fixed {
                 min: -MAX_DISPARITY,

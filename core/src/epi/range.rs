@@ -1,6 +1,6 @@
 //! Automatic disparity range: probe every `RANGE_LINE_STEP`-th line of both directions with
 //! integer shears over the whole supported range, histogram the confident estimates and
-//! keep the 1st…99th percentile, padded.
+//! keep the outermost 0.3 px windows holding at least 1 % of them, padded.
 
 use super::hypotheses::Hypotheses;
 use super::{check_layout, scratch_len, BandEstimator, Direction};
@@ -14,13 +14,14 @@ pub const RANGE_LINE_STEP: usize = 8;
 /// Probed disparities (integer shears ±PROBE_REACH, each accepting ±1 px residuals).
 const PROBE_REACH: f32 = 4.0;
 /// Only estimates at least this coherent enter the histogram.
-const MIN_COHERENCE: f32 = 0.5;
+const MIN_COHERENCE: f32 = 0.8;
 /// Histogram resolution (px).
 const BIN: f32 = 0.05;
 const BINS: usize = 2 * ((PROBE_REACH + 1.0) / BIN) as usize;
 /// Share of confident samples left out on each side, and the padding added back.
 const TAIL: f32 = 0.01;
-const PAD: f32 = 0.3;
+const CLUSTER: usize = 6;
+const PAD: f32 = 0.2;
 /// Samples this close to a line end see clamped (constant) views and are not probed.
 const MARGIN: usize = 16;
 
@@ -65,14 +66,24 @@ pub fn estimate_range<T: Scalar, S: Sample>(
     if total < 64 {
         return Ok((-limit, limit));
     }
-    let tail = (total as f32 * TAIL) as u64;
+    // Outliers scatter thinly over many bins while surfaces pile up: the range ends are
+    // the outermost windows of CLUSTER bins that hold at least TAIL of the samples.
+    let need = ((total as f32 * TAIL) as u64).max(1);
+    let window_mass = |first: usize| -> u64 {
+        histogram[first..(first + CLUSTER).min(BINS)]
+            .iter()
+            .map(|&h| h as u64)
+            .sum()
+    };
     let quantile = |from_low: bool| -> f32 {
-        let mut seen = 0u64;
         for i in 0..BINS {
-            let bin = if from_low { i } else { BINS - 1 - i };
-            seen += histogram[bin] as u64;
-            if seen > tail {
-                let edge = if from_low { bin } else { bin + 1 };
+            let first = if from_low {
+                i
+            } else {
+                (BINS - 1 - i).saturating_sub(CLUSTER - 1)
+            };
+            if window_mass(first) >= need {
+                let edge = if from_low { first } else { first + CLUSTER };
                 return edge as f32 * BIN - reach;
             }
         }

@@ -70,7 +70,13 @@ fn estimates_stay_in_range_and_finite_on_any_input() {
     let layout = Layout::packed(Grid::new(5, 7), 24, 20, 3);
     let pattern = noise(layout.validate().unwrap(), 7);
     let flat = vec![0.5f32; layout.validate().unwrap()];
-    for data in [&pattern, &flat] {
+    let mut broken = pattern.clone();
+    for (i, v) in broken.iter_mut().enumerate() {
+        if i % 7 == 0 {
+            *v = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e30][i % 4];
+        }
+    }
+    for data in [&pattern, &flat, &broken] {
         for epi in [fixed(-1.3, 2.2), EpiParams::paper(), EpiParams::default()] {
             let scene = Scene {
                 data: data.clone(),

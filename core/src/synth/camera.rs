@@ -21,9 +21,6 @@ pub(crate) struct ViewCamera {
     /// Misaligned → ideal pixel coordinates.
     pub(crate) inverse: [f64; 9],
     pub(crate) misaligned: bool,
-    /// Jacobian `[∂x/∂x', ∂x/∂y', ∂y/∂x', ∂y/∂y']` of `inverse` at the image centre: the
-    /// footprint of a stored pixel in ideal coordinates (used for box filtering).
-    pub(crate) jacobian: [f64; 4],
     /// Multiplicative brightness and contrast (about mid-gray) of the linear radiance.
     pub(crate) brightness: f64,
     pub(crate) contrast: f64,
@@ -40,7 +37,6 @@ impl ViewCamera {
             forward: IDENTITY,
             inverse: IDENTITY,
             misaligned: false,
-            jacobian: [1.0, 0.0, 0.0, 1.0],
             brightness: 1.0,
             contrast: 1.0,
         };
@@ -79,18 +75,6 @@ impl ViewCamera {
             camera.forward = forward;
             camera.inverse = inverse;
             camera.misaligned = true;
-            let step = 0.5;
-            let at = |x: f64, y: f64| apply(&inverse, x, y);
-            let (xr, yr) = at(ox + step, oy);
-            let (xl, yl) = at(ox - step, oy);
-            let (xd, yd) = at(ox, oy + step);
-            let (xu, yu) = at(ox, oy - step);
-            camera.jacobian = [
-                (xr - xl) / (2.0 * step),
-                (xd - xu) / (2.0 * step),
-                (yr - yl) / (2.0 * step),
-                (yd - yu) / (2.0 * step),
-            ];
         }
         camera
     }
@@ -112,6 +96,24 @@ impl ViewCamera {
         }
     }
 
+    /// Jacobian `[∂x/∂x', ∂x/∂y', ∂y/∂x', ∂y/∂y']` of stored → ideal coordinates at
+    /// stored point `(x', y')`: the footprint of a stored pixel (for box filtering).
+    #[inline]
+    pub(crate) fn jacobian_at(&self, x: f64, y: f64) -> [f64; 4] {
+        if !self.misaligned {
+            return [1.0, 0.0, 0.0, 1.0];
+        }
+        let m = &self.inverse;
+        let w = m[6] * x + m[7] * y + m[8];
+        let (ix, iy) = apply(m, x, y);
+        [
+            (m[0] - m[6] * ix) / w,
+            (m[1] - m[7] * ix) / w,
+            (m[3] - m[6] * iy) / w,
+            (m[4] - m[7] * iy) / w,
+        ]
+    }
+
     /// The stored linear radiance for ideal linear radiance `value` (after saturation).
     #[inline]
     pub(crate) fn photometric(&self, value: f64) -> f64 {
@@ -121,7 +123,7 @@ impl ViewCamera {
 
 /// Applies a homography; the maps built here keep w near 1.
 #[inline]
-pub(crate) fn apply(m: &[f64; 9], x: f64, y: f64) -> (f64, f64) {
+fn apply(m: &[f64; 9], x: f64, y: f64) -> (f64, f64) {
     let w = m[6] * x + m[7] * y + m[8];
     (
         (m[0] * x + m[1] * y + m[2]) / w,
@@ -157,4 +159,41 @@ fn adjugate(m: &[f64; 9]) -> [f64; 9] {
 fn normalise(m: [f64; 9]) -> [f64; 9] {
     let s = m[8];
     m.map(|v| v / s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{Misalignment, SceneKind};
+    use crate::Grid;
+
+    #[test]
+    fn jacobian_matches_finite_differences_and_inverse_undoes_forward() {
+        let mut spec = SynthSpec::new(SceneKind::Planes, Grid::new(5, 5), 200, 100);
+        spec.misalign = Some(Misalignment {
+            max_rotation_deg: 3.0,
+            max_translation_px: 5.0,
+            max_scale: 0.05,
+            max_perspective: 0.05,
+        });
+        spec.photometric = 0.1;
+        let camera = ViewCamera::new(&spec, 0, 3);
+        assert!(camera.misaligned);
+        assert!(camera.brightness != 1.0 && camera.contrast != 1.0);
+        for (x, y) in [(0.0, 0.0), (150.0, 20.0), (199.0, 99.0)] {
+            let (ix, iy) = camera.ideal_point(x, y);
+            let (bx, by) = apply(&camera.forward, ix, iy);
+            assert!((bx - x).abs() < 1e-9 && (by - y).abs() < 1e-9);
+            let j = camera.jacobian_at(x, y);
+            let h = 1e-4;
+            let (rx, ry) = camera.ideal_point(x + h, y);
+            let (dx, dy) = camera.ideal_point(x, y + h);
+            let numeric = [(rx - ix) / h, (dx - ix) / h, (ry - iy) / h, (dy - iy) / h];
+            for (a, b) in j.iter().zip(numeric) {
+                assert!((a - b).abs() < 1e-6, "{j:?} {numeric:?}");
+            }
+        }
+        let centre = ViewCamera::new(&spec, 2, 2);
+        assert!(!centre.misaligned && centre.brightness == 1.0);
+    }
 }

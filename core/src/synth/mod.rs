@@ -10,20 +10,40 @@
 //!
 //! * Ground truth: the disparity of the surface visible at each centre-view pixel CENTRE
 //!   (pixel `(x, y)` covers `[x − ½, x + ½] × [y − ½, y + ½]`), exact up to f32 rounding.
-//! * Pixels: box filter over the pixel area (closed form inside planes, `n × n` samples at
-//!   edges and on caps, `n` = `supersample`), see `raster`.
+//! * Pixels: box filter over the pixel area (closed form inside planes, per-pixel
+//!   linearisation inside caps, `n × n` samples at occlusion edges and cap rims,
+//!   `n` = `supersample`), see `raster`.
 //! * The centre view is the reference: never misaligned nor photometrically changed.
 //!   Noise applies to every view.
 //! * Deterministic: only IEEE arithmetic and `libm`, seeded SplitMix64; the same spec gives
 //!   the same bytes on every platform, and `render_view` gives the same bytes as `render`.
 //!
-//! Measured agreement (test `subpixel_agreement_of_a_translating_plane`, 64×64 RGB views
-//! of a 9×9 grid, one textured plane, against an independent 12×12-sample quadrature of
-//! the texture at exact ray hits): fronto-parallel plane at d = 0.37 — mean |diff| 0.2495
-//! levels, max 0.508; slanted plane — mean 0.2480, max 0.507. That is the 8-bit rounding
-//! alone (uniform rounding error has mean 0.25, max 0.5; the 0.008 excess is the
-//! quadrature error of the reference), i.e. 0.013 px of equivalent displacement at the
-//! texture's mean gradient of 18.8 levels/px.
+//! Measured agreement (tests `subpixel_agreement_of_a_translating_plane` and
+//! `subpixel_agreement_of_caps_and_edges`; 64×64 RGB views of a 9×9 grid compared with an
+//! independent brute-force reference: 12×12 point samples per pixel of the texture at the
+//! exact ray hit of the nearest surface, before 8-bit rounding):
+//!
+//! | pixels | supersample | mean abs diff | max abs diff |
+//! |---|---|---|---|
+//! | fronto-parallel plane, d = 0.37 | 3 | 0.2496 levels | 0.515 |
+//! | slanted plane | 1 | 0.2481 levels | 0.514 |
+//! | cap + bar scene, pixels seeing one surface | 3 | 0.2499 levels | 0.78 |
+//! | same, pixels straddling an occlusion edge | 3 | 2.31 levels | 22.9 |
+//! | same, edge pixels | 6 | 0.80 levels | 7.9 |
+//! | misaligned slanted plane (5°, 4 px, 10 %, 0.05) | 3 | 0.2462 levels | 0.514 |
+//!
+//! Inside surfaces this is the 8-bit rounding alone (uniform rounding error: mean 0.25,
+//! max 0.5; the small excess is the reference's own quadrature error), i.e. 0.013 px of
+//! equivalent displacement at the texture's mean gradient of 18.8 levels/px: views agree
+//! with the ground truth far below 0.01 px. Edge pixels mix the surfaces by sample
+//! coverage, so their error falls with `supersample`.
+//!
+//! Speed: closed-form pixels cost one phasor rotation per texture wave. CPU time for a
+//! 9×9 grid of 512×512 RGB views, supersample 3, release, one thread, measured with
+//! `/usr/bin/time` on a heavily loaded 2-core machine: planes 1.1 s, slanted 1.0 s,
+//! spheres 3.4 s, occlusion 1.6 s, thin 1.3 s, low-texture 1.0 s, mixed 1.7 s; mixed with
+//! noise, photometric change and misalignment ≈ 5.7 s (misaligned views evaluate every
+//! pixel's phases directly).
 
 mod camera;
 mod raster;
@@ -31,6 +51,7 @@ mod rng;
 mod scene;
 mod surface;
 mod texture;
+mod trig;
 
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Grid, Layout};

@@ -4,18 +4,21 @@
 //! area, then saturated to `[0, 1]` (the camera's tone curve), photometrically changed,
 //! noised and quantised to 8 bits.
 //!
-//! * Pixels that see a single plane over their whole area (decided from `n × n` visibility
-//!   samples, or from bounds alone when only the background can be there) are integrated
-//!   in closed form: a plane maps pixels affinely to the surface, and the integral of
-//!   `cos(g·p + ψ)` over a unit square is `cos(g·p₀ + ψ)·sinc(gx/2)·sinc(gy/2)`. For
-//!   misaligned views the footprint uses the homography's Jacobian at the image centre.
-//! * Other pixels (occlusion edges, spherical caps) average the `n × n` point samples
+//! * Pixels that see a single plane over their whole area (decided geometrically: the
+//!   plane's hit region covers the pixel and nothing nearer can reach it; or, failing
+//!   that, all `n × n` visibility samples agree) are integrated in closed form: a plane
+//!   maps pixels affinely to the surface, and the integral of `cos(g·p + ψ)` over a unit
+//!   square is `cos(g·p₀ + ψ)·sinc(gx/2)·sinc(gy/2)`. For misaligned views the footprint
+//!   is the homography linearised at the pixel centre.
+//! * Pixels wholly on a spherical cap use the same formula with the cap's local affine
+//!   map at the pixel centre, where its second-order term stays below 1e-3 px.
+//! * Other pixels (occlusion edges, cap rims) average `n × n` point samples
 //!   (`n` = `supersample`) on a regular grid.
 
 use super::camera::{ViewCamera, NOISE_STREAM};
 use super::rng::Rng;
 use super::scene::{Scene, MAX_SURFACES};
-use super::surface::ViewSurface;
+use super::surface::{Quad, ViewSurface};
 use super::texture::WAVES;
 use super::SynthSpec;
 
@@ -29,7 +32,10 @@ struct ViewWave {
     gx: f64,
     gy: f64,
     psi: f64,
+    /// Amplitude times the box filter's response for a rectified pixel.
     amplitude: [f64; 3],
+    /// The texture's amplitude (misaligned pixels apply their own response).
+    raw: [f64; 3],
 }
 
 /// Everything about one surface that depends on the view.
@@ -38,15 +44,47 @@ struct Prepared {
     geometry: ViewSurface,
     base: [f64; 3],
     waves: [ViewWave; WAVES],
+    /// `(cos gx, sin gx)` per wave: the phase step from one pixel to the next in a row.
+    steps: [(f64, f64); WAVES],
 }
 
-/// `sin(t)/t`, continuous at 0.
+/// Pixels after which a running phasor is recomputed exactly (bounds rounding drift to
+/// ~1e-14).
+const PHASOR_RUN: u32 = 64;
+
+/// `(cos θ, sin θ)` of every wave of one plane at the pixel `next`, advanced along a row
+/// by complex multiplication: one exact evaluation per run instead of one per pixel.
+#[derive(Clone, Copy, Debug)]
+struct Phasors {
+    next: usize,
+    run: u32,
+    waves: [(f64, f64); WAVES],
+}
+
+/// What a pixel sees.
+enum Footprint {
+    /// Only plane `k`, over the whole pixel: integrate in closed form.
+    Plane(usize),
+    /// Several surfaces or a cap: the mean of the samples' radiance.
+    Mixed([f64; 3]),
+}
+
+/// `sin(t)/t`, continuous at 0. Texture frequencies keep |t| ≲ 1 for pixel box filters,
+/// where the Taylor series to t¹⁴ is exact to 1e-12.
+#[inline]
 fn sinc(t: f64) -> f64 {
-    if libm::fabs(t) < 1e-8 {
-        1.0
-    } else {
-        libm::sin(t) / t
+    if libm::fabs(t) > 1.5 {
+        return super::trig::sincos(t).1 / t;
     }
+    let t2 = t * t;
+    let p = -1.0 / 1_307_674_368_000.0;
+    let p = 1.0 / 6_227_020_800.0 + t2 * p;
+    let p = -1.0 / 39_916_800.0 + t2 * p;
+    let p = 1.0 / 362_880.0 + t2 * p;
+    let p = -1.0 / 5_040.0 + t2 * p;
+    let p = 1.0 / 120.0 + t2 * p;
+    let p = -1.0 / 6.0 + t2 * p;
+    1.0 + t2 * p
 }
 
 /// Renders view `(row, col)` of a validated spec into `out` (`width · height · channels`).
@@ -63,9 +101,11 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
             beta: 0.0,
             gamma: 0.0,
             bounds: [0.0; 4],
+            outline: None,
         },
         base: [0.0; 3],
         waves: [ViewWave::default(); WAVES],
+        steps: [(1.0, 0.0); WAVES],
     }; MAX_SURFACES];
     for (p, s) in prepared.iter_mut().zip(surfaces) {
         p.geometry = s.prepare(u, v);
@@ -76,22 +116,22 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
         let ViewSurface {
             alpha, beta, gamma, ..
         } = p.geometry;
-        let j = camera.jacobian;
         for (w, t) in p.waves.iter_mut().zip(&s.texture.waves) {
             // Surface point p = p' + d(p')·(u, v) with d = alpha + beta·x' + gamma·y'.
             let gx = t.fx * (1.0 + u * beta) + t.fy * v * beta;
             let gy = t.fx * u * gamma + t.fy * (1.0 + v * gamma);
             let psi = t.phase + alpha * (t.fx * u + t.fy * v);
-            // Frequencies per stored pixel: through the footprint Jacobian.
-            let hx = gx * j[0] + gy * j[2];
-            let hy = gx * j[1] + gy * j[3];
-            let response = sinc(hx / 2.0) * sinc(hy / 2.0);
+            let response = sinc(gx / 2.0) * sinc(gy / 2.0);
             *w = ViewWave {
                 gx,
                 gy,
                 psi,
                 amplitude: t.amplitude.map(|a| a * response),
+                raw: t.amplitude,
             };
+        }
+        for (step, w) in p.steps.iter_mut().zip(&p.waves) {
+            *step = super::trig::sincos(w.gx);
         }
     }
     let prepared = prepared.get(..surfaces.len()).unwrap_or(&[]);
@@ -107,9 +147,28 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
     let sigma = spec.noise_sigma as f64;
     let mut noise = Rng::stream(spec.seed, NOISE_STREAM, spec.grid.index(row, col) as u64);
     let width = spec.width;
+    // Along a row the phase is linear in x only for rectified views.
+    let mut phasors = [Phasors {
+        next: usize::MAX,
+        run: 0,
+        waves: [(1.0, 0.0); WAVES],
+    }; MAX_SURFACES];
     for (index, pixel) in out.chunks_exact_mut(channels).enumerate() {
         let (i, j) = ((index % width) as f64, (index / width) as f64);
-        let radiance = pixel_radiance(&camera, surfaces, prepared, offsets, i, j, u, v);
+        let radiance = match pixel_radiance(&camera, surfaces, prepared, offsets, i, j, u, v) {
+            Footprint::Mixed(value) => value,
+            Footprint::Plane(k) => {
+                let (Some(p), Some(phasor)) = (prepared.get(k), phasors.get_mut(k)) else {
+                    continue;
+                };
+                if camera.misaligned {
+                    let (x, y) = camera.ideal_point(i, j);
+                    analytic_footprint(p, x, y, camera.jacobian_at(i, j))
+                } else {
+                    running_analytic(p, phasor, index, i, j)
+                }
+            }
+        };
         for (value, linear) in pixel.iter_mut().zip(radiance) {
             let stored = camera.photometric(linear.clamp(0.0, 1.0)) * 255.0;
             let noisy = if sigma > 0.0 {
@@ -117,7 +176,8 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
             } else {
                 stored
             };
-            *value = libm::round(noisy.clamp(0.0, 255.0)) as u8;
+            // Round half up (values are non-negative).
+            *value = (noisy.clamp(0.0, 255.0) + 0.5) as u8;
         }
     }
 }
@@ -133,44 +193,62 @@ fn pixel_radiance(
     j: f64,
     u: f64,
     v: f64,
-) -> [f64; 3] {
+) -> Footprint {
     // Footprint of the pixel in ideal coordinates.
-    let footprint = if camera.misaligned {
-        let mut b = [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
+    let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
+    let quad: Quad = corners.map(|(dx, dy)| camera.ideal_point(i + dx, j + dy));
+    let mut footprint = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for &(x, y) in &quad {
+        footprint = [
+            footprint[0].min(x),
+            footprint[1].min(y),
+            footprint[2].max(x),
+            footprint[3].max(y),
         ];
-        for (dx, dy) in [(-0.5, -0.5), (0.5, -0.5), (-0.5, 0.5), (0.5, 0.5)] {
-            let (x, y) = camera.ideal_point(i + dx, j + dy);
-            b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
-        }
-        b
-    } else {
-        [i - 0.5, j - 0.5, i + 0.5, j + 0.5]
-    };
+    }
+    // Surfaces that may be seen in the pixel, with their disparity range there.
     let mut candidates = [0u8; MAX_SURFACES];
+    let mut ranges = [(0.0f64, 0.0f64); MAX_SURFACES];
     let mut count = 0;
-    for (k, p) in prepared.iter().enumerate() {
+    for (k, (s, p)) in surfaces.iter().zip(prepared).enumerate() {
         let b = p.geometry.bounds;
-        if b[0] <= footprint[2]
+        let overlaps = b[0] <= footprint[2]
             && b[2] >= footprint[0]
             && b[1] <= footprint[3]
-            && b[3] >= footprint[1]
-        {
-            if let Some(c) = candidates.get_mut(count) {
-                *c = k as u8;
-                count += 1;
-            }
+            && b[3] >= footprint[1];
+        if !overlaps || s.misses(&p.geometry, &quad, u, v) {
+            continue;
+        }
+        if let (Some(c), Some(r)) = (candidates.get_mut(count), ranges.get_mut(count)) {
+            *c = k as u8;
+            *r = s.disparity_range(&p.geometry, &quad);
+            count += 1;
         }
     }
     let candidates = candidates.get(..count).unwrap_or(&[]);
-    let (ci, cj) = camera.ideal_point(i, j);
-    if let [only] = candidates {
-        let k = *only as usize;
-        if surfaces.get(k).is_some_and(|s| s.is_plane()) {
-            return analytic(prepared, k, ci, cj);
+    let ranges = ranges.get(..count).unwrap_or(&[]);
+    // A plane covering the pixel and nearer than anything else there is all it shows.
+    for (n, (&k, &(lo, _))) in candidates.iter().zip(ranges).enumerate() {
+        let Some((s, p)) = surfaces.get(k as usize).zip(prepared.get(k as usize)) else {
+            continue;
+        };
+        let in_front = ranges
+            .iter()
+            .enumerate()
+            .all(|(m, &(_, hi))| m == n || hi < lo);
+        if in_front && s.covers(&p.geometry, &quad, u, v) {
+            if s.is_plane() {
+                return Footprint::Plane(k as usize);
+            }
+            if let Some(value) = curved_analytic(camera, s, &p.geometry, i, j, u, v) {
+                return Footprint::Mixed(value);
+            }
+            break;
         }
     }
 
@@ -206,8 +284,14 @@ fn pixel_radiance(
     let hits = hits.get(..samples).unwrap_or(&[]);
     if single {
         if let Some(&(k, _, _)) = hits.first() {
-            if surfaces.get(k as usize).is_some_and(|s| s.is_plane()) {
-                return analytic(prepared, k as usize, ci, cj);
+            let (Some(s), Some(p)) = (surfaces.get(k as usize), prepared.get(k as usize)) else {
+                return Footprint::Mixed([0.0; 3]);
+            };
+            if s.is_plane() {
+                return Footprint::Plane(k as usize);
+            }
+            if let Some(value) = curved_analytic(camera, s, &p.geometry, i, j, u, v) {
+                return Footprint::Mixed(value);
             }
         }
     }
@@ -221,22 +305,116 @@ fn pixel_radiance(
         }
     }
     let inv = 1.0 / samples.max(1) as f64;
-    sum.map(|a| a * inv)
+    Footprint::Mixed(sum.map(|a| a * inv))
 }
 
-/// Exact box-filtered radiance of plane `k` for the pixel centred at ideal point `(x, y)`.
+/// Box-filtered radiance of a plane for a misaligned pixel centred at ideal point
+/// `(x, y)` whose footprint has Jacobian `jacobian` (stored → ideal; the homography is
+/// linearised over the pixel, a ~1e-5 px approximation for the allowed perspective).
 #[inline]
-fn analytic(prepared: &[Prepared], k: usize, x: f64, y: f64) -> [f64; 3] {
-    let Some(p) = prepared.get(k) else {
-        return [0.0; 3];
-    };
+fn analytic_footprint(p: &Prepared, x: f64, y: f64, jacobian: [f64; 4]) -> [f64; 3] {
     let mut value = p.base;
     for w in &p.waves {
-        let c = libm::cos(w.gx * x + w.gy * y + w.psi);
-        for (a, b) in value.iter_mut().zip(w.amplitude) {
+        let hx = w.gx * jacobian[0] + w.gy * jacobian[2];
+        let hy = w.gx * jacobian[1] + w.gy * jacobian[3];
+        let response = sinc(hx / 2.0) * sinc(hy / 2.0);
+        let c = super::trig::cos(w.gx * x + w.gy * y + w.psi) * response;
+        for (a, b) in value.iter_mut().zip(w.raw) {
             *a += b * c;
         }
     }
+    value
+}
+
+/// Largest deviation of a curved surface's local view → surface Jacobian from the
+/// identity for which a pixel is integrated through its linearisation; steeper parts
+/// (near the rim of a cap) are supersampled instead.
+const MAX_CURVED_SHEAR: f64 = 0.5;
+/// Largest second-order term (surface pixels) of the linearisation over a pixel.
+const MAX_CURVED_ERROR: f64 = 1e-3;
+
+/// Box-filtered radiance of a curved surface (a cap) seen over the whole pixel `(i, j)`,
+/// through the local affine approximation of the view → surface map at the pixel centre.
+/// `None` (supersample instead) where the neglected second-order term, measured by
+/// second differences, could exceed [`MAX_CURVED_ERROR`] over the pixel, or near the rim.
+fn curved_analytic(
+    camera: &ViewCamera,
+    surface: &super::surface::Surface,
+    geometry: &ViewSurface,
+    i: f64,
+    j: f64,
+    u: f64,
+    v: f64,
+) -> Option<[f64; 3]> {
+    const STEP: f64 = 0.25;
+    let (x, y) = camera.ideal_point(i, j);
+    let hit = |dx: f64, dy: f64| surface.hit(geometry, x + dx, y + dy, u, v);
+    let (_, cx, cy) = hit(0.0, 0.0)?;
+    let (_, rx, ry) = hit(STEP, 0.0)?;
+    let (_, lx, ly) = hit(-STEP, 0.0)?;
+    let (_, dx, dy) = hit(0.0, STEP)?;
+    let (_, ux, uy) = hit(0.0, -STEP)?;
+    let map = [
+        (rx - lx) / (2.0 * STEP),
+        (dx - ux) / (2.0 * STEP),
+        (ry - ly) / (2.0 * STEP),
+        (dy - uy) / (2.0 * STEP),
+    ];
+    let shear = libm::fabs(map[0] - 1.0)
+        .max(libm::fabs(map[1]))
+        .max(libm::fabs(map[2]))
+        .max(libm::fabs(map[3] - 1.0));
+    // |p''|·(½)²/2 along each axis, from second differences.
+    let second = |a: f64, b: f64, centre: f64| libm::fabs(a + b - 2.0 * centre) / (STEP * STEP);
+    let curvature = second(rx, lx, cx)
+        .max(second(ry, ly, cy))
+        .max(second(dx, ux, cx))
+        .max(second(dy, uy, cy));
+    if shear > MAX_CURVED_SHEAR || curvature * 0.125 > MAX_CURVED_ERROR {
+        return None;
+    }
+    // Stored pixel → surface: the camera footprint, then the surface map.
+    let c = camera.jacobian_at(i, j);
+    let total = [
+        map[0] * c[0] + map[1] * c[2],
+        map[0] * c[1] + map[1] * c[3],
+        map[2] * c[0] + map[3] * c[2],
+        map[2] * c[1] + map[3] * c[3],
+    ];
+    let mut value = surface.texture.base;
+    for w in &surface.texture.waves {
+        let gx = w.fx * total[0] + w.fy * total[2];
+        let gy = w.fx * total[1] + w.fy * total[3];
+        let response = sinc(gx / 2.0) * sinc(gy / 2.0);
+        let phase = super::trig::cos(w.fx * cx + w.fy * cy + w.phase);
+        for (a, b) in value.iter_mut().zip(w.amplitude) {
+            *a += b * response * phase;
+        }
+    }
+    Some(value)
+}
+
+/// Exact box-filtered radiance of a plane at rectified pixel `(i, j)` (linear `index`):
+/// `base + Σ amplitude·cos(gx·i + gy·j + ψ)`, continuing the plane's
+/// running phasors when the previous pixel of the row used them.
+#[inline]
+fn running_analytic(p: &Prepared, phasor: &mut Phasors, index: usize, i: f64, j: f64) -> [f64; 3] {
+    if phasor.next != index || phasor.run >= PHASOR_RUN || i == 0.0 {
+        for (state, w) in phasor.waves.iter_mut().zip(&p.waves) {
+            *state = super::trig::sincos(w.gx * i + w.gy * j + w.psi);
+        }
+        phasor.run = 0;
+    }
+    let mut value = p.base;
+    for ((state, w), step) in phasor.waves.iter_mut().zip(&p.waves).zip(&p.steps) {
+        let (c, s) = *state;
+        for (a, b) in value.iter_mut().zip(w.amplitude) {
+            *a += b * c;
+        }
+        *state = (c * step.0 - s * step.1, s * step.0 + c * step.1);
+    }
+    phasor.next = index + 1;
+    phasor.run += 1;
     value
 }
 
@@ -248,6 +426,7 @@ pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
         beta: 0.0,
         gamma: 0.0,
         bounds: [0.0; 4],
+        outline: None,
     }; MAX_SURFACES];
     for (p, s) in prepared.iter_mut().zip(surfaces) {
         *p = s.prepare(0.0, 0.0);
@@ -262,5 +441,21 @@ pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
             }
         }
         *value = best as f32;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sinc_is_accurate_everywhere() {
+        let mut t = -6.0;
+        while t < 6.0 {
+            let exact = if t == 0.0 { 1.0 } else { libm::sin(t) / t };
+            assert!((sinc(t) - exact).abs() < 1e-11, "{t}");
+            t += 0.001;
+        }
+        assert_eq!(sinc(0.0), 1.0);
     }
 }

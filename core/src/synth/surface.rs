@@ -106,6 +106,39 @@ pub(crate) struct ViewSurface {
     pub(crate) gamma: f64,
     /// Bounds `[x0, y0, x1, y1]` in view coordinates outside which no ray hits.
     pub(crate) bounds: [f64; 4],
+    /// For planes on a rectangle: the parallelogram of view points whose rays hit it
+    /// (the view → surface map of a plane is affine), vertices in order.
+    pub(crate) outline: Option<[(f64, f64); 4]>,
+}
+
+/// A pixel's footprint in ideal view coordinates: its four corners in order.
+pub(crate) type Quad = [(f64, f64); 4];
+
+fn cross(o: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+}
+
+/// Whether every point of `quad` lies in the convex polygon `outline`.
+fn outline_contains(outline: &Quad, quad: &Quad) -> bool {
+    let orientation = cross(outline[0], outline[1], outline[2]);
+    quad.iter()
+        .all(|&q| (0..4).all(|e| cross(outline[e], outline[(e + 1) % 4], q) * orientation >= 0.0))
+}
+
+/// Whether an edge normal of the parallelogram `outline` separates it from `quad`
+/// (a sufficient condition for them to be disjoint).
+fn outline_separated(outline: &Quad, quad: &Quad) -> bool {
+    (0..2).any(|e| {
+        let (a, b) = (outline[e], outline[e + 1]);
+        let normal = (a.1 - b.1, b.0 - a.0);
+        let project = |p: &(f64, f64)| p.0 * normal.0 + p.1 * normal.1;
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in outline {
+            lo = lo.min(project(p));
+            hi = hi.max(project(p));
+        }
+        quad.iter().all(|q| project(q) < lo) || quad.iter().all(|q| project(q) > hi)
+    })
 }
 
 impl Surface {
@@ -179,11 +212,36 @@ impl Surface {
                     }
                     shift_bounds([x0, y0, x1, y1], lo, hi, u, v)
                 };
+                let outline = match support {
+                    Support::All => None,
+                    Support::Rect {
+                        cx,
+                        cy,
+                        cos,
+                        sin,
+                        half_length,
+                        half_width,
+                    } => {
+                        let corner = |sl: f64, sw: f64| {
+                            let x = cx + sl * half_length * cos - sw * half_width * sin;
+                            let y = cy + sl * half_length * sin + sw * half_width * cos;
+                            let d = a + b * x + c * y;
+                            (x - d * u, y - d * v)
+                        };
+                        Some([
+                            corner(1.0, 1.0),
+                            corner(-1.0, 1.0),
+                            corner(-1.0, -1.0),
+                            corner(1.0, -1.0),
+                        ])
+                    }
+                };
                 ViewSurface {
                     alpha,
                     beta,
                     gamma,
                     bounds,
+                    outline,
                 }
             }
             Shape::Cap {
@@ -203,7 +261,86 @@ impl Surface {
                     u,
                     v,
                 ),
+                outline: None,
             },
+        }
+    }
+
+    /// Whether the surface certainly covers the whole footprint `quad`, given the offset
+    /// `(u, v)` of the view.
+    ///
+    /// For caps: the view points whose rays hit the cap are the projection (along the
+    /// rays) of the solid half-ellipsoid, a convex set, so four hit corners suffice.
+    pub(crate) fn covers(&self, prepared: &ViewSurface, quad: &Quad, u: f64, v: f64) -> bool {
+        match (self.shape, prepared.outline) {
+            (
+                Shape::Plane {
+                    support: Support::All,
+                    ..
+                },
+                _,
+            ) => true,
+            (Shape::Plane { .. }, Some(outline)) => outline_contains(&outline, quad),
+            (Shape::Cap { .. }, _) => quad
+                .iter()
+                .all(|&(x, y)| self.hit(prepared, x, y, u, v).is_some()),
+            _ => false,
+        }
+    }
+
+    /// Whether the surface certainly misses the footprint `quad` (beyond `bounds`).
+    ///
+    /// For caps: hits lie within `radius` of the segment swept by the disk centre
+    /// `c − d·(u, v)` for `d` in `[base, base + height]`.
+    pub(crate) fn misses(&self, prepared: &ViewSurface, quad: &Quad, u: f64, v: f64) -> bool {
+        match self.shape {
+            Shape::Plane { .. } => prepared
+                .outline
+                .is_some_and(|outline| outline_separated(&outline, quad)),
+            Shape::Cap {
+                cx,
+                cy,
+                radius,
+                base,
+                height,
+            } => {
+                let (mx, my) = (
+                    quad.iter().map(|q| q.0).sum::<f64>() / 4.0,
+                    quad.iter().map(|q| q.1).sum::<f64>() / 4.0,
+                );
+                let reach = quad
+                    .iter()
+                    .map(|q| (q.0 - mx) * (q.0 - mx) + (q.1 - my) * (q.1 - my))
+                    .fold(0.0, f64::max);
+                let reach = libm::sqrt(reach);
+                let (ax, ay) = (cx - base * u, cy - base * v);
+                let (sx, sy) = (-height * u, -height * v);
+                let length2 = sx * sx + sy * sy;
+                let t = if length2 > 0.0 {
+                    (((mx - ax) * sx + (my - ay) * sy) / length2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let (ex, ey) = (mx - ax - t * sx, my - ay - t * sy);
+                let distance = libm::sqrt(ex * ex + ey * ey);
+                distance > radius + reach + 1e-9
+            }
+        }
+    }
+
+    /// Bounds of the disparity the surface can show inside the footprint `quad`.
+    pub(crate) fn disparity_range(&self, prepared: &ViewSurface, quad: &Quad) -> (f64, f64) {
+        match self.shape {
+            Shape::Plane { .. } => {
+                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                for &(x, y) in quad {
+                    let d = prepared.alpha + prepared.beta * x + prepared.gamma * y;
+                    lo = lo.min(d);
+                    hi = hi.max(d);
+                }
+                (lo, hi)
+            }
+            Shape::Cap { base, height, .. } => (base, base + height),
         }
     }
 
@@ -326,5 +463,62 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn coverage_tests_agree_with_dense_hits() {
+        let cap = surface(Shape::Cap {
+            cx: 20.0,
+            cy: 24.0,
+            radius: 9.0,
+            base: 0.3,
+            height: 2.0,
+        });
+        let bar = surface(Shape::Plane {
+            a: 0.5,
+            b: 0.02,
+            c: -0.01,
+            support: Support::Rect {
+                cx: 25.0,
+                cy: 20.0,
+                cos: libm::cos(1.1),
+                sin: libm::sin(1.1),
+                half_length: 10.0,
+                half_width: 1.5,
+            },
+        });
+        let (mut covered, mut missed, mut partial) = (0, 0, 0);
+        for s in [cap, bar] {
+            for (u, v) in [(0.0, 0.0), (3.0, -4.0), (-2.0, 1.0)] {
+                let p = s.prepare(u, v);
+                for yi in 0..50 {
+                    for xi in 0..50 {
+                        let (x, y) = (xi as f64 + 0.1, yi as f64 - 0.2);
+                        let quad = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+                            .map(|(dx, dy)| (x + dx, y + dy));
+                        let mut hits = 0;
+                        for k in 0..49 {
+                            let sx = x + (k % 7) as f64 / 6.0 - 0.5;
+                            let sy = y + (k / 7) as f64 / 6.0 - 0.5;
+                            hits += usize::from(s.hit(&p, sx, sy, u, v).is_some());
+                        }
+                        if s.covers(&p, &quad, u, v) {
+                            assert_eq!(hits, 49, "covers at {x},{y}");
+                            covered += 1;
+                        } else if s.misses(&p, &quad, u, v) {
+                            assert_eq!(hits, 0, "misses at {x},{y}");
+                            missed += 1;
+                        } else {
+                            partial += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // The tests decide most pixels; only those near an outline are left to sampling.
+        assert!(
+            covered > 500 && missed > 5000 && partial < 1000,
+            "{covered} {missed} {partial}"
+        );
     }
 }

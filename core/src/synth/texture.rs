@@ -87,7 +87,7 @@ impl Texture {
     pub(crate) fn at(&self, x: f64, y: f64) -> [f64; 3] {
         let mut value = self.base;
         for wave in &self.waves {
-            let c = libm::cos(wave.fx * x + wave.fy * y + wave.phase);
+            let c = super::trig::cos(wave.fx * x + wave.fy * y + wave.phase);
             for (v, a) in value.iter_mut().zip(wave.amplitude) {
                 *v += a * c;
             }

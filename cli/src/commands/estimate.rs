@@ -1,0 +1,160 @@
+//! `lfdepth estimate`: disparity of a light field's centre view from a folder of views.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+use lfdepth::LightField;
+
+use super::params::ParamArgs;
+use super::{CliError, Stage, ViewArgs};
+use crate::colormap;
+use crate::engine::{self, Estimate, EstimateOptions};
+use crate::io::scene::{self, Scene, Views};
+use crate::io::{pfm, png};
+use crate::progress::StageProgress;
+use crate::report;
+
+/// Arguments of `lfdepth estimate`.
+#[derive(Debug, Args)]
+pub struct EstimateArgs {
+    /// Folder holding the views (an HCI scene folder or NAME_RR_CC.png files).
+    #[arg(value_name = "INPUT")]
+    pub input: PathBuf,
+    /// Disparity map to write (PFM, one channel, rows bottom-to-top).
+    #[arg(short, long, value_name = "OUT.pfm")]
+    pub output: PathBuf,
+    /// Also write the disparity as a colour PNG with a legend bar.
+    #[arg(long, value_name = "OUT.png")]
+    pub png: Option<PathBuf>,
+    /// Disparity range MIN..MAX of the colour PNG and the 16-bit PNG (default: the
+    /// map's own finite range), e.g. to compare several maps.
+    #[arg(long, value_name = "A..B", value_parser = super::parse_range, allow_hyphen_values = true)]
+    pub png_range: Option<super::Range>,
+    /// Also write the disparity as 16-bit gray PNG (MIN..MAX → 0..65535, MIN..MAX
+    /// from --png-range or the map; the range is stored in its text chunks).
+    #[arg(long, value_name = "OUT.png")]
+    pub png16: Option<PathBuf>,
+    /// Also write depth in metres (PFM) from parameters.cfg with the HCI formula
+    /// z = b·f·D / (d·D + b·f); NaN where the disparity lies at or beyond infinity.
+    #[arg(long, value_name = "DEPTH.pfm")]
+    pub depth: Option<PathBuf>,
+    /// Also write the per-pixel confidence in [0, 1] (PFM).
+    #[arg(long, value_name = "CONF.pfm")]
+    pub confidence: Option<PathBuf>,
+    /// How far to run: `epi` (initial estimate) or `full` (with TV refinement).
+    #[arg(long, value_enum, default_value_t = Stage::Full)]
+    pub stage: Stage,
+    /// Worker threads (default: every core).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
+    /// Where and how the views are named.
+    #[command(flatten)]
+    pub views: ViewArgs,
+    /// Estimator parameters.
+    #[command(flatten)]
+    pub params: ParamArgs,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// Runs the engine on a loaded scene, whatever its sample type.
+pub fn estimate_scene(
+    scene: &Scene,
+    options: &EstimateOptions,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, CliError> {
+    let context = || format!("estimating {}", scene.dir().display());
+    let result = match &scene.views {
+        Views::U8(data) => LightField::new(data, scene.layout)
+            .and_then(|lf| engine::estimate(&lf, options, progress)),
+        Views::F32(data) => LightField::new(data, scene.layout)
+            .and_then(|lf| engine::estimate(&lf, options, progress)),
+    };
+    result.map_err(|e| CliError::core(context(), e))
+}
+
+/// Writes a colour PNG with legend over the finite range of `values`.
+pub fn write_colour_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    values: &[f32],
+    range: Option<(f32, f32)>,
+) -> Result<(), CliError> {
+    let (min, max) = range
+        .or_else(|| colormap::finite_range(values))
+        .unwrap_or((0.0, 1.0));
+    let img = colormap::with_legend(width, height, values, min, max);
+    png::write_rgb8(path, img.width, img.height, &img.pixels)?;
+    Ok(())
+}
+
+/// Runs `lfdepth estimate`.
+pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
+    let start = Instant::now();
+    let scene = scene::load(&args.input, &args.views.load_options())?;
+    let load_time = start.elapsed();
+    let l = scene.layout;
+    eprintln!(
+        "{}: {}x{} views of {}x{} pixels ({})",
+        args.input.display(),
+        l.grid.rows,
+        l.grid.cols,
+        l.width,
+        l.height,
+        match scene.views {
+            Views::U8(_) => "8-bit",
+            Views::F32(_) => "16-bit",
+        }
+    );
+    let config = scene.files.config.as_ref();
+    if args.depth.is_some() && config.and_then(|c| c.depth_m(0.0)).is_none() {
+        return Err(CliError::Usage(format!(
+            "--depth needs {} with focal_length_mm, sensor_size_mm, image_resolution_x_px/y_px, baseline_mm and focus_distance_m",
+            args.input.join(scene::CONFIG_FILE).display()
+        )));
+    }
+    let options = EstimateOptions {
+        params: args.params.params(config)?,
+        stage: args.stage.into(),
+        threads: args.threads.map(usize::from),
+    };
+    let mut bar = StageProgress::new(args.quiet);
+    let result = estimate_scene(&scene, &options, &mut |s, d, t| bar.update(s, d, t));
+    bar.finish();
+    let estimate = result?;
+    let (w, h) = (estimate.width, estimate.height);
+    pfm::write(
+        &args.output,
+        &pfm::Pfm::new(w, h, estimate.disparity.clone())?,
+    )?;
+    if let Some(path) = &args.confidence {
+        pfm::write(path, &pfm::Pfm::new(w, h, estimate.confidence.clone())?)?;
+    }
+    if let (Some(path), Some(config)) = (&args.depth, config) {
+        let depth = estimate
+            .disparity
+            .iter()
+            .map(|&d| config.depth_m(f64::from(d)).map_or(f32::NAN, |z| z as f32))
+            .collect();
+        pfm::write(path, &pfm::Pfm::new(w, h, depth)?)?;
+    }
+    if let Some(path) = &args.png {
+        let range = args.png_range.map(|r| (r.min, r.max));
+        write_colour_png(path, w, h, &estimate.disparity, range)?;
+    }
+    if let Some(path) = &args.png16 {
+        let (min, max) = args
+            .png_range
+            .map(|r| (r.min, r.max))
+            .or_else(|| colormap::finite_range(&estimate.disparity))
+            .unwrap_or((0.0, 1.0));
+        png::write_disparity16(path, w, h, &estimate.disparity, min, max)?;
+    }
+    let mut stages = vec![("load", load_time)];
+    stages.extend(estimate.timings.iter().copied());
+    print!("{}", report::timings(&stages));
+    Ok(())
+}

@@ -1,0 +1,144 @@
+//! Estimator parameters from the command line.
+
+use clap::Args;
+use lfdepth::epi::DisparityRange;
+use lfdepth::Params;
+
+use super::{parse_range, CliError, Range};
+use crate::io::cfg::SceneConfig;
+
+/// Where the disparity search range comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RangeChoice {
+    /// Estimated from the views.
+    Auto,
+    /// `disp_min..disp_max` of the scene's parameters.cfg.
+    Config,
+    /// Given explicitly.
+    Fixed(Range),
+}
+
+/// `auto`, `cfg` or `A..B`.
+pub fn parse_range_choice(text: &str) -> Result<RangeChoice, String> {
+    match text {
+        "auto" => Ok(RangeChoice::Auto),
+        "cfg" => Ok(RangeChoice::Config),
+        _ => parse_range(text)
+            .map(RangeChoice::Fixed)
+            .map_err(|e| format!("{e}, or `auto`, or `cfg`")),
+    }
+}
+
+/// Estimator flags shared by `estimate` and `eval --dataset`.
+#[derive(Clone, Debug, Args)]
+pub struct ParamArgs {
+    /// Disparity search range: MIN..MAX in pixels between neighbouring views (e.g.
+    /// -2..2), `auto` (estimated from the views) or `cfg` (disp_min..disp_max from the
+    /// scene's parameters.cfg).
+    #[arg(long, value_name = "A..B|auto|cfg", default_value = "auto",
+          value_parser = parse_range_choice, allow_hyphen_values = true)]
+    pub disparity_range: RangeChoice,
+    /// The paper's EPI variant: one unsheared EPI per direction instead of shear
+    /// hypotheses over the range.
+    #[arg(long)]
+    pub no_shear: bool,
+    /// TV refinement: weight λ of the total variation against the EPI data term
+    /// (larger = smoother; default from the core).
+    #[arg(long, value_name = "F", allow_hyphen_values = true)]
+    pub lambda: Option<f32>,
+    /// TV refinement: most PPXA iterations per tile (default from the core).
+    #[arg(long, value_name = "N")]
+    pub tv_iterations: Option<usize>,
+}
+
+impl Default for ParamArgs {
+    fn default() -> Self {
+        ParamArgs {
+            disparity_range: RangeChoice::Auto,
+            no_shear: false,
+            lambda: None,
+            tv_iterations: None,
+        }
+    }
+}
+
+impl ParamArgs {
+    /// The parameters these flags ask for; `config` is the scene's parameters.cfg.
+    pub fn params(&self, config: Option<&SceneConfig>) -> Result<Params, CliError> {
+        let mut params = Params::default();
+        if self.no_shear {
+            params.epi = lfdepth::epi::EpiParams::paper();
+        }
+        if let Some(lambda) = self.lambda {
+            params.tv.lambda = lambda;
+        }
+        if let Some(n) = self.tv_iterations {
+            params.tv.max_iterations = n;
+        }
+        // Out-of-range values are reported here, before any view is decoded.
+        params
+            .tv
+            .validate()
+            .map_err(|e| CliError::core("checking the TV flags", e))?;
+        params.epi.range = match self.disparity_range {
+            RangeChoice::Auto if self.no_shear => params.epi.range,
+            RangeChoice::Auto => DisparityRange::Auto,
+            RangeChoice::Fixed(r) => DisparityRange::Fixed {
+                min: r.min,
+                max: r.max,
+            },
+            RangeChoice::Config => {
+                let (min, max) = config.and_then(SceneConfig::disparity_range).ok_or_else(|| {
+                    CliError::Usage(
+                        "--disparity-range cfg needs disp_min and disp_max in the scene's parameters.cfg: give MIN..MAX or auto instead".into(),
+                    )
+                })?;
+                DisparityRange::Fixed {
+                    min: min as f32,
+                    max: max as f32,
+                }
+            }
+        };
+        params
+            .epi
+            .validate()
+            .map_err(|e| CliError::core("checking --disparity-range", e))?;
+        Ok(params)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn range_choices() {
+        assert_eq!(parse_range_choice("auto"), Ok(RangeChoice::Auto));
+        assert_eq!(parse_range_choice("cfg"), Ok(RangeChoice::Config));
+        assert_eq!(
+            parse_range_choice("-1..2"),
+            Ok(RangeChoice::Fixed(Range {
+                min: -1.0,
+                max: 2.0
+            }))
+        );
+        assert!(parse_range_choice("wide").is_err());
+        let args = ParamArgs {
+            disparity_range: RangeChoice::Config,
+            ..ParamArgs::default()
+        };
+        assert!(args.params(None).is_err());
+        let cfg = SceneConfig {
+            disp_min: Some(-1.5),
+            disp_max: Some(0.5),
+            ..SceneConfig::default()
+        };
+        assert_eq!(
+            args.params(Some(&cfg)).unwrap().epi.range,
+            DisparityRange::Fixed {
+                min: -1.5,
+                max: 0.5
+            }
+        );
+    }
+}

@@ -1,0 +1,102 @@
+//! File formats and scene loading. Every reader reports what is wrong with which file;
+//! none panics or allocates more than the file can justify.
+
+pub mod cfg;
+pub mod pattern;
+pub mod pfm;
+pub mod png;
+pub mod scene;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// A failure to read, decode or write a file, with the file it concerns (when known).
+#[derive(Debug)]
+pub struct IoError {
+    /// The file or folder concerned; `None` for in-memory decoding.
+    pub path: Option<PathBuf>,
+    /// What went wrong.
+    pub detail: Detail,
+}
+
+/// What went wrong in an [`IoError`].
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum Detail {
+    /// The operating system refused (`action` is e.g. "read" or "write").
+    Os {
+        action: &'static str,
+        source: std::io::Error,
+    },
+    /// The content is malformed or unsupported; the message says what to change.
+    Format(String),
+    /// The core rejected the data (e.g. an unsupported view grid).
+    Core(lfdepth::Error),
+}
+
+impl IoError {
+    /// A malformed-content error not yet tied to a file.
+    pub fn format(message: impl Into<String>) -> Self {
+        IoError {
+            path: None,
+            detail: Detail::Format(message.into()),
+        }
+    }
+
+    /// An operating-system error while doing `action` on `path`.
+    pub fn os(path: &Path, action: &'static str, source: std::io::Error) -> Self {
+        IoError {
+            path: Some(path.to_path_buf()),
+            detail: Detail::Os { action, source },
+        }
+    }
+
+    /// A core error about the data in `path`.
+    pub fn core(path: &Path, source: lfdepth::Error) -> Self {
+        IoError {
+            path: Some(path.to_path_buf()),
+            detail: Detail::Core(source),
+        }
+    }
+
+    /// Ties the error to `path` unless it already names a file.
+    pub fn in_file(mut self, path: &Path) -> Self {
+        if self.path.is_none() {
+            self.path = Some(path.to_path_buf());
+        }
+        self
+    }
+}
+
+impl fmt::Display for IoError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(path) = &self.path {
+            write!(f, "{}: ", path.display())?;
+        }
+        match &self.detail {
+            Detail::Os { action, source } => write!(f, "cannot {action} it: {source}"),
+            Detail::Format(message) => f.write_str(message),
+            Detail::Core(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for IoError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match &self.detail {
+            Detail::Os { source, .. } => Some(source),
+            Detail::Core(e) => Some(e),
+            Detail::Format(_) => None,
+        }
+    }
+}
+
+/// Reads a whole file, naming it in the error.
+pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, IoError> {
+    std::fs::read(path).map_err(|e| IoError::os(path, "read", e))
+}
+
+/// Writes a whole file, naming it in the error.
+pub(crate) fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    std::fs::write(path, bytes).map_err(|e| IoError::os(path, "write", e))
+}

@@ -1,0 +1,115 @@
+//! Helpers shared by the integration tests: the shared data folder, the binary, and
+//! small light-field fixtures written to temporary folders.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use lfdepth_cli::io::png::{self, Image, Samples};
+
+/// `../shared/data`, or `None` (after a loud SKIPPED line) when it is absent.
+pub fn shared_data(test: &str) -> Option<PathBuf> {
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "SKIPPED: ../shared/data not found: {test} needs {}",
+            dir.display()
+        );
+        None
+    }
+}
+
+/// Runs the `lfdepth` binary.
+pub fn lfdepth(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lfdepth"))
+        .args(args)
+        .output()
+        .expect("the lfdepth binary runs")
+}
+
+/// Asserts a clean failure: non-zero exit, no panic, one `error: …` line on stderr
+/// containing every one of `needles`. Returns the message.
+pub fn assert_fails(output: &Output, needles: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&output.stderr).to_string();
+    assert!(
+        !output.status.success(),
+        "expected failure, got success; stderr: {stderr}"
+    );
+    assert_eq!(output.status.code(), Some(1), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let line = stderr
+        .lines()
+        .find(|l| l.starts_with("error: "))
+        .unwrap_or_else(|| panic!("no `error: ` line in {stderr}"))
+        .to_string();
+    for needle in needles {
+        assert!(line.contains(needle), "`{needle}` not in `{line}`");
+    }
+    line
+}
+
+/// A deterministic 8-bit view: gray (1 channel) or RGB.
+pub fn view(width: usize, height: usize, channels: usize, seed: usize) -> Image {
+    let samples = (0..width * height * channels)
+        .map(|i| ((i * 31 + seed * 17) % 251) as u8)
+        .collect();
+    Image {
+        width,
+        height,
+        channels,
+        samples: Samples::Eight(samples),
+    }
+}
+
+/// Writes `count` HCI-named gray views (`input_Cam000.png` …) of `size`×`size`.
+pub fn hci_views(dir: &Path, count: usize, size: usize) {
+    for i in 0..count {
+        png::write(
+            &dir.join(format!("input_Cam{i:03}.png")),
+            &view(size, size, 1, i),
+        )
+        .unwrap();
+    }
+}
+
+/// Writes `NAME_RR_CC.png` gray views for rows and columns `first..first+rows/cols`.
+pub fn row_col_views(dir: &Path, name: &str, rows: usize, cols: usize, first: usize, size: usize) {
+    for r in 0..rows {
+        for c in 0..cols {
+            let path = dir.join(format!("{name}_{:02}_{:02}.png", r + first, c + first));
+            png::write(&path, &view(size, size, 1, r * cols + c)).unwrap();
+        }
+    }
+}
+
+/// A fresh temporary folder (removed when dropped).
+pub fn temp() -> tempfile::TempDir {
+    tempfile::tempdir().expect("a temporary folder")
+}
+
+/// A PNG whose header declares `width`×`height` (possibly zero) with a valid CRC, and
+/// one empty IDAT chunk.
+pub fn png_with_header(width: u32, height: u32) -> Vec<u8> {
+    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let mut body = kind.to_vec();
+        body.extend_from_slice(data);
+        out.extend_from_slice(&body);
+        out.extend_from_slice(&crc32fast::hash(&body).to_be_bytes());
+    }
+    let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&width.to_be_bytes());
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 0, 0, 0, 0]);
+    chunk(&mut out, b"IHDR", &ihdr);
+    chunk(
+        &mut out,
+        b"IDAT",
+        &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+    );
+    chunk(&mut out, b"IEND", &[]);
+    out
+}

@@ -1,0 +1,184 @@
+//! Parameters of the TV stage.
+
+use crate::error::{Error, Result};
+
+/// Which norm couples the two forward edges of a node (the α-norm of the constraint sets).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TvNorm {
+    /// ℓ1 TV (anisotropic): the dual of each edge lies in `[-1, 1]`.
+    L1,
+    /// ℓ2 TV (isotropic): the dual pair of each node lies in the unit disc.
+    L2,
+}
+
+/// Parameters of the TV stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TvParams {
+    /// Weight λ of the total variation against the data term.
+    pub lambda: f32,
+    /// Weak fidelity ℸ on every pixel (keeps unreliable pixels well posed).
+    pub tikhonov: f32,
+    /// Pixels whose confidence is below this are unreliable (`M` drops them).
+    pub confidence_threshold: f32,
+    /// Data weight of a reliable pixel: `confidence^power` (structure-tensor coherence
+    /// crowds near 1, a power spreads it).
+    pub confidence_power: f32,
+    /// Scale σ of the centre-view colour step for edge weights `1 / (1 + (Δ/σ)²)`,
+    /// Δ in unit intensity (max over channels). Zero disables edge weighting.
+    pub edge_sigma: f32,
+    /// Smallest edge weight, so strong image edges still couple a little.
+    pub edge_floor: f32,
+    /// The norm of the TV.
+    pub norm: TvNorm,
+    /// Most PPXA iterations per tile.
+    pub max_iterations: usize,
+    /// Stop a tile when the relative dual residual `‖Fₙ − Fₙ₋₁‖ / ‖Fₙ‖` drops below this
+    /// (`‖Fₙ‖` floored at an RMS of 0.1 per node).
+    pub tolerance: f32,
+    /// PPXA step γ.
+    pub step: f32,
+    /// PPXA relaxation (in (0, 2)).
+    pub relaxation: f32,
+    /// Side of a tile's core in pixels.
+    pub tile: usize,
+    /// Pixels of context around each core.
+    pub halo: usize,
+}
+
+impl Default for TvParams {
+    fn default() -> Self {
+        TvParams {
+            lambda: 0.5,
+            tikhonov: 0.01,
+            confidence_threshold: 0.0,
+            confidence_power: 1.0,
+            edge_sigma: 0.02,
+            edge_floor: 0.05,
+            norm: TvNorm::L2,
+            max_iterations: 300,
+            tolerance: 3e-3,
+            step: 2.0,
+            relaxation: 1.9,
+            tile: 128,
+            halo: 16,
+        }
+    }
+}
+
+fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Result<()> {
+    if v.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter { name, reason })
+    }
+}
+
+impl TvParams {
+    /// Checks every parameter.
+    pub fn validate(&self) -> Result<()> {
+        finite_in(
+            "tv.lambda",
+            self.lambda,
+            self.lambda > 0.0 && self.lambda <= 1000.0,
+            "must be in (0, 1000]",
+        )?;
+        finite_in(
+            "tv.tikhonov",
+            self.tikhonov,
+            self.tikhonov >= 1e-4 && self.tikhonov <= 100.0,
+            "must be in [1e-4, 100] (it keeps unreliable pixels well posed)",
+        )?;
+        finite_in(
+            "tv.confidence_threshold",
+            self.confidence_threshold,
+            (0.0..=1.0).contains(&self.confidence_threshold),
+            "must be in [0, 1]",
+        )?;
+        finite_in(
+            "tv.confidence_power",
+            self.confidence_power,
+            self.confidence_power > 0.0 && self.confidence_power <= 1000.0,
+            "must be in (0, 1000]",
+        )?;
+        finite_in(
+            "tv.edge_sigma",
+            self.edge_sigma,
+            self.edge_sigma >= 0.0,
+            "must be zero (no edge weighting) or positive",
+        )?;
+        finite_in(
+            "tv.edge_floor",
+            self.edge_floor,
+            self.edge_floor > 0.0 && self.edge_floor <= 1.0,
+            "must be in (0, 1]",
+        )?;
+        if self.max_iterations == 0 || self.max_iterations > 100_000 {
+            return Err(Error::InvalidParameter {
+                name: "tv.max_iterations",
+                reason: "must be in 1..=100000",
+            });
+        }
+        finite_in(
+            "tv.tolerance",
+            self.tolerance,
+            self.tolerance >= 0.0,
+            "must be zero (run every iteration) or positive",
+        )?;
+        finite_in(
+            "tv.step",
+            self.step,
+            self.step > 0.0 && self.step <= 1000.0,
+            "must be in (0, 1000]",
+        )?;
+        finite_in(
+            "tv.relaxation",
+            self.relaxation,
+            self.relaxation > 0.0 && self.relaxation < 2.0,
+            "must be in (0, 2)",
+        )?;
+        if !(8..=4096).contains(&self.tile) {
+            return Err(Error::InvalidParameter {
+                name: "tv.tile",
+                reason: "must be in 8..=4096 pixels",
+            });
+        }
+        if self.halo > 256 {
+            return Err(Error::InvalidParameter {
+                name: "tv.halo",
+                reason: "must be at most 256 pixels",
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_bad_values_are_named() {
+        TvParams::default().validate().unwrap();
+        let bad = TvParams {
+            relaxation: 2.0,
+            ..TvParams::default()
+        };
+        assert!(matches!(
+            bad.validate(),
+            Err(Error::InvalidParameter {
+                name: "tv.relaxation",
+                ..
+            })
+        ));
+        let bad = TvParams {
+            lambda: f32::NAN,
+            ..TvParams::default()
+        };
+        assert!(bad.validate().is_err());
+        let bad = TvParams {
+            tile: 4,
+            ..TvParams::default()
+        };
+        assert!(bad.validate().is_err());
+    }
+}

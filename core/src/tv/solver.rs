@@ -1,0 +1,1030 @@
+//! PPXA on the dual of the weighted-TV model of one rectangle of the pixel graph.
+//!
+//! The dual `min_{F∈B} Σ_i κ_i/2 ((WᵀF)_i − τ_i)²` (see [the module](super)) is the sum of
+//! three functions with closed-form proximity operators:
+//! - `f₁ = ι_B`: projection of each node's pair `(F_h, F_v)` onto the unit box or disc;
+//! - `f₂`, `f₃`: the quadratic restricted to the black, resp. white, nodes of the
+//!   checkerboard. Every edge joins a black and a white node, so the edge sets of the
+//!   nodes of one colour are disjoint and the proximity operator of `γ f₂` is, node by
+//!   node, that of a rank-one quadratic: with `c_i` the coefficients of `(WᵀF)_i`,
+//!   `P ↦ P − c_i s_i`, `s_i = γκ_i (c_iᵀP − τ_i) / (1 + γκ_i ‖c_i‖²)`; over the whole
+//!   graph `P ↦ P − W∇s` with `s` zero on the other colour.
+//!
+//! PPXA (Combettes & Pesquet, Algorithm 10.27 of "Proximal splitting methods in signal
+//! processing", weights ω = (1/2, 1/4, 1/4)): `p_k = prox_{γf_k/ω}(y_k)`, `p = Σ ω p_k`,
+//! `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`. The primal follows from the dual as
+//! `x = D − λ A⁻¹ WᵀF` (Eq. 16). Every loop walks rows of structure-of-arrays buffers,
+//! so the `f32` instantiation vectorises.
+
+use crate::error::{checked_product, Error, Result};
+use crate::lightfield::{Sample, View};
+use crate::scalar::Scalar;
+
+use super::params::{TvNorm, TvParams};
+use super::weights::{colour_step, edge_weight};
+
+/// Buffers of the graph size the solver keeps in scratch.
+const BUFFERS: usize = 18;
+
+/// The solver iterates on `DUAL_SCALE · F` (constraint radius `DUAL_SCALE`, targets
+/// `DUAL_SCALE · τ`): every iterate scales exactly, so nothing changes in f32 (a power of
+/// two), while Q16.16 gains five bits of resolution on the dual — which matters because
+/// the primal `D − λ A⁻¹ WᵀF` amplifies dual errors by `λ/a`, up to `λ/ℸ`.
+const DUAL_SCALE: f32 = 32.0;
+
+/// The per-pixel inputs of the stage: EPI disparity and confidence, row-major, top row
+/// first, `width × height` each.
+#[derive(Clone, Copy, Debug)]
+pub struct Maps<'a> {
+    width: usize,
+    height: usize,
+    disparity: &'a [f32],
+    confidence: &'a [f32],
+}
+
+impl<'a> Maps<'a> {
+    /// Checks sizes and that every value is finite (confidence is clamped to [0, 1] when used).
+    pub fn new(
+        width: usize,
+        height: usize,
+        disparity: &'a [f32],
+        confidence: &'a [f32],
+    ) -> Result<Self> {
+        let pixels = checked_product(&[width, height], "the disparity map")?;
+        if width == 0 || height == 0 {
+            return Err(Error::ViewTooSmall { width, height });
+        }
+        for (what, map) in [("disparity", disparity), ("confidence", confidence)] {
+            if map.len() != pixels {
+                return Err(Error::OutputSize {
+                    what,
+                    needed: pixels,
+                    got: map.len(),
+                });
+            }
+            if map.iter().any(|v| !v.is_finite()) {
+                return Err(Error::NonFinite { what });
+            }
+        }
+        Ok(Maps {
+            width,
+            height,
+            disparity,
+            confidence,
+        })
+    }
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+}
+
+/// Where the edge weights come from.
+#[derive(Clone, Copy, Debug)]
+pub enum Guide<'a, P: Sample> {
+    /// The centre view (same size as the maps), through [`TvParams::edge_sigma`].
+    View(View<'a, P>),
+    /// Given weights (≥ 0, finite): `horizontal[i]` for the edge `i → i+1`, `vertical[i]`
+    /// for `i → i+width`, row-major like the maps (entries of edges leaving the image
+    /// are ignored).
+    Weights {
+        /// Right-neighbour edge weights.
+        horizontal: &'a [f32],
+        /// Down-neighbour edge weights.
+        vertical: &'a [f32],
+    },
+}
+
+/// A rectangle of pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Rect {
+    /// Left column.
+    pub x: usize,
+    /// Top row.
+    pub y: usize,
+    /// Columns.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+}
+
+impl Rect {
+    fn pixels(&self) -> usize {
+        self.width.saturating_mul(self.height)
+    }
+    fn contains(&self, other: &Rect) -> bool {
+        let end = |start: usize, len: usize| start.checked_add(len);
+        match (
+            end(self.x, self.width),
+            end(self.y, self.height),
+            end(other.x, other.width),
+            end(other.y, other.height),
+        ) {
+            (Some(sx), Some(sy), Some(ox), Some(oy)) => {
+                other.x >= self.x && other.y >= self.y && ox <= sx && oy <= sy
+            }
+            _ => false,
+        }
+    }
+}
+
+/// Where one solve writes.
+#[derive(Debug)]
+pub struct SolveOutput<'o> {
+    /// Refined disparity of the core rectangle: pixel `(x, y)` of the core at
+    /// `disparity[y · stride + x]`.
+    pub disparity: &'o mut [f32],
+    /// Row stride of `disparity` (≥ core width).
+    pub stride: usize,
+    /// Per iteration `n`, the squared norm of the dual update `‖Fₙ − Fₙ₋₁‖²` over the
+    /// region is ADDED to `history[n]` (nothing after the solve stopped), so tiles can
+    /// accumulate into one history in tile order. Entries past its length are not recorded.
+    pub history: &'o mut [f32],
+    /// When given (2 × region pixels), the final dual variable, `(F_h, F_v)` per node.
+    pub dual: Option<&'o mut [f32]>,
+}
+
+/// What one solve did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct SolveReport {
+    /// Iterations run.
+    pub iterations: usize,
+    /// Whether the stopping rule was met before `max_iterations`.
+    pub converged: bool,
+}
+
+/// Scratch elements (of the scalar type) a solve over `width × height` pixels needs.
+pub fn scratch_len_for(width: usize, height: usize) -> usize {
+    width.saturating_mul(height).saturating_mul(BUFFERS)
+}
+
+/// Solves the model on `region` (a rectangle of the maps, its border edges cut) and writes
+/// the refined disparity of `core` (inside `region`) into `out`.
+#[allow(clippy::too_many_arguments)]
+pub fn solve<S: Scalar, P: Sample>(
+    maps: &Maps<'_>,
+    guide: &Guide<'_, P>,
+    params: &TvParams,
+    region: Rect,
+    core: Rect,
+    out: SolveOutput<'_>,
+    scratch: &mut [S],
+) -> Result<SolveReport> {
+    params.validate()?;
+    let full = Rect {
+        x: 0,
+        y: 0,
+        width: maps.width,
+        height: maps.height,
+    };
+    if region.pixels() == 0 || !full.contains(&region) || !region.contains(&core) {
+        return Err(Error::InvalidParameter {
+            name: "region",
+            reason: "must be a non-empty rectangle inside the maps that contains the core",
+        });
+    }
+    if out.stride < core.width {
+        return Err(Error::Stride {
+            which: "output row stride",
+            stride: out.stride,
+            needed: core.width,
+        });
+    }
+    let out_needed = if core.pixels() == 0 {
+        0
+    } else {
+        checked_product(&[core.height - 1, out.stride], "the output")?
+            .checked_add(core.width)
+            .ok_or(Error::SizeOverflow { what: "the output" })?
+    };
+    if out.disparity.len() < out_needed {
+        return Err(Error::BufferTooSmall {
+            what: "the refined-disparity output",
+            needed: out_needed,
+            got: out.disparity.len(),
+        });
+    }
+    let n = region.pixels();
+    if let Some(dual) = &out.dual {
+        if dual.len() != 2 * n {
+            return Err(Error::OutputSize {
+                what: "the dual output",
+                needed: 2 * n,
+                got: dual.len(),
+            });
+        }
+    }
+    let needed = scratch_len_for(region.width, region.height);
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
+    check_guide(maps, guide, region)?;
+
+    let mut graph = Graph::split(&mut scratch[..needed], region.width, region.height);
+    graph.setup(maps, guide, params, region);
+    let report = graph.iterate(params, out.history);
+    graph.write_primal(maps, params, region, core, out.disparity, out.stride);
+    if let Some(dual) = out.dual {
+        for (i, pair) in dual.chunks_exact_mut(2).enumerate() {
+            pair[0] = graph.fh[i].to_f32() / DUAL_SCALE;
+            pair[1] = graph.fv[i].to_f32() / DUAL_SCALE;
+        }
+    }
+    Ok(report)
+}
+
+fn check_guide<P: Sample>(maps: &Maps<'_>, guide: &Guide<'_, P>, region: Rect) -> Result<()> {
+    match guide {
+        Guide::View(view) => {
+            if view.width() != maps.width || view.height() != maps.height {
+                return Err(Error::InvalidParameter {
+                    name: "guide view",
+                    reason: "must have the size of the disparity map",
+                });
+            }
+            // Only the region (one row and column beyond it for the edges) is read.
+            let ch = view.channels();
+            let x0 = region.x * ch;
+            let x1 = ((region.x + region.width + 1).min(view.width())) * ch;
+            let mut finite = true;
+            for y in region.y..(region.y + region.height + 1).min(view.height()) {
+                if let Some(row) = view.row(y).and_then(|r| r.get(x0..x1)) {
+                    finite &= row.iter().all(|s| s.is_finite());
+                }
+            }
+            if !finite {
+                return Err(Error::NonFinite {
+                    what: "the guide view",
+                });
+            }
+        }
+        Guide::Weights {
+            horizontal,
+            vertical,
+        } => {
+            let pixels = maps.width * maps.height;
+            for (what, w) in [
+                ("horizontal edge weights", horizontal),
+                ("vertical edge weights", vertical),
+            ] {
+                if w.len() != pixels {
+                    return Err(Error::OutputSize {
+                        what,
+                        needed: pixels,
+                        got: w.len(),
+                    });
+                }
+                if w.iter().any(|v| !v.is_finite() || *v < 0.0) {
+                    return Err(Error::InvalidParameter {
+                        name: "edge weights",
+                        reason: "must be finite and non-negative",
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The solver state over one rectangle, every buffer `width × height`, row-major.
+struct Graph<'s, S> {
+    width: usize,
+    height: usize,
+    /// Edge weights `i → i+1` and `i → i+width` (zero where the edge leaves the region).
+    wh: &'s mut [S],
+    wv: &'s mut [S],
+    /// `τ_i = a_i D_i / λ`.
+    tau: &'s mut [S],
+    /// `γκ_i/ω / (1 + γκ_i/ω ‖c_i‖²)` on black (resp. white) nodes, zero elsewhere.
+    sig_black: &'s mut [S],
+    sig_white: &'s mut [S],
+    /// Node temporary `s`.
+    node: &'s mut [S],
+    /// Range of `D` over the region: the minimiser lies inside it (truncating to it lowers
+    /// both terms), so the primal of a not yet converged dual is clamped to it.
+    range: (f32, f32),
+    /// PPXA copies of the dual for the three functions, their average `F`, and the
+    /// proximity results of the two quadratic parts.
+    y1h: &'s mut [S],
+    y1v: &'s mut [S],
+    y2h: &'s mut [S],
+    y2v: &'s mut [S],
+    y3h: &'s mut [S],
+    y3v: &'s mut [S],
+    fh: &'s mut [S],
+    fv: &'s mut [S],
+    p2h: &'s mut [S],
+    p2v: &'s mut [S],
+    p3h: &'s mut [S],
+    p3v: &'s mut [S],
+}
+
+impl<'s, S: Scalar> Graph<'s, S> {
+    fn split(scratch: &'s mut [S], width: usize, height: usize) -> Self {
+        let n = width * height;
+        let mut chunks = scratch.chunks_exact_mut(n);
+        let mut next = || chunks.next().unwrap_or_default();
+        Graph {
+            width,
+            height,
+            wh: next(),
+            wv: next(),
+            tau: next(),
+            sig_black: next(),
+            sig_white: next(),
+            node: next(),
+            range: (0.0, 0.0),
+            y1h: next(),
+            y1v: next(),
+            y2h: next(),
+            y2v: next(),
+            y3h: next(),
+            y3v: next(),
+            fh: next(),
+            fv: next(),
+            p2h: next(),
+            p2v: next(),
+            p3h: next(),
+            p3v: next(),
+        }
+    }
+
+    /// Edge weights, node constants, and the warm start `F = 0` (i.e. `x = D`).
+    fn setup<P: Sample>(
+        &mut self,
+        maps: &Maps<'_>,
+        guide: &Guide<'_, P>,
+        params: &TvParams,
+        region: Rect,
+    ) {
+        let (w, h) = (self.width, self.height);
+        for y in 0..h {
+            let gy = region.y + y;
+            for x in 0..w {
+                let gx = region.x + x;
+                let i = y * w + x;
+                let gi = gy * maps.width + gx;
+                let (eh, ev) = match guide {
+                    Guide::Weights {
+                        horizontal,
+                        vertical,
+                    } => (
+                        horizontal.get(gi).copied().unwrap_or(0.0),
+                        vertical.get(gi).copied().unwrap_or(0.0),
+                    ),
+                    Guide::View(view) => view_weights(view, gx, gy, params),
+                };
+                self.wh[i] = S::from_f32(if x + 1 < w { eh } else { 0.0 });
+                self.wv[i] = S::from_f32(if y + 1 < h { ev } else { 0.0 });
+            }
+        }
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        let lambda = params.lambda;
+        let gamma = 4.0 * params.step; // γ / ω with ω = 1/4 for each quadratic part
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let gi = (region.y + y) * maps.width + region.x + x;
+                let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
+                lo = lo.min(d);
+                hi = hi.max(d);
+                let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
+                let a = data_weight(conf, params);
+                let sq = |v: S| {
+                    let f = v.to_f32();
+                    f * f
+                };
+                let mut c2 = sq(self.wh[i]) + sq(self.wv[i]);
+                if x > 0 {
+                    c2 += sq(self.wh[i - 1]);
+                }
+                if y > 0 {
+                    c2 += sq(self.wv[i - w]);
+                }
+                let gk = gamma * lambda * lambda / a;
+                let sig = gk / (1.0 + gk * c2);
+                self.tau[i] = S::from_f32(DUAL_SCALE * a * d / lambda);
+                let black = (x + y) % 2 == 0;
+                self.sig_black[i] = S::from_f32(if black { sig } else { 0.0 });
+                self.sig_white[i] = S::from_f32(if black { 0.0 } else { sig });
+            }
+        }
+        self.range = (lo, hi);
+        for buf in [
+            &mut *self.y1h,
+            &mut *self.y1v,
+            &mut *self.y2h,
+            &mut *self.y2v,
+            &mut *self.y3h,
+            &mut *self.y3v,
+            &mut *self.fh,
+            &mut *self.fv,
+        ] {
+            buf.fill(S::ZERO);
+        }
+    }
+
+    fn iterate(&mut self, params: &TvParams, history: &mut [f32]) -> SolveReport {
+        // PPXA weights ω = (1/2, 1/4, 1/4): powers of two, so the average is exact in
+        // both f32 and Q16.16 (a rounded 1/3 would bias the fixed point towards zero).
+        let constants = Constants {
+            rho: S::from_f32(params.relaxation),
+            two: S::from_i32(2),
+            half: S::from_f32(0.5),
+            quarter: S::from_f32(0.25),
+            radius: S::from_f32(DUAL_SCALE),
+            inv_radius: S::from_f32(1.0 / DUAL_SCALE),
+            norm: params.norm,
+        };
+        let tol2 = params.tolerance * params.tolerance;
+        let mut report = SolveReport::default();
+        for it in 0..params.max_iterations {
+            prox_quadratic(
+                self.width,
+                self.wh,
+                self.wv,
+                self.tau,
+                self.sig_black,
+                self.y2h,
+                self.y2v,
+                self.node,
+                self.p2h,
+                self.p2v,
+            );
+            prox_quadratic(
+                self.width,
+                self.wh,
+                self.wv,
+                self.tau,
+                self.sig_white,
+                self.y3h,
+                self.y3v,
+                self.node,
+                self.p3h,
+                self.p3v,
+            );
+            let n = self.fh.len();
+            let (change, norm) = combine(
+                &constants,
+                [
+                    &mut *self.y1h,
+                    &mut *self.y1v,
+                    &mut *self.y2h,
+                    &mut *self.y2v,
+                    &mut *self.y3h,
+                    &mut *self.y3v,
+                    &mut *self.fh,
+                    &mut *self.fv,
+                ],
+                [&*self.p2h, &*self.p2v, &*self.p3h, &*self.p3v],
+            );
+            // Back to the units of F.
+            let change = change / (DUAL_SCALE * DUAL_SCALE);
+            let norm = norm / (DUAL_SCALE * DUAL_SCALE);
+            if let Some(h) = history.get_mut(it) {
+                *h += change;
+            }
+            report.iterations = it + 1;
+            // ‖F‖ vanishes where there is nothing to regularise: floor it at an RMS of 0.1.
+            if change <= tol2 * norm.max(0.01 * n as f32) {
+                report.converged = true;
+                break;
+            }
+        }
+        report
+    }
+
+    /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`.
+    fn write_primal(
+        &mut self,
+        maps: &Maps<'_>,
+        params: &TvParams,
+        region: Rect,
+        core: Rect,
+        out: &mut [f32],
+        stride: usize,
+    ) {
+        divergence(self.width, self.wh, self.wv, self.fh, self.fv, self.node);
+        for y in 0..core.height {
+            let ry = core.y - region.y + y;
+            let gy = core.y + y;
+            for x in 0..core.width {
+                let rx = core.x - region.x + x;
+                let gi = gy * maps.width + core.x + x;
+                let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
+                let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
+                let a = data_weight(conf, params);
+                let u = self.node[ry * self.width + rx].to_f32();
+                if let Some(o) = out.get_mut(y * stride + x) {
+                    let x = d - params.lambda * u / (DUAL_SCALE * a);
+                    *o = x.clamp(self.range.0, self.range.1);
+                }
+            }
+        }
+    }
+}
+
+/// `a_i = m_i v_i + ℸ`: `v_i = confidence^power` where the confidence reaches the
+/// threshold, plus the weak fidelity everywhere.
+#[inline]
+pub(crate) fn data_weight(confidence: f32, params: &TvParams) -> f32 {
+    let c = confidence.clamp(0.0, 1.0);
+    let reliable = if c >= params.confidence_threshold && c > 0.0 {
+        libm::powf(c, params.confidence_power)
+    } else {
+        0.0
+    };
+    reliable + params.tikhonov
+}
+
+/// Edge weights to the right and down neighbours of `(x, y)` from the guide view.
+fn view_weights<P: Sample>(
+    view: &View<'_, P>,
+    x: usize,
+    y: usize,
+    params: &TvParams,
+) -> (f32, f32) {
+    let ch = view.channels();
+    let used = ch.min(3);
+    let row = view.row(y).unwrap_or(&[]);
+    let here = row.get(x * ch..x * ch + ch).unwrap_or(&[]);
+    let weight = |other: &[P]| {
+        if other.is_empty() {
+            0.0
+        } else {
+            edge_weight(
+                colour_step(here, other, used),
+                params.edge_sigma,
+                params.edge_floor,
+            )
+        }
+    };
+    let right = row.get((x + 1) * ch..(x + 2) * ch).unwrap_or(&[]);
+    let below = view
+        .row(y + 1)
+        .and_then(|r| r.get(x * ch..x * ch + ch))
+        .unwrap_or(&[]);
+    (weight(right), weight(below))
+}
+
+/// Constants of the PPXA combination step.
+struct Constants<S> {
+    rho: S,
+    two: S,
+    half: S,
+    quarter: S,
+    radius: S,
+    inv_radius: S,
+    norm: TvNorm,
+}
+
+/// Lanes of the blocks the combination step walks, so the `f32` loop vectorises
+/// (fixed-length blocks, per-lane sums).
+const LANES: usize = 16;
+
+/// The PPXA combination: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`, `y_k += ρ(2p − F − p_k)`,
+/// `F += ρ(p − F)`. Returns `(‖ΔF‖², ‖F‖²)` (in the scaled units).
+fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4]) -> (f32, f32) {
+    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
+    let [p2h, p2v, p3h, p3v] = prox;
+    let mut sums = Sums {
+        change: [0.0; LANES],
+        norm: [0.0; LANES],
+    };
+    let n = fh.len();
+    let mut start = 0;
+    while start < n {
+        let len = LANES.min(n - start);
+        let r = start..start + len;
+        let state = [
+            &mut y1h[r.clone()],
+            &mut y1v[r.clone()],
+            &mut y2h[r.clone()],
+            &mut y2v[r.clone()],
+            &mut y3h[r.clone()],
+            &mut y3v[r.clone()],
+            &mut fh[r.clone()],
+            &mut fv[r.clone()],
+        ];
+        let prox = [&p2h[r.clone()], &p2v[r.clone()], &p3h[r.clone()], &p3v[r]];
+        if len == LANES {
+            combine_lanes::<S, LANES>(c, state, prox, &mut sums);
+        } else {
+            combine_lanes::<S, 1>(c, state, prox, &mut sums);
+        }
+        start += len;
+    }
+    (sums.change.iter().sum(), sums.norm.iter().sum())
+}
+
+/// Per-lane sums of `‖ΔF‖²` and `‖F‖²`.
+struct Sums {
+    change: [f32; LANES],
+    norm: [f32; LANES],
+}
+
+/// Fixed-size groups of `L` nodes (`L` divides the slice length): every buffer is seen as
+/// `[S; L]` so the `f32` loop has no bounds checks and vectorises.
+#[inline(always)]
+fn combine_lanes<S: Scalar, const L: usize>(
+    c: &Constants<S>,
+    state: [&mut [S]; 8],
+    prox: [&[S]; 4],
+    sums: &mut Sums,
+) {
+    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
+    let [p2h, p2v, p3h, p3v] = prox;
+    let groups = y1h
+        .chunks_exact_mut(L)
+        .zip(y1v.chunks_exact_mut(L))
+        .zip(y2h.chunks_exact_mut(L).zip(y2v.chunks_exact_mut(L)))
+        .zip(y3h.chunks_exact_mut(L).zip(y3v.chunks_exact_mut(L)))
+        .zip(fh.chunks_exact_mut(L).zip(fv.chunks_exact_mut(L)))
+        .zip(
+            (p2h.chunks_exact(L).zip(p2v.chunks_exact(L)))
+                .zip(p3h.chunks_exact(L).zip(p3v.chunks_exact(L))),
+        );
+    for (((((y1h, y1v), (y2h, y2v)), (y3h, y3v)), (fh, fv)), ((p2h, p2v), (p3h, p3v))) in groups {
+        let (
+            Ok(y1h),
+            Ok(y1v),
+            Ok(y2h),
+            Ok(y2v),
+            Ok(y3h),
+            Ok(y3v),
+            Ok(fh),
+            Ok(fv),
+            Ok(p2h),
+            Ok(p2v),
+            Ok(p3h),
+            Ok(p3v),
+        ) = (
+            <&mut [S; L]>::try_from(y1h),
+            <&mut [S; L]>::try_from(y1v),
+            <&mut [S; L]>::try_from(y2h),
+            <&mut [S; L]>::try_from(y2v),
+            <&mut [S; L]>::try_from(y3h),
+            <&mut [S; L]>::try_from(y3v),
+            <&mut [S; L]>::try_from(fh),
+            <&mut [S; L]>::try_from(fv),
+            <&[S; L]>::try_from(p2h),
+            <&[S; L]>::try_from(p2v),
+            <&[S; L]>::try_from(p3h),
+            <&[S; L]>::try_from(p3v),
+        )
+        else {
+            continue; // chunks_exact yields exactly L elements
+        };
+        // p₁ = P_B(y₁) first, in its own passes, so the sqrt (a call, not a vector op)
+        // runs only on nodes outside the set and the other passes vectorise.
+        let mut p1h = *y1h;
+        let mut p1v = *y1v;
+        project_lanes(&mut p1h, &mut p1v, c);
+        for j in 0..L {
+            let ph = p1h[j] * c.half + (p2h[j] + p3h[j]) * c.quarter;
+            let pv = p1v[j] * c.half + (p2v[j] + p3v[j]) * c.quarter;
+            let (f0h, f0v) = (fh[j], fv[j]);
+            let (th, tv) = (c.two * ph - f0h, c.two * pv - f0v);
+            y1h[j] += c.rho * (th - p1h[j]);
+            y1v[j] += c.rho * (tv - p1v[j]);
+            y2h[j] += c.rho * (th - p2h[j]);
+            y2v[j] += c.rho * (tv - p2v[j]);
+            y3h[j] += c.rho * (th - p3h[j]);
+            y3v[j] += c.rho * (tv - p3v[j]);
+            let (dh, dv) = (c.rho * (ph - f0h), c.rho * (pv - f0v));
+            let (nh, nv) = (f0h + dh, f0v + dv);
+            fh[j] = nh;
+            fv[j] = nv;
+            let (dh, dv, nh, nv) = (dh.to_f32(), dv.to_f32(), nh.to_f32(), nv.to_f32());
+            sums.change[j % LANES] += dh * dh + dv * dv;
+            sums.norm[j % LANES] += nh * nh + nv * nv;
+        }
+    }
+}
+
+/// Projects `L` dual pairs onto their constraint sets in place.
+#[inline(always)]
+fn project_lanes<S: Scalar, const L: usize>(h: &mut [S; L], v: &mut [S; L], c: &Constants<S>) {
+    match c.norm {
+        TvNorm::L1 => {
+            for (h, v) in h.iter_mut().zip(v.iter_mut()) {
+                *h = h.clamp(-c.radius, c.radius);
+                *v = v.clamp(-c.radius, c.radius);
+            }
+        }
+        TvNorm::L2 => {
+            // Squared norms in units of the radius (so Q16.16 squares stay in range).
+            let mut n2 = [S::ZERO; L];
+            for ((n2, &h), &v) in n2.iter_mut().zip(h.iter()).zip(v.iter()) {
+                let (uh, uv) = (h * c.inv_radius, v * c.inv_radius);
+                *n2 = uh * uh + uv * uv;
+            }
+            if n2.iter().all(|&n| n <= S::ONE) {
+                return;
+            }
+            for ((h, v), &n2) in h.iter_mut().zip(v.iter_mut()).zip(n2.iter()) {
+                if n2 > S::ONE {
+                    let r = n2.sqrt();
+                    *h = *h / r;
+                    *v = *v / r;
+                }
+            }
+        }
+    }
+}
+
+/// `out = WᵀF`: `(WᵀF)_i = w_h(i−1) F_h(i−1) + w_v(i−W) F_v(i−W) − w_h(i) F_h(i) − w_v(i) F_v(i)`.
+fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
+    let rows = out.len() / width.max(1);
+    for y in 0..rows {
+        let r = y * width..(y + 1) * width;
+        let (o, whr, wvr, fhr, fvr) = (
+            &mut out[r.clone()],
+            &wh[r.clone()],
+            &wv[r.clone()],
+            &fh[r.clone()],
+            &fv[r.clone()],
+        );
+        for (((o, &a), &b), (&c, &d)) in o.iter_mut().zip(whr).zip(wvr).zip(fhr.iter().zip(fvr)) {
+            *o = -(a * c + b * d);
+        }
+        for ((o, &a), &c) in o[1..].iter_mut().zip(whr).zip(fhr) {
+            *o += a * c;
+        }
+        if y > 0 {
+            let p = (y - 1) * width..y * width;
+            for ((o, &b), &d) in o.iter_mut().zip(&wv[p.clone()]).zip(&fv[p]) {
+                *o += b * d;
+            }
+        }
+    }
+}
+
+/// Proximity operator of one colour's quadratic: `p = y − W∇s`, `s = σ ⊙ (Wᵀy − τ)`.
+#[allow(clippy::too_many_arguments)]
+fn prox_quadratic<S: Scalar>(
+    width: usize,
+    wh: &[S],
+    wv: &[S],
+    tau: &[S],
+    sig: &[S],
+    yh: &[S],
+    yv: &[S],
+    s: &mut [S],
+    ph: &mut [S],
+    pv: &mut [S],
+) {
+    divergence(width, wh, wv, yh, yv, s);
+    for ((s, &t), &g) in s.iter_mut().zip(tau).zip(sig) {
+        *s = g * (*s - t);
+    }
+    let rows = s.len() / width.max(1);
+    for y in 0..rows {
+        let r = y * width..(y + 1) * width;
+        let sr = &s[r.clone()];
+        // Horizontal: p_h(i) = y_h(i) − w_h(i) (s(i+1) − s(i)); the last column has no edge.
+        let (phr, yhr, whr) = (&mut ph[r.clone()], &yh[r.clone()], &wh[r.clone()]);
+        for (((p, &yy), &w), (&s0, &s1)) in phr
+            .iter_mut()
+            .zip(yhr)
+            .zip(whr)
+            .zip(sr.iter().zip(&sr[1..]))
+        {
+            *p = yy - w * (s1 - s0);
+        }
+        if let (Some(p), Some(&yy)) = (phr.last_mut(), yhr.last()) {
+            *p = yy;
+        }
+        // Vertical: p_v(i) = y_v(i) − w_v(i) (s(i+W) − s(i)); the last row has no edge.
+        let (pvr, yvr, wvr) = (&mut pv[r.clone()], &yv[r.clone()], &wv[r.clone()]);
+        if y + 1 < rows {
+            let below = &s[(y + 1) * width..(y + 2) * width];
+            for (((p, &yy), &w), (&s0, &s1)) in
+                pvr.iter_mut().zip(yvr).zip(wvr).zip(sr.iter().zip(below))
+            {
+                *p = yy - w * (s1 - s0);
+            }
+        } else {
+            pvr.copy_from_slice(yvr);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::scalar::Q16;
+    use std::vec;
+    use std::vec::Vec;
+
+    /// A deterministic pseudo-random sequence in [0, 1).
+    fn lcg(seed: &mut u64) -> f32 {
+        *seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*seed >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    #[test]
+    fn quadratic_prox_solves_its_optimality_condition() {
+        // prox_{γg}(y) = p  ⇔  p − y + γ ∇g(p) = 0 with g = Σ_{black} κ/2 ((Wᵀp)_i − τ_i)².
+        let (w, h) = (5usize, 4usize);
+        let n = w * h;
+        let mut seed = 7;
+        let mut r = |s: f32| (lcg(&mut seed) - 0.5) * s;
+        let mut wh: Vec<f32> = (0..n).map(|_| r(1.0).abs() + 0.1).collect();
+        let mut wv: Vec<f32> = (0..n).map(|_| r(1.0).abs() + 0.1).collect();
+        for y in 0..h {
+            wh[y * w + w - 1] = 0.0;
+        }
+        for x in 0..w {
+            wv[(h - 1) * w + x] = 0.0;
+        }
+        let tau: Vec<f32> = (0..n).map(|_| r(4.0)).collect();
+        let kappa: Vec<f32> = (0..n).map(|_| r(2.0).abs() + 0.2).collect();
+        let gamma = 0.7f32;
+        let mut sig = vec![0.0f32; n];
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let mut c2 = wh[i] * wh[i] + wv[i] * wv[i];
+                if x > 0 {
+                    c2 += wh[i - 1] * wh[i - 1];
+                }
+                if y > 0 {
+                    c2 += wv[i - w] * wv[i - w];
+                }
+                if (x + y) % 2 == 0 {
+                    sig[i] = gamma * kappa[i] / (1.0 + gamma * kappa[i] * c2);
+                }
+            }
+        }
+        let yh: Vec<f32> = (0..n).map(|_| r(2.0)).collect();
+        let yv: Vec<f32> = (0..n).map(|_| r(2.0)).collect();
+        let (mut s, mut ph, mut pv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        prox_quadratic(w, &wh, &wv, &tau, &sig, &yh, &yv, &mut s, &mut ph, &mut pv);
+        // ∇g(p) = W∇(mask κ (Wᵀp − τ)) in the sign convention of `divergence`.
+        let mut u = vec![0.0; n];
+        divergence(w, &wh, &wv, &ph, &pv, &mut u);
+        let r_node: Vec<f32> = (0..n)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if (x + y) % 2 == 0 {
+                    kappa[i] * (u[i] - tau[i])
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        for i in 0..n {
+            let (x, y) = (i % w, i / w);
+            let gh = if x + 1 < w {
+                wh[i] * (r_node[i + 1] - r_node[i])
+            } else {
+                0.0
+            };
+            let gv = if y + 1 < h {
+                wv[i] * (r_node[i + w] - r_node[i])
+            } else {
+                0.0
+            };
+            assert!((ph[i] - yh[i] + gamma * gh).abs() < 1e-4, "h {i}");
+            assert!((pv[i] - yv[i] + gamma * gv).abs() < 1e-4, "v {i}");
+        }
+    }
+
+    fn constants<S: Scalar>(norm: TvNorm, radius: f32) -> Constants<S> {
+        Constants {
+            rho: S::ONE,
+            two: S::from_i32(2),
+            half: S::from_f32(0.5),
+            quarter: S::from_f32(0.25),
+            radius: S::from_f32(radius),
+            inv_radius: S::from_f32(1.0 / radius),
+            norm,
+        }
+    }
+
+    #[test]
+    fn projections_land_in_the_constraint_sets() {
+        let (mut h, mut v) = ([3.0f32, 0.3], [-0.5f32, 0.4]);
+        project_lanes(&mut h, &mut v, &constants(TvNorm::L1, 1.0));
+        assert_eq!((h, v), ([1.0, 0.3], [-0.5, 0.4]));
+        let (mut h, mut v) = ([3.0f32, 0.3], [4.0f32, 0.4]);
+        project_lanes(&mut h, &mut v, &constants(TvNorm::L2, 1.0));
+        assert!((h[0] - 0.6).abs() < 1e-6 && (v[0] - 0.8).abs() < 1e-6);
+        assert_eq!((h[1], v[1]), (0.3, 0.4));
+        let q = Q16::from_f32;
+        let (mut h, mut v) = ([q(96.0)], [q(128.0)]);
+        project_lanes(&mut h, &mut v, &constants(TvNorm::L2, 32.0));
+        assert!((h[0].to_f32() - 19.2).abs() < 1e-3 && (v[0].to_f32() - 25.6).abs() < 1e-3);
+    }
+
+    #[test]
+    fn bad_buffers_are_errors_not_panics() {
+        let (w, h) = (8usize, 8usize);
+        let d = vec![0.5f32; w * h];
+        let c = vec![1.0f32; w * h];
+        let maps = Maps::new(w, h, &d, &c).unwrap();
+        let ones = vec![1.0f32; w * h];
+        let guide: Guide<'_, u8> = Guide::Weights {
+            horizontal: &ones,
+            vertical: &ones,
+        };
+        let rect = Rect {
+            x: 0,
+            y: 0,
+            width: w,
+            height: h,
+        };
+        let params = TvParams::default();
+        let mut out = vec![0.0f32; w * h];
+        let mut hist = vec![0.0f32; 4];
+        let mut small = vec![0.0f32; 10];
+        let res = solve(
+            &maps,
+            &guide,
+            &params,
+            rect,
+            rect,
+            SolveOutput {
+                disparity: &mut out,
+                stride: w,
+                history: &mut hist,
+                dual: None,
+            },
+            &mut small,
+        );
+        assert!(matches!(res, Err(Error::ScratchTooSmall { .. })));
+        let mut scratch = vec![0.0f32; scratch_len_for(w, h)];
+        let outside = Rect { x: 4, ..rect };
+        let res = solve(
+            &maps,
+            &guide,
+            &params,
+            outside,
+            outside,
+            SolveOutput {
+                disparity: &mut out,
+                stride: w,
+                history: &mut hist,
+                dual: None,
+            },
+            &mut scratch,
+        );
+        assert!(matches!(res, Err(Error::InvalidParameter { .. })));
+        // A constant map is its own refinement.
+        let report = solve(
+            &maps,
+            &guide,
+            &params,
+            rect,
+            rect,
+            SolveOutput {
+                disparity: &mut out,
+                stride: w,
+                history: &mut hist,
+                dual: None,
+            },
+            &mut scratch,
+        )
+        .unwrap();
+        assert!(report.converged, "{report:?}");
+        assert!(out.iter().all(|&v| (v - 0.5).abs() < 1e-3), "{out:?}");
+        assert!(Maps::new(w, h, &d[1..], &c).is_err());
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn solve_never_panics(
+            w in 1usize..10, h in 1usize..10,
+            rx in 0usize..12, ry in 0usize..12, rw in 0usize..12, rh in 0usize..12,
+            cx in 0usize..12, cy in 0usize..12, cw in 0usize..12, ch in 0usize..12,
+            stride in 0usize..12, out_len in 0usize..120, scratch_len in 0usize..2000,
+            huge in proptest::bool::ANY,
+        ) {
+            let d: Vec<f32> = (0..w * h).map(|i| (i % 7) as f32 * 0.3 - 1.0).collect();
+            let c: Vec<f32> = (0..w * h).map(|i| (i % 5) as f32 * 0.25).collect();
+            let maps = Maps::new(w, h, &d, &c).unwrap();
+            let ones = vec![0.5f32; w * h];
+            let guide: Guide<'_, u8> = Guide::Weights { horizontal: &ones, vertical: &ones };
+            let params = TvParams { max_iterations: 3, ..TvParams::default() };
+            let region = Rect { x: rx, y: ry, width: if huge { usize::MAX } else { rw }, height: rh };
+            let core = Rect { x: cx, y: cy, width: cw, height: ch };
+            let mut out = vec![0.0f32; out_len];
+            let mut hist = vec![0.0f32; 2];
+            let mut scratch = vec![Q16::ZERO; scratch_len];
+            let _ = solve(&maps, &guide, &params, region, core, SolveOutput {
+                disparity: &mut out, stride, history: &mut hist, dual: None,
+            }, &mut scratch);
+        }
+    }
+}

@@ -1,0 +1,183 @@
+//! Tiles: cores of `tile × tile` pixels solved on the core plus a halo, so tiles are
+//! independent (any order, any thread) and the result is bit-identical however they run.
+
+use crate::error::{Error, Result};
+use crate::lightfield::Sample;
+use crate::plan::Plan;
+use crate::scalar::Scalar;
+
+use super::solver::{scratch_len_for, solve, Guide, Maps, Rect, SolveOutput, SolveReport};
+
+/// What a whole refinement did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct RefineReport {
+    /// Tiles solved.
+    pub tiles: usize,
+    /// Most iterations any tile ran.
+    pub max_iterations: usize,
+    /// Iterations summed over tiles.
+    pub total_iterations: usize,
+    /// Tiles that met the stopping rule.
+    pub converged_tiles: usize,
+}
+
+impl RefineReport {
+    /// Adds one tile's report.
+    pub fn add(&mut self, tile: &SolveReport) {
+        self.tiles += 1;
+        self.max_iterations = self.max_iterations.max(tile.iterations);
+        self.total_iterations += tile.iterations;
+        self.converged_tiles += usize::from(tile.converged);
+    }
+}
+
+fn region_side(tile: usize, halo: usize, len: usize) -> usize {
+    tile.saturating_add(halo.saturating_mul(2)).min(len)
+}
+
+/// Scratch elements (of the scalar type) one tile needs: the same for every tile and
+/// independent of the image size beyond one tile plus halo.
+pub fn scratch_len(plan: &Plan) -> usize {
+    let tv = &plan.params().tv;
+    let layout = plan.layout();
+    scratch_len_for(
+        region_side(tv.tile, tv.halo, layout.width),
+        region_side(tv.tile, tv.halo, layout.height),
+    )
+}
+
+/// Number of tiles `(columns, rows)`.
+pub fn tile_count(plan: &Plan) -> (usize, usize) {
+    let tile = plan.params().tv.tile.max(1);
+    let layout = plan.layout();
+    (layout.width.div_ceil(tile), layout.height.div_ceil(tile))
+}
+
+/// The core and the region (core + halo, clipped to the image) of tile `index`
+/// (row-major over [`tile_count`]).
+pub fn tile_rects(plan: &Plan, index: usize) -> Result<(Rect, Rect)> {
+    let (cols, rows) = tile_count(plan);
+    if index >= cols * rows {
+        return Err(Error::OutOfRange {
+            what: "tile",
+            index,
+            len: cols * rows,
+        });
+    }
+    let tv = &plan.params().tv;
+    let (w, h) = (plan.layout().width, plan.layout().height);
+    let (tx, ty) = (index % cols, index / cols);
+    let x0 = tx * tv.tile;
+    let y0 = ty * tv.tile;
+    let core = Rect {
+        x: x0,
+        y: y0,
+        width: tv.tile.min(w - x0),
+        height: tv.tile.min(h - y0),
+    };
+    let rx0 = x0.saturating_sub(tv.halo);
+    let ry0 = y0.saturating_sub(tv.halo);
+    let rx1 = (x0 + core.width + tv.halo).min(w);
+    let ry1 = (y0 + core.height + tv.halo).min(h);
+    let region = Rect {
+        x: rx0,
+        y: ry0,
+        width: rx1 - rx0,
+        height: ry1 - ry0,
+    };
+    Ok((core, region))
+}
+
+fn check_maps(plan: &Plan, maps: &Maps<'_>) -> Result<()> {
+    let layout = plan.layout();
+    if maps.width() != layout.width || maps.height() != layout.height {
+        return Err(Error::InvalidParameter {
+            name: "maps",
+            reason: "must have the size of the plan's views",
+        });
+    }
+    Ok(())
+}
+
+/// Solves tile `index` and writes its core into `out` (core pixel `(x, y)` at
+/// `out.disparity[y · out.stride + x]`), adding its residual history to `out.history`.
+pub fn refine_tile<S: Scalar, P: Sample>(
+    plan: &Plan,
+    maps: &Maps<'_>,
+    guide: &Guide<'_, P>,
+    index: usize,
+    out: SolveOutput<'_>,
+    scratch: &mut [S],
+) -> Result<SolveReport> {
+    check_maps(plan, maps)?;
+    let (core, region) = tile_rects(plan, index)?;
+    solve(maps, guide, &plan.params().tv, region, core, out, scratch)
+}
+
+/// Turns a history accumulated over every tile (squared dual updates) into the RMS dual
+/// update per node and iteration — the residual norm curve.
+pub fn normalise_history(plan: &Plan, history: &mut [f32]) {
+    let (cols, rows) = tile_count(plan);
+    let mut nodes = 0usize;
+    for index in 0..cols * rows {
+        if let Ok((_, region)) = tile_rects(plan, index) {
+            nodes += region.width * region.height;
+        }
+    }
+    let nodes = nodes.max(1) as f32;
+    for h in history.iter_mut() {
+        *h = libm::sqrtf(*h / nodes);
+    }
+}
+
+/// Refines the whole map, tile after tile: `out` (`width × height`) gets the refined
+/// disparity, `history[n]` the RMS dual update at iteration `n` (see
+/// [`normalise_history`]; pass an empty slice to skip it).
+pub fn refine<S: Scalar, P: Sample>(
+    plan: &Plan,
+    maps: &Maps<'_>,
+    guide: &Guide<'_, P>,
+    out: &mut [f32],
+    history: &mut [f32],
+    scratch: &mut [S],
+) -> Result<RefineReport> {
+    check_maps(plan, maps)?;
+    if out.len() != plan.pixels() {
+        return Err(Error::OutputSize {
+            what: "the refined disparity",
+            needed: plan.pixels(),
+            got: out.len(),
+        });
+    }
+    let needed = scratch_len(plan);
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
+    history.fill(0.0);
+    let width = plan.layout().width;
+    let (cols, rows) = tile_count(plan);
+    let mut report = RefineReport::default();
+    for index in 0..cols * rows {
+        let (core, _) = tile_rects(plan, index)?;
+        let start = core.y * width + core.x;
+        let tile = refine_tile(
+            plan,
+            maps,
+            guide,
+            index,
+            SolveOutput {
+                disparity: &mut out[start..],
+                stride: width,
+                history: &mut *history,
+                dual: None,
+            },
+            scratch,
+        )?;
+        report.add(&tile);
+    }
+    normalise_history(plan, history);
+    Ok(report)
+}
