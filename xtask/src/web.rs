@@ -51,7 +51,7 @@ pub fn parse(args: &[&str]) -> Result<WebOptions, String> {
 }
 
 /// `wasm-pack build wasm --target web --release --out-dir ../web/pkg`, with wasm-opt
-/// when Debian's binaryen is on PATH.
+/// when a recent enough one is there (see `install::wasm_opt`).
 pub fn build(root: &Path) -> Result<(), String> {
     let mut cmd = Command::new("wasm-pack");
     cmd.current_dir(root).args([
@@ -65,12 +65,8 @@ pub fn build(root: &Path) -> Result<(), String> {
         "--mode",
         "no-install",
     ]);
-    let has_opt = Command::new("wasm-opt")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !has_opt {
-        println!("web: wasm-opt not found (apt-get install binaryen): building without it");
+    if let Err(why) = crate::install::wasm_opt(root) {
+        println!("warning: building without wasm-opt (larger, slower .wasm): {why}");
         cmd.arg("--no-opt");
     }
     println!("$ {cmd:?}");
