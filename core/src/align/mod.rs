@@ -11,7 +11,7 @@
 //! shared by all views. Corners are found in the centre view, tracked into every view
 //! (pyramidal Lucas–Kanade template matching, which gives sub-pixel matches), and the
 //! homographies and the per-point `(X, d)` are estimated by alternating least squares
-//! after a seeded RANSAC start (see [`solve`]).
+//! after a seeded RANSAC start (see the `solve` module).
 //!
 //! # Gauge (what no image can tell)
 //! Replacing every rectified frame by `x ↦ s·x + t + δ·b_v` (uniform scale `s`,
