@@ -15,6 +15,7 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+pub mod align;
 pub mod epi;
 pub mod error;
 pub mod geometry;

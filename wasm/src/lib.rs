@@ -1,1 +1,104 @@
-//! Thin wasm-bindgen layer over the `lfdepth` core: no algorithm code lives here.
+//! Thin wasm-bindgen layer over the `lfdepth` core: no algorithm code lives here, only
+//! marshalling between JS values and the core's borrowed slices, and `Error` → JS `Error`.
+//!
+//! * [`Estimator`] owns a copy of the views and a validated plan; it runs the whole
+//!   pipeline ([`Estimator::estimate`], with progress and cancel) or single bands
+//!   ([`Estimator::estimate_band`]) so the page can spread them over Web Workers, then
+//!   [`fuse_bands`] combines the two directions exactly as the serial pipeline does.
+//! * [`synthesize`], [`render_view`], [`render_ground_truth`]: the core's synthetic scenes.
+//! * [`evaluate`]: the HCI benchmark metrics.
+//!
+//! Parameter objects and stage names follow the core: a key the core does not know is
+//! an error, so a page written for a newer core fails loudly instead of silently.
+
+mod estimator;
+mod js;
+mod metrics;
+mod params;
+mod synth;
+
+pub use estimator::{fuse_bands, stage_names, Band, EstimateResult, Estimator, StageTiming};
+pub use metrics::{evaluate, Scores};
+pub use synth::{render_ground_truth, render_view, scene_names, synthesize, SyntheticLightField};
+
+use wasm_bindgen::prelude::*;
+
+/// The version of the package (the workspace version).
+#[wasm_bindgen]
+pub fn version() -> String {
+    env!("CARGO_PKG_VERSION").to_string()
+}
+
+#[wasm_bindgen(typescript_custom_section)]
+const TS_TYPES: &str = r#"
+/** Grid and size of a light field: `rows` × `cols` views of `width` × `height` pixels. */
+export interface Shape {
+  rows: number;
+  cols: number;
+  width: number;
+  height: number;
+  /** Samples per pixel: 1 (gray), 3 (RGB) or 4 (RGBA, alpha ignored). */
+  channels: number;
+}
+
+/** Estimation parameters; every key is optional and defaults to the core's default. */
+export interface EstimateParams {
+  /** Disparity range in px between adjacent views: "auto" (estimated) or [min, max]. */
+  range?: "auto" | [number, number];
+  /** Gaussian pre-smoothing along the EPI line (px), 0…4. */
+  innerSigma?: number;
+  /** Gaussian smoothing of the structure tensor, 0…5. */
+  outerSigma?: number;
+  /** Shear the EPIs over the range (false: the paper's single unsheared EPI). */
+  shear?: boolean;
+  /** Distance between shear hypotheses (px), 0.1…2. */
+  shearStep?: number;
+  /** Largest residual slope a hypothesis accepts, in shear steps, 0.5…2. */
+  window?: number;
+  /** Interpolate between adjacent shears (zero crossing of the residual slope). */
+  interpolate?: boolean;
+  /** How horizontal and vertical estimates are combined. */
+  fusion?: "coherence" | "weighted";
+  /** Colour handling: one tensor over R, G, B, or their mean first. */
+  color?: "tensor" | "gray";
+}
+
+/** A progress report; return `false` from the callback to cancel. */
+export interface Progress {
+  stage: string;
+  done: number;
+  total: number;
+}
+
+/** Direction of an EPI band: image rows ("horizontal") or columns ("vertical"). */
+export type Direction = "horizontal" | "vertical";
+
+/** A synthetic scene; all keys but `scene`, `width` and `height` are optional. */
+export interface SynthSpec {
+  /** One of `sceneNames()`. */
+  scene: string;
+  rows?: number;
+  cols?: number;
+  width: number;
+  height: number;
+  /** 1 (gray) or 3 (RGB, default). */
+  channels?: number;
+  /** Disparity range of the scene, within -4…4 (default -1.5…1.5). */
+  disparityMin?: number;
+  disparityMax?: number;
+  /** Gaussian noise, 8-bit levels. */
+  noiseSigma?: number;
+  /** Largest relative per-view brightness/contrast change. */
+  photometric?: number;
+  seed?: number;
+  supersample?: number;
+}
+
+/** Which pixels `evaluate` scores. */
+export interface EvalOptions {
+  /** Pixels closer than this to an edge are ignored (default 15, as the HCI benchmark). */
+  border?: number;
+  /** Nonzero = evaluate; `width * height` bytes. */
+  mask?: Uint8Array;
+}
+"#;

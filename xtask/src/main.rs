@@ -1,5 +1,171 @@
-//! `cargo xtask`: build and test orchestration.
+//! `cargo xtask`: the one place where lfdepth's build and test orchestration lives.
+//!
+//! ```text
+//! cargo xtask test [--quick]   every check CI runs (fmt, clippy, tests, no_std, wasm, docs, JS)
+//! cargo xtask bench [FILTER]   the criterion benches of lfdepth-cli
+//! cargo xtask fuzz [SECONDS]   each cargo-fuzz target in fuzz/ for SECONDS (default 60)
+//! cargo xtask web [--port N] [--no-build]   build web/pkg and serve the page (see [`web`])
+//! ```
+//!
+//! `test` first installs what the machine lacks (rustup targets and components), then runs
+//! the steps in order, stopping at the first failure, and ends with a summary table and
+//! the line `N passed, M failed, K skipped`. The steps, and how each optional one is
+//! detected, are described in [`steps`]; what gets installed and how in [`install`].
+//!
+//! Only std is used: every step is an external command run with `std::process::Command`.
 
-fn main() {
-    println!("usage: cargo xtask test|web|bench");
+mod bench;
+mod exec;
+mod fuzz;
+mod install;
+mod manifest;
+mod report;
+mod steps;
+mod web;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// What the user asked for.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Command {
+    /// Run every check; `quick` leaves out release tests and everything wasm.
+    Test { quick: bool },
+    /// Run the criterion benches, optionally filtered.
+    Bench { filter: Option<String> },
+    /// Run each fuzz target for this many seconds.
+    Fuzz { seconds: u64 },
+    /// Build the wasm package and serve the page.
+    Web(web::WebOptions),
+    /// Print usage.
+    Help,
+}
+
+const USAGE: &str = "\
+usage: cargo xtask <command>
+
+commands:
+  test [--quick]    run every check CI runs; --quick skips release tests and wasm/JS steps
+  bench [FILTER]    run the criterion benches (cargo bench -p lfdepth-cli); results go in docs/BENCHMARKS.md
+  fuzz [SECONDS]    run each fuzz target in fuzz/ for SECONDS (default 60); see docs/FUZZING.md
+  web [--port N] [--no-build]
+                    build the wasm package into web/pkg and serve web/ on 127.0.0.1
+  help              print this message";
+
+/// Seconds each fuzz target runs when none are given.
+const DEFAULT_FUZZ_SECONDS: u64 = 60;
+
+/// Parses the arguments after `cargo xtask`.
+fn parse_args(args: &[String]) -> Result<Command, String> {
+    let mut rest = args.iter().map(String::as_str);
+    let command = match rest.next() {
+        None | Some("help" | "-h" | "--help") => return Ok(Command::Help),
+        Some(c) => c,
+    };
+    let operands: Vec<&str> = rest.collect();
+    match (command, operands.as_slice()) {
+        ("test", []) => Ok(Command::Test { quick: false }),
+        ("test", ["--quick"]) => Ok(Command::Test { quick: true }),
+        ("test", other) => Err(format!(
+            "`test` takes only --quick, not {}",
+            other.join(" ")
+        )),
+        ("bench", []) => Ok(Command::Bench { filter: None }),
+        ("bench", [filter]) => Ok(Command::Bench {
+            filter: Some((*filter).to_string()),
+        }),
+        ("bench", _) => Err("`bench` takes at most one FILTER".to_string()),
+        ("fuzz", []) => Ok(Command::Fuzz {
+            seconds: DEFAULT_FUZZ_SECONDS,
+        }),
+        ("fuzz", [seconds]) => match seconds.parse::<u64>() {
+            Ok(s) if s > 0 => Ok(Command::Fuzz { seconds: s }),
+            _ => Err(format!(
+                "`fuzz` takes a positive number of seconds, not `{seconds}`"
+            )),
+        },
+        ("fuzz", _) => Err("`fuzz` takes at most one SECONDS".to_string()),
+        ("web", options) => web::parse(options).map(Command::Web),
+        (other, _) => Err(format!("unknown command `{other}`")),
+    }
+}
+
+/// The repository root: xtask lives one level below it.
+fn repo_root() -> PathBuf {
+    let manifest_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    manifest_dir
+        .parent()
+        .map(PathBuf::from)
+        .unwrap_or(manifest_dir)
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let command = match parse_args(&args) {
+        Ok(c) => c,
+        Err(message) => {
+            eprintln!("error: {message}\n\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    let root = repo_root();
+    let ok = match command {
+        Command::Help => {
+            println!("{USAGE}");
+            true
+        }
+        Command::Test { quick } => steps::run_all(&root, quick),
+        Command::Bench { filter } => bench::run(&root, filter.as_deref()),
+        Command::Fuzz { seconds } => fuzz::run(&root, seconds),
+        Command::Web(options) => web::run(&root, &options),
+    };
+    if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(args: &[&str]) -> Result<Command, String> {
+        let owned: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        parse_args(&owned)
+    }
+
+    #[test]
+    fn commands_and_options_parse() {
+        assert_eq!(parse(&[]), Ok(Command::Help));
+        assert_eq!(parse(&["--help"]), Ok(Command::Help));
+        assert_eq!(parse(&["test"]), Ok(Command::Test { quick: false }));
+        assert_eq!(
+            parse(&["test", "--quick"]),
+            Ok(Command::Test { quick: true })
+        );
+        assert_eq!(parse(&["bench"]), Ok(Command::Bench { filter: None }));
+        assert_eq!(
+            parse(&["bench", "epi"]),
+            Ok(Command::Bench {
+                filter: Some("epi".into())
+            })
+        );
+        assert_eq!(
+            parse(&["fuzz"]),
+            Ok(Command::Fuzz {
+                seconds: DEFAULT_FUZZ_SECONDS
+            })
+        );
+        assert_eq!(parse(&["fuzz", "300"]), Ok(Command::Fuzz { seconds: 300 }));
+    }
+
+    #[test]
+    fn bad_arguments_are_reported() {
+        assert!(parse(&["test", "--slow"]).unwrap_err().contains("--slow"));
+        assert!(parse(&["bench", "a", "b"]).is_err());
+        assert!(parse(&["fuzz", "0"]).unwrap_err().contains("positive"));
+        assert!(parse(&["fuzz", "ten"]).unwrap_err().contains("ten"));
+        assert!(parse(&["build"]).unwrap_err().contains("build"));
+    }
 }

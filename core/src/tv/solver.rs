@@ -13,8 +13,15 @@
 //! PPXA (Combettes & Pesquet, Algorithm 10.27 of "Proximal splitting methods in signal
 //! processing", weights ω = (1/2, 1/4, 1/4)): `p_k = prox_{γf_k/ω}(y_k)`, `p = Σ ω p_k`,
 //! `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`. The primal follows from the dual as
-//! `x = D − λ A⁻¹ WᵀF` (Eq. 16). Every loop walks rows of structure-of-arrays buffers,
-//! so the `f32` instantiation vectorises.
+//! `x = D − λ A⁻¹ WᵀF` (Eq. 16). `F` is not stored: PPXA keeps it equal to `Σ ω y_k`,
+//! which the iteration forms where it needs it.
+//!
+//! One iteration is one pass over the rows (`Graph::sweep`): the residuals of row
+//! `y + 1`, then the proximity results and the combination of row `y`. The copies of the
+//! two quadratic parts are stored by colour relative to each edge's owning node (see
+//! `Graph`), so one residual pass serves both parts. Every loop walks rows of
+//! structure-of-arrays buffers in short fixed-size groups, so the `f32` instantiation
+//! vectorises without spilling.
 
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Sample, View};
@@ -24,7 +31,11 @@ use super::params::{TvNorm, TvParams};
 use super::weights::{colour_step, edge_weight};
 
 /// Buffers of the graph size the solver keeps in scratch.
-const BUFFERS: usize = 18;
+const BUFFERS: usize = 12;
+
+/// Rows of the region's width the fused sweep keeps in scratch: the node residuals of
+/// two rows, and one row of each proximity result.
+const ROW_BUFFERS: usize = 8;
 
 /// The solver iterates on `DUAL_SCALE · F` (constraint radius `DUAL_SCALE`, targets
 /// `DUAL_SCALE · τ`): every iterate scales exactly, so nothing changes in f32 (a power of
@@ -159,7 +170,10 @@ pub struct SolveReport {
 
 /// Scratch elements (of the scalar type) a solve over `width × height` pixels needs.
 pub fn scratch_len_for(width: usize, height: usize) -> usize {
-    width.saturating_mul(height).saturating_mul(BUFFERS)
+    width
+        .saturating_mul(height)
+        .saturating_mul(BUFFERS)
+        .saturating_add(width.saturating_mul(ROW_BUFFERS))
 }
 
 /// Solves the model on `region` (a rectangle of the maps, its border edges cut) and writes
@@ -302,34 +316,39 @@ struct Graph<'s, S> {
     wv: &'s mut [S],
     /// `τ_i = a_i D_i / λ`.
     tau: &'s mut [S],
-    /// `γκ_i/ω / (1 + γκ_i/ω ‖c_i‖²)` on black (resp. white) nodes, zero elsewhere.
-    sig_black: &'s mut [S],
-    sig_white: &'s mut [S],
-    /// Node temporary `s`.
-    node: &'s mut [S],
+    /// `σ_i = γκ_i/ω / (1 + γκ_i/ω ‖c_i‖²)`, the rank-one prox factor of node `i` in the
+    /// quadratic part of its colour.
+    sig: &'s mut [S],
     /// Range of `D` over the region: the minimiser lies inside it (truncating to it lowers
     /// both terms), so the primal of a not yet converged dual is clamped to it.
     range: (f32, f32),
-    /// PPXA copies of the dual for the three functions, their average `F`, and the
-    /// proximity results of the two quadratic parts.
+    /// PPXA copies of the dual for the three functions, and their average
+    /// `F = ½y₁ + ¼y₂ + ¼y₃`, formed once after the last iteration (PPXA keeps `F`
+    /// equal to that average, so the iteration forms it on the fly instead of storing it).
+    ///
+    /// The copies of the two quadratic parts are stored by colour relative to the node
+    /// that owns the edges: `own` holds at node `i` the copy of the part of `i`'s colour,
+    /// `other` that of the other colour. A node's residual then reads `own` on its own
+    /// edges and `other` on its left and upper neighbours' edges (those neighbours have
+    /// the other colour), so one pass serves both colours; the PPXA combination treats
+    /// the two parts alike (both weigh ¼), so swapping them node by node changes nothing.
     y1h: &'s mut [S],
     y1v: &'s mut [S],
-    y2h: &'s mut [S],
-    y2v: &'s mut [S],
-    y3h: &'s mut [S],
-    y3v: &'s mut [S],
+    own_h: &'s mut [S],
+    own_v: &'s mut [S],
+    other_h: &'s mut [S],
+    other_v: &'s mut [S],
     fh: &'s mut [S],
     fv: &'s mut [S],
-    p2h: &'s mut [S],
-    p2v: &'s mut [S],
-    p3h: &'s mut [S],
-    p3v: &'s mut [S],
+    /// [`ROW_BUFFERS`] rows of `width` for the fused sweep.
+    rows: &'s mut [S],
 }
 
 impl<'s, S: Scalar> Graph<'s, S> {
     fn split(scratch: &'s mut [S], width: usize, height: usize) -> Self {
         let n = width * height;
-        let mut chunks = scratch.chunks_exact_mut(n);
+        let (full, rows) = scratch.split_at_mut((n * BUFFERS).min(scratch.len()));
+        let mut chunks = full.chunks_exact_mut(n.max(1));
         let mut next = || chunks.next().unwrap_or_default();
         Graph {
             width,
@@ -337,22 +356,17 @@ impl<'s, S: Scalar> Graph<'s, S> {
             wh: next(),
             wv: next(),
             tau: next(),
-            sig_black: next(),
-            sig_white: next(),
-            node: next(),
+            sig: next(),
             range: (0.0, 0.0),
             y1h: next(),
             y1v: next(),
-            y2h: next(),
-            y2v: next(),
-            y3h: next(),
-            y3v: next(),
+            own_h: next(),
+            own_v: next(),
+            other_h: next(),
+            other_v: next(),
             fh: next(),
             fv: next(),
-            p2h: next(),
-            p2v: next(),
-            p3h: next(),
-            p3v: next(),
+            rows,
         }
     }
 
@@ -411,19 +425,17 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 let gk = gamma * lambda * lambda / a;
                 let sig = gk / (1.0 + gk * c2);
                 self.tau[i] = S::from_f32(DUAL_SCALE * a * d / lambda);
-                let black = (x + y) % 2 == 0;
-                self.sig_black[i] = S::from_f32(if black { sig } else { 0.0 });
-                self.sig_white[i] = S::from_f32(if black { 0.0 } else { sig });
+                self.sig[i] = S::from_f32(sig);
             }
         }
         self.range = (lo, hi);
         for buf in [
             &mut *self.y1h,
             &mut *self.y1v,
-            &mut *self.y2h,
-            &mut *self.y2v,
-            &mut *self.y3h,
-            &mut *self.y3v,
+            &mut *self.own_h,
+            &mut *self.own_v,
+            &mut *self.other_h,
+            &mut *self.other_v,
             &mut *self.fh,
             &mut *self.fv,
         ] {
@@ -446,45 +458,8 @@ impl<'s, S: Scalar> Graph<'s, S> {
         let tol2 = params.tolerance * params.tolerance;
         let mut report = SolveReport::default();
         for it in 0..params.max_iterations {
-            prox_quadratic(
-                self.width,
-                self.wh,
-                self.wv,
-                self.tau,
-                self.sig_black,
-                self.y2h,
-                self.y2v,
-                self.node,
-                self.p2h,
-                self.p2v,
-            );
-            prox_quadratic(
-                self.width,
-                self.wh,
-                self.wv,
-                self.tau,
-                self.sig_white,
-                self.y3h,
-                self.y3v,
-                self.node,
-                self.p3h,
-                self.p3v,
-            );
             let n = self.fh.len();
-            let (change, norm) = combine(
-                &constants,
-                [
-                    &mut *self.y1h,
-                    &mut *self.y1v,
-                    &mut *self.y2h,
-                    &mut *self.y2v,
-                    &mut *self.y3h,
-                    &mut *self.y3v,
-                    &mut *self.fh,
-                    &mut *self.fv,
-                ],
-                [&*self.p2h, &*self.p2v, &*self.p3h, &*self.p3v],
-            );
+            let (change, norm) = self.sweep(&constants);
             // Back to the units of F.
             let change = change / (DUAL_SCALE * DUAL_SCALE);
             let norm = norm / (DUAL_SCALE * DUAL_SCALE);
@@ -498,7 +473,91 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 break;
             }
         }
+        self.form_average(&constants);
         report
+    }
+
+    /// `F = ½y₁ + ¼y₂ + ¼y₃` (the expression the iteration uses).
+    fn form_average(&mut self, c: &Constants<S>) {
+        let ys = self
+            .y1h
+            .iter()
+            .zip(self.own_h.iter())
+            .zip(self.other_h.iter());
+        for (f, ((&y1, &y2), &y3)) in self.fh.iter_mut().zip(ys) {
+            *f = average(c, y1, y2, y3);
+        }
+        let ys = self
+            .y1v
+            .iter()
+            .zip(self.own_v.iter())
+            .zip(self.other_v.iter());
+        for (f, ((&y1, &y2), &y3)) in self.fv.iter_mut().zip(ys) {
+            *f = average(c, y1, y2, y3);
+        }
+    }
+
+    /// One PPXA iteration in a single pass over the rows: row `y` of both quadratic
+    /// proximity results needs the node residuals `s` of rows `y` and `y + 1` only, and
+    /// the residuals of row `y + 1` read the copies `y₂`, `y₃` of rows `y` and `y + 1`,
+    /// so computing them before row `y` is combined keeps every read on the previous
+    /// iterate while each buffer is walked once (no full-size temporaries).
+    /// Returns `(‖ΔF‖², ‖F‖²)` in the scaled units.
+    fn sweep(&mut self, c: &Constants<S>) -> (f32, f32) {
+        let (w, rows) = (self.width, self.height);
+        let mut sums = Sums {
+            change: [0.0; LANES],
+            norm: [0.0; LANES],
+        };
+        let mut row_bufs = self.rows.chunks_exact_mut(w.max(1));
+        let mut next = || row_bufs.next().unwrap_or_default();
+        let (mut s, mut s_below) = (next(), next());
+        let (p_own_h, p_own_v, p_other_h, p_other_v) = (next(), next(), next(), next());
+        let (p1h, p1v) = (next(), next());
+        let (wh, wv, tau, sig) = (&*self.wh, &*self.wv, &*self.tau, &*self.sig);
+        let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
+        residual_row(0, w, wh, wv, tau, sig, copies, s);
+        for y in 0..rows {
+            let below = y + 1 < rows;
+            if below {
+                let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
+                residual_row(y + 1, w, wh, wv, tau, sig, copies, s_below);
+            }
+            let r = y * w..(y + 1) * w;
+            prox_row(
+                [&wh[r.clone()], &wv[r.clone()]],
+                [
+                    &self.own_h[r.clone()],
+                    &self.own_v[r.clone()],
+                    &self.other_h[r.clone()],
+                    &self.other_v[r.clone()],
+                ],
+                s,
+                if below { Some(&*s_below) } else { None },
+                [
+                    &mut *p_own_h,
+                    &mut *p_own_v,
+                    &mut *p_other_h,
+                    &mut *p_other_v,
+                ],
+            );
+            combine(
+                c,
+                [
+                    &mut self.y1h[r.clone()],
+                    &mut self.y1v[r.clone()],
+                    &mut self.own_h[r.clone()],
+                    &mut self.own_v[r.clone()],
+                    &mut self.other_h[r.clone()],
+                    &mut self.other_v[r.clone()],
+                ],
+                [&*p_own_h, &*p_own_v, &*p_other_h, &*p_other_v],
+                [&mut *p1h, &mut *p1v],
+                &mut sums,
+            );
+            core::mem::swap(&mut s, &mut s_below);
+        }
+        (sums.change.iter().sum(), sums.norm.iter().sum())
     }
 
     /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`.
@@ -511,17 +570,19 @@ impl<'s, S: Scalar> Graph<'s, S> {
         out: &mut [f32],
         stride: usize,
     ) {
-        divergence(self.width, self.wh, self.wv, self.fh, self.fv, self.node);
+        let w = self.width;
+        let div = &mut self.rows[..w];
         for y in 0..core.height {
             let ry = core.y - region.y + y;
             let gy = core.y + y;
+            divergence_row(ry, w, self.wh, self.wv, self.fh, self.fv, div);
             for x in 0..core.width {
                 let rx = core.x - region.x + x;
                 let gi = gy * maps.width + core.x + x;
                 let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
                 let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
                 let a = data_weight(conf, params);
-                let u = self.node[ry * self.width + rx].to_f32();
+                let u = div[rx].to_f32();
                 if let Some(o) = out.get_mut(y * stride + x) {
                     let x = d - params.lambda * u / (DUAL_SCALE * a);
                     *o = x.clamp(self.range.0, self.range.1);
@@ -537,7 +598,12 @@ impl<'s, S: Scalar> Graph<'s, S> {
 pub(crate) fn data_weight(confidence: f32, params: &TvParams) -> f32 {
     let c = confidence.clamp(0.0, 1.0);
     let reliable = if c >= params.confidence_threshold && c > 0.0 {
-        libm::powf(c, params.confidence_power)
+        // `powf(c, 1) == c` exactly; the default power skips the call (a third of setup).
+        if params.confidence_power == 1.0 {
+            c
+        } else {
+            libm::powf(c, params.confidence_power)
+        }
     } else {
         0.0
     };
@@ -589,39 +655,68 @@ struct Constants<S> {
 /// (fixed-length blocks, per-lane sums).
 const LANES: usize = 16;
 
-/// The PPXA combination: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`, `y_k += ρ(2p − F − p_k)`,
-/// `F += ρ(p − F)`. Returns `(‖ΔF‖², ‖F‖²)` (in the scaled units).
-fn combine<S: Scalar>(c: &Constants<S>, state: [&mut [S]; 8], prox: [&[S]; 4]) -> (f32, f32) {
-    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
+/// The PPXA combination on one row: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`,
+/// `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`; adds `‖ΔF‖²` and `‖F‖²` (scaled units) to
+/// `sums`. `p1` is room for `p₁` (two rows). The projection couples the two components
+/// of a node, the rest does not: the horizontal and the vertical components are combined
+/// in separate passes, each few enough streams to stay in registers.
+#[inline(never)]
+fn combine<S: Scalar>(
+    c: &Constants<S>,
+    state: [&mut [S]; 6],
+    prox: [&[S]; 4],
+    p1: [&mut [S]; 2],
+    sums: &mut Sums,
+) {
+    let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
     let [p2h, p2v, p3h, p3v] = prox;
-    let mut sums = Sums {
-        change: [0.0; LANES],
-        norm: [0.0; LANES],
-    };
-    let n = fh.len();
-    let mut start = 0;
-    while start < n {
-        let len = LANES.min(n - start);
-        let r = start..start + len;
-        let state = [
-            &mut y1h[r.clone()],
-            &mut y1v[r.clone()],
-            &mut y2h[r.clone()],
-            &mut y2v[r.clone()],
-            &mut y3h[r.clone()],
-            &mut y3v[r.clone()],
-            &mut fh[r.clone()],
-            &mut fv[r.clone()],
-        ];
-        let prox = [&p2h[r.clone()], &p2v[r.clone()], &p3h[r.clone()], &p3v[r]];
-        if len == LANES {
-            combine_lanes::<S, LANES>(c, state, prox, &mut sums);
-        } else {
-            combine_lanes::<S, 1>(c, state, prox, &mut sums);
+    let [p1h, p1v] = p1;
+    p1h.copy_from_slice(y1h);
+    p1v.copy_from_slice(y1v);
+    let full = p1h.len() - p1h.len() % LANES;
+    let (lanes_h, rest_h) = p1h.split_at_mut(full);
+    let (lanes_v, rest_v) = p1v.split_at_mut(full);
+    for (h, v) in lanes_h
+        .chunks_exact_mut(LANES)
+        .zip(lanes_v.chunks_exact_mut(LANES))
+    {
+        if let (Ok(h), Ok(v)) = (
+            <&mut [S; LANES]>::try_from(h),
+            <&mut [S; LANES]>::try_from(v),
+        ) {
+            project_lanes(h, v, c);
         }
-        start += len;
     }
-    (sums.change.iter().sum(), sums.norm.iter().sum())
+    for (h, v) in rest_h.iter_mut().zip(rest_v.iter_mut()) {
+        let (mut h1, mut v1) = ([*h], [*v]);
+        project_lanes(&mut h1, &mut v1, c);
+        (*h, *v) = (h1[0], v1[0]);
+    }
+    combine_component(c, [y1h, y2h, y3h], [p1h, p2h, p3h], sums);
+    combine_component(c, [y1v, y2v, y3v], [p1v, p2v, p3v], sums);
+}
+
+/// The combination of one component (all horizontal or all vertical duals of a row).
+#[inline(always)]
+fn combine_component<S: Scalar>(c: &Constants<S>, y: [&mut [S]; 3], p: [&[S]; 3], sums: &mut Sums) {
+    let [y1, y2, y3] = y;
+    let [p1, p2, p3] = p;
+    let n = y1.len();
+    let full = n - n % LANES;
+    let (y1, y1r) = y1.split_at_mut(full);
+    let (y2, y2r) = y2.split_at_mut(full);
+    let (y3, y3r) = y3.split_at_mut(full);
+    let (p1, p1r) = p1.split_at(full);
+    let (p2, p2r) = p2.split_at(full);
+    let (p3, p3r) = p3.split_at(full);
+    combine_lanes::<S, LANES>(c, [y1, y2, y3], [p1, p2, p3], sums);
+    combine_lanes::<S, 1>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], sums);
+}
+
+/// `½a + ¼(b + c)`: the PPXA average of the three copies (weights ω).
+#[inline(always)]
+fn average<S: Scalar>(c: &Constants<S>, a: S, b: S, d: S) -> S {
+    a * c.half + (b + d) * c.quarter
 }
 
 /// Per-lane sums of `‖ΔF‖²` and `‖F‖²`.
@@ -635,76 +730,43 @@ struct Sums {
 #[inline(always)]
 fn combine_lanes<S: Scalar, const L: usize>(
     c: &Constants<S>,
-    state: [&mut [S]; 8],
-    prox: [&[S]; 4],
+    y: [&mut [S]; 3],
+    p: [&[S]; 3],
     sums: &mut Sums,
 ) {
-    let [y1h, y1v, y2h, y2v, y3h, y3v, fh, fv] = state;
-    let [p2h, p2v, p3h, p3v] = prox;
-    let groups = y1h
+    let [y1, y2, y3] = y;
+    let [p1, p2, p3] = p;
+    let groups = y1
         .chunks_exact_mut(L)
-        .zip(y1v.chunks_exact_mut(L))
-        .zip(y2h.chunks_exact_mut(L).zip(y2v.chunks_exact_mut(L)))
-        .zip(y3h.chunks_exact_mut(L).zip(y3v.chunks_exact_mut(L)))
-        .zip(fh.chunks_exact_mut(L).zip(fv.chunks_exact_mut(L)))
+        .zip(y2.chunks_exact_mut(L))
+        .zip(y3.chunks_exact_mut(L))
         .zip(
-            (p2h.chunks_exact(L).zip(p2v.chunks_exact(L)))
-                .zip(p3h.chunks_exact(L).zip(p3v.chunks_exact(L))),
+            p1.chunks_exact(L)
+                .zip(p2.chunks_exact(L))
+                .zip(p3.chunks_exact(L)),
         );
-    for (((((y1h, y1v), (y2h, y2v)), (y3h, y3v)), (fh, fv)), ((p2h, p2v), (p3h, p3v))) in groups {
-        let (
-            Ok(y1h),
-            Ok(y1v),
-            Ok(y2h),
-            Ok(y2v),
-            Ok(y3h),
-            Ok(y3v),
-            Ok(fh),
-            Ok(fv),
-            Ok(p2h),
-            Ok(p2v),
-            Ok(p3h),
-            Ok(p3v),
-        ) = (
-            <&mut [S; L]>::try_from(y1h),
-            <&mut [S; L]>::try_from(y1v),
-            <&mut [S; L]>::try_from(y2h),
-            <&mut [S; L]>::try_from(y2v),
-            <&mut [S; L]>::try_from(y3h),
-            <&mut [S; L]>::try_from(y3v),
-            <&mut [S; L]>::try_from(fh),
-            <&mut [S; L]>::try_from(fv),
-            <&[S; L]>::try_from(p2h),
-            <&[S; L]>::try_from(p2v),
-            <&[S; L]>::try_from(p3h),
-            <&[S; L]>::try_from(p3v),
-        )
-        else {
+    for (((y1, y2), y3), ((p1, p2), p3)) in groups {
+        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(p2), Ok(p3)) = (
+            <&mut [S; L]>::try_from(y1),
+            <&mut [S; L]>::try_from(y2),
+            <&mut [S; L]>::try_from(y3),
+            <&[S; L]>::try_from(p1),
+            <&[S; L]>::try_from(p2),
+            <&[S; L]>::try_from(p3),
+        ) else {
             continue; // chunks_exact yields exactly L elements
         };
-        // p₁ = P_B(y₁) first, in its own passes, so the sqrt (a call, not a vector op)
-        // runs only on nodes outside the set and the other passes vectorise.
-        let mut p1h = *y1h;
-        let mut p1v = *y1v;
-        project_lanes(&mut p1h, &mut p1v, c);
         for j in 0..L {
-            let ph = p1h[j] * c.half + (p2h[j] + p3h[j]) * c.quarter;
-            let pv = p1v[j] * c.half + (p2v[j] + p3v[j]) * c.quarter;
-            let (f0h, f0v) = (fh[j], fv[j]);
-            let (th, tv) = (c.two * ph - f0h, c.two * pv - f0v);
-            y1h[j] += c.rho * (th - p1h[j]);
-            y1v[j] += c.rho * (tv - p1v[j]);
-            y2h[j] += c.rho * (th - p2h[j]);
-            y2v[j] += c.rho * (tv - p2v[j]);
-            y3h[j] += c.rho * (th - p3h[j]);
-            y3v[j] += c.rho * (tv - p3v[j]);
-            let (dh, dv) = (c.rho * (ph - f0h), c.rho * (pv - f0v));
-            let (nh, nv) = (f0h + dh, f0v + dv);
-            fh[j] = nh;
-            fv[j] = nv;
-            let (dh, dv, nh, nv) = (dh.to_f32(), dv.to_f32(), nh.to_f32(), nv.to_f32());
-            sums.change[j % LANES] += dh * dh + dv * dv;
-            sums.norm[j % LANES] += nh * nh + nv * nv;
+            let p = average(c, p1[j], p2[j], p3[j]);
+            let f0 = average(c, y1[j], y2[j], y3[j]);
+            let t = c.two * p - f0;
+            y1[j] += c.rho * (t - p1[j]);
+            y2[j] += c.rho * (t - p2[j]);
+            y3[j] += c.rho * (t - p3[j]);
+            let d = c.rho * (p - f0);
+            let (d, f) = (d.to_f32(), (f0 + d).to_f32());
+            sums.change[j % LANES] += d * d;
+            sums.norm[j % LANES] += f * f;
         }
     }
 }
@@ -726,7 +788,9 @@ fn project_lanes<S: Scalar, const L: usize>(h: &mut [S; L], v: &mut [S; L], c: &
                 let (uh, uv) = (h * c.inv_radius, v * c.inv_radius);
                 *n2 = uh * uh + uv * uv;
             }
-            if n2.iter().all(|&n| n <= S::ONE) {
+            // A branch-free fold (not a short-circuiting `all`), so the test vectorises.
+            let outside = n2.iter().fold(false, |any, &n| any | (n > S::ONE));
+            if !outside {
                 return;
             }
             for ((h, v), &n2) in h.iter_mut().zip(v.iter_mut()).zip(n2.iter()) {
@@ -740,80 +804,120 @@ fn project_lanes<S: Scalar, const L: usize>(h: &mut [S; L], v: &mut [S; L], c: &
     }
 }
 
-/// `out = WᵀF`: `(WᵀF)_i = w_h(i−1) F_h(i−1) + w_v(i−W) F_v(i−W) − w_h(i) F_h(i) − w_v(i) F_v(i)`.
-fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
-    let rows = out.len() / width.max(1);
-    for y in 0..rows {
-        let r = y * width..(y + 1) * width;
-        let (o, whr, wvr, fhr, fvr) = (
-            &mut out[r.clone()],
-            &wh[r.clone()],
-            &wv[r.clone()],
-            &fh[r.clone()],
-            &fv[r.clone()],
-        );
-        for (((o, &a), &b), (&c, &d)) in o.iter_mut().zip(whr).zip(wvr).zip(fhr.iter().zip(fvr)) {
-            *o = -(a * c + b * d);
-        }
-        for ((o, &a), &c) in o[1..].iter_mut().zip(whr).zip(fhr) {
-            *o += a * c;
-        }
-        if y > 0 {
-            let p = (y - 1) * width..y * width;
-            for ((o, &b), &d) in o.iter_mut().zip(&wv[p.clone()]).zip(&fv[p]) {
-                *o += b * d;
-            }
+/// Row `y` of `WᵀF` into `out` (`width` long):
+/// `(WᵀF)_i = w_h(i−1) F_h(i−1) + w_v(i−W) F_v(i−W) − w_h(i) F_h(i) − w_v(i) F_v(i)`.
+fn divergence_row<S: Scalar>(
+    y: usize,
+    width: usize,
+    wh: &[S],
+    wv: &[S],
+    fh: &[S],
+    fv: &[S],
+    out: &mut [S],
+) {
+    let r = y * width..(y + 1) * width;
+    let (whr, wvr, fhr, fvr) = (&wh[r.clone()], &wv[r.clone()], &fh[r.clone()], &fv[r]);
+    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(fhr.iter().zip(fvr)) {
+        *o = -(a * c + b * d);
+    }
+    for ((o, &a), &c) in out.iter_mut().skip(1).zip(whr).zip(fhr) {
+        *o += a * c;
+    }
+    if y > 0 {
+        let p = (y - 1) * width..y * width;
+        for ((o, &b), &d) in out.iter_mut().zip(&wv[p.clone()]).zip(&fv[p]) {
+            *o += b * d;
         }
     }
 }
 
-/// Proximity operator of one colour's quadratic: `p = y − W∇s`, `s = σ ⊙ (Wᵀy − τ)`.
+/// Row `y` of the node residuals `s = σ ⊙ (Wᵀy − τ)`, each node in the quadratic part
+/// of its own colour: its own edges from `own`, its left and upper neighbours' edges from
+/// `other` (see [`Graph`]). `copies` = `[own_h, own_v, other_h, other_v]`.
 #[allow(clippy::too_many_arguments)]
-fn prox_quadratic<S: Scalar>(
+fn residual_row<S: Scalar>(
+    y: usize,
     width: usize,
     wh: &[S],
     wv: &[S],
     tau: &[S],
     sig: &[S],
-    yh: &[S],
-    yv: &[S],
-    s: &mut [S],
-    ph: &mut [S],
-    pv: &mut [S],
+    copies: [&[S]; 4],
+    out: &mut [S],
 ) {
-    divergence(width, wh, wv, yh, yv, s);
-    for ((s, &t), &g) in s.iter_mut().zip(tau).zip(sig) {
+    let [own_h, own_v, other_h, other_v] = copies;
+    let r = y * width..(y + 1) * width;
+    let (whr, wvr) = (&wh[r.clone()], &wv[r.clone()]);
+    let (oh, ov) = (&own_h[r.clone()], &own_v[r.clone()]);
+    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(oh.iter().zip(ov)) {
+        *o = -(a * c + b * d);
+    }
+    for ((o, &a), &c) in out.iter_mut().skip(1).zip(whr).zip(&other_h[r.clone()]) {
+        *o += a * c;
+    }
+    if y > 0 {
+        let p = (y - 1) * width..y * width;
+        for ((o, &b), &d) in out.iter_mut().zip(&wv[p.clone()]).zip(&other_v[p]) {
+            *o += b * d;
+        }
+    }
+    for ((s, &t), &g) in out.iter_mut().zip(&tau[r.clone()]).zip(&sig[r]) {
         *s = g * (*s - t);
     }
-    let rows = s.len() / width.max(1);
-    for y in 0..rows {
-        let r = y * width..(y + 1) * width;
-        let sr = &s[r.clone()];
-        // Horizontal: p_h(i) = y_h(i) − w_h(i) (s(i+1) − s(i)); the last column has no edge.
-        let (phr, yhr, whr) = (&mut ph[r.clone()], &yh[r.clone()], &wh[r.clone()]);
-        for (((p, &yy), &w), (&s0, &s1)) in phr
-            .iter_mut()
-            .zip(yhr)
-            .zip(whr)
-            .zip(sr.iter().zip(&sr[1..]))
-        {
-            *p = yy - w * (s1 - s0);
-        }
-        if let (Some(p), Some(&yy)) = (phr.last_mut(), yhr.last()) {
-            *p = yy;
-        }
-        // Vertical: p_v(i) = y_v(i) − w_v(i) (s(i+W) − s(i)); the last row has no edge.
-        let (pvr, yvr, wvr) = (&mut pv[r.clone()], &yv[r.clone()], &wv[r.clone()]);
-        if y + 1 < rows {
-            let below = &s[(y + 1) * width..(y + 2) * width];
-            for (((p, &yy), &w), (&s0, &s1)) in
-                pvr.iter_mut().zip(yvr).zip(wvr).zip(sr.iter().zip(below))
-            {
-                *p = yy - w * (s1 - s0);
+}
+
+/// One row of the proximity operators of both quadratic parts, `p = y − W∇s` with `s`
+/// zero off the part's colour: on an edge of node `i`, the part of `i`'s colour sees
+/// `s(i)` only and the other part the residual of the edge's far end only, so
+/// `p_own = own + w s(i)` and `p_other = other − w s(far end)`. `s` is this row's
+/// residuals, `below` the next row's (`None` on the last row, which has no vertical
+/// edges); the last column has no horizontal edge. All slices are one row, in the
+/// order `[own_h, own_v, other_h, other_v]`.
+fn prox_row<S: Scalar>(
+    weights: [&[S]; 2],
+    copies: [&[S]; 4],
+    s: &[S],
+    below: Option<&[S]>,
+    out: [&mut [S]; 4],
+) {
+    let [whr, wvr] = weights;
+    let [own_h, own_v, other_h, other_v] = copies;
+    let [p_own_h, p_own_v, p_other_h, p_other_v] = out;
+    for (((p, &y), &w), &s0) in p_own_h.iter_mut().zip(own_h).zip(whr).zip(s) {
+        *p = y + w * s0;
+    }
+    for (((p, &y), &w), &s1) in p_other_h
+        .iter_mut()
+        .zip(other_h)
+        .zip(whr)
+        .zip(s.iter().skip(1))
+    {
+        *p = y - w * s1;
+    }
+    if let (Some(p), Some(&y)) = (p_other_h.last_mut(), other_h.last()) {
+        *p = y;
+    }
+    match below {
+        Some(below) => {
+            for (((p, &y), &w), &s0) in p_own_v.iter_mut().zip(own_v).zip(wvr).zip(s) {
+                *p = y + w * s0;
             }
-        } else {
-            pvr.copy_from_slice(yvr);
+            for (((p, &y), &w), &s1) in p_other_v.iter_mut().zip(other_v).zip(wvr).zip(below) {
+                *p = y - w * s1;
+            }
         }
+        None => {
+            p_own_v.copy_from_slice(own_v);
+            p_other_v.copy_from_slice(other_v);
+        }
+    }
+}
+
+/// `out = WᵀF` over the whole graph (the row kernel, row after row).
+#[cfg(test)]
+fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
+    for (y, row) in out.chunks_exact_mut(width).enumerate() {
+        divergence_row(y, width, wh, wv, fh, fv, row);
     }
 }
 
@@ -833,9 +937,70 @@ mod tests {
         (*seed >> 40) as f32 / (1u64 << 24) as f32
     }
 
+    /// Both quadratic parts' proximity operators over the whole graph through the row
+    /// kernels of the sweep: copies `y2` (black part) and `y3` (white part) in, `(p2, p3)`
+    /// out, each as `(h, v)`; the kernels' own/other layout is formed and undone here.
+    #[allow(clippy::type_complexity)]
+    fn prox_parts(
+        w: usize,
+        wh: &[f32],
+        wv: &[f32],
+        tau: &[f32],
+        sig: &[f32],
+        y2: (&[f32], &[f32]),
+        y3: (&[f32], &[f32]),
+    ) -> ((Vec<f32>, Vec<f32>), (Vec<f32>, Vec<f32>)) {
+        let n = wh.len();
+        let black = |i: usize| (i % w + i / w) % 2 == 0;
+        let pick = |i: usize, own: bool, a: &[f32], b: &[f32]| {
+            if black(i) == own {
+                a[i]
+            } else {
+                b[i]
+            }
+        };
+        let own_h: Vec<f32> = (0..n).map(|i| pick(i, true, y2.0, y3.0)).collect();
+        let own_v: Vec<f32> = (0..n).map(|i| pick(i, true, y2.1, y3.1)).collect();
+        let other_h: Vec<f32> = (0..n).map(|i| pick(i, false, y2.0, y3.0)).collect();
+        let other_v: Vec<f32> = (0..n).map(|i| pick(i, false, y2.1, y3.1)).collect();
+        let copies = [&own_h[..], &own_v[..], &other_h[..], &other_v[..]];
+        let mut s = vec![0.0f32; n];
+        for (y, row) in s.chunks_exact_mut(w).enumerate() {
+            residual_row(y, w, wh, wv, tau, sig, copies, row);
+        }
+        let mut out = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        let rows = n / w;
+        for y in 0..rows {
+            let r = y * w..(y + 1) * w;
+            let below = (y + 1 < rows).then(|| &s[(y + 1) * w..(y + 2) * w]);
+            let [a, b, c, d] = &mut out;
+            prox_row(
+                [&wh[r.clone()], &wv[r.clone()]],
+                copies.map(|c| &c[r.clone()]),
+                &s[r.clone()],
+                below,
+                [
+                    &mut a[r.clone()],
+                    &mut b[r.clone()],
+                    &mut c[r.clone()],
+                    &mut d[r.clone()],
+                ],
+            );
+        }
+        let [poh, pov, pxh, pxv] = &out;
+        let part = |own: bool, o: &[f32], x: &[f32]| -> Vec<f32> {
+            (0..n).map(|i| pick(i, own, o, x)).collect()
+        };
+        (
+            (part(true, poh, pxh), part(true, pov, pxv)),
+            (part(false, poh, pxh), part(false, pov, pxv)),
+        )
+    }
+
     #[test]
     fn quadratic_prox_solves_its_optimality_condition() {
-        // prox_{γg}(y) = p  ⇔  p − y + γ ∇g(p) = 0 with g = Σ_{black} κ/2 ((Wᵀp)_i − τ_i)².
+        // prox_{γg}(y) = p  ⇔  p − y + γ ∇g(p) = 0 with g = Σ_{colour} κ/2 ((Wᵀp)_i − τ_i)²,
+        // for the black part (copy y2) and the white part (copy y3) at once.
         let (w, h) = (5usize, 4usize);
         let n = w * h;
         let mut seed = 7;
@@ -862,42 +1027,50 @@ mod tests {
                 if y > 0 {
                     c2 += wv[i - w] * wv[i - w];
                 }
-                if (x + y) % 2 == 0 {
-                    sig[i] = gamma * kappa[i] / (1.0 + gamma * kappa[i] * c2);
-                }
+                sig[i] = gamma * kappa[i] / (1.0 + gamma * kappa[i] * c2);
             }
         }
-        let yh: Vec<f32> = (0..n).map(|_| r(2.0)).collect();
-        let yv: Vec<f32> = (0..n).map(|_| r(2.0)).collect();
-        let (mut s, mut ph, mut pv) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        prox_quadratic(w, &wh, &wv, &tau, &sig, &yh, &yv, &mut s, &mut ph, &mut pv);
-        // ∇g(p) = W∇(mask κ (Wᵀp − τ)) in the sign convention of `divergence`.
-        let mut u = vec![0.0; n];
-        divergence(w, &wh, &wv, &ph, &pv, &mut u);
-        let r_node: Vec<f32> = (0..n)
-            .map(|i| {
+        let copies: Vec<Vec<f32>> = (0..4).map(|_| (0..n).map(|_| r(2.0)).collect()).collect();
+        let (y2, y3) = (
+            (&copies[0][..], &copies[1][..]),
+            (&copies[2][..], &copies[3][..]),
+        );
+        let (p2, p3) = prox_parts(w, &wh, &wv, &tau, &sig, y2, y3);
+        for (colour, (yh, yv), (ph, pv)) in [(0, y2, p2), (1, y3, p3)] {
+            // ∇g(p) = W∇(mask κ (Wᵀp − τ)) in the sign convention of `divergence`.
+            let mut u = vec![0.0; n];
+            divergence(w, &wh, &wv, &ph, &pv, &mut u);
+            let r_node: Vec<f32> = (0..n)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    if (x + y) % 2 == colour {
+                        kappa[i] * (u[i] - tau[i])
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            for i in 0..n {
                 let (x, y) = (i % w, i / w);
-                if (x + y) % 2 == 0 {
-                    kappa[i] * (u[i] - tau[i])
+                let gh = if x + 1 < w {
+                    wh[i] * (r_node[i + 1] - r_node[i])
                 } else {
                     0.0
-                }
-            })
-            .collect();
-        for i in 0..n {
-            let (x, y) = (i % w, i / w);
-            let gh = if x + 1 < w {
-                wh[i] * (r_node[i + 1] - r_node[i])
-            } else {
-                0.0
-            };
-            let gv = if y + 1 < h {
-                wv[i] * (r_node[i + w] - r_node[i])
-            } else {
-                0.0
-            };
-            assert!((ph[i] - yh[i] + gamma * gh).abs() < 1e-4, "h {i}");
-            assert!((pv[i] - yv[i] + gamma * gv).abs() < 1e-4, "v {i}");
+                };
+                let gv = if y + 1 < h {
+                    wv[i] * (r_node[i + w] - r_node[i])
+                } else {
+                    0.0
+                };
+                assert!(
+                    (ph[i] - yh[i] + gamma * gh).abs() < 1e-4,
+                    "colour {colour} h {i}"
+                );
+                assert!(
+                    (pv[i] - yv[i] + gamma * gv).abs() < 1e-4,
+                    "colour {colour} v {i}"
+                );
+            }
         }
     }
 

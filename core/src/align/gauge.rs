@@ -1,0 +1,201 @@
+//! Comparing two sets of rectifying homographies modulo what no image can observe.
+
+use nalgebra::{Matrix4, Vector4};
+
+use crate::geometry::Homography;
+use crate::lightfield::Grid;
+
+/// The best gauge transform between two sets of rectifying homographies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GaugeFit {
+    /// Uniform scale `s` (about the image centre).
+    pub scale: f32,
+    /// Translation `t` (pixels).
+    pub translation: (f32, f32),
+    /// Disparity offset `δ`: a point of true disparity `d` has disparity `s·d − δ` in the
+    /// estimated rectified array, so `d = (d_est + δ) / s`.
+    pub disparity_offset: f32,
+    /// RMS distance left after the transform (pixels): the registration error.
+    pub rms: f32,
+}
+
+/// RMS distance in pixels between the rectified frames of `estimate` and `truth`
+/// (both rectified → view pixel coordinates, one per view, row-major grid order), after
+/// removing the best gauge transform `x ↦ s·x + t + δ·b_v` (uniform scale, translation,
+/// disparity offset) that no light field can determine. Measured on an 8 × 8 grid of
+/// points per view inside `width` × `height`. `None` when a map is singular.
+pub fn gauge_rms(
+    estimate: &[Homography],
+    truth: &[Homography],
+    grid: Grid,
+    width: usize,
+    height: usize,
+) -> Option<f32> {
+    gauge_fit(estimate, truth, grid, width, height).map(|g| g.rms)
+}
+
+/// The gauge transform behind [`gauge_rms`] (coordinates about the image centre).
+pub fn gauge_fit(
+    estimate: &[Homography],
+    truth: &[Homography],
+    grid: Grid,
+    width: usize,
+    height: usize,
+) -> Option<GaugeFit> {
+    if estimate.len() != grid.len() || truth.len() != grid.len() {
+        return None;
+    }
+    let (r0, c0) = grid.center();
+    // Each sample: true rectified x, estimated rectified e, baseline b.
+    let samples = |v: usize| {
+        let inv = estimate[v].inverse();
+        let t = truth[v];
+        let b = (
+            (v % grid.cols) as f32 - c0 as f32,
+            (v / grid.cols) as f32 - r0 as f32,
+        );
+        (0..64).map(move |k| {
+            let x = (0.5 + (k % 8) as f32) * width as f32 / 8.0;
+            let y = (0.5 + (k / 8) as f32) * height as f32 / 8.0;
+            let q = t.apply(x, y)?;
+            let e = inv.as_ref()?.apply(q.0, q.1)?;
+            Some((x, y, e.0, e.1, b))
+        })
+    };
+    let o = (width as f32 * 0.5, height as f32 * 0.5);
+    let mut ata = Matrix4::<f32>::zeros();
+    let mut atb = Vector4::<f32>::zeros();
+    for v in 0..grid.len() {
+        for s in samples(v) {
+            let (x, y, ex, ey, b) = s?;
+            let rx = Vector4::new(x - o.0, 1.0, 0.0, b.0);
+            let ry = Vector4::new(y - o.1, 0.0, 1.0, b.1);
+            ata += rx * rx.transpose() + ry * ry.transpose();
+            atb += rx * (ex - o.0) + ry * (ey - o.1);
+        }
+    }
+    let g = ata.lu().solve(&atb)?;
+    let (mut sum, mut count) = (0.0f32, 0usize);
+    for v in 0..grid.len() {
+        for s in samples(v) {
+            let (x, y, ex, ey, b) = s?;
+            let px = g[0] * (x - o.0) + g[1] + g[3] * b.0 + o.0;
+            let py = g[0] * (y - o.1) + g[2] + g[3] * b.1 + o.1;
+            sum += (ex - px) * (ex - px) + (ey - py) * (ey - py);
+            count += 1;
+        }
+    }
+    (count > 0).then(|| GaugeFit {
+        scale: g[0],
+        translation: (g[1], g[2]),
+        // e = s·(X − d·b) + t + g₃·b: the estimated disparity is s·d − g₃.
+        disparity_offset: g[3],
+        rms: libm::sqrtf(sum / count as f32),
+    })
+}
+
+/// RMS reprojection error in pixels of `estimate` against `truth` (both rectified →
+/// view, one per view): scene points on an 8 × 8 grid with each disparity of
+/// `disparities` are projected into every view by `truth`, taken back to rectified
+/// coordinates by `estimate`, and the best rectified-array fit (one position and one
+/// disparity per point) is subtracted. This is what the EPI stage sees; it is blind to
+/// the gauge by construction. `None` when a map is singular or no point projects.
+pub fn reprojection_rms(
+    estimate: &[Homography],
+    truth: &[Homography],
+    grid: Grid,
+    width: usize,
+    height: usize,
+    disparities: &[f32],
+) -> Option<f32> {
+    if estimate.len() != grid.len() || truth.len() != grid.len() {
+        return None;
+    }
+    let (r0, c0) = grid.center();
+    let baseline = |v: usize| {
+        (
+            (v % grid.cols) as f32 - c0 as f32,
+            (v / grid.cols) as f32 - r0 as f32,
+        )
+    };
+    let (mut sum, mut count) = (0.0f32, 0usize);
+    for &d in disparities {
+        for k in 0..64 {
+            let x = (0.5 + (k % 8) as f32) * width as f32 / 8.0;
+            let y = (0.5 + (k / 8) as f32) * height as f32 / 8.0;
+            // Rectified positions according to the estimate, and their least-squares
+            // rectified-array fit: d' = −cov(b, e)/var(b), X' = mean(e) + d'·mean(b).
+            let (mut n, mut sb, mut se, mut sbb, mut sbe) =
+                (0.0f32, [0.0f32; 2], [0.0f32; 2], 0.0f32, 0.0f32);
+            let project = |v: usize| -> Option<(f32, f32)> {
+                let b = baseline(v);
+                let q = truth[v].apply(x - d * b.0, y - d * b.1)?;
+                estimate[v].inverse()?.apply(q.0, q.1)
+            };
+            for v in 0..grid.len() {
+                let e = project(v)?;
+                let b = baseline(v);
+                n += 1.0;
+                sb[0] += b.0;
+                sb[1] += b.1;
+                se[0] += e.0;
+                se[1] += e.1;
+                sbb += b.0 * b.0 + b.1 * b.1;
+                sbe += b.0 * e.0 + b.1 * e.1;
+            }
+            let var = sbb - (sb[0] * sb[0] + sb[1] * sb[1]) / n;
+            let dd = -(sbe - (sb[0] * se[0] + sb[1] * se[1]) / n) / var;
+            let xx = (se[0] + dd * sb[0]) / n;
+            let yy = (se[1] + dd * sb[1]) / n;
+            for v in 0..grid.len() {
+                let e = project(v)?;
+                let b = baseline(v);
+                let (ex, ey) = (e.0 - (xx - dd * b.0), e.1 - (yy - dd * b.1));
+                sum += ex * ex + ey * ey;
+                count += 1;
+            }
+        }
+    }
+    (count > 0).then(|| libm::sqrtf(sum / count as f32))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauge_transforms_cost_nothing_and_real_errors_show() {
+        let grid = Grid::new(3, 3);
+        let truth = [Homography {
+            m: [1.01, 0.02, 1.0, -0.02, 0.99, 2.0, 1e-5, 0.0, 1.0],
+        }; 9];
+        // estimate_v = truth_v ∘ G_v⁻¹ with G_v(x) = 1.02·x + (3, −1) + 0.4·b_v.
+        let mut est = truth;
+        for (v, e) in est.iter_mut().enumerate() {
+            let b = ((v % 3) as f32 - 1.0, (v / 3) as f32 - 1.0);
+            let g = Homography {
+                m: [
+                    1.02,
+                    0.0,
+                    3.0 + 0.4 * b.0,
+                    0.0,
+                    1.02,
+                    -1.0 + 0.4 * b.1,
+                    0.0,
+                    0.0,
+                    1.0,
+                ],
+            };
+            *e = truth[v].compose(&g.inverse().unwrap());
+        }
+        assert!(gauge_rms(&est, &truth, grid, 64, 48).unwrap() < 2e-3);
+        assert!(reprojection_rms(&est, &truth, grid, 64, 48, &[-1.0, 2.0]).unwrap() < 2e-3);
+        // A rotation of one view is not a gauge transform.
+        let rot = Homography {
+            m: [1.0, -0.01, 0.0, 0.01, 1.0, 0.0, 0.0, 0.0, 1.0],
+        };
+        est[2] = est[2].compose(&rot);
+        assert!(gauge_rms(&est, &truth, grid, 64, 48).unwrap() > 0.05);
+        assert!(reprojection_rms(&est, &truth, grid, 64, 48, &[-1.0, 2.0]).unwrap() > 0.05);
+    }
+}

@@ -1,0 +1,510 @@
+//! Alignment of an imperfect camera array: per-view homographies that bring every view
+//! into a rectified array, and the warp that applies them.
+//!
+//! # What is estimated
+//! Views of a light field differ by parallax, so no single homography maps a view onto
+//! the centre view. What is recoverable is the *rectifying* homography `H_v` of each view
+//! `v` (centre included): it maps rectified pixel coordinates to the pixel coordinates
+//! of the misaligned view, such that in rectified coordinates every scene point obeys the
+//! epipolar model of a rectified array,
+//! `x_v = X − d · b_v` with `b_v = (c − c0, r − r0)` and one disparity `d` per point
+//! shared by all views. Corners are found in the centre view, tracked into every view
+//! (pyramidal Lucas–Kanade template matching, which gives sub-pixel matches), and the
+//! homographies and the per-point `(X, d)` are estimated by alternating least squares
+//! after a seeded RANSAC start (see the `solve` module).
+//!
+//! # Gauge (what no image can tell)
+//! Replacing every rectified frame by `x ↦ s·x + t + δ·b_v` (uniform scale `s`,
+//! translation `t`, disparity offset `δ`) gives another exact rectified array. The
+//! estimate fixes these four degrees of freedom by convention: the centre view keeps its
+//! own scale and the position of its image centre (by default it is the reference and
+//! keeps the identity, see [`Reference`]), and the view translations have no mean
+//! component along the baselines (zero-mean misalignment). [`gauge_rms`] compares
+//! homographies modulo this gauge, [`reprojection_rms`] measures what the EPI stage
+//! sees. A rotation common to all views is observable only through parallax (an error of
+//! θ rotates the parallax of a point by θ·d·|b|), so with small disparities it is weakly
+//! determined; [`Reference::CentreView`] does not estimate it.
+//!
+//! # Entry points
+//! [`scratch_len`] and [`estimate`] fill one homography per view (row-major grid order,
+//! the convention of `synth::render`); [`warp_rows`] / [`warp_band`] write rectified
+//! views into caller buffers, a band of rows at a time.
+
+mod corners;
+mod gauge;
+mod model;
+mod pyramid;
+mod solve;
+mod track;
+mod warp;
+
+use heapless::Vec as FixedVec;
+
+use crate::error::{checked_product, Error, Result};
+use crate::geometry::Homography;
+use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
+
+pub use gauge::{gauge_fit, gauge_rms, reprojection_rms, GaugeFit};
+pub use warp::{warp_band, warp_rows, WarpSample};
+
+/// Most corners tracked from the centre view (compile-time capacity).
+pub const MAX_FEATURES: usize = 512;
+/// Most views of a grid (17 × 17).
+pub const MAX_VIEWS: usize = GRID_MAX * GRID_MAX;
+
+/// Whether to align.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AlignMode {
+    /// Never align: the array is trusted to be rectified.
+    Off,
+    /// Always estimate and apply homographies.
+    On,
+    /// Check cheaply whether the array is rectified (a few outer views) and align only
+    /// if it is not. A failed estimate falls back to the unaligned path with a warning.
+    #[default]
+    Auto,
+}
+
+/// How the disparity of the tracked points is modelled while the homographies are
+/// estimated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AlignModel {
+    /// One free disparity per tracked point, shared by all views; one homography per view.
+    #[default]
+    PerView,
+    /// The paper's joint model (Javidnia & Corcoran, Eq. 1–7): points are grouped into
+    /// plane patches (a coarse grid over the centre view), each patch's disparity is an
+    /// affine function (its plane, `ΔN_t`) estimated with the homographies fixed, then
+    /// the homographies with the planes fixed, alternating.
+    PlanePatches,
+}
+
+/// Which rectified frame the homographies map from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Reference {
+    /// The centre camera is the reference: its homography is the identity and every other
+    /// view is rectified onto it (as in the paper). Its roll and perspective relative to
+    /// the baselines are left alone, so the disparity map stays registered to the centre
+    /// view as captured — exact when the centre camera is well mounted, but a misaligned
+    /// centre camera then leaves its error in every EPI.
+    CentreView,
+    /// The centre view is estimated like the others (its rotation and perspective from
+    /// the parallax directions, weakly determined when disparities are small); scale and
+    /// position of its image centre are kept.
+    #[default]
+    Estimated,
+}
+
+/// Parameters of the alignment stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AlignParams {
+    /// Off, on, or automatic detection of a rectified array.
+    pub mode: AlignMode,
+    /// Disparity model used while estimating.
+    pub model: AlignModel,
+    /// The frame of the rectified array.
+    pub reference: Reference,
+    /// Corners tracked from the centre view (8 … [`MAX_FEATURES`]).
+    pub features: usize,
+    /// Stop when the RMS reprojection error (pixels) falls below this.
+    pub target_rms: f32,
+    /// Most alternation rounds.
+    pub max_iterations: usize,
+    /// Final inlier threshold on the reprojection error (pixels).
+    pub inlier_threshold: f32,
+    /// Auto mode: an array whose identity-homography RMS error (pixels) is below this
+    /// is considered rectified and left alone.
+    pub rectified_rms: f32,
+    /// Fewest inlier tracks a view needs for its homography.
+    pub min_inliers: usize,
+    /// Seed of the RANSAC sampler (results are deterministic for a seed).
+    pub seed: u64,
+}
+
+impl Default for AlignParams {
+    fn default() -> Self {
+        AlignParams {
+            mode: AlignMode::Auto,
+            model: AlignModel::PerView,
+            reference: Reference::Estimated,
+            features: 256,
+            target_rms: 0.02,
+            max_iterations: 30,
+            inlier_threshold: 0.75,
+            rectified_rms: 0.1,
+            min_inliers: 12,
+            seed: 0x5eed_a11e,
+        }
+    }
+}
+
+impl AlignParams {
+    /// Checks every parameter.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, reason| Err(Error::InvalidParameter { name, reason });
+        if !(8..=MAX_FEATURES).contains(&self.features) {
+            return bad("align.features", "must be between 8 and 512");
+        }
+        if !(self.target_rms.is_finite() && self.target_rms >= 0.0) {
+            return bad("align.target_rms", "must be a finite number ≥ 0 (pixels)");
+        }
+        if !(1..=200).contains(&self.max_iterations) {
+            return bad("align.max_iterations", "must be between 1 and 200");
+        }
+        if !(self.inlier_threshold.is_finite() && self.inlier_threshold > 0.05) {
+            return bad(
+                "align.inlier_threshold",
+                "must be a finite number > 0.05 (pixels)",
+            );
+        }
+        if !(self.rectified_rms.is_finite() && self.rectified_rms >= 0.0) {
+            return bad(
+                "align.rectified_rms",
+                "must be a finite number ≥ 0 (pixels)",
+            );
+        }
+        if !(8..=MAX_FEATURES).contains(&self.min_inliers) || self.min_inliers > self.features {
+            return bad(
+                "align.min_inliers",
+                "must be between 8 and 512 and at most align.features",
+            );
+        }
+        Ok(())
+    }
+}
+
+/// What one view's estimate rests on.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ViewReport {
+    /// Tracks of this view used in the final fit.
+    pub inliers: u16,
+    /// RMS reprojection error of those tracks (rectified pixels).
+    pub rms: f32,
+}
+
+/// The outcome of [`estimate`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AlignReport {
+    /// No homography was estimated: mode off, or auto found the array rectified (or
+    /// could not align it, see `warning`). The output homographies are identities.
+    pub skipped: bool,
+    /// Auto mode only: the error that made it fall back to the unaligned path.
+    pub warning: Option<Error>,
+    /// Corners detected in the centre view.
+    pub features: usize,
+    /// Per view, row-major grid order (empty when nothing was estimated).
+    pub views: FixedVec<ViewReport, MAX_VIEWS>,
+    /// RMS reprojection error over all inlier observations with identity homographies
+    /// (the misalignment as measured; on the views tracked).
+    pub identity_rms: f32,
+    /// RMS reprojection error of the estimated homographies (pixels).
+    pub rms: f32,
+    /// Alternation rounds run.
+    pub iterations: usize,
+}
+
+/// Scratch [`estimate`] needs for `layout`, in `f32` elements: two image pyramids (centre
+/// and current view) and the track table. It grows with the view size, not with the
+/// number of bands the caller warps.
+pub fn scratch_len(layout: &Layout, params: &AlignParams) -> Result<usize> {
+    layout.validate()?;
+    let _ = params;
+    let pyramid = pyramid::Pyramid::len_for(layout.width, layout.height)?;
+    let tracks = solve::Tracks::len_for(layout.grid.len())?;
+    checked_product(&[pyramid, 2], "alignment scratch")?
+        .checked_add(tracks)
+        .ok_or(Error::SizeOverflow {
+            what: "alignment scratch",
+        })
+}
+
+/// Estimates one homography per view (row-major grid order; rectified → view pixel
+/// coordinates, pixel centres at integer coordinates) into `homographies`.
+///
+/// Mode [`AlignMode::Off`] writes identities. [`AlignMode::Auto`] first tracks a few
+/// outer views and keeps identities when the array is already rectified; if estimation
+/// then fails, it keeps identities and reports the error as a warning. [`AlignMode::On`]
+/// returns the error ([`Error::Alignment`] for textureless or too different views).
+pub fn estimate<S: Sample>(
+    lf: &LightField<'_, S>,
+    params: &AlignParams,
+    homographies: &mut [Homography],
+    scratch: &mut [f32],
+) -> Result<AlignReport> {
+    params.validate()?;
+    let layout = *lf.layout();
+    let views = layout.grid.len();
+    if homographies.len() != views {
+        return Err(Error::OutputSize {
+            what: "the homography slice (one per view)",
+            needed: views,
+            got: homographies.len(),
+        });
+    }
+    let needed = scratch_len(&layout, params)?;
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
+    homographies.fill(Homography::IDENTITY);
+    let mut report = AlignReport::default();
+    match params.mode {
+        AlignMode::Off => {
+            report.skipped = true;
+            Ok(report)
+        }
+        AlignMode::On => solve::run(lf, params, solve::ViewSet::All, homographies, scratch),
+        AlignMode::Auto => {
+            let probe = solve::run(lf, params, solve::ViewSet::Probe, homographies, scratch);
+            homographies.fill(Homography::IDENTITY);
+            let probe = match probe {
+                Ok(r) => r,
+                Err(e) => {
+                    report.skipped = true;
+                    report.warning = Some(e);
+                    return Ok(report);
+                }
+            };
+            if probe.identity_rms <= params.rectified_rms.max(1.25 * probe.rms) {
+                report.skipped = true;
+                report.features = probe.features;
+                report.identity_rms = probe.identity_rms;
+                report.rms = probe.identity_rms;
+                return Ok(report);
+            }
+            match solve::run(lf, params, solve::ViewSet::All, homographies, scratch) {
+                Ok(r) => Ok(r),
+                Err(e) => {
+                    homographies.fill(Homography::IDENTITY);
+                    report.skipped = true;
+                    report.warning = Some(e);
+                    Ok(report)
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod testscene;
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use crate::lightfield::Grid;
+    use std::vec;
+
+    fn run(
+        data: &[u8],
+        layout: Layout,
+        params: &AlignParams,
+    ) -> (Result<AlignReport>, std::vec::Vec<Homography>) {
+        let lf = LightField::new(data, layout).unwrap();
+        let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
+        let mut scratch = vec![0.0f32; scratch_len(&layout, params).unwrap()];
+        let r = estimate(&lf, params, &mut hs, &mut scratch);
+        (r, hs)
+    }
+
+    #[test]
+    fn recovers_misalignment_modulo_gauge() {
+        let grid = Grid::new(5, 5);
+        let (data, layout, truth) =
+            testscene::render(grid, 128, 128, Some((2.0, 3.0, 0.01, 1e-5)), 1);
+        let before = reprojection_rms(
+            &[Homography::IDENTITY; 25],
+            &truth,
+            grid,
+            128,
+            128,
+            &[-0.8, 0.0, 1.5],
+        )
+        .unwrap();
+        for model in [AlignModel::PerView, AlignModel::PlanePatches] {
+            let params = AlignParams {
+                mode: AlignMode::On,
+                model,
+                ..AlignParams::default()
+            };
+            let (report, hs) = run(&data, layout, &params);
+            let report = report.unwrap();
+            let after = reprojection_rms(&hs, &truth, grid, 128, 128, &[-0.8, 0.0, 1.5]).unwrap();
+            let registration = gauge_rms(&hs, &truth, grid, 128, 128).unwrap();
+            std::eprintln!(
+                "{model:?}: {report:?} before {before} after {after} registration {registration}"
+            );
+            assert!(!report.skipped);
+            assert!(before > 1.0, "{before}");
+            assert!(after < 0.1, "{model:?}: {after}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod mode_tests {
+    extern crate std;
+    use super::*;
+    use crate::lightfield::Grid;
+    use std::vec;
+
+    fn estimate_with(
+        data: &[u8],
+        layout: Layout,
+        params: &AlignParams,
+    ) -> (Result<AlignReport>, std::vec::Vec<Homography>) {
+        let lf = LightField::new(data, layout).unwrap();
+        let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
+        let mut scratch = vec![0.0f32; scratch_len(&layout, params).unwrap()];
+        let r = estimate(&lf, params, &mut hs, &mut scratch);
+        (r, hs)
+    }
+
+    #[test]
+    fn auto_leaves_a_rectified_array_alone_and_aligns_a_misaligned_one() {
+        let grid = Grid::new(5, 5);
+        let params = AlignParams::default();
+        let (data, layout, _) = testscene::render(grid, 96, 96, None, 2);
+        let (report, hs) = estimate_with(&data, layout, &params);
+        let report = report.unwrap();
+        assert!(report.skipped && report.warning.is_none(), "{report:?}");
+        assert!(report.identity_rms < params.rectified_rms, "{report:?}");
+        assert!(hs.iter().all(|h| *h == Homography::IDENTITY));
+
+        let (data, layout, truth) =
+            testscene::render(grid, 128, 128, Some((1.0, 2.0, 0.005, 0.0)), 3);
+        let (report, hs) = estimate_with(&data, layout, &params);
+        let report = report.unwrap();
+        assert!(!report.skipped, "{report:?}");
+        let err = reprojection_rms(&hs, &truth, grid, 128, 128, &[-0.8, 1.5]).unwrap();
+        assert!(err < 0.1, "{err} {report:?}");
+    }
+
+    #[test]
+    fn off_writes_identities() {
+        let grid = Grid::new(3, 3);
+        let (data, layout, _) = testscene::render(grid, 32, 32, Some((2.0, 3.0, 0.01, 0.0)), 4);
+        let params = AlignParams {
+            mode: AlignMode::Off,
+            ..AlignParams::default()
+        };
+        let (report, hs) = estimate_with(&data, layout, &params);
+        assert!(report.unwrap().skipped);
+        assert!(hs.iter().all(|h| *h == Homography::IDENTITY));
+    }
+
+    #[test]
+    fn textureless_and_unrelated_views_are_alignment_errors() {
+        let grid = Grid::new(3, 3);
+        let layout = Layout::packed(grid, 64, 64, 1);
+        let flat = vec![128u8; layout.validate().unwrap()];
+        let on = AlignParams {
+            mode: AlignMode::On,
+            ..AlignParams::default()
+        };
+        let (r, _) = estimate_with(&flat, layout, &on);
+        assert!(matches!(r, Err(Error::Alignment { view: 4, .. })), "{r:?}");
+        // Auto falls back to the unaligned path with a warning.
+        let (r, hs) = estimate_with(&flat, layout, &AlignParams::default());
+        let r = r.unwrap();
+        assert!(r.skipped && matches!(r.warning, Some(Error::Alignment { .. })));
+        assert!(hs.iter().all(|h| *h == Homography::IDENTITY));
+
+        // View 2 shows a different scene.
+        let (mut data, layout, _) = testscene::render(grid, 64, 64, None, 5);
+        for (k, v) in data[2 * 64 * 64..3 * 64 * 64].iter_mut().enumerate() {
+            let (x, y) = ((k % 64) as f32, (k / 64) as f32);
+            *v = (testscene::texture(y * 1.7 + 300.0, x * 0.6, 77) * 255.0) as u8;
+        }
+        let (r, _) = estimate_with(&data, layout, &on);
+        assert!(matches!(r, Err(Error::Alignment { view: 2, .. })), "{r:?}");
+    }
+
+    #[test]
+    fn bad_arguments_are_errors_not_panics() {
+        let grid = Grid::new(3, 3);
+        let (data, layout, _) = testscene::render(grid, 32, 32, None, 6);
+        let lf = LightField::new(&data[..], layout).unwrap();
+        let params = AlignParams::default();
+        let need = scratch_len(&layout, &params).unwrap();
+        let mut scratch = vec![0.0f32; need - 1];
+        let mut hs = vec![Homography::IDENTITY; 9];
+        assert!(matches!(
+            estimate(&lf, &params, &mut hs, &mut scratch),
+            Err(Error::ScratchTooSmall { .. })
+        ));
+        let mut scratch = vec![0.0f32; need];
+        assert!(matches!(
+            estimate(&lf, &params, &mut hs[..8], &mut scratch),
+            Err(Error::OutputSize { .. })
+        ));
+        let bad = AlignParams {
+            features: 4,
+            ..params
+        };
+        assert!(matches!(
+            bad.validate(),
+            Err(Error::InvalidParameter { .. })
+        ));
+        let bad = AlignParams {
+            inlier_threshold: f32::NAN,
+            ..params
+        };
+        assert!(bad.validate().is_err());
+        // Tiny views: estimation may fail, but only with an error.
+        let _ = estimate(&lf, &params, &mut hs, &mut scratch);
+    }
+
+    #[test]
+    fn random_and_non_finite_inputs_never_panic() {
+        let layout = Layout::packed(Grid::new(3, 3), 40, 36, 3);
+        let len = layout.validate().unwrap();
+        let mut state = 0x1234_5678_u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        let noise: std::vec::Vec<u8> = (0..len).map(|_| next() as u8).collect();
+        let specials = [f32::NAN, f32::INFINITY, -1e30, 1e30, 0.5, -0.0];
+        let floats: std::vec::Vec<f32> = (0..len)
+            .map(|i| {
+                if i % 7 == 0 {
+                    specials[i % 6]
+                } else {
+                    (next() % 1000) as f32 / 999.0
+                }
+            })
+            .collect();
+        for mode in [AlignMode::On, AlignMode::Auto] {
+            for model in [AlignModel::PerView, AlignModel::PlanePatches] {
+                let params = AlignParams {
+                    mode,
+                    model,
+                    ..AlignParams::default()
+                };
+                let mut hs = vec![Homography::IDENTITY; 9];
+                let mut scratch = vec![0.0f32; scratch_len(&layout, &params).unwrap()];
+                let lf = LightField::new(&noise[..], layout).unwrap();
+                if let Ok(r) = estimate(&lf, &params, &mut hs, &mut scratch) {
+                    assert!(
+                        hs.iter().all(|h| h.m.iter().all(|v| v.is_finite())),
+                        "{r:?}"
+                    );
+                }
+                let lf = LightField::new(&floats[..], layout).unwrap();
+                if let Ok(r) = estimate(&lf, &params, &mut hs, &mut scratch) {
+                    assert!(
+                        hs.iter().all(|h| h.m.iter().all(|v| v.is_finite())),
+                        "{r:?}"
+                    );
+                }
+                let mut out = vec![0.0f32; 9 * 36 * 40 * 3];
+                warp_band(&lf, &hs, 0..36, &mut out).unwrap();
+            }
+        }
+    }
+}

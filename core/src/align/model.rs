@@ -1,0 +1,234 @@
+//! Homography fitting: normalised DLT (least squares over many pairs, exact through
+//! four), a seeded RANSAC around it, and the small random generator it uses.
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+/// A 3 × 3 homography as a stack matrix.
+pub type Mat = Matrix3<f32>;
+
+/// Maps `(x, y)`; `None` on or behind the line at infinity.
+#[inline(always)]
+pub fn apply(m: &Mat, x: f32, y: f32) -> Option<(f32, f32)> {
+    let w = m[(2, 0)] * x + m[(2, 1)] * y + m[(2, 2)];
+    if w.abs().partial_cmp(&1e-9) != Some(core::cmp::Ordering::Greater) {
+        return None;
+    }
+    let u = (m[(0, 0)] * x + m[(0, 1)] * y + m[(0, 2)]) / w;
+    let v = (m[(1, 0)] * x + m[(1, 1)] * y + m[(1, 2)]) / w;
+    (u.is_finite() && v.is_finite()).then_some((u, v))
+}
+
+/// Similarity `x ↦ (x − mean) · scale` that centres points and gives them mean distance
+/// √2 from the origin (Hartley's normalisation), as a matrix.
+fn normaliser(points: impl Iterator<Item = (f32, f32)> + Clone) -> Option<Mat> {
+    let (mut n, mut mx, mut my) = (0.0f32, 0.0f32, 0.0f32);
+    for (x, y) in points.clone() {
+        n += 1.0;
+        mx += x;
+        my += y;
+    }
+    if n < 1.0 {
+        return None;
+    }
+    mx /= n;
+    my /= n;
+    let mut dist = 0.0f32;
+    for (x, y) in points {
+        dist += libm::sqrtf((x - mx) * (x - mx) + (y - my) * (y - my));
+    }
+    dist /= n;
+    if dist.partial_cmp(&1e-6) != Some(core::cmp::Ordering::Greater) {
+        return None;
+    }
+    let s = core::f32::consts::SQRT_2 / dist;
+    Some(Mat::new(s, 0.0, -s * mx, 0.0, s, -s * my, 0.0, 0.0, 1.0))
+}
+
+/// Least-squares homography mapping `src[i]` to `dst[i]` for the pairs `pairs` yields
+/// (`(x, y, u, v)`), from the normalised DLT with `h₃₃ = 1`. `None` for degenerate input.
+pub fn fit(pairs: impl Iterator<Item = (f32, f32, f32, f32)> + Clone) -> Option<Mat> {
+    let ns = normaliser(pairs.clone().map(|p| (p.0, p.1)))?;
+    let nd = normaliser(pairs.clone().map(|p| (p.2, p.3)))?;
+    let mut ata = SMatrix::<f32, 8, 8>::zeros();
+    let mut atb = SVector::<f32, 8>::zeros();
+    let mut count = 0usize;
+    for (x, y, u, v) in pairs {
+        let (x, y) = (ns[(0, 0)] * x + ns[(0, 2)], ns[(1, 1)] * y + ns[(1, 2)]);
+        let (u, v) = (nd[(0, 0)] * u + nd[(0, 2)], nd[(1, 1)] * v + nd[(1, 2)]);
+        let r1 = SVector::<f32, 8>::from_column_slice(&[x, y, 1.0, 0.0, 0.0, 0.0, -u * x, -u * y]);
+        let r2 = SVector::<f32, 8>::from_column_slice(&[0.0, 0.0, 0.0, x, y, 1.0, -v * x, -v * y]);
+        ata.syger(1.0, &r1, &r1, 1.0);
+        ata.syger(1.0, &r2, &r2, 1.0);
+        atb.axpy(u, &r1, 1.0);
+        atb.axpy(v, &r2, 1.0);
+        count += 1;
+    }
+    if count < 4 {
+        return None;
+    }
+    ata.fill_upper_triangle_with_lower_triangle();
+    let h = if count == 4 {
+        ata.lu().solve(&atb)?
+    } else {
+        ata.cholesky()?.solve(&atb)
+    };
+    let hn = Mat::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], 1.0);
+    let m = nd.try_inverse()? * hn * ns;
+    let m = m / m[(2, 2)];
+    m.iter().all(|v| v.is_finite()).then_some(m)
+}
+
+/// Deterministic xorshift64* generator (RANSAC sampling).
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        // SplitMix64 step so that nearby seeds give unrelated streams; never zero.
+        let mut z = seed.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        Rng((z ^ (z >> 31)) | 1)
+    }
+    /// Uniform in `0..n` (`n > 0`).
+    pub fn below(&mut self, n: usize) -> usize {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let r = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d);
+        ((r >> 32) as usize) % n.max(1)
+    }
+}
+
+/// Seeded RANSAC: the homography through four sampled pairs with the most pairs within
+/// `threshold` pixels, refitted by least squares on those inliers. `pairs(i)` gives pair
+/// `i` of `n` (or `None` to skip it).
+pub fn ransac(
+    n: usize,
+    pairs: &dyn Fn(usize) -> Option<(f32, f32, f32, f32)>,
+    threshold: f32,
+    rounds: usize,
+    rng: &mut Rng,
+) -> Option<(Mat, usize)> {
+    let valid = (0..n).filter(|&i| pairs(i).is_some()).count();
+    if valid < 4 {
+        return None;
+    }
+    let residual = |m: &Mat, p: (f32, f32, f32, f32)| -> f32 {
+        match apply(m, p.0, p.1) {
+            Some((u, v)) => (u - p.2) * (u - p.2) + (v - p.3) * (v - p.3),
+            None => f32::INFINITY,
+        }
+    };
+    let t2 = threshold * threshold;
+    let count_inliers = |m: &Mat| {
+        (0..n)
+            .filter_map(pairs)
+            .filter(|&p| residual(m, p) <= t2)
+            .count()
+    };
+    let mut best: Option<(Mat, usize)> = None;
+    for _ in 0..rounds {
+        let mut pick = [0usize; 4];
+        for k in 0..4 {
+            // The k-th valid pair after a random skip; distinct by construction.
+            let mut i = rng.below(n);
+            loop {
+                if pairs(i).is_some() && !pick[..k].contains(&i) {
+                    break;
+                }
+                i = (i + 1) % n;
+            }
+            pick[k] = i;
+        }
+        let sample = pick.iter().filter_map(|&i| pairs(i));
+        let Some(m) = fit(sample) else { continue };
+        let inliers = count_inliers(&m);
+        if best.as_ref().is_none_or(|b| inliers > b.1) {
+            best = Some((m, inliers));
+        }
+    }
+    let (m, _) = best?;
+    let inlier_pairs = (0..n)
+        .filter_map(pairs)
+        .filter(move |&p| residual(&m, p) <= t2);
+    let refit = fit(inlier_pairs)?;
+    let inliers = count_inliers(&refit);
+    Some((refit, inliers))
+}
+
+/// The matrix of a [`crate::Homography`].
+pub fn from_homography(h: &crate::Homography) -> Mat {
+    Mat::from_row_slice(&h.m)
+}
+
+/// The [`crate::Homography`] of a matrix, scaled so that `h₃₃ = 1`.
+pub fn to_homography(m: &Mat) -> Option<crate::Homography> {
+    let s = m[(2, 2)];
+    if s.abs().partial_cmp(&1e-12) != Some(core::cmp::Ordering::Greater) {
+        return None;
+    }
+    let mut out = [0.0f32; 9];
+    for r in 0..3 {
+        for c in 0..3 {
+            out[r * 3 + c] = m[(r, c)] / s;
+        }
+    }
+    out.iter()
+        .all(|v| v.is_finite())
+        .then_some(crate::Homography { m: out })
+}
+
+/// `m · (x, y, 1)` as a homogeneous vector.
+#[allow(dead_code)]
+pub fn hom(m: &Mat, x: f32, y: f32) -> Vector3<f32> {
+    m * Vector3::new(x, y, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn truth() -> Mat {
+        Mat::new(1.01, -0.03, 2.5, 0.025, 0.995, -1.5, 2e-5, -1e-5, 1.0)
+    }
+
+    #[test]
+    fn fit_recovers_a_homography_from_exact_pairs() {
+        let h = truth();
+        let pts = (0..30).map(|i| {
+            let (x, y) = ((i * 37 % 500) as f32, (i * 53 % 480) as f32);
+            let (u, v) = apply(&h, x, y).unwrap();
+            (x, y, u, v)
+        });
+        let m = fit(pts).unwrap();
+        for (x, y) in [(0.0, 0.0), (511.0, 0.0), (250.0, 400.0)] {
+            let (a, b) = apply(&m, x, y).unwrap();
+            let (c, d) = apply(&h, x, y).unwrap();
+            assert!((a - c).abs() < 2e-3 && (b - d).abs() < 2e-3);
+        }
+        // Collinear points are degenerate.
+        assert!(fit((0..10).map(|i| (i as f32, i as f32, i as f32, 0.0))).is_none());
+    }
+
+    #[test]
+    fn ransac_ignores_outliers_and_is_deterministic() {
+        let h = truth();
+        let pairs = |i: usize| {
+            let (x, y) = ((i * 37 % 500) as f32, (i * 53 % 480) as f32);
+            let (u, v) = apply(&h, x, y)?;
+            // Every fourth pair is a gross mismatch.
+            Some(if i % 4 == 0 {
+                (x, y, u + 25.0, v - 9.0)
+            } else {
+                (x, y, u, v)
+            })
+        };
+        let (m, inliers) = ransac(60, &pairs, 0.5, 50, &mut Rng::new(7)).unwrap();
+        assert_eq!(inliers, 45);
+        let (m2, _) = ransac(60, &pairs, 0.5, 50, &mut Rng::new(7)).unwrap();
+        assert_eq!(m, m2);
+        let (a, b) = apply(&m, 100.0, 100.0).unwrap();
+        let (c, d) = apply(&h, 100.0, 100.0).unwrap();
+        assert!((a - c).abs() < 1e-2 && (b - d).abs() < 1e-2);
+    }
+}

@@ -1,0 +1,691 @@
+//! Tracking the centre view's corners into every view and the alternating estimate of
+//! the rectifying homographies.
+//!
+//! Unknowns: per view `v` the map `M_v` from view pixels to rectified pixels (the inverse
+//! of the output homography), per tracked corner `i` its rectified centre position `X_i`
+//! and disparity `d_i`. An observation `q_iv` should satisfy `M_v(q_iv) = X_i − d_i·b_v`.
+//! The two blocks are solved in turn, each exactly by linear least squares:
+//! - points (paper Eq. 4–5 when [`AlignModel::PlanePatches`]): with every `M_v` fixed,
+//!   `(X_i, d_i)` from the 2 × (views) equations of corner `i` — in the plane-patch model
+//!   `d` is then replaced by the plane fitted to its patch, `ΔN_t`;
+//! - views (paper Eq. 6–7): with the points fixed, `M_v` from the normalised DLT over the
+//!   view's inlier tracks (seeded RANSAC in the first round);
+//!
+//! until the RMS reprojection error reaches `target_rms` or stops improving. After each
+//! view step the gauge (see the module documentation of `align`) is fixed again.
+
+// Views and corners index several parallel tables (observations, weights, maps); index
+// loops say that more plainly than zipped iterators.
+#![allow(clippy::needless_range_loop)]
+
+use heapless::Vec as FixedVec;
+use nalgebra::{Matrix3, Vector3};
+
+use super::corners::{self, Corner};
+use super::model::{self, Mat, Rng};
+use super::pyramid::Pyramid;
+use super::track::{self, Pair};
+use super::{AlignModel, AlignParams, AlignReport, Reference, ViewReport, MAX_FEATURES, MAX_VIEWS};
+use crate::error::{checked_product, Error, Result};
+use crate::geometry::Homography;
+use crate::lightfield::{Grid, LightField, Sample};
+
+/// Which views to track.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewSet {
+    /// Every view.
+    All,
+    /// The views one and two steps from the centre along the axes and the eight outer
+    /// views (corners and edge middles): enough to tell a rectified array from a
+    /// misaligned one, cheaply; the nearer views predict the parallax in the outer ones.
+    Probe,
+}
+
+/// Scratch of the track table: per view and corner, the observation `(x, y)` and an
+/// inlier weight.
+pub struct Tracks;
+
+impl Tracks {
+    pub fn len_for(views: usize) -> Result<usize> {
+        checked_product(&[views, MAX_FEATURES, 3], "the alignment track table")
+    }
+}
+
+/// RANSAC threshold of the first round (pixels): misalignment is still in the points.
+const FIRST_THRESHOLD: f32 = 3.0;
+const RANSAC_ROUNDS: usize = 24;
+/// Sigma clipping of the inlier set once the threshold has settled.
+const CLIP_SIGMAS: f32 = 3.0;
+/// The clipping threshold never goes below this (pixels): tracking noise.
+const MIN_CLIP: f32 = 0.05;
+/// Corners keep this far (full-resolution pixels) from the border.
+const MARGIN: usize = 12;
+/// Side of the plane-patch grid of [`AlignModel::PlanePatches`].
+const PATCHES: usize = 4;
+
+/// Baseline of a view: `(c − c0, r − r0)`.
+fn baseline(grid: Grid, v: usize) -> (f32, f32) {
+    let (r0, c0) = grid.center();
+    let (r, c) = (v / grid.cols, v % grid.cols);
+    (c as f32 - c0 as f32, r as f32 - r0 as f32)
+}
+
+/// The views to track, centre excluded, nearest baselines first.
+fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
+    let (r0, c0) = grid.center();
+    let centre = grid.index(r0, c0);
+    let mut out: FixedVec<usize, MAX_VIEWS> = FixedVec::new();
+    match set {
+        ViewSet::All => {
+            for v in 0..grid.len() {
+                if v != centre {
+                    let _ = out.push(v);
+                }
+            }
+        }
+        ViewSet::Probe => {
+            let (last_r, last_c) = (grid.rows - 1, grid.cols - 1);
+            let picks = [
+                (r0, c0 - 1),
+                (r0, c0 + 1),
+                (r0 - 1, c0),
+                (r0 + 1, c0),
+                (r0, c0.saturating_sub(2)),
+                (r0, (c0 + 2).min(grid.cols - 1)),
+                (r0.saturating_sub(2), c0),
+                ((r0 + 2).min(grid.rows - 1), c0),
+                (0, 0),
+                (0, c0),
+                (0, last_c),
+                (r0, 0),
+                (r0, last_c),
+                (last_r, 0),
+                (last_r, c0),
+                (last_r, last_c),
+            ];
+            for (r, c) in picks {
+                let v = grid.index(r, c);
+                if v != centre && !out.contains(&v) {
+                    let _ = out.push(v);
+                }
+            }
+        }
+    }
+    let norm = |v: usize| {
+        let (bx, by) = baseline(grid, v);
+        bx * bx + by * by
+    };
+    // Insertion sort: stable, allocation-free, at most 288 entries.
+    for i in 1..out.len() {
+        let mut j = i;
+        while j > 0 && norm(out[j - 1]) > norm(out[j]) {
+            out.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    out
+}
+
+/// The track table and per-corner unknowns, over borrowed scratch.
+struct State<'s> {
+    grid: Grid,
+    corners: FixedVec<Corner, MAX_FEATURES>,
+    /// `(x, y)` per view and corner; NaN when not tracked.
+    obs: &'s mut [f32],
+    /// 1 for an inlier observation, 0 otherwise.
+    weight: &'s mut [f32],
+    x: [f32; MAX_FEATURES],
+    y: [f32; MAX_FEATURES],
+    d: [f32; MAX_FEATURES],
+    /// Whether corner `i` has enough inlier observations to be solved.
+    solved: [bool; MAX_FEATURES],
+    /// Views tracked (centre included), a bitmap over the grid.
+    tracked: [bool; MAX_VIEWS],
+}
+
+impl State<'_> {
+    fn ob(&self, v: usize, i: usize) -> Option<(f32, f32)> {
+        let k = (v * MAX_FEATURES + i) * 2;
+        let (x, y) = (self.obs[k], self.obs[k + 1]);
+        x.is_finite().then_some((x, y))
+    }
+    fn set_ob(&mut self, v: usize, i: usize, q: Option<(f32, f32)>) {
+        let k = (v * MAX_FEATURES + i) * 2;
+        let (x, y) = q.unwrap_or((f32::NAN, f32::NAN));
+        self.obs[k] = x;
+        self.obs[k + 1] = y;
+        self.weight[v * MAX_FEATURES + i] = if q.is_some() { 1.0 } else { 0.0 };
+    }
+    fn inlier(&self, v: usize, i: usize) -> bool {
+        self.weight[v * MAX_FEATURES + i] > 0.5
+    }
+
+    /// Points step: `(X_i, d_i)` for every corner from its inlier observations mapped by
+    /// `maps` (view → rectified).
+    fn solve_points(&mut self, maps: &[Homography]) {
+        for i in 0..self.corners.len() {
+            let (mut n, mut sb, mut su, mut sbb, mut sbu) =
+                (0.0f32, [0.0f32; 2], [0.0f32; 2], 0.0f32, 0.0f32);
+            for v in 0..self.grid.len() {
+                if !self.tracked[v] || !self.inlier(v, i) {
+                    continue;
+                }
+                let Some(q) = self.ob(v, i) else { continue };
+                let m = model::from_homography(&maps[v]);
+                let Some(u) = model::apply(&m, q.0, q.1) else {
+                    continue;
+                };
+                let b = baseline(self.grid, v);
+                n += 1.0;
+                sb[0] += b.0;
+                sb[1] += b.1;
+                su[0] += u.0;
+                su[1] += u.1;
+                sbb += b.0 * b.0 + b.1 * b.1;
+                sbu += b.0 * u.0 + b.1 * u.1;
+            }
+            // d = −cov(b, u) / var(b); X = mean(u) + d · mean(b).
+            let var = sbb - (sb[0] * sb[0] + sb[1] * sb[1]) / n.max(1.0);
+            if n < 3.0 || var < 0.5 {
+                self.solved[i] = false;
+                continue;
+            }
+            let cov = sbu - (sb[0] * su[0] + sb[1] * su[1]) / n;
+            let d = -cov / var;
+            self.d[i] = d;
+            self.x[i] = (su[0] + d * sb[0]) / n;
+            self.y[i] = (su[1] + d * sb[1]) / n;
+            self.solved[i] =
+                self.d[i].is_finite() && self.x[i].is_finite() && self.y[i].is_finite();
+        }
+    }
+
+    /// Plane-patch step (paper Eq. 4–5): the disparity of each patch of the centre view
+    /// becomes the least-squares plane through its corners' disparities, and `X_i` follows.
+    fn fit_planes(&mut self, maps: &[Homography], width: usize, height: usize) {
+        for patch in 0..PATCHES * PATCHES {
+            let (px, py) = (patch % PATCHES, patch / PATCHES);
+            let in_patch = |c: &Corner| {
+                (c.x as usize * PATCHES / width.max(1)).min(PATCHES - 1) == px
+                    && (c.y as usize * PATCHES / height.max(1)).min(PATCHES - 1) == py
+            };
+            let mut ata = Matrix3::<f32>::zeros();
+            let mut atb = Vector3::<f32>::zeros();
+            let mut count = 0;
+            let (cx, cy) = (width as f32 * 0.5, height as f32 * 0.5);
+            for i in 0..self.corners.len() {
+                if self.solved[i] && in_patch(&self.corners[i]) {
+                    let a = Vector3::new(self.x[i] - cx, self.y[i] - cy, 1.0);
+                    ata += a * a.transpose();
+                    atb += a * self.d[i];
+                    count += 1;
+                }
+            }
+            if count < 6 {
+                continue;
+            }
+            let Some(plane) = ata.lu().solve(&atb) else {
+                continue;
+            };
+            for i in 0..self.corners.len() {
+                if !(self.solved[i] && in_patch(&self.corners[i])) {
+                    continue;
+                }
+                let d = plane[0] * (self.x[i] - cx) + plane[1] * (self.y[i] - cy) + plane[2];
+                // X given d: mean of M_v(q) + d · b_v.
+                let (mut n, mut sx, mut sy) = (0.0f32, 0.0f32, 0.0f32);
+                for v in 0..self.grid.len() {
+                    if !self.tracked[v] || !self.inlier(v, i) {
+                        continue;
+                    }
+                    let Some(q) = self.ob(v, i) else { continue };
+                    let Some(u) = model::apply(&model::from_homography(&maps[v]), q.0, q.1) else {
+                        continue;
+                    };
+                    let b = baseline(self.grid, v);
+                    n += 1.0;
+                    sx += u.0 + d * b.0;
+                    sy += u.1 + d * b.1;
+                }
+                if n > 0.0 && d.is_finite() {
+                    self.d[i] = d;
+                    self.x[i] = sx / n;
+                    self.y[i] = sy / n;
+                }
+            }
+        }
+    }
+
+    /// Reprojection residual of observation `(v, i)` under `m`.
+    fn residual(&self, m: &Mat, v: usize, i: usize) -> Option<f32> {
+        if !self.solved[i] {
+            return None;
+        }
+        let q = self.ob(v, i)?;
+        let u = model::apply(m, q.0, q.1)?;
+        let b = baseline(self.grid, v);
+        let (ex, ey) = (
+            u.0 - (self.x[i] - self.d[i] * b.0),
+            u.1 - (self.y[i] - self.d[i] * b.1),
+        );
+        Some(libm::sqrtf(ex * ex + ey * ey))
+    }
+}
+
+/// Estimates the homographies of the views in `set` (others stay identities) and reports.
+pub fn run<S: Sample>(
+    lf: &LightField<'_, S>,
+    params: &AlignParams,
+    set: ViewSet,
+    homographies: &mut [Homography],
+    scratch: &mut [f32],
+) -> Result<AlignReport> {
+    let grid = lf.grid();
+    let (width, height) = (lf.width(), lf.height());
+    let (r0, c0) = grid.center();
+    let centre = grid.index(r0, c0);
+    let pyramid = Pyramid::new(width, height)?;
+    let (centre_pyr, rest) = scratch.split_at_mut(pyramid.len);
+    let (view_pyr, rest) = rest.split_at_mut(pyramid.len);
+    let cells = grid.len() * MAX_FEATURES;
+    let (obs, rest) = rest.split_at_mut(2 * cells);
+    let weight = &mut rest[..cells];
+
+    pyramid.build(&lf.center_view(), centre_pyr);
+    // Detect at the coarsest level that still gives each corner a cell of ≥ 4×4 pixels.
+    let mut level = 0;
+    while level + 1 < pyramid.levels.min(3)
+        && pyramid.width[level + 1] * pyramid.height[level + 1] >= 16 * params.features
+    {
+        level += 1;
+    }
+    let mut state = State {
+        grid,
+        corners: FixedVec::new(),
+        obs,
+        weight,
+        x: [0.0; MAX_FEATURES],
+        y: [0.0; MAX_FEATURES],
+        d: [0.0; MAX_FEATURES],
+        solved: [false; MAX_FEATURES],
+        tracked: [false; MAX_VIEWS],
+    };
+    corners::detect(
+        &pyramid.level(centre_pyr, level),
+        level,
+        params.features,
+        MARGIN,
+        &mut state.corners,
+    );
+    let n = state.corners.len();
+    if n < params.min_inliers {
+        return Err(Error::Alignment {
+            view: centre,
+            reason: "the centre view has too little texture (fewer corners than align.min_inliers): align a textured scene or turn alignment off",
+        });
+    }
+    state.obs.fill(f32::NAN);
+    state.weight.fill(0.0);
+    for i in 0..n {
+        let c = state.corners[i];
+        state.set_ob(centre, i, Some((c.x, c.y)));
+    }
+    state.tracked[centre] = true;
+
+    // First pass, nearest views first: the disparity seen so far predicts the next view.
+    let order = view_order(grid, set);
+    let mut d_num = [0.0f32; MAX_FEATURES];
+    let mut d_den = [0.0f32; MAX_FEATURES];
+    for &v in &order {
+        let view = lf.view(v / grid.cols, v % grid.cols)?;
+        pyramid.build(&view, view_pyr);
+        let pair = Pair {
+            pyramid: &pyramid,
+            center: centre_pyr,
+            view: view_pyr,
+        };
+        let b = baseline(grid, v);
+        let mut found = 0;
+        for i in 0..n {
+            let c = state.corners[i];
+            let d = if d_den[i] > 0.0 {
+                d_num[i] / d_den[i]
+            } else {
+                0.0
+            };
+            let guess = (c.x - d * b.0, c.y - d * b.1);
+            let q = track::track(&pair, (c.x, c.y), guess, track::IDENTITY, usize::MAX);
+            if let Some(q) = q {
+                // q − p ≈ −d · b (misalignment is noise here).
+                d_num[i] -= b.0 * (q.0 - c.x) + b.1 * (q.1 - c.y);
+                d_den[i] += b.0 * b.0 + b.1 * b.1;
+                found += 1;
+            }
+            state.set_ob(v, i, q);
+        }
+        if found < params.min_inliers {
+            return Err(Error::Alignment {
+                view: v,
+                reason: "too few corners of the centre view were found in this view: it is textureless or too different from the centre view",
+            });
+        }
+        state.tracked[v] = true;
+    }
+    let first = alternate(&mut state, params, homographies, width, height)?;
+    if first.identity_rms <= params.rectified_rms {
+        // Nothing to undo: the second pass would only re-measure the same positions.
+        return Ok(first);
+    }
+
+    // Second pass: predicted positions and template shapes from the first estimate, so
+    // that rotation and scale between views no longer bias the matches.
+    let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
+    let to_rect = homographies[centre]
+        .inverse()
+        .map(|h| model::from_homography(&h));
+    for &v in &order {
+        let (Some(m_c), Some(h_v)) = (to_rect, Some(model::from_homography(&homographies[v])))
+        else {
+            break;
+        };
+        let centre_to_view = h_v * m_c;
+        let shape = jacobian(&centre_to_view, o).unwrap_or(track::IDENTITY);
+        let view = lf.view(v / grid.cols, v % grid.cols)?;
+        // The second pass matches at full resolution only.
+        pyramid.build_base(&view, view_pyr);
+        let pair = Pair {
+            pyramid: &pyramid,
+            center: centre_pyr,
+            view: view_pyr,
+        };
+        let b = baseline(grid, v);
+        for i in 0..n {
+            let c = state.corners[i];
+            let predicted = if state.solved[i] {
+                model::apply(
+                    &h_v,
+                    state.x[i] - state.d[i] * b.0,
+                    state.y[i] - state.d[i] * b.1,
+                )
+            } else {
+                state.ob(v, i)
+            };
+            let q = predicted.and_then(|g| track::track(&pair, (c.x, c.y), g, shape, 0));
+            state.set_ob(v, i, q);
+        }
+    }
+    alternate(&mut state, params, homographies, width, height)
+}
+
+/// Row-major 2 × 2 Jacobian of `m` at `p`.
+fn jacobian(m: &Mat, p: (f32, f32)) -> Option<[f32; 4]> {
+    let at = model::apply(m, p.0, p.1)?;
+    let ax = model::apply(m, p.0 + 1.0, p.1)?;
+    let ay = model::apply(m, p.0, p.1 + 1.0)?;
+    Some([ax.0 - at.0, ay.0 - at.0, ax.1 - at.1, ay.1 - at.1])
+}
+
+/// Fixes the gauge: the centre view is the identity ([`Reference::CentreView`]) or keeps
+/// its scale and the position of its image centre, and view translations have no mean
+/// component along the baselines.
+fn fix_gauge(
+    state: &State<'_>,
+    maps: &mut [Homography],
+    width: usize,
+    height: usize,
+    reference: Reference,
+) -> Option<()> {
+    let grid = state.grid;
+    let (r0, c0) = grid.center();
+    let centre = grid.index(r0, c0);
+    let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
+    let mc = model::from_homography(&maps[centre]);
+    let at = model::apply(&mc, o.0, o.1)?;
+    let ax = model::apply(&mc, o.0 + 1.0, o.1)?;
+    let ay = model::apply(&mc, o.0, o.1 + 1.0)?;
+    let det = (ax.0 - at.0) * (ay.1 - at.1) - (ax.1 - at.1) * (ay.0 - at.0);
+    if det.abs().partial_cmp(&1e-6) != Some(core::cmp::Ordering::Greater) {
+        return None;
+    }
+    let g = match reference {
+        // Express everything in the centre view's frame: its map becomes the identity.
+        Reference::CentreView => mc.try_inverse()?,
+        Reference::Estimated => {
+            let s = 1.0 / libm::sqrtf(det.abs());
+            Mat::new(
+                s,
+                0.0,
+                o.0 - s * at.0,
+                0.0,
+                s,
+                o.1 - s * at.1,
+                0.0,
+                0.0,
+                1.0,
+            )
+        }
+    };
+
+    let (mut num, mut den) = (0.0f32, 0.0f32);
+    for v in 0..grid.len() {
+        if !state.tracked[v] {
+            continue;
+        }
+        let m = g * model::from_homography(&maps[v]);
+        maps[v] = model::to_homography(&m)?;
+        let b = baseline(grid, v);
+        let t = model::apply(&m, o.0, o.1)?;
+        num += b.0 * (t.0 - o.0) + b.1 * (t.1 - o.1);
+        den += b.0 * b.0 + b.1 * b.1;
+    }
+    let delta = if den > 0.0 { -num / den } else { 0.0 };
+    for v in 0..grid.len() {
+        if !state.tracked[v] {
+            continue;
+        }
+        let b = baseline(grid, v);
+        let shift = Mat::new(1.0, 0.0, delta * b.0, 0.0, 1.0, delta * b.1, 0.0, 0.0, 1.0);
+        maps[v] = model::to_homography(&(shift * model::from_homography(&maps[v])))?;
+    }
+    Some(())
+}
+
+/// RMS residual over inlier observations, per view into `per_view`.
+fn rms(
+    state: &State<'_>,
+    maps: &[Homography],
+    per_view: &mut FixedVec<ViewReport, MAX_VIEWS>,
+) -> f32 {
+    per_view.clear();
+    let (mut total, mut count) = (0.0f32, 0usize);
+    for v in 0..state.grid.len() {
+        let mut rep = ViewReport::default();
+        if state.tracked[v] {
+            let m = model::from_homography(&maps[v]);
+            let (mut sum, mut k) = (0.0f32, 0usize);
+            for i in 0..state.corners.len() {
+                if state.inlier(v, i) {
+                    if let Some(r) = state.residual(&m, v, i) {
+                        sum += r * r;
+                        k += 1;
+                    }
+                }
+            }
+            total += sum;
+            count += k;
+            rep.inliers = k as u16;
+            rep.rms = if k > 0 {
+                libm::sqrtf(sum / k as f32)
+            } else {
+                0.0
+            };
+        }
+        let _ = per_view.push(rep);
+    }
+    if count == 0 {
+        f32::INFINITY
+    } else {
+        libm::sqrtf(total / count as f32)
+    }
+}
+
+/// Median residual of the current inliers, from a 256-bin histogram over `[0, cap]`.
+fn median_residual(state: &State<'_>, maps: &[Homography], cap: f32) -> f32 {
+    let mut bins = [0u32; 256];
+    let mut total = 0u32;
+    for v in 0..state.grid.len() {
+        if !state.tracked[v] {
+            continue;
+        }
+        let m = model::from_homography(&maps[v]);
+        for i in 0..state.corners.len() {
+            if !state.inlier(v, i) {
+                continue;
+            }
+            if let Some(r) = state.residual(&m, v, i) {
+                let k = ((r / cap * 256.0) as usize).min(255);
+                bins[k] += 1;
+                total += 1;
+            }
+        }
+    }
+    let mut seen = 0u32;
+    for (k, &b) in bins.iter().enumerate() {
+        seen += b;
+        if 2 * seen >= total {
+            return (k as f32 + 0.5) * cap / 256.0;
+        }
+    }
+    cap
+}
+
+/// Marks observations within `threshold` of the model as inliers (tracked ones only).
+fn classify(state: &mut State<'_>, maps: &[Homography], threshold: f32) {
+    for v in 0..state.grid.len() {
+        if !state.tracked[v] {
+            continue;
+        }
+        let m = model::from_homography(&maps[v]);
+        for i in 0..state.corners.len() {
+            let ok = state.ob(v, i).is_some()
+                && state.residual(&m, v, i).is_some_and(|r| r <= threshold);
+            state.weight[v * MAX_FEATURES + i] = if ok { 1.0 } else { 0.0 };
+        }
+    }
+}
+
+fn alternate(
+    state: &mut State<'_>,
+    params: &AlignParams,
+    maps: &mut [Homography],
+    width: usize,
+    height: usize,
+) -> Result<AlignReport> {
+    let grid = state.grid;
+    let n = state.corners.len();
+    let mut report = AlignReport {
+        features: n,
+        ..AlignReport::default()
+    };
+    let mut rng = Rng::new(params.seed);
+    maps.fill(Homography::IDENTITY);
+    state.solve_points(maps);
+    let mut previous = f32::INFINITY;
+    let mut threshold = FIRST_THRESHOLD;
+    for round in 0..params.max_iterations {
+        // Views step.
+        for v in 0..grid.len() {
+            if !state.tracked[v] {
+                continue;
+            }
+            let b = baseline(grid, v);
+            let st = &*state;
+            let pair = |i: usize| {
+                if !(st.solved[i] && st.inlier(v, i)) {
+                    return None;
+                }
+                let q = st.ob(v, i)?;
+                Some((q.0, q.1, st.x[i] - st.d[i] * b.0, st.y[i] - st.d[i] * b.1))
+            };
+            let fitted = if round == 0 {
+                model::ransac(n, &pair, threshold, RANSAC_ROUNDS, &mut rng).map(|r| r.0)
+            } else {
+                model::fit((0..n).filter_map(pair))
+            };
+            let m = fitted.and_then(|m| model::to_homography(&m)).ok_or(Error::Alignment {
+                view: v,
+                reason: "no homography fits the matches of this view: it is too different from the centre view",
+            })?;
+            maps[v] = m;
+        }
+        fix_gauge(state, maps, width, height, params.reference).ok_or(Error::Alignment {
+            view: grid.index(grid.center().0, grid.center().1),
+            reason: "the estimated homographies are degenerate: the views are too different",
+        })?;
+        // Points step, then the inlier set for the next round.
+        state.solve_points(maps);
+        if params.model == AlignModel::PlanePatches {
+            state.fit_planes(maps, width, height);
+        }
+        // Halve the threshold down to `inlier_threshold`, then clip at three times the
+        // RMS error: occlusion boundaries and repeated texture give matches a fraction of
+        // a pixel off that a fixed threshold would keep.
+        let next = if threshold > params.inlier_threshold {
+            (threshold * 0.5).max(params.inlier_threshold)
+        } else {
+            let sigma = 1.4826 * median_residual(state, maps, params.inlier_threshold);
+            (CLIP_SIGMAS * sigma).clamp(MIN_CLIP, params.inlier_threshold)
+        };
+        let settled = (next - threshold).abs() <= 0.05 * threshold;
+        threshold = next;
+        classify(state, maps, threshold);
+        state.solve_points(maps);
+        if params.model == AlignModel::PlanePatches {
+            state.fit_planes(maps, width, height);
+        }
+        let err = rms(state, maps, &mut report.views);
+        report.iterations = round + 1;
+        report.rms = err;
+        if settled && (err <= params.target_rms || err > previous * (1.0 - 1e-4)) {
+            break;
+        }
+        previous = if settled { err } else { f32::INFINITY };
+    }
+    for v in 0..grid.len() {
+        if state.tracked[v] && (report.views[v].inliers as usize) < params.min_inliers {
+            return Err(Error::Alignment {
+                view: v,
+                reason: "too few matches agree with one homography: the view is textureless or too different from the centre view",
+            });
+        }
+    }
+    // The misalignment as measured: the same inliers, identity homographies.
+    report.identity_rms = identity_rms(state);
+    // Outputs: rectified → view.
+    for v in 0..grid.len() {
+        if state.tracked[v] {
+            maps[v] = maps[v].inverse().ok_or(Error::Alignment {
+                view: v,
+                reason: "the estimated homography is singular: the view is too different from the centre view",
+            })?;
+        } else {
+            maps[v] = Homography::IDENTITY;
+        }
+    }
+    Ok(report)
+}
+
+/// RMS of the inlier observations when every view is taken as already rectified.
+fn identity_rms(state: &mut State<'_>) -> f32 {
+    let (x, y, d, solved) = (state.x, state.y, state.d, state.solved);
+    let identities = [Homography::IDENTITY; MAX_VIEWS];
+    let views = state.grid.len();
+    state.solve_points(&identities[..views]);
+    let mut scratch = FixedVec::new();
+    let r = rms(state, &identities[..views], &mut scratch);
+    state.x = x;
+    state.y = y;
+    state.d = d;
+    state.solved = solved;
+    r
+}

@@ -1,0 +1,205 @@
+// The page in Debian's headless chromium (playwright-core, never a downloaded browser):
+// a synthetic scene end to end in workers, accuracy read back from the page, progress at
+// 100 %, cancel, no console errors, no request beyond the page's own files, a screenshot.
+import { test, before, after } from "node:test";
+import assert from "node:assert/strict";
+import { mkdtempSync, mkdirSync, existsSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { dirname, join, resolve } from "node:path";
+import { fileURLToPath } from "node:url";
+import { chromium } from "playwright-core";
+import { serve } from "./serve.mjs";
+
+const root = process.env.LFDEPTH_ROOT ?? resolve(dirname(fileURLToPath(import.meta.url)), "../..");
+const web = join(root, "web");
+const artifacts = join(root, "tests/artifacts");
+const executablePath = process.env.CHROMIUM_PATH ?? "/usr/bin/chromium";
+
+let server, context, profile;
+const consoleErrors = [];
+const foreign = [];
+
+before(async () => {
+  assert.ok(existsSync(join(web, "pkg/lfdepth_wasm_bg.wasm")), "web/pkg is missing: run wasm-pack build wasm --target web --out-dir ../web/pkg");
+  server = await serve(web);
+  profile = mkdtempSync(join(tmpdir(), "lfdepth-chromium-"));
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath,
+    headless: true,
+    args: ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update", "--no-first-run", "--disable-sync", "--disable-quic"],
+    viewport: { width: 1280, height: 1000 },
+  });
+  context.on("request", (request) => {
+    const url = request.url();
+    if (!url.startsWith(server.origin + "/") && !url.startsWith("blob:") && !url.startsWith("data:")) foreign.push(url);
+  });
+  context.on("console", (message) => {
+    if (message.type() === "error") consoleErrors.push(message.text());
+  });
+  context.on("weberror", (error) => consoleErrors.push(String(error.error())));
+});
+
+after(async () => {
+  await context?.close();
+  await server?.close();
+  if (profile) rmSync(profile, { recursive: true, force: true });
+});
+
+async function open(query) {
+  const page = await context.newPage();
+  page.on("pageerror", (e) => consoleErrors.push(e.message));
+  await page.goto(`${server.origin}/${query}`);
+  return page;
+}
+
+const settled = (page, timeout = 240_000) =>
+  page.waitForFunction(() => ["done", "error", "cancelled"].includes(document.body.dataset.state), null, { timeout, polling: 100 });
+
+test("a synthetic scene runs end to end in workers and is accurate", async () => {
+  const page = await open("?scene=planes&size=128&grid=9&run");
+  await settled(page);
+  const report = await page.evaluate(() => ({
+    state: document.body.dataset.state,
+    error: document.getElementById("error").textContent,
+    progress: document.getElementById("progress").value,
+    progressText: document.getElementById("progress-text").textContent,
+    badpix: Number(document.getElementById("scores").dataset.badpix007),
+    mse: Number(document.getElementById("scores").dataset.mse100),
+    totalMs: Number(document.getElementById("timings").dataset.totalMs),
+    workers: Number(document.getElementById("workers").value),
+    timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
+    downloads: [...document.querySelectorAll("[data-download]")].every((b) => !b.disabled),
+  }));
+  console.log("page report:", JSON.stringify(report));
+  assert.equal(report.state, "done", report.error);
+  assert.equal(report.progress, 100);
+  assert.match(report.progressText, /100 %/);
+  // Measured (EPI stage only): BadPix(0.07) 5.3 %, MSE×100 5.7 on this scene; an
+  // all-zero map scores about 100 % and 190.
+  assert.ok(report.badpix < 15, `BadPix(0.07) ${report.badpix}`);
+  assert.ok(report.mse < 60, `MSE×100 ${report.mse}`);
+  assert.ok(report.timings.some((t) => t.startsWith("epi horizontal")), report.timings.join("; "));
+  assert.ok(report.downloads);
+  // Click the centre view: the EPI caption follows.
+  await page.click("#centre", { position: { x: 10, y: 20 } });
+  assert.match(await page.textContent("#epi-where"), /row \d+, column \d+/);
+  mkdirSync(artifacts, { recursive: true });
+  await page.screenshot({ path: join(artifacts, "page.png"), fullPage: true });
+  // A download is produced locally (a blob: URL, no request).
+  const [download] = await Promise.all([page.waitForEvent("download"), page.click("[data-download=pfm]")]);
+  assert.match(download.suggestedFilename(), /_disparity\.pfm$/);
+  await page.close();
+});
+
+test("the page's result is bit-identical to the serial estimator, for 1 and 3 workers", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  const digests = await page.evaluate(async () => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { WorkerPool } = await import("./pool.js");
+    const engine = await import("./engine.js");
+    const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
+    lf.initSync({ module });
+    const spec = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
+    const scene = lf.synthesize(spec);
+    const shape = { rows: 7, cols: 7, width: 80, height: 64, channels: 3 };
+    const serial = new lf.Estimator(scene.views, shape).estimate().disparity;
+    const out = [];
+    for (const size of [1, 3]) {
+      const pool = await WorkerPool.create(module, size);
+      const r = await engine.estimate(pool, { views: scene.views, shape }, {}, {
+        stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal,
+      });
+      pool.terminate();
+      out.push(r.disparity.every((d, i) => Object.is(d, serial[i])));
+    }
+    return out;
+  });
+  assert.deepEqual(digests, [true, true]);
+  await page.close();
+});
+
+test("Cancel stops a running estimation and the page stays usable", async () => {
+  // One worker on 512² views: long enough (seconds) to cancel in the middle of the bands.
+  const page = await open("?scene=slanted&size=512&grid=9&workers=1");
+  await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
+  await page.click("#run");
+  await page.waitForFunction(() => /epi (horizontal|vertical)/.test(document.getElementById("progress-text").textContent), null, { timeout: 60_000, polling: 10 });
+  await page.click("#cancel");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "cancelled");
+  assert.equal(await page.textContent("#progress-text"), "cancelled");
+  await page.click("#run");
+  await page.waitForFunction(() => document.body.dataset.state === "running");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done");
+  await page.close();
+});
+
+test("dropped HCI-named views with a ground-truth PFM load, estimate and score", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  // Encode a synthetic 5×5 light field as input_CamNNN.png files plus gt_disp_lowres.pfm
+  // in the page, then drop them as a user would.
+  await page.evaluate(async () => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { writePfm } = await import("./formats.js");
+    const n = 64;
+    const scene = lf.synthesize({ scene: "planes", rows: 5, cols: 5, width: n, height: n, seed: 2 });
+    const views = scene.views;
+    const transfer = new DataTransfer();
+    for (let i = 0; i < 25; i++) {
+      const canvas = new OffscreenCanvas(n, n);
+      const ctx = canvas.getContext("2d");
+      const image = ctx.createImageData(n, n);
+      for (let p = 0; p < n * n; p++) {
+        image.data.set(views.subarray((i * n * n + p) * 3, (i * n * n + p) * 3 + 3), 4 * p);
+        image.data[4 * p + 3] = 255;
+      }
+      ctx.putImageData(image, 0, 0);
+      const blob = await canvas.convertToBlob({ type: "image/png" });
+      transfer.items.add(new File([blob], `input_Cam${String(i).padStart(3, "0")}.png`, { type: "image/png" }));
+    }
+    transfer.items.add(new File([writePfm(scene.groundTruth, n, n)], "gt_disp_lowres.pfm"));
+    document.getElementById("drop").dispatchEvent(new DragEvent("drop", { dataTransfer: transfer, bubbles: true, cancelable: true }));
+  });
+  await page.waitForFunction(() => /5×5 views of 64×64, with ground truth/.test(document.getElementById("lf-info").textContent), null, { timeout: 60_000 });
+  await page.click("#run");
+  await settled(page);
+  const badpix = Number(await page.getAttribute("#scores", "data-badpix007"));
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done");
+  // PNG round trip is lossless, so this is the estimate of the synthetic scene itself.
+  assert.ok(badpix < 30, `BadPix(0.07) ${badpix}`);
+  await page.close();
+});
+
+test("images with unknown names wait for the user to confirm the grid", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  await page.evaluate(async () => {
+    const transfer = new DataTransfer();
+    for (let i = 0; i < 15; i++) {
+      const canvas = new OffscreenCanvas(32, 24);
+      const ctx = canvas.getContext("2d");
+      ctx.fillStyle = `rgb(${i * 16}, 90, 200)`;
+      ctx.fillRect(0, 0, 32, 24);
+      const blob = await canvas.convertToBlob({ type: "image/png" });
+      transfer.items.add(new File([blob], `shot${i + 1}.png`, { type: "image/png" }));
+    }
+    document.getElementById("drop").dispatchEvent(new DragEvent("drop", { dataTransfer: transfer, bubbles: true, cancelable: true }));
+  });
+  await page.waitForSelector("#grid-form:not([hidden])");
+  assert.match(await page.textContent("#grid-note"), /15 views in name order/);
+  await page.fill("#grid-rows", "3");
+  await page.fill("#grid-cols", "5");
+  await page.click("#grid-form button");
+  await page.waitForFunction(() => /3×5 views of 32×24/.test(document.getElementById("lf-info").textContent));
+  assert.equal(await page.isHidden("#grid-form"), true);
+  await page.close();
+});
+
+test("no console errors and no request beyond the page's own files", () => {
+  assert.deepEqual(consoleErrors, []);
+  assert.deepEqual(foreign, []);
+  for (const path of server.requests) assert.match(path, /^\/(|index\.html|[\w-]+\.(js|css)|pkg\/lfdepth_wasm(_bg\.wasm|\.js))$/, path);
+});

@@ -1,0 +1,129 @@
+// The wasm package from Node: accuracy on a synthetic scene, band/serial equality,
+// progress and cancel, and errors that say what to change.
+import { test } from "node:test";
+import assert from "node:assert/strict";
+import lf from "./pkg.mjs";
+
+const SIZE = 128;
+const spec = { scene: "planes", rows: 9, cols: 9, width: SIZE, height: SIZE, seed: 3 };
+const scene = lf.synthesize(spec);
+const shape = { rows: 9, cols: 9, width: SIZE, height: SIZE, channels: 3 };
+
+test("a synthetic planes scene is estimated within the accuracy bound", () => {
+  const result = new lf.Estimator(scene.views, shape).estimate();
+  assert.equal(result.disparity.length, SIZE * SIZE);
+  assert.equal(result.confidence.length, SIZE * SIZE);
+  const scores = lf.evaluate(result.disparity, scene.groundTruth, SIZE, SIZE);
+  // Measured (EPI stage only, no TV yet): BadPix(0.07) 10.2 %, MSE×100 32.9 (a few
+  // occlusion-edge outliers dominate it), Q25 0. An all-zero map scores 100 %, 187, 150.
+  // The bounds leave room for parameter tuning, not for a broken estimate.
+  assert.ok(scores.badpix007 < 15, `BadPix(0.07) ${scores.badpix007}`);
+  assert.ok(scores.mse100 < 60, `MSE×100 ${scores.mse100}`);
+  assert.ok(scores.q25 < 1, `Q25 ${scores.q25}`);
+  assert.equal(scores.invalidPct, 0);
+  for (const c of result.confidence) assert.ok(c >= 0 && c <= 1);
+  assert.deepEqual(result.timings.map((t) => t.stage), lf.stageNames());
+  for (const t of result.timings) assert.ok(t.ms >= 0);
+  assert.equal(result.residuals.length, 0, "no TV stage in this core yet");
+});
+
+test("bands in any split, fused, are bit-identical to the serial pipeline", () => {
+  const params = { fusion: "weighted" };
+  const estimator = new lf.Estimator(scene.views, shape, params);
+  const serial = estimator.estimate();
+  const [min, max] = estimator.disparityRange();
+  assert.ok(min < max && min >= -8 && max <= 8);
+  for (const bandLines of [1, 7, 32, SIZE]) {
+    const maps = {};
+    for (const direction of ["horizontal", "vertical"]) {
+      const lines = estimator.lines(direction);
+      const n = estimator.lineLength(direction);
+      const d = new Float32Array(lines * n);
+      const c = new Float32Array(lines * n);
+      for (let start = 0; start < lines; start += bandLines) {
+        const end = Math.min(lines, start + bandLines);
+        const band = estimator.estimateBand(direction, start, end, min, max);
+        d.set(band.disparity, start * n);
+        c.set(band.confidence, start * n);
+      }
+      maps[direction] = [d, c];
+    }
+    const [disparity, confidence] = lf.fuseBands(params, SIZE, SIZE, ...maps.horizontal, ...maps.vertical);
+    assert.deepEqual(new Uint8Array(disparity.buffer), new Uint8Array(serial.disparity.buffer), `bands of ${bandLines}`);
+    assert.deepEqual(new Uint8Array(confidence.buffer), new Uint8Array(serial.confidence.buffer));
+  }
+});
+
+test("Uint8ClampedArray views give the same result as Uint8Array", () => {
+  const a = new lf.Estimator(scene.views, shape, { range: [-2, 2] }).estimate();
+  const clamped = new Uint8ClampedArray(scene.views);
+  const b = new lf.Estimator(clamped, shape, { range: [-2, 2] }).estimate();
+  assert.deepEqual(a.disparity, b.disparity);
+});
+
+test("progress reaches the end of every stage, and returning false cancels", () => {
+  const estimator = new lf.Estimator(scene.views, shape);
+  const last = new Map();
+  estimator.estimate((p) => {
+    assert.ok(p.done <= p.total);
+    last.set(p.stage, p);
+  });
+  for (const stage of lf.stageNames()) {
+    const p = last.get(stage);
+    assert.ok(p, `no report for ${stage}`);
+    assert.equal(p.done, p.total, stage);
+  }
+  let calls = 0;
+  assert.throws(() => estimator.estimate(() => (++calls < 3 ? undefined : false)), {
+    name: "Error",
+    message: /cancelled/,
+  });
+  assert.equal(calls, 3);
+  assert.throws(() => estimator.estimate(() => { throw new RangeError("from the callback"); }), RangeError);
+});
+
+test("bad input throws an Error whose message says what to change", () => {
+  const cases = [
+    [() => new lf.Estimator(scene.views, { ...shape, rows: 2 }), /2x9 view grid .* between 3x3 and 17x17/],
+    [() => new lf.Estimator(scene.views.subarray(1), shape), /holds \d+ elements but its layout needs \d+/],
+    [() => new lf.Estimator(scene.views, { ...shape, channels: 2 }), /use 1 \(gray\), 3 \(RGB\) or 4/],
+    [() => new lf.Estimator(scene.views, { ...shape, width: 8, height: 8 }), /at least 16x16/],
+    [() => new lf.Estimator(new Float32Array(10), shape), /Uint8Array or Uint8ClampedArray/],
+    [() => new lf.Estimator(scene.views, { rows: 9, cols: 9 }), /shape.width is missing/],
+    [() => new lf.Estimator(scene.views, shape, { lambda: 2 }), /unknown key `lambda`.*innerSigma/],
+    [() => new lf.Estimator(scene.views, shape, { innerSigma: 9 }), /inner_sigma.*between 0 and 4/],
+    [() => new lf.Estimator(scene.views, shape, { range: [3, -3] }), /disparity range/],
+    [() => new lf.Estimator(scene.views, shape, { range: "wide" }), /"auto" or \[min, max\]/],
+    [() => new lf.Estimator(scene.views, shape, { fusion: "max" }), /"coherence" or "weighted"/],
+    [() => new lf.Estimator(scene.views, shape).estimate(42), /onProgress must be a function/],
+    [() => new lf.Estimator(scene.views, shape).estimateBand("diagonal", 0, 1, -1, 1), /"horizontal" or "vertical"/],
+    [() => new lf.Estimator(scene.views, shape).estimateBand("vertical", 0, SIZE + 1, -1, 1), /outside the 128 lines/],
+    [() => lf.synthesize({ ...spec, scene: "moon" }), /unknown: use one of planes, slanted/],
+    [() => lf.synthesize({ ...spec, disparityMax: 9 }), /within -4..4/],
+    [() => lf.evaluate(new Float32Array(5), scene.groundTruth, SIZE, SIZE), /estimate has 5 elements but must have exactly 16384/],
+    [() => lf.evaluate(scene.groundTruth, scene.groundTruth, SIZE, SIZE, { border: SIZE / 2 }), /border/],
+  ];
+  for (const [run, message] of cases) {
+    assert.throws(run, (e) => {
+      assert.ok(e instanceof Error, `not an Error: ${e}`);
+      assert.match(e.message, message);
+      return true;
+    });
+  }
+});
+
+test("synthetic views render alike whole and one by one; metrics of the truth are perfect", () => {
+  const small = { scene: "mixed", rows: 5, cols: 7, width: 32, height: 24, channels: 1, seed: 9 };
+  const whole = lf.synthesize(small);
+  assert.equal(whole.views.length, 5 * 7 * 32 * 24);
+  const viewLen = 32 * 24;
+  for (const [r, c] of [[0, 0], [2, 3], [4, 6]]) {
+    const one = lf.renderView(small, r, c);
+    assert.deepEqual(one, whole.views.subarray((r * 7 + c) * viewLen, (r * 7 + c + 1) * viewLen));
+  }
+  assert.deepEqual(lf.renderGroundTruth(small), whole.groundTruth);
+  const perfect = lf.evaluate(whole.groundTruth, whole.groundTruth, 32, 24, { border: 2 });
+  assert.equal(perfect.badpix007, 0);
+  assert.equal(perfect.mse100, 0);
+  assert.deepEqual(lf.sceneNames(), ["planes", "slanted", "spheres", "occlusion", "thin", "low-texture", "mixed"]);
+});

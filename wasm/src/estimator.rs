@@ -1,0 +1,369 @@
+//! The estimator: a copy of the views and a validated plan, run whole or band by band.
+
+use core::ops::ControlFlow;
+
+use lfdepth::epi::{self, Direction, Hypotheses};
+use lfdepth::pipeline::{self, Progress};
+use lfdepth::{Layout, LightField, Plan};
+use wasm_bindgen::prelude::*;
+
+use crate::js::{self, error, message};
+use crate::params;
+
+/// The progress stage names of the core pipeline, in the order they run.
+#[wasm_bindgen(js_name = stageNames)]
+pub fn stage_names() -> Vec<String> {
+    [epi::STAGE_RANGE, epi::STAGE_HORIZONTAL, epi::STAGE_VERTICAL]
+        .iter()
+        .map(|s| s.to_string())
+        .collect()
+}
+
+fn direction(name: &str) -> Result<Direction, JsError> {
+    match name {
+        "horizontal" => Ok(Direction::Horizontal),
+        "vertical" => Ok(Direction::Vertical),
+        _ => Err(message(&format!(
+            "direction `{name}` is unknown: use \"horizontal\" or \"vertical\""
+        ))),
+    }
+}
+
+/// Wall time of one stage.
+#[wasm_bindgen]
+#[derive(Clone, Debug)]
+pub struct StageTiming {
+    stage: String,
+    /// Milliseconds.
+    #[wasm_bindgen(readonly)]
+    pub ms: f64,
+}
+
+#[wasm_bindgen]
+impl StageTiming {
+    /// The core's stage name.
+    #[wasm_bindgen(getter)]
+    pub fn stage(&self) -> String {
+        self.stage.clone()
+    }
+}
+
+/// What [`Estimator::estimate`] returns.
+#[wasm_bindgen]
+pub struct EstimateResult {
+    width: usize,
+    height: usize,
+    disparity: Vec<f32>,
+    confidence: Vec<f32>,
+    residuals: Vec<f32>,
+    timings: Vec<StageTiming>,
+}
+
+#[wasm_bindgen]
+impl EstimateResult {
+    /// Centre-view width.
+    #[wasm_bindgen(getter)]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+    /// Centre-view height.
+    #[wasm_bindgen(getter)]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+    /// Disparity per pixel (px between adjacent views), row-major, top row first.
+    #[wasm_bindgen(getter)]
+    pub fn disparity(&self) -> js_sys::Float32Array {
+        js_sys::Float32Array::from(&self.disparity[..])
+    }
+    /// Confidence per pixel in [0, 1].
+    #[wasm_bindgen(getter)]
+    pub fn confidence(&self) -> js_sys::Float32Array {
+        js_sys::Float32Array::from(&self.confidence[..])
+    }
+    /// TV residual per iteration (empty while the pipeline has no TV stage).
+    #[wasm_bindgen(getter)]
+    pub fn residuals(&self) -> js_sys::Float32Array {
+        js_sys::Float32Array::from(&self.residuals[..])
+    }
+    /// Wall time of each stage that ran, in order.
+    #[wasm_bindgen(getter)]
+    pub fn timings(&self) -> Vec<StageTiming> {
+        self.timings.clone()
+    }
+}
+
+/// Disparity and confidence of one band, line after line (for "vertical" bands that is
+/// the transpose of the image layout).
+#[wasm_bindgen]
+pub struct Band {
+    disparity: Vec<f32>,
+    confidence: Vec<f32>,
+}
+
+#[wasm_bindgen]
+impl Band {
+    /// Disparity, `lines · lineLength`.
+    #[wasm_bindgen(getter)]
+    pub fn disparity(&self) -> js_sys::Float32Array {
+        js_sys::Float32Array::from(&self.disparity[..])
+    }
+    /// Confidence, `lines · lineLength`.
+    #[wasm_bindgen(getter)]
+    pub fn confidence(&self) -> js_sys::Float32Array {
+        js_sys::Float32Array::from(&self.confidence[..])
+    }
+}
+
+/// Disparity of the centre view of a light field held in wasm memory.
+#[wasm_bindgen]
+pub struct Estimator {
+    views: Vec<u8>,
+    layout: Layout,
+    plan: Plan,
+}
+
+impl Estimator {
+    fn light_field(&self) -> Result<LightField<'_, u8>, JsError> {
+        LightField::new(&self.views, self.layout).map_err(error)
+    }
+
+    /// The core's hypotheses for `[min, max]`: the same ones the serial pipeline uses
+    /// when it resolved that range.
+    fn hypotheses(&self, min: f32, max: f32) -> Result<Hypotheses, JsError> {
+        Hypotheses::new(&self.plan.params().epi, min, max).map_err(error)
+    }
+}
+
+#[wasm_bindgen]
+impl Estimator {
+    /// Copies `views` (packed, row-major grid order, `rows · cols · height · width ·
+    /// channels` bytes) and validates `shape` and `params` against the core's limits.
+    #[wasm_bindgen(constructor)]
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] views: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
+    ) -> Result<Estimator, JsError> {
+        let layout = params::layout(&shape)?;
+        let params = params::params(&params.unwrap_or(JsValue::UNDEFINED))?;
+        let plan = Plan::new(layout, params).map_err(error)?;
+        let views = js::bytes(&views, "views")?;
+        LightField::new(&views, layout).map_err(error)?;
+        Ok(Estimator {
+            views,
+            layout,
+            plan,
+        })
+    }
+
+    /// View width.
+    #[wasm_bindgen(getter)]
+    pub fn width(&self) -> usize {
+        self.layout.width
+    }
+    /// View height.
+    #[wasm_bindgen(getter)]
+    pub fn height(&self) -> usize {
+        self.layout.height
+    }
+
+    /// Runs the whole pipeline on this thread. `onProgress` is called as work completes
+    /// with `{ stage, done, total }`; returning `false` cancels (the call then throws an
+    /// `Error` "cancelled by the caller"); an exception it throws is rethrown.
+    pub fn estimate(
+        &self,
+        #[wasm_bindgen(
+            js_name = onProgress,
+            unchecked_param_type = "(progress: Progress) => boolean | void"
+        )]
+        on_progress: Option<JsValue>,
+    ) -> Result<EstimateResult, JsValue> {
+        let on_progress = on_progress.unwrap_or(JsValue::UNDEFINED);
+        let callback = on_progress.dyn_ref::<js_sys::Function>();
+        if callback.is_none() && !on_progress.is_undefined() && !on_progress.is_null() {
+            return Err(message("onProgress must be a function").into());
+        }
+        let lf = self.light_field()?;
+        let pixels = self.plan.pixels();
+        let mut disparity = vec![0.0f32; pixels];
+        let mut confidence = vec![0.0f32; pixels];
+        let mut scratch = vec![0.0f32; pipeline::scratch_len(&self.plan)];
+        // Stage timings from the progress reports: a stage runs from its first report to
+        // the next stage's first report.
+        let mut starts: Vec<(&'static str, f64)> = Vec::new();
+        let mut thrown: Option<JsValue> = None;
+        let mut report = |p: Progress| -> ControlFlow<()> {
+            if starts.last().map(|s| s.0) != Some(p.stage) {
+                starts.push((p.stage, js::now_ms()));
+            }
+            let Some(f) = callback else {
+                return ControlFlow::Continue(());
+            };
+            let object = js_sys::Object::new();
+            let set = |k: &str, v: JsValue| js_sys::Reflect::set(&object, &k.into(), &v);
+            let _ = set("stage", p.stage.into());
+            let _ = set("done", (p.done as f64).into());
+            let _ = set("total", (p.total as f64).into());
+            match f.call1(&JsValue::NULL, &object) {
+                Ok(v) if v.as_bool() == Some(false) => ControlFlow::Break(()),
+                Ok(_) => ControlFlow::Continue(()),
+                Err(e) => {
+                    thrown = Some(e);
+                    ControlFlow::Break(())
+                }
+            }
+        };
+        let result = pipeline::estimate(
+            &self.plan,
+            &lf,
+            &mut disparity,
+            &mut confidence,
+            &mut scratch,
+            &mut report,
+        );
+        let end = js::now_ms();
+        if let Some(e) = thrown {
+            return Err(e);
+        }
+        result.map_err(error)?;
+        let timings = starts
+            .iter()
+            .enumerate()
+            .map(|(i, &(stage, start))| StageTiming {
+                stage: stage.to_string(),
+                ms: starts.get(i + 1).map_or(end, |next| next.1) - start,
+            })
+            .collect();
+        Ok(EstimateResult {
+            width: self.layout.width,
+            height: self.layout.height,
+            disparity,
+            confidence,
+            residuals: Vec::new(),
+            timings,
+        })
+    }
+
+    /// The disparity range the pipeline uses, `[min, max]`: the fixed one, or the one the
+    /// core estimates from the light field. Pass it to every `estimateBand`.
+    #[wasm_bindgen(js_name = disparityRange)]
+    pub fn disparity_range(&self) -> Result<Vec<f32>, JsError> {
+        let lf = self.light_field()?;
+        let mut scratch = vec![0.0f32; epi::scratch_len(&self.plan)];
+        let (min, max) = self.resolve_range(&lf, &mut scratch)?;
+        Ok(vec![min, max])
+    }
+
+    /// Number of lines of `direction` (image rows for "horizontal", columns for
+    /// "vertical").
+    pub fn lines(&self, direction: &str) -> Result<usize, JsError> {
+        Ok(self::direction(direction)?.lines(&self.plan))
+    }
+
+    /// Samples per line of `direction`.
+    #[wasm_bindgen(js_name = lineLength)]
+    pub fn line_length(&self, direction: &str) -> Result<usize, JsError> {
+        Ok(self::direction(direction)?.line_len(&self.plan))
+    }
+
+    /// Disparity and confidence of lines `start..end` of `direction` for the range
+    /// `[min, max]` (from `disparityRange()`). Bands are independent: any split gives the
+    /// same bits as the serial pipeline once fused with `fuseBands`.
+    #[wasm_bindgen(js_name = estimateBand)]
+    pub fn estimate_band(
+        &self,
+        #[wasm_bindgen(unchecked_param_type = "Direction")] direction: &str,
+        start: usize,
+        end: usize,
+        min: f32,
+        max: f32,
+    ) -> Result<Band, JsError> {
+        let direction = self::direction(direction)?;
+        let lf = self.light_field()?;
+        let hypotheses = self.hypotheses(min, max)?;
+        let n = direction.line_len(&self.plan);
+        let lines = direction.lines(&self.plan);
+        if start > end || end > lines {
+            return Err(message(&format!(
+                "band {start}..{end} is outside the {lines} lines of this direction"
+            )));
+        }
+        let len = (end - start) * n;
+        let mut disparity = vec![0.0f32; len];
+        let mut confidence = vec![0.0f32; len];
+        let mut scratch = vec![0.0f32; epi::band_scratch_len(&self.plan, direction)];
+        epi::estimate_band(
+            &self.plan,
+            &hypotheses,
+            &lf,
+            direction,
+            start..end,
+            &mut disparity,
+            &mut confidence,
+            &mut scratch,
+        )
+        .map_err(error)?;
+        Ok(Band {
+            disparity,
+            confidence,
+        })
+    }
+}
+
+impl Estimator {
+    fn resolve_range(
+        &self,
+        lf: &LightField<'_, u8>,
+        scratch: &mut [f32],
+    ) -> Result<(f32, f32), JsError> {
+        let h = epi::hypotheses(&self.plan, lf, scratch).map_err(error)?;
+        Ok((h.min(), h.max()))
+    }
+}
+
+/// Fuses the full horizontal (`dh`, `ch`: image layout) and vertical (`dv`, `cv`:
+/// transposed, column after column) band results into the disparity and confidence of
+/// the image, `[disparity, confidence]`, exactly as the serial pipeline does.
+#[wasm_bindgen(js_name = fuseBands)]
+#[allow(clippy::too_many_arguments)]
+pub fn fuse_bands(
+    #[wasm_bindgen(unchecked_param_type = "EstimateParams | undefined")] params: JsValue,
+    width: usize,
+    height: usize,
+    dh: &[f32],
+    ch: &[f32],
+    dv: &[f32],
+    cv: &[f32],
+) -> Result<Vec<js_sys::Float32Array>, JsError> {
+    let fusion = params::params(&params)?.epi.fusion;
+    let pixels = width
+        .checked_mul(height)
+        .ok_or_else(|| message("width × height is too large"))?;
+    for (name, len) in [
+        ("dh", dh.len()),
+        ("ch", ch.len()),
+        ("dv", dv.len()),
+        ("cv", cv.len()),
+    ] {
+        if len != pixels {
+            return Err(message(&format!(
+                "{name} has {len} values but width × height is {pixels}"
+            )));
+        }
+    }
+    let mut disparity = vec![0.0f32; pixels];
+    let mut confidence = vec![0.0f32; pixels];
+    for y in 0..height {
+        for x in 0..width {
+            let (i, t) = (y * width + x, x * height + y);
+            let (d, c) = epi::fuse(fusion, dh[i], ch[i], dv[t], cv[t]);
+            disparity[i] = d;
+            confidence[i] = c;
+        }
+    }
+    Ok(vec![
+        js_sys::Float32Array::from(&disparity[..]),
+        js_sys::Float32Array::from(&confidence[..]),
+    ])
+}

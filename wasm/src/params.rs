@@ -1,0 +1,100 @@
+//! JS parameter objects → core `Params` and `Layout`.
+
+use lfdepth::epi::{ColorMode, DisparityRange, Fusion};
+use lfdepth::{Grid, Layout, Params};
+use wasm_bindgen::prelude::*;
+
+use crate::js::{message, Fields};
+
+const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
+const PARAM_KEYS: [&str; 9] = [
+    "range",
+    "innerSigma",
+    "outerSigma",
+    "shear",
+    "shearStep",
+    "window",
+    "interpolate",
+    "fusion",
+    "color",
+];
+
+/// The packed layout of views described by a `Shape` object.
+pub fn layout(shape: &JsValue) -> Result<Layout, JsError> {
+    let f = Fields::new(shape, "shape", &SHAPE_KEYS, false)?;
+    let grid = Grid::new(f.required_count("rows")?, f.required_count("cols")?);
+    Ok(Layout::packed(
+        grid,
+        f.required_count("width")?,
+        f.required_count("height")?,
+        f.required_count("channels")?,
+    ))
+}
+
+/// Core parameters from an `EstimateParams` object (`undefined` = defaults). Ranges are
+/// checked later by `Plan::new`, so the messages are the core's.
+pub fn params(object: &JsValue) -> Result<Params, JsError> {
+    let f = Fields::new(object, "params", &PARAM_KEYS, true)?;
+    let mut params = Params::default();
+    let epi = &mut params.epi;
+    let range = f.get("range");
+    if !range.is_undefined() && range.as_string().as_deref() != Some("auto") {
+        let pair: Option<Vec<f32>> = range
+            .dyn_ref::<js_sys::Array>()
+            .filter(|a| a.length() == 2)
+            .map(|a| {
+                a.iter()
+                    .filter_map(|v| v.as_f64())
+                    .map(|v| v as f32)
+                    .collect()
+            })
+            .filter(|v: &Vec<f32>| v.len() == 2);
+        match pair.as_deref() {
+            Some(&[min, max]) => epi.range = DisparityRange::Fixed { min, max },
+            _ => {
+                return Err(message(
+                    "params.range must be \"auto\" or [min, max] in px between adjacent views",
+                ))
+            }
+        }
+    }
+    let float = |key: &str, into: &mut f32| -> Result<(), JsError> {
+        if let Some(v) = f.number(key)? {
+            *into = v as f32;
+        }
+        Ok(())
+    };
+    float("innerSigma", &mut epi.inner_sigma)?;
+    float("outerSigma", &mut epi.outer_sigma)?;
+    float("shearStep", &mut epi.shear_step)?;
+    float("window", &mut epi.window)?;
+    if let Some(v) = f.boolean("shear")? {
+        epi.shear = v;
+    }
+    if let Some(v) = f.boolean("interpolate")? {
+        epi.interpolate = v;
+    }
+    if let Some(v) = f.string("fusion")? {
+        epi.fusion = match v.as_str() {
+            "coherence" => Fusion::Coherence,
+            "weighted" => Fusion::Weighted,
+            _ => {
+                return Err(message(&format!(
+                    "params.fusion `{v}` is unknown: use \"coherence\" or \"weighted\""
+                )))
+            }
+        };
+    }
+    if let Some(v) = f.string("color")? {
+        epi.color = match v.as_str() {
+            "tensor" => ColorMode::Tensor,
+            "gray" => ColorMode::Gray,
+            _ => {
+                return Err(message(&format!(
+                    "params.color `{v}` is unknown: use \"tensor\" or \"gray\""
+                )))
+            }
+        };
+    }
+    Ok(params)
+}

@@ -1,0 +1,110 @@
+// Runs the pipeline over a WorkerPool: the disparity range on one worker, then the
+// horizontal and vertical EPI bands spread over all of them, then the fusion. Bands are
+// independent and fused exactly as the serial core does, so the result is bit-identical
+// to `Estimator.estimate()` whatever the number of workers.
+
+/** Lines per band: small enough to balance the workers and to cancel quickly. */
+export const BAND_LINES = 16;
+
+export class Cancelled extends Error {
+  constructor() {
+    super("cancelled");
+    this.name = "Cancelled";
+  }
+}
+
+/**
+ * @param {import("./pool.js").WorkerPool} pool
+ * @param {{views: Uint8Array, shape: object}} lightField
+ * @param {object} params  EstimateParams of the wasm package
+ * @param {{stages: string[], onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
+ * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, range: number[], timings: {stage: string, ms: number}[]}>}
+ */
+export async function estimate(pool, lightField, params, { stages, onProgress: report, signal }) {
+  // Bands still in flight when cancelled finish in their workers; say nothing of them.
+  const onProgress = (stage, fraction) => signal.aborted || report(stage, fraction);
+  const [rangeStage, horizontalStage, verticalStage] = stages;
+  const timings = [];
+  const check = () => {
+    if (signal.aborted) throw new Cancelled();
+  };
+  const timed = async (stage, work) => {
+    const start = performance.now();
+    onProgress(stage, 0);
+    const result = await work();
+    timings.push({ stage, ms: performance.now() - start });
+    onProgress(stage, 1);
+    return result;
+  };
+  const onAbort = () => pool.clear(new Cancelled());
+  signal.addEventListener("abort", onAbort);
+  try {
+    await timed("load", () => pool.all({ op: "load", views: lightField.views.buffer, shape: lightField.shape, params }));
+    check();
+    const { range } = await timed(rangeStage, () => pool.run({ op: "range" }));
+    check();
+    const [min, max] = range;
+    const { width, height } = lightField.shape;
+    const bands = (stage, direction, lines, n) =>
+      timed(stage, async () => {
+        const disparity = new Float32Array(lines * n);
+        const confidence = new Float32Array(lines * n);
+        let done = 0;
+        const jobs = [];
+        for (let start = 0; start < lines; start += BAND_LINES) {
+          const end = Math.min(lines, start + BAND_LINES);
+          jobs.push(
+            pool.run({ op: "band", direction, start, end, min, max }).then((band) => {
+              disparity.set(band.disparity, start * n);
+              confidence.set(band.confidence, start * n);
+              done += end - start;
+              onProgress(stage, done / lines);
+            }),
+          );
+        }
+        await Promise.all(jobs);
+        return [disparity, confidence];
+      });
+    const [dh, ch] = await bands(horizontalStage, "horizontal", height, width);
+    check();
+    const [dv, cv] = await bands(verticalStage, "vertical", width, height);
+    check();
+    const fused = await timed("fuse", () =>
+      pool.run({ op: "fuse", params, width, height, dh, ch, dv, cv }, [dh.buffer, ch.buffer, dv.buffer, cv.buffer]),
+    );
+    // Free the per-worker copies of the views.
+    pool.all({ op: "unload" });
+    return { disparity: fused.disparity, confidence: fused.confidence, range, timings };
+  } catch (e) {
+    if (signal.aborted) throw new Cancelled();
+    throw e;
+  } finally {
+    signal.removeEventListener("abort", onAbort);
+  }
+}
+
+/**
+ * Renders a synthetic light field, views spread over the workers.
+ * @returns {Promise<{views: Uint8Array, groundTruth: Float32Array, shape: object}>}
+ */
+export async function synthesize(pool, spec, onProgress) {
+  const { rows, cols, width, height, channels } = spec;
+  const viewLen = width * height * channels;
+  const views = new Uint8Array(rows * cols * viewLen);
+  let done = 0;
+  const jobs = [];
+  for (let row = 0; row < rows; row++) {
+    for (let col = 0; col < cols; col++) {
+      jobs.push(
+        pool.run({ op: "view", spec, row, col }).then(({ view }) => {
+          views.set(view, (row * cols + col) * viewLen);
+          onProgress(++done / (rows * cols));
+        }),
+      );
+    }
+  }
+  const gt = pool.run({ op: "groundTruth", spec });
+  await Promise.all(jobs);
+  const { groundTruth } = await gt;
+  return { views, groundTruth, shape: { rows, cols, width, height, channels } };
+}

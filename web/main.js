@@ -1,0 +1,321 @@
+// The page: loads a light field (files, a folder, or a synthetic scene), runs the
+// estimation in module workers and shows the results. Nothing leaves the machine: the
+// only requests are for the page's own files.
+import { initSync, stageNames, sceneNames, evaluate, version } from "./pkg/lfdepth_wasm.js";
+import { WorkerPool } from "./pool.js";
+import { estimate, synthesize, Cancelled } from "./engine.js";
+import { filesFromDrop, arrange, decodeViews } from "./loader.js";
+import { parsePfm, writePfm, writePng16, writePly } from "./formats.js";
+import { drawMap, drawRgb, drawEpis, drawLegend, drawResiduals, viridis, grays, heat } from "./render.js";
+
+const $ = (id) => document.getElementById(id);
+const state = { lightField: null, groundTruth: null, result: null, pending: null, controller: null, pool: null, module: null, name: "" };
+
+/** Stage weights of the overall progress bar. */
+const WEIGHTS = { load: 0.03, fuse: 0.04 };
+
+function setStatus(status) {
+  document.body.dataset.state = status;
+}
+
+function showError(message) {
+  $("error").hidden = !message;
+  $("error").textContent = message ?? "";
+}
+
+function setProgress(percent, text) {
+  $("progress").value = percent;
+  $("progress-text").textContent = text;
+}
+
+async function compile() {
+  const url = new URL("./pkg/lfdepth_wasm_bg.wasm", import.meta.url);
+  const response = await fetch(url);
+  try {
+    return await WebAssembly.compileStreaming(response.clone());
+  } catch {
+    return WebAssembly.compile(await response.arrayBuffer()); // a server without application/wasm
+  }
+}
+
+async function pool() {
+  const size = Math.max(1, Math.min(32, Number($("workers").value) || navigator.hardwareConcurrency || 4));
+  if (state.pool?.size !== size) {
+    state.pool?.terminate();
+    state.pool = await WorkerPool.create(state.module, size);
+  }
+  return state.pool;
+}
+
+function params() {
+  const manual = document.querySelector("input[name=range]:checked").value === "manual";
+  const p = {
+    innerSigma: Number($("inner-sigma").value),
+    outerSigma: Number($("outer-sigma").value),
+    shearStep: Number($("shear-step").value),
+    fusion: $("fusion").value,
+  };
+  if (manual) p.range = [Number($("range-min").value), Number($("range-max").value)];
+  return p;
+}
+
+// ---------------------------------------------------------------- loading
+
+function setLightField(lightField, groundTruth, name) {
+  state.lightField = lightField;
+  state.groundTruth = groundTruth;
+  state.result = null;
+  state.name = name;
+  const { rows, cols, width, height } = lightField.shape;
+  $("lf-info").textContent = `${name}: ${rows}×${cols} views of ${width}×${height}` + (groundTruth ? ", with ground truth" : "");
+  $("run").disabled = false;
+  for (const b of document.querySelectorAll("[data-download]")) b.disabled = true;
+  for (const id of ["disparity", "confidence", "error-map"]) {
+    const c = $(id);
+    c.width = width;
+    c.height = height;
+    c.getContext("2d").clearRect(0, 0, width, height);
+  }
+  $("scores").textContent = groundTruth ? "Ground truth loaded: run the estimation." : "Drop a ground-truth PFM, or use a synthetic scene.";
+  delete $("scores").dataset.badpix007;
+  showCentre();
+  showEpis((width / 2) | 0, (height / 2) | 0);
+  drawResiduals($("residuals"), []);
+}
+
+function centreView() {
+  const { views, shape } = state.lightField;
+  const { rows, cols, width, height, channels } = shape;
+  const index = ((rows - 1) >> 1) * cols + ((cols - 1) >> 1);
+  const len = width * height * channels;
+  return views.subarray(index * len, (index + 1) * len);
+}
+
+function showCentre() {
+  const { width, height, channels } = state.lightField.shape;
+  drawRgb($("centre"), centreView(), width, height, channels);
+}
+
+function showEpis(x, y) {
+  state.epiAt = [x, y];
+  drawEpis($("epi-h"), $("epi-v"), state.lightField, x, y);
+  $("epi-where").textContent = `row ${y}, column ${x}`;
+}
+
+async function loadFiles(files) {
+  showError(null);
+  try {
+    const arranged = arrange(files);
+    if (!arranged.views.length) throw new Error("no images among the dropped files (PNG, JPEG, BMP or WebP)");
+    state.pending = arranged;
+    if (!arranged.known) {
+      $("grid-form").hidden = false;
+      $("grid-note").textContent = `${arranged.views.filter(Boolean).length} views in name order: confirm the grid`;
+      $("grid-rows").value = arranged.rows;
+      $("grid-cols").value = arranged.cols;
+      return;
+    }
+    await decodePending(arranged.rows, arranged.cols);
+  } catch (e) {
+    showError(e.message);
+  }
+}
+
+async function decodePending(rows, cols) {
+  const { views: files, groundTruth: gtFile } = state.pending;
+  $("grid-form").hidden = true;
+  setProgress(0, "decoding views");
+  const lightField = await decodeViews(files, rows, cols, (f) => setProgress(100 * f, "decoding views"));
+  let groundTruth = null;
+  if (gtFile) {
+    const pfm = parsePfm(await gtFile.arrayBuffer());
+    if (pfm.width !== lightField.shape.width || pfm.height !== lightField.shape.height) {
+      showError(`${gtFile.name} is ${pfm.width}x${pfm.height} but the views are ${lightField.shape.width}x${lightField.shape.height}: ground truth ignored`);
+    } else {
+      groundTruth = pfm.data;
+    }
+  }
+  setProgress(0, "idle");
+  const folder = files[0].webkitRelativePath?.split("/")[0] || files[0].name.replace(/\.[^.]*$/, "");
+  setLightField(lightField, groundTruth, folder);
+}
+
+async function generate(scene, size, grid) {
+  showError(null);
+  setStatus("generating");
+  const spec = { scene, rows: grid, cols: grid, width: size, height: size, channels: 3, disparityMin: -1.5, disparityMax: 1.5, seed: 1 };
+  const start = performance.now();
+  const { views, groundTruth, shape } = await synthesize(await pool(), spec, (f) =>
+    setProgress(100 * f, `rendering ${scene}: ${Math.round(100 * f)} %`),
+  );
+  setProgress(0, `rendered in ${((performance.now() - start) / 1000).toFixed(2)} s`);
+  setLightField({ views, shape }, groundTruth, `synthetic “${scene}”`);
+  setStatus("idle");
+}
+
+// ---------------------------------------------------------------- estimation
+
+async function run() {
+  if (!state.lightField) return;
+  showError(null);
+  setStatus("running");
+  $("run").disabled = true;
+  $("cancel").disabled = false;
+  const controller = new AbortController();
+  state.controller = controller;
+  const stages = stageNames();
+  const order = ["load", ...stages, "fuse"];
+  const share = (1 - WEIGHTS.load - WEIGHTS.fuse) / stages.length;
+  const weight = (s) => WEIGHTS[s] ?? share;
+  const onProgress = (stage, fraction) => {
+    const before = order.slice(0, order.indexOf(stage)).reduce((a, s) => a + weight(s), 0);
+    const percent = Math.min(100, 100 * (before + weight(stage) * fraction));
+    setProgress(percent, `${stage} — ${Math.floor(percent)} %`);
+  };
+  const tbody = $("timings").tBodies[0];
+  tbody.replaceChildren();
+  const start = performance.now();
+  try {
+    const p = params();
+    const result = await estimate(await pool(), state.lightField, p, { stages, onProgress, signal: controller.signal });
+    const total = performance.now() - start;
+    state.result = { ...result, params: p };
+    setProgress(100, `done in ${(total / 1000).toFixed(2)} s — 100 %`);
+    for (const t of [...result.timings, { stage: `total (${state.pool.size} workers)`, ms: total }]) {
+      const row = tbody.insertRow();
+      row.insertCell().textContent = t.stage;
+      row.insertCell().textContent = `${t.ms.toFixed(0)} ms`;
+    }
+    $("timings").dataset.totalMs = total.toFixed(1);
+    showResult();
+    setStatus("done");
+  } catch (e) {
+    if (e instanceof Cancelled) {
+      setProgress(0, "cancelled");
+      setStatus("cancelled");
+    } else {
+      showError(e.message);
+      setProgress(0, "failed");
+      setStatus("error");
+    }
+  } finally {
+    $("run").disabled = false;
+    $("cancel").disabled = true;
+  }
+}
+
+function showResult() {
+  const { disparity, confidence, range } = state.result;
+  const { width, height } = state.lightField.shape;
+  const [min, max] = range;
+  drawMap($("disparity"), disparity, width, height, min, max);
+  $("legend-min").textContent = min.toFixed(2);
+  $("legend-max").textContent = max.toFixed(2);
+  drawMap($("confidence"), confidence, width, height, 0, 1, grays);
+  drawResiduals($("residuals"), new Float32Array());
+  for (const b of document.querySelectorAll("[data-download]")) b.disabled = false;
+  const scores = $("scores");
+  if (!state.groundTruth) return;
+  const gt = state.groundTruth;
+  const error = disparity.map((d, i) => Math.abs(d - gt[i]));
+  drawMap($("error-map"), error, width, height, 0, 0.2, heat);
+  const border = Math.min(15, Math.floor(Math.min(width, height) / 2) - 1);
+  const s = evaluate(disparity, gt, width, height, { border });
+  scores.textContent = `BadPix(0.07) ${s.badpix007.toFixed(2)} %, BadPix(0.03) ${s.badpix003.toFixed(2)} %, ` +
+    `MSE×100 ${s.mse100.toFixed(3)} (border ${border} px; white = exact, dark red ≥ 0.2 px)`;
+  scores.dataset.badpix007 = s.badpix007;
+  scores.dataset.mse100 = s.mse100;
+}
+
+// ---------------------------------------------------------------- downloads
+
+function save(blob, name) {
+  const a = document.createElement("a");
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  a.click();
+  setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+}
+
+async function download(kind) {
+  const { disparity, range } = state.result;
+  const { width, height, channels } = state.lightField.shape;
+  const base = state.name.replace(/[^\w.-]+/g, "_").replace(/^_+|_+$/g, "") || "lightfield";
+  if (kind === "pfm") save(writePfm(disparity, width, height), `${base}_disparity.pfm`);
+  if (kind === "png16") save(await writePng16(disparity, width, height, range[0], range[1]), `${base}_disparity16.png`);
+  if (kind === "png") $("disparity").toBlob((b) => save(b, `${base}_disparity.png`), "image/png");
+  if (kind === "ply") {
+    const centre = centreView();
+    const rgb = channels === 3 ? centre : Uint8Array.from({ length: width * height * 3 }, (_, i) => centre[Math.floor(i / 3) * channels + (channels > 2 ? i % 3 : 0)]);
+    save(writePly(disparity, rgb, width, height), `${base}_points.ply`);
+  }
+}
+
+// ---------------------------------------------------------------- wiring
+
+function wire() {
+  const drop = $("drop");
+  drop.addEventListener("dragover", (e) => {
+    e.preventDefault();
+    drop.classList.add("over");
+  });
+  drop.addEventListener("dragleave", () => drop.classList.remove("over"));
+  drop.addEventListener("drop", async (e) => {
+    e.preventDefault();
+    drop.classList.remove("over");
+    loadFiles(await filesFromDrop(e.dataTransfer));
+  });
+  for (const id of ["pick-files", "pick-folder"]) $(id).addEventListener("change", (e) => loadFiles([...e.target.files]));
+  $("grid-form").addEventListener("submit", (e) => {
+    e.preventDefault();
+    decodePending(Number($("grid-rows").value), Number($("grid-cols").value)).catch((err) => showError(err.message));
+  });
+  $("synth-form").addEventListener("submit", (e) => {
+    e.preventDefault();
+    generate($("synth-scene").value, Number($("synth-size").value), Number($("synth-grid").value)).catch((err) => showError(err.message));
+  });
+  for (const radio of document.querySelectorAll("input[name=range]")) {
+    radio.addEventListener("change", () => {
+      const manual = radio.value === "manual" && radio.checked;
+      $("range-min").disabled = $("range-max").disabled = !manual;
+    });
+  }
+  $("run").addEventListener("click", run);
+  $("cancel").addEventListener("click", () => state.controller?.abort());
+  for (const b of document.querySelectorAll("[data-download]")) b.addEventListener("click", () => download(b.dataset.download).catch((e) => showError(e.message)));
+  $("centre").addEventListener("click", (e) => {
+    if (!state.lightField) return;
+    const rect = e.target.getBoundingClientRect();
+    const { width, height } = state.lightField.shape;
+    const x = Math.min(width - 1, Math.floor(((e.clientX - rect.left) / rect.width) * width));
+    const y = Math.min(height - 1, Math.floor(((e.clientY - rect.top) / rect.height) * height));
+    showEpis(x, y);
+  });
+}
+
+async function main() {
+  setStatus("starting");
+  wire();
+  drawLegend($("legend"), viridis);
+  drawResiduals($("residuals"), []);
+  $("workers").value = Math.min(32, navigator.hardwareConcurrency || 4);
+  state.module = await compile();
+  initSync({ module: state.module });
+  document.querySelector("footer p").textContent += ` · v${version()}`;
+  for (const name of sceneNames()) $("synth-scene").add(new Option(name, name));
+  setStatus("idle");
+  // ?scene=planes&size=512&grid=9&workers=4&run : generate (and run) without clicks.
+  const query = new URLSearchParams(location.search);
+  if (query.has("workers")) $("workers").value = query.get("workers");
+  if (query.has("scene")) {
+    $("synth-scene").value = query.get("scene");
+    for (const key of ["size", "grid"]) if (query.has(key)) $(`synth-${key}`).value = query.get(key);
+    await generate(query.get("scene"), Number(query.get("size") ?? 256), Number(query.get("grid") ?? 9));
+    if (query.has("run")) await run();
+  }
+}
+
+main().catch((e) => {
+  showError(`The page could not start: ${e.message}`);
+  setStatus("error");
+});

@@ -1,0 +1,82 @@
+// A pool of module workers sharing one compiled WebAssembly.Module. Requests queue and
+// go to the first idle worker; `all` sends one request to every worker.
+
+export class WorkerPool {
+  /** @param {WebAssembly.Module} module @param {number} size */
+  static async create(module, size) {
+    const pool = new WorkerPool(size);
+    await Promise.all(pool.workers.map((w) => pool.#send(w, { op: "init", module })));
+    return pool;
+  }
+
+  constructor(size) {
+    this.workers = Array.from({ length: size }, () => {
+      const worker = new Worker(new URL("./worker.js", import.meta.url), { type: "module" });
+      worker.pending = new Map();
+      worker.busy = false;
+      worker.onmessage = ({ data }) => {
+        const job = worker.pending.get(data.id);
+        worker.pending.delete(data.id);
+        if (data.ok) job.resolve(data);
+        else job.reject(new Error(data.message));
+      };
+      worker.onerror = (event) => {
+        event.preventDefault();
+        for (const job of worker.pending.values()) job.reject(new Error(event.message || "worker failed to start"));
+        worker.pending.clear();
+      };
+      return worker;
+    });
+    this.queue = [];
+    this.nextId = 1;
+  }
+
+  get size() {
+    return this.workers.length;
+  }
+
+  #send(worker, request, transfer = []) {
+    const id = this.nextId++;
+    return new Promise((resolve, reject) => {
+      worker.pending.set(id, { resolve, reject });
+      worker.postMessage({ ...request, id }, transfer);
+    });
+  }
+
+  /** Runs `request` on the first idle worker. */
+  run(request, transfer = []) {
+    return new Promise((resolve, reject) => {
+      this.queue.push({ request, transfer, resolve, reject });
+      this.#dispatch();
+    });
+  }
+
+  /** Runs `request` on every worker (each gets its own copy of the data). */
+  all(request) {
+    return Promise.all(this.workers.map((w) => this.#send(w, request)));
+  }
+
+  #dispatch() {
+    for (const worker of this.workers) {
+      if (!this.queue.length) return;
+      if (worker.busy) continue;
+      const job = this.queue.shift();
+      worker.busy = true;
+      this.#send(worker, job.request, job.transfer)
+        .then(job.resolve, job.reject)
+        .finally(() => {
+          worker.busy = false;
+          this.#dispatch();
+        });
+    }
+  }
+
+  /** Drops queued requests (in-flight ones finish; their replies are ignored by callers). */
+  clear(reason) {
+    for (const job of this.queue.splice(0)) job.reject(reason);
+  }
+
+  terminate() {
+    for (const w of this.workers) w.terminate();
+  }
+}

@@ -1,0 +1,63 @@
+// A module worker: receives the compiled WebAssembly.Module once, then answers requests
+// (bands, ranges, synthetic views, fusion) one at a time. Every request carries an `id`
+// and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
+// `{ id, ok: false, message }`.
+import { initSync, Estimator, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
+
+let estimator = null;
+
+const handlers = {
+  init({ module }) {
+    initSync({ module });
+    return {};
+  },
+  load({ views, shape, params }) {
+    estimator?.free();
+    estimator = new Estimator(new Uint8Array(views), shape, params);
+    return {};
+  },
+  range() {
+    return { range: Array.from(requireEstimator().disparityRange()) };
+  },
+  band({ direction, start, end, min, max }) {
+    const band = requireEstimator().estimateBand(direction, start, end, min, max);
+    const disparity = band.disparity;
+    const confidence = band.confidence;
+    band.free();
+    return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
+  },
+  fuse({ params, width, height, dh, ch, dv, cv }) {
+    const [disparity, confidence] = fuseBands(params, width, height, dh, ch, dv, cv);
+    return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
+  },
+  view({ spec, row, col }) {
+    const view = renderView(spec, row, col);
+    return { view, transfer: [view.buffer] };
+  },
+  groundTruth({ spec }) {
+    const gt = renderGroundTruth(spec);
+    return { groundTruth: gt, transfer: [gt.buffer] };
+  },
+  unload() {
+    estimator?.free();
+    estimator = null;
+    return {};
+  },
+};
+
+function requireEstimator() {
+  if (!estimator) throw new Error("no light field loaded in this worker");
+  return estimator;
+}
+
+self.onmessage = ({ data }) => {
+  const { id, op } = data;
+  try {
+    const handler = handlers[op];
+    if (!handler) throw new Error(`unknown request ${op}`);
+    const { transfer = [], ...reply } = handler(data);
+    self.postMessage({ id, ok: true, ...reply }, transfer);
+  } catch (e) {
+    self.postMessage({ id, ok: false, message: e instanceof Error ? e.message : String(e) });
+  }
+};
