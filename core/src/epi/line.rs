@@ -38,7 +38,7 @@ const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
 /// Samples per register block of the gradient sums.
-const CHUNK: usize = 16;
+const CHUNK: usize = 32;
 /// Mixing entries below this fraction of their row's largest are dropped: the inner
 /// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
 /// row by two views for no measurable change (docs/bench-epi.md).
@@ -252,48 +252,34 @@ impl<T: Scalar> LineEstimator<T> {
                     shift(&pre_d[at..at + n], &mut sh_d[k * n..(k + 1) * n], offset);
                     shift(&pre_s[at..at + n], &mut sh_s[k * n..(k + 1) * n], offset);
                 }
-                for k in 0..k_n {
-                    let w = self.weights[k];
-                    if w == T::ZERO {
-                        continue;
+                // Chunks of CHUNK samples; the last one overlaps its predecessor so that
+                // every chunk has the constant length the compiler unrolls and keeps in
+                // registers (overlapping samples are computed again, identically).
+                let mut done = 0;
+                while done < n {
+                    let mut sums = [[T::ZERO; CHUNK]; 3];
+                    let (t0, len) = if n >= CHUNK {
+                        let t0 = done.min(n - CHUNK);
+                        self.tensor_chunk(sh_d, sh_s, n, t0, CHUNK, &mut sums);
+                        (t0, CHUNK)
+                    } else {
+                        self.tensor_chunk(sh_d, sh_s, n, 0, n, &mut sums);
+                        (0, n)
+                    };
+                    let new = done - t0..len;
+                    let span = done..t0 + len;
+                    for ((((xx, xk), kk), &sxx), (&sxk, &skk)) in jxx[span.clone()]
+                        .iter_mut()
+                        .zip(jxk[span.clone()].iter_mut())
+                        .zip(jkk[span].iter_mut())
+                        .zip(sums[0][new.clone()].iter())
+                        .zip(sums[1][new.clone()].iter().zip(sums[2][new].iter()))
+                    {
+                        *xx += sxx;
+                        *xk += sxk;
+                        *kk += skk;
                     }
-                    // Gradients of view k across the views (rows of the mixing matrices),
-                    // in register-sized chunks so the sums stay out of memory.
-                    // Only the significant entries of the two rows (the inner Gaussian is
-                    // short, and the derivative row has no centre entry).
-                    let (smooth, derivative) = (&self.smooth_taps[k], &self.derivative_taps[k]);
-                    let mut t0 = 0;
-                    while t0 < n {
-                        let len = CHUNK.min(n - t0);
-                        let mut ax = [T::ZERO; CHUNK];
-                        let mut ak = [T::ZERO; CHUNK];
-                        for (&j, &a) in smooth.views().iter().zip(smooth.weights()) {
-                            let at = j * n + t0;
-                            for (x, &p) in ax.iter_mut().zip(&sh_d[at..at + len]) {
-                                *x += a * p;
-                            }
-                        }
-                        for (&j, &b) in derivative.views().iter().zip(derivative.weights()) {
-                            let at = j * n + t0;
-                            for (y, &q) in ak.iter_mut().zip(&sh_s[at..at + len]) {
-                                *y += b * q;
-                            }
-                        }
-                        let span = t0..t0 + len;
-                        for ((((xx, xk), kk), &gx), &gk) in jxx[span.clone()]
-                            .iter_mut()
-                            .zip(jxk[span.clone()].iter_mut())
-                            .zip(jkk[span].iter_mut())
-                            .zip(ax.iter())
-                            .zip(ak.iter())
-                        {
-                            let wgx = w * gx;
-                            *xx += wgx * gx;
-                            *xk += wgx * gk;
-                            *kk += w * gk * gk;
-                        }
-                        t0 += len;
-                    }
+                    done = t0 + len;
                 }
             }
             self.outer.apply(jxx, sxx);
@@ -366,6 +352,58 @@ impl<T: Scalar> LineEstimator<T> {
             *d = d.clamp(lo, hi);
         }
         Ok(())
+    }
+
+    /// Adds to `sums` (xx, xk, kk) the outer-weighted tensor of samples `t0..t0 + len`
+    /// (`len ≤ CHUNK`) of one channel: gradients of every view across the views (rows of
+    /// the mixing matrices) from the sheared planes `sh_d` / `sh_s` (`views · n`), kept
+    /// out of memory.
+    #[inline(always)]
+    fn tensor_chunk(
+        &self,
+        sh_d: &[T],
+        sh_s: &[T],
+        n: usize,
+        t0: usize,
+        len: usize,
+        sums: &mut [[T; CHUNK]; 3],
+    ) {
+        let [sum_xx, sum_xk, sum_kk] = sums;
+        for k in 0..self.views {
+            let w = self.weights[k];
+            if w == T::ZERO {
+                continue;
+            }
+            // Only the significant entries of the two rows (the inner Gaussian is short,
+            // and the derivative row has no centre entry).
+            let (smooth, derivative) = (&self.smooth_taps[k], &self.derivative_taps[k]);
+            let mut ax = [T::ZERO; CHUNK];
+            let mut ak = [T::ZERO; CHUNK];
+            for (&j, &a) in smooth.views().iter().zip(smooth.weights()) {
+                let at = j * n + t0;
+                for (x, &p) in ax[..len].iter_mut().zip(&sh_d[at..at + len]) {
+                    *x += a * p;
+                }
+            }
+            for (&j, &b) in derivative.views().iter().zip(derivative.weights()) {
+                let at = j * n + t0;
+                for (y, &q) in ak[..len].iter_mut().zip(&sh_s[at..at + len]) {
+                    *y += b * q;
+                }
+            }
+            for ((((xx, xk), kk), &gx), &gk) in sum_xx[..len]
+                .iter_mut()
+                .zip(sum_xk[..len].iter_mut())
+                .zip(sum_kk[..len].iter_mut())
+                .zip(ax.iter())
+                .zip(ak.iter())
+            {
+                let wgx = w * gx;
+                *xx += wgx * gx;
+                *xk += wgx * gk;
+                *kk += w * gk * gk;
+            }
+        }
     }
 }
 
