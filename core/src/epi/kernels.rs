@@ -121,13 +121,43 @@ impl<T: Scalar> Kernel<T> {
         for (t, o) in out.iter_mut().enumerate().take(n).skip(n - r) {
             clamped(t, o);
         }
-        // Interior: tap-major loops over contiguous slices (vectorises for f32).
+        // Interior: tap-major sums over contiguous slices (vectorises for f32), in blocks
+        // of constant length held in registers; the last block overlaps its predecessor
+        // (overlapping samples are computed again, identically).
+        let inner_len = n - 2 * r;
         let inner = &mut out[r..n - r];
-        inner.fill(T::ZERO);
-        for (j, &k) in taps.iter().enumerate() {
-            for (o, &v) in inner.iter_mut().zip(&input[j..j + n - 2 * r]) {
-                *o += k * v;
-            }
+        let mut done = 0;
+        while done < inner_len {
+            let mut acc = [T::ZERO; BLOCK];
+            let (t0, len) = if inner_len >= BLOCK {
+                let t0 = done.min(inner_len - BLOCK);
+                correlate_block(taps, input, t0, BLOCK, &mut acc);
+                (t0, BLOCK)
+            } else {
+                correlate_block(taps, input, 0, inner_len, &mut acc);
+                (0, inner_len)
+            };
+            inner[done..t0 + len].copy_from_slice(&acc[done - t0..len]);
+            done = t0 + len;
+        }
+    }
+}
+
+/// Samples per register block of the interior correlation.
+const BLOCK: usize = 32;
+
+/// `acc[i] = Σ_j taps[j]·input[t0 + i + j]` for `i < len` (`len ≤ BLOCK`), taps in order.
+#[inline(always)]
+fn correlate_block<T: Scalar>(
+    taps: &[T],
+    input: &[T],
+    t0: usize,
+    len: usize,
+    acc: &mut [T; BLOCK],
+) {
+    for (j, &k) in taps.iter().enumerate() {
+        for (a, &v) in acc[..len].iter_mut().zip(&input[t0 + j..t0 + j + len]) {
+            *a += k * v;
         }
     }
 }
