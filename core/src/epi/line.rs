@@ -89,9 +89,13 @@ impl<T: Scalar> LineEstimator<T> {
         centre: usize,
         channels: usize,
     ) -> Self {
-        let mut weights = [T::ZERO; GRID_MAX];
         let views = views.min(GRID_MAX);
-        centre_weights(params.outer_sigma, views, centre, &mut weights);
+        let mut outer_weights = [0.0f32; GRID_MAX];
+        centre_weights(params.outer_sigma, views, centre, &mut outer_weights);
+        let mut weights = [T::ZERO; GRID_MAX];
+        for (w, &v) in weights.iter_mut().zip(&outer_weights) {
+            *w = T::from_f32(v);
+        }
         // Inner Gaussian across views, truncated at the first and last view and
         // renormalised; then per view a Scharr cross smoothing ([3, 10, 3], renormalised
         // at the ends) and a central difference (one-sided at the ends). Averaging
@@ -132,6 +136,12 @@ impl<T: Scalar> LineEstimator<T> {
                     mix_smooth[j] += gauss[k][i] * smooth[i][j];
                     mix_derivative[j] += gauss[k][i] * diff[i][j];
                 }
+            }
+            // The outer weight of view k enters as √w in both gradients, so the tensor
+            // terms are plain products (w·gx² = (√w·gx)²).
+            let root = libm::sqrtf(outer_weights[k].max(0.0));
+            for m in mix_smooth.iter_mut().chain(mix_derivative.iter_mut()) {
+                *m *= root;
             }
             smooth_taps[k] = Taps::significant(&mix_smooth[..views]);
             derivative_taps[k] = Taps::significant(&mix_derivative[..views]);
@@ -398,10 +408,9 @@ impl<T: Scalar> LineEstimator<T> {
                 .zip(ax.iter())
                 .zip(ak.iter())
             {
-                let wgx = w * gx;
-                *xx += wgx * gx;
-                *xk += wgx * gk;
-                *kk += w * gk * gk;
+                *xx += gx * gx;
+                *xk += gx * gk;
+                *kk += gk * gk;
             }
         }
     }
