@@ -98,6 +98,13 @@ fn variants_table() {
         ("window 0.5", EpiParams { window: 0.5, ..d }),
         ("window 1.5", EpiParams { window: 1.5, ..d }),
         (
+            "step 1",
+            EpiParams {
+                shear_step: 1.0,
+                ..d
+            },
+        ),
+        (
             "gray, step 1",
             EpiParams {
                 color: ColorMode::Gray,

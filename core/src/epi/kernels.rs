@@ -42,26 +42,54 @@ fn gaussian_f32(sigma: f32, taps: &mut [f32; MAX_TAPS]) -> usize {
 pub(crate) struct Kernel<T: Scalar> {
     taps: [T; MAX_TAPS],
     radius: usize,
+    symmetry: Symmetry,
+}
+
+/// Mirror symmetry of the taps about the centre: the interior then multiplies each pair
+/// of mirrored samples once (half the multiplications).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Symmetry {
+    /// `taps[r + j] == taps[r − j]` (smoothing).
+    Even,
+    /// `taps[r + j] == −taps[r − j]`, zero centre (derivative).
+    Odd,
 }
 
 impl<T: Scalar> Kernel<T> {
-    fn from_f32(taps: &[f32; MAX_TAPS], radius: usize) -> Self {
+    /// Kernel from `2·radius + 1` taps that are mirror-symmetric up to rounding; the upper
+    /// half is mirrored from the lower one so that the symmetry is exact.
+    fn from_f32(taps: &[f32; MAX_TAPS], radius: usize, symmetry: Symmetry) -> Self {
         let mut out = [T::ZERO; MAX_TAPS];
-        for (o, &t) in out.iter_mut().zip(taps.iter()).take(2 * radius + 1) {
+        for (o, &t) in out.iter_mut().zip(taps.iter()).take(radius + 1) {
             *o = T::from_f32(t);
         }
-        Kernel { taps: out, radius }
+        if symmetry == Symmetry::Odd {
+            out[radius] = T::ZERO;
+        }
+        for j in 1..=radius {
+            let lower = out[radius - j];
+            out[radius + j] = match symmetry {
+                Symmetry::Even => lower,
+                Symmetry::Odd => -lower,
+            };
+        }
+        Kernel {
+            taps: out,
+            radius,
+            symmetry,
+        }
     }
 
     /// Gaussian smoothing of standard deviation `sigma` (identity for σ ≤ 0).
     pub(crate) fn gaussian(sigma: f32) -> Self {
         let mut g = [0.0; MAX_TAPS];
         let r = gaussian_f32(sigma, &mut g);
-        Self::from_f32(&g, r)
+        Self::from_f32(&g, r, Symmetry::Even)
     }
 
-    /// Gaussian of `sigma` followed by a 3-tap kernel `three` (offsets −1, 0, +1).
-    fn gaussian_then(sigma: f32, three: [f32; 3]) -> Self {
+    /// Gaussian of `sigma` followed by a 3-tap kernel `three` (offsets −1, 0, +1) of the
+    /// given symmetry.
+    fn gaussian_then(sigma: f32, three: [f32; 3], symmetry: Symmetry) -> Self {
         let mut g = [0.0; MAX_TAPS];
         let r = gaussian_f32(sigma, &mut g);
         let mut c = [0.0f32; MAX_TAPS];
@@ -71,17 +99,17 @@ impl<T: Scalar> Kernel<T> {
                 c[i + j] += gi * tj;
             }
         }
-        Self::from_f32(&c, r + 1)
+        Self::from_f32(&c, r + 1, symmetry)
     }
 
     /// Gaussian-smoothed central difference `(in[t+1] − in[t−1]) / 2`.
     pub(crate) fn derivative(sigma: f32) -> Self {
-        Self::gaussian_then(sigma, [-0.5, 0.0, 0.5])
+        Self::gaussian_then(sigma, [-0.5, 0.0, 0.5], Symmetry::Odd)
     }
 
     /// Gaussian-smoothed Scharr cross smoothing `[3, 10, 3] / 16`.
     pub(crate) fn scharr_smoothing(sigma: f32) -> Self {
-        Self::gaussian_then(sigma, [3.0 / 16.0, 10.0 / 16.0, 3.0 / 16.0])
+        Self::gaussian_then(sigma, [3.0 / 16.0, 10.0 / 16.0, 3.0 / 16.0], Symmetry::Even)
     }
 
     /// Kernel radius.
@@ -121,12 +149,60 @@ impl<T: Scalar> Kernel<T> {
         for (t, o) in out.iter_mut().enumerate().take(n).skip(n - r) {
             clamped(t, o);
         }
-        // Interior: tap-major loops over contiguous slices (vectorises for f32).
+        // Interior: tap-major sums over contiguous slices (vectorises for f32), in blocks
+        // of constant length held in registers; the last block overlaps its predecessor
+        // (overlapping samples are computed again, identically).
+        let inner_len = n - 2 * r;
         let inner = &mut out[r..n - r];
-        inner.fill(T::ZERO);
-        for (j, &k) in taps.iter().enumerate() {
-            for (o, &v) in inner.iter_mut().zip(&input[j..j + n - 2 * r]) {
-                *o += k * v;
+        let mut done = 0;
+        while done < inner_len {
+            let mut acc = [T::ZERO; BLOCK];
+            let (t0, len) = if inner_len >= BLOCK {
+                let t0 = done.min(inner_len - BLOCK);
+                self.interior_block(input, t0, BLOCK, &mut acc);
+                (t0, BLOCK)
+            } else {
+                self.interior_block(input, 0, inner_len, &mut acc);
+                (0, inner_len)
+            };
+            inner[done..t0 + len].copy_from_slice(&acc[done - t0..len]);
+            done = t0 + len;
+        }
+    }
+}
+
+/// Samples per register block of the interior correlation.
+const BLOCK: usize = 32;
+
+impl<T: Scalar> Kernel<T> {
+    /// `acc[i] = Σ_j taps[j]·input[t0 + i + j]` for `i < len` (`len ≤ BLOCK`): the centre
+    /// tap, then each mirrored pair of samples times its shared tap, outermost last.
+    #[inline(always)]
+    fn interior_block(&self, input: &[T], t0: usize, len: usize, acc: &mut [T; BLOCK]) {
+        let r = self.radius;
+        let centre = self.taps[r];
+        if self.symmetry == Symmetry::Even {
+            for (a, &v) in acc[..len].iter_mut().zip(&input[t0 + r..t0 + r + len]) {
+                *a = centre * v;
+            }
+        }
+        for j in 1..=r {
+            let k = self.taps[r + j];
+            let (below, above) = (
+                &input[t0 + r - j..t0 + r - j + len],
+                &input[t0 + r + j..t0 + r + j + len],
+            );
+            match self.symmetry {
+                Symmetry::Even => {
+                    for ((a, &x), &y) in acc[..len].iter_mut().zip(below).zip(above) {
+                        *a += k * (x + y);
+                    }
+                }
+                Symmetry::Odd => {
+                    for ((a, &x), &y) in acc[..len].iter_mut().zip(below).zip(above) {
+                        *a += k * (y - x);
+                    }
+                }
             }
         }
     }

@@ -17,14 +17,13 @@ pub(crate) struct LineEstimator<T: Scalar> {
     outer: Kernel<T>,
     /// Outer (Gaussian) smoothing across views, evaluated at the centre view only.
     weights: [T; GRID_MAX],
-    /// Row k: the weights over views of the inner Gaussian followed by the Scharr
-    /// cross smoothing (for the along-line gradient) at view k, borders clamped.
-    mix_smooth: [[T; GRID_MAX]; GRID_MAX],
-    /// Row k: the inner Gaussian followed by the across-view derivative at view k
+    /// Mixing rows (weights over views) of view k: `mix_smooth`, the inner Gaussian
+    /// followed by the Scharr cross smoothing (for the along-line gradient), and
+    /// `mix_derivative`, the inner Gaussian followed by the across-view derivative
     /// (central; one-sided at the first and last view so that the ends keep the scale).
-    mix_derivative: [[T; GRID_MAX]; GRID_MAX],
-    /// Per view k, the range of views with a nonzero entry in either mixing row.
-    reach: [(usize, usize); GRID_MAX],
+    /// Per view k, the significant entries of `mix_smooth[k]` and `mix_derivative[k]`.
+    smooth_taps: [Taps<T>; GRID_MAX],
+    derivative_taps: [Taps<T>; GRID_MAX],
     views: usize,
     centre: usize,
     channels: usize,
@@ -39,7 +38,47 @@ const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
 /// Samples per register block of the gradient sums.
-const CHUNK: usize = 16;
+const CHUNK: usize = 32;
+/// Mixing entries below this fraction of their row's largest are dropped: the inner
+/// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
+/// row by two views for no measurable change (docs/bench-epi.md).
+const PRUNE: f32 = 1e-3;
+
+/// The significant entries of one mixing row: `weights[i]` multiplies view `views[i]`.
+#[derive(Clone, Copy, Debug)]
+struct Taps<T: Scalar> {
+    views: [usize; GRID_MAX],
+    weights: [T; GRID_MAX],
+    len: usize,
+}
+
+impl<T: Scalar> Taps<T> {
+    /// The entries of `row` whose magnitude reaches `PRUNE` of the largest one.
+    fn significant(row: &[f32]) -> Self {
+        let largest = row.iter().fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
+        let mut taps = Taps {
+            views: [0; GRID_MAX],
+            weights: [T::ZERO; GRID_MAX],
+            len: 0,
+        };
+        for (j, &v) in row.iter().enumerate().take(GRID_MAX) {
+            if v != 0.0 && libm::fabsf(v) >= PRUNE * largest {
+                taps.views[taps.len] = j;
+                taps.weights[taps.len] = T::from_f32(v);
+                taps.len += 1;
+            }
+        }
+        taps
+    }
+
+    fn views(&self) -> &[usize] {
+        &self.views[..self.len]
+    }
+
+    fn weights(&self) -> &[T] {
+        &self.weights[..self.len]
+    }
+}
 
 impl<T: Scalar> LineEstimator<T> {
     /// `views` cameras along the EPI, the centre one at `centre`, `channels` loaded planes.
@@ -50,11 +89,13 @@ impl<T: Scalar> LineEstimator<T> {
         centre: usize,
         channels: usize,
     ) -> Self {
-        let mut weights = [T::ZERO; GRID_MAX];
         let views = views.min(GRID_MAX);
-        centre_weights(params.outer_sigma, views, centre, &mut weights);
-        let mut mix_smooth = [[T::ZERO; GRID_MAX]; GRID_MAX];
-        let mut mix_derivative = [[T::ZERO; GRID_MAX]; GRID_MAX];
+        let mut outer_weights = [0.0f32; GRID_MAX];
+        centre_weights(params.outer_sigma, views, centre, &mut outer_weights);
+        let mut weights = [T::ZERO; GRID_MAX];
+        for (w, &v) in weights.iter_mut().zip(&outer_weights) {
+            *w = T::from_f32(v);
+        }
         // Inner Gaussian across views, truncated at the first and last view and
         // renormalised; then per view a Scharr cross smoothing ([3, 10, 3], renormalised
         // at the ends) and a central difference (one-sided at the ends). Averaging
@@ -84,32 +125,34 @@ impl<T: Scalar> LineEstimator<T> {
                 diff[i][im] -= scale;
             }
         }
+        let empty = Taps::significant(&[]);
+        let mut smooth_taps = [empty; GRID_MAX];
+        let mut derivative_taps = [empty; GRID_MAX];
         for k in 0..views {
+            let mut mix_smooth = [0.0f32; GRID_MAX];
+            let mut mix_derivative = [0.0f32; GRID_MAX];
             for j in 0..views {
-                let (mut s, mut d) = (0.0, 0.0);
                 for i in 0..views {
-                    s += gauss[k][i] * smooth[i][j];
-                    d += gauss[k][i] * diff[i][j];
+                    mix_smooth[j] += gauss[k][i] * smooth[i][j];
+                    mix_derivative[j] += gauss[k][i] * diff[i][j];
                 }
-                mix_smooth[k][j] = T::from_f32(s);
-                mix_derivative[k][j] = T::from_f32(d);
             }
-        }
-        let mut reach = [(0, 0); GRID_MAX];
-        for (k, r) in reach.iter_mut().enumerate().take(views) {
-            let used = |j: &usize| mix_smooth[k][*j] != T::ZERO || mix_derivative[k][*j] != T::ZERO;
-            let first = (0..views).find(used).unwrap_or(0);
-            let last = (0..views).rev().find(used).map_or(first, |j| j + 1);
-            *r = (first, last);
+            // The outer weight of view k enters as √w in both gradients, so the tensor
+            // terms are plain products (w·gx² = (√w·gx)²).
+            let root = libm::sqrtf(outer_weights[k].max(0.0));
+            for m in mix_smooth.iter_mut().chain(mix_derivative.iter_mut()) {
+                *m *= root;
+            }
+            smooth_taps[k] = Taps::significant(&mix_smooth[..views]);
+            derivative_taps[k] = Taps::significant(&mix_derivative[..views]);
         }
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
             outer: Kernel::gaussian(params.outer_sigma),
             weights,
-            mix_smooth,
-            mix_derivative,
-            reach,
+            smooth_taps,
+            derivative_taps,
             views,
             centre,
             channels: match params.color {
@@ -219,49 +262,34 @@ impl<T: Scalar> LineEstimator<T> {
                     shift(&pre_d[at..at + n], &mut sh_d[k * n..(k + 1) * n], offset);
                     shift(&pre_s[at..at + n], &mut sh_s[k * n..(k + 1) * n], offset);
                 }
-                for k in 0..k_n {
-                    let w = self.weights[k];
-                    if w == T::ZERO {
-                        continue;
+                // Chunks of CHUNK samples; the last one overlaps its predecessor so that
+                // every chunk has the constant length the compiler unrolls and keeps in
+                // registers (overlapping samples are computed again, identically).
+                let mut done = 0;
+                while done < n {
+                    let mut sums = [[T::ZERO; CHUNK]; 3];
+                    let (t0, len) = if n >= CHUNK {
+                        let t0 = done.min(n - CHUNK);
+                        self.tensor_chunk(sh_d, sh_s, n, t0, CHUNK, &mut sums);
+                        (t0, CHUNK)
+                    } else {
+                        self.tensor_chunk(sh_d, sh_s, n, 0, n, &mut sums);
+                        (0, n)
+                    };
+                    let new = done - t0..len;
+                    let span = done..t0 + len;
+                    for ((((xx, xk), kk), &sxx), (&sxk, &skk)) in jxx[span.clone()]
+                        .iter_mut()
+                        .zip(jxk[span.clone()].iter_mut())
+                        .zip(jkk[span].iter_mut())
+                        .zip(sums[0][new.clone()].iter())
+                        .zip(sums[1][new.clone()].iter().zip(sums[2][new].iter()))
+                    {
+                        *xx += sxx;
+                        *xk += sxk;
+                        *kk += skk;
                     }
-                    // Gradients of view k across the views (rows of the mixing matrices),
-                    // in register-sized chunks so the sums stay out of memory.
-                    // Only the views the two rows reach (the inner Gaussian is short).
-                    let (first, last) = self.reach[k];
-                    let (ms, md) = (
-                        &self.mix_smooth[k][first..last],
-                        &self.mix_derivative[k][first..last],
-                    );
-                    let mut t0 = 0;
-                    while t0 < n {
-                        let len = CHUNK.min(n - t0);
-                        let mut ax = [T::ZERO; CHUNK];
-                        let mut ak = [T::ZERO; CHUNK];
-                        for (j, (&a, &b)) in ms.iter().zip(md).enumerate() {
-                            let at = (first + j) * n + t0;
-                            let (sd, ss) = (&sh_d[at..at + len], &sh_s[at..at + len]);
-                            for (((x, y), &p), &q) in
-                                ax.iter_mut().zip(ak.iter_mut()).zip(sd).zip(ss)
-                            {
-                                *x += a * p;
-                                *y += b * q;
-                            }
-                        }
-                        let span = t0..t0 + len;
-                        for ((((xx, xk), kk), &gx), &gk) in jxx[span.clone()]
-                            .iter_mut()
-                            .zip(jxk[span.clone()].iter_mut())
-                            .zip(jkk[span].iter_mut())
-                            .zip(ax.iter())
-                            .zip(ak.iter())
-                        {
-                            let wgx = w * gx;
-                            *xx += wgx * gx;
-                            *xk += wgx * gk;
-                            *kk += w * gk * gk;
-                        }
-                        t0 += len;
-                    }
+                    done = t0 + len;
                 }
             }
             self.outer.apply(jxx, sxx);
@@ -334,6 +362,57 @@ impl<T: Scalar> LineEstimator<T> {
             *d = d.clamp(lo, hi);
         }
         Ok(())
+    }
+
+    /// Adds to `sums` (xx, xk, kk) the outer-weighted tensor of samples `t0..t0 + len`
+    /// (`len ≤ CHUNK`) of one channel: gradients of every view across the views (rows of
+    /// the mixing matrices) from the sheared planes `sh_d` / `sh_s` (`views · n`), kept
+    /// out of memory.
+    #[inline(always)]
+    fn tensor_chunk(
+        &self,
+        sh_d: &[T],
+        sh_s: &[T],
+        n: usize,
+        t0: usize,
+        len: usize,
+        sums: &mut [[T; CHUNK]; 3],
+    ) {
+        let [sum_xx, sum_xk, sum_kk] = sums;
+        for k in 0..self.views {
+            let w = self.weights[k];
+            if w == T::ZERO {
+                continue;
+            }
+            // Only the significant entries of the two rows (the inner Gaussian is short,
+            // and the derivative row has no centre entry).
+            let (smooth, derivative) = (&self.smooth_taps[k], &self.derivative_taps[k]);
+            let mut ax = [T::ZERO; CHUNK];
+            let mut ak = [T::ZERO; CHUNK];
+            for (&j, &a) in smooth.views().iter().zip(smooth.weights()) {
+                let at = j * n + t0;
+                for (x, &p) in ax[..len].iter_mut().zip(&sh_d[at..at + len]) {
+                    *x += a * p;
+                }
+            }
+            for (&j, &b) in derivative.views().iter().zip(derivative.weights()) {
+                let at = j * n + t0;
+                for (y, &q) in ak[..len].iter_mut().zip(&sh_s[at..at + len]) {
+                    *y += b * q;
+                }
+            }
+            for ((((xx, xk), kk), &gx), &gk) in sum_xx[..len]
+                .iter_mut()
+                .zip(sum_xk[..len].iter_mut())
+                .zip(sum_kk[..len].iter_mut())
+                .zip(ax.iter())
+                .zip(ak.iter())
+            {
+                *xx += gx * gx;
+                *xk += gx * gk;
+                *kk += gk * gk;
+            }
+        }
     }
 }
 

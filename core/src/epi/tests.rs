@@ -66,6 +66,37 @@ fn planes_across_the_range_are_measured_accurately() {
 }
 
 #[test]
+fn samples_away_from_the_line_end_do_not_depend_on_the_line_length() {
+    // The same texture (no strips) at widths below one 32-sample register block (24), with
+    // a last block that overlaps its predecessor (40, 63) and a long reference (100):
+    // everything is local along the line, so samples farther than the filters' reach
+    // (shift 2·1.5 + inner 3 + outer 6 px < 20) from the right end are bit-identical.
+    let epi = fixed(-1.0, 1.5);
+    let reference = strips(Grid::new(5, 5), 100, 40, 1, 0.7, &[]);
+    let (d_ref, c_ref) = run::<f32>(&reference, epi);
+    for width in [24usize, 40, 63] {
+        let scene = strips(Grid::new(5, 5), width, 40, 1, 0.7, &[]);
+        let (d, c) = run::<f32>(&scene, epi);
+        for y in 0..40 {
+            for x in 0..width - 20 {
+                let (i, j) = (y * width + x, y * 100 + x);
+                assert_eq!(
+                    d[i].to_bits(),
+                    d_ref[j].to_bits(),
+                    "width {width} ({x}, {y})"
+                );
+                assert_eq!(
+                    c[i].to_bits(),
+                    c_ref[j].to_bits(),
+                    "width {width} ({x}, {y})"
+                );
+            }
+        }
+        assert!(share_within(&scene, &d, 0.02, 6) > 0.95, "width {width}");
+    }
+}
+
+#[test]
 fn estimates_stay_in_range_and_finite_on_any_input() {
     let layout = Layout::packed(Grid::new(5, 7), 24, 20, 3);
     let pattern = noise(layout.validate().unwrap(), 7);
