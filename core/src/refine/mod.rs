@@ -1,32 +1,43 @@
 //! Photometric refinement of the EPI disparity over many views.
 //!
 //! The structure tensor measures the slope of EPI lines to a few hundredths of a pixel
-//! at best, and only on the cross of views. This stage compares the centre view with
-//! many views directly: for view `v` at camera offset `(u, v)` the residual
-//! `r_v(x) = I_v(x − d·u, y − d·v) − I_c(x, y)` (per colour channel, bilinear samples)
-//! and its derivative `g_v = ∂r_v/∂d` (a central difference over one pixel of image
-//! motion) give Gauss–Newton normal equations, summed over the views and a square window:
+//! at best, and fails in whole regions near occlusions. This stage compares the centre
+//! view with many views ([`ViewSet`]) directly, in two steps.
+//!
+//! **Propagation** ([`RefineParams::propagation`] rounds, jump flooding with jumps 8, 4,
+//! 2, 1 px): each pixel tries the disparities of its four neighbours at the jump and
+//! keeps one whose robust photometric cost (the pixel alone) is below
+//! `PROPAGATION_ACCEPT` times its own, which pulls wrong regions to their surroundings.
+//!
+//! **Gauss–Newton** ([`RefineParams::iterations`]): for view `v` at camera offset
+//! `(u, v)` the residual `r = I_v(x − d·u, y − d·v) − I_c(x, y)` per colour channel
+//! (bilinear sample) and `g = ∂r/∂d` (a central difference over ±½ px of image motion),
+//! each view weighted by the Cauchy weight `s² / (s² + Σ r²)`
+//! ([`RefineParams::robust_scale`]) so that occluded or specular views hardly count,
+//! give normal equations summed over the views and a square window:
 //!
 //! ```text
 //! d ← Σ_w (A_j d_j − b_j) / Σ_w A_j,     A_j = Σ_v g², b_j = Σ_v g·r   (at d_j)
 //! ```
 //!
 //! i.e. the window average of the per-pixel Gauss–Newton updates weighted by their
-//! curvature, with the step clamped to [`RefineParams::max_step`] and the result to the
-//! EPI range. Occlusion: views are summed in four half-plane groups (left, right, up,
-//! down); when one half of a pair fits much worse than the other, it sees an occluder
-//! and is dropped for that pixel ([`RefineParams::occlusion`]).
+//! curvature. The window only takes neighbours within `WINDOW_GATE` of the pixel's
+//! disparity (it never straddles a depth edge); the step is clamped to
+//! [`RefineParams::max_step`] and the result to the EPI range. Views are summed in four
+//! half-plane groups (left, right, up, down): with [`RefineParams::occlusion`] a half
+//! that fits much worse than its opposite is dropped, and when the horizontal and
+//! vertical views disagree, only the axis with the smaller error is used.
 //!
 //! The output confidence is `1 / (1 + ε²/s²)` with `ε² = E / A` the squared disparity
-//! error the final residual energy `E = Σ r²` amounts to and `s`
+//! error the final residual energy `E` amounts to and `s`
 //! [`RefineParams::confidence_scale`]: near 1 where the views agree on a textured
 //! surface, low in occlusions, textureless areas and wrong regions.
 //!
 //! # Bands
 //! Work is cut into bands of [`RefineParams::band_rows`] image rows. A band is computed
-//! on its rows plus a halo of `iterations · radius` rows on each side (clipped at the
-//! image), which is exactly the reach of its result, so bands are independent and the
-//! map is bit-identical for any banding and thread count.
+//! on its rows plus a halo of `iterations · radius + Σ jumps` rows on each side ([`halo`],
+//! clipped at the image), which is exactly the reach of its result, so bands are
+//! independent and the map is bit-identical for any banding and thread count.
 //!
 //! # Numbers
 //! The stage computes in `f32` only (bilinear sampling of sub-pixel positions): a
