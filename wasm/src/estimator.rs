@@ -3,8 +3,9 @@
 use core::ops::ControlFlow;
 
 use lfdepth::epi::{self, Direction, Hypotheses};
-use lfdepth::pipeline::{self, Progress};
-use lfdepth::{Layout, LightField, Plan};
+use lfdepth::pipeline::{self, Progress, Stages};
+use lfdepth::tv::{self, Guide, Maps, SolveOutput};
+use lfdepth::{refine, Layout, LightField, Plan};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{self, error, message};
@@ -13,10 +14,16 @@ use crate::params;
 /// The progress stage names of the core pipeline, in the order they run.
 #[wasm_bindgen(js_name = stageNames)]
 pub fn stage_names() -> Vec<String> {
-    [epi::STAGE_RANGE, epi::STAGE_HORIZONTAL, epi::STAGE_VERTICAL]
-        .iter()
-        .map(|s| s.to_string())
-        .collect()
+    [
+        epi::STAGE_RANGE,
+        epi::STAGE_HORIZONTAL,
+        epi::STAGE_VERTICAL,
+        refine::STAGE,
+        tv::STAGE,
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
 }
 
 fn direction(name: &str) -> Result<Direction, JsError> {
@@ -81,7 +88,8 @@ impl EstimateResult {
     pub fn confidence(&self) -> js_sys::Float32Array {
         js_sys::Float32Array::from(&self.confidence[..])
     }
-    /// TV residual per iteration (empty while the pipeline has no TV stage).
+    /// TV residual (RMS dual update) per iteration run, summed over the tiles (empty
+    /// when the TV stage did not run).
     #[wasm_bindgen(getter)]
     pub fn residuals(&self) -> js_sys::Float32Array {
         js_sys::Float32Array::from(&self.residuals[..])
@@ -121,6 +129,7 @@ pub struct Estimator {
     views: Vec<u8>,
     layout: Layout,
     plan: Plan,
+    stages: Stages,
 }
 
 impl Estimator {
@@ -146,14 +155,16 @@ impl Estimator {
         #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
     ) -> Result<Estimator, JsError> {
         let layout = params::layout(&shape)?;
-        let params = params::params(&params.unwrap_or(JsValue::UNDEFINED))?;
-        let plan = Plan::new(layout, params).map_err(error)?;
+        let object = params.unwrap_or(JsValue::UNDEFINED);
+        let stages = params::stages(&object)?;
+        let plan = Plan::new(layout, params::params(&object)?).map_err(error)?;
         let views = js::bytes(&views, "views")?;
         LightField::new(&views, layout).map_err(error)?;
         Ok(Estimator {
             views,
             layout,
             plan,
+            stages,
         })
     }
 
@@ -168,9 +179,11 @@ impl Estimator {
         self.layout.height
     }
 
-    /// Runs the whole pipeline on this thread. `onProgress` is called as work completes
-    /// with `{ stage, done, total }`; returning `false` cancels (the call then throws an
-    /// `Error` "cancelled by the caller"); an exception it throws is rethrown.
+    /// Runs the pipeline on this thread: EPI → refine (unless `params.refine` is false)
+    /// → TV, or the EPI stage alone with `params.stage: "epi"`. `onProgress` is called as
+    /// work completes with `{ stage, done, total }`; returning `false` cancels (the call
+    /// then throws an `Error` "cancelled by the caller"); an exception it throws is
+    /// rethrown.
     pub fn estimate(
         &self,
         #[wasm_bindgen(
@@ -179,68 +192,123 @@ impl Estimator {
         )]
         on_progress: Option<JsValue>,
     ) -> Result<EstimateResult, JsValue> {
-        let on_progress = on_progress.unwrap_or(JsValue::UNDEFINED);
-        let callback = on_progress.dyn_ref::<js_sys::Function>();
-        if callback.is_none() && !on_progress.is_undefined() && !on_progress.is_null() {
-            return Err(message("onProgress must be a function").into());
-        }
         let lf = self.light_field()?;
         let pixels = self.plan.pixels();
         let mut disparity = vec![0.0f32; pixels];
         let mut confidence = vec![0.0f32; pixels];
-        let mut scratch = vec![0.0f32; pipeline::scratch_len(&self.plan)];
-        // Stage timings from the progress reports: a stage runs from its first report to
-        // the next stage's first report.
-        let mut starts: Vec<(&'static str, f64)> = Vec::new();
-        let mut thrown: Option<JsValue> = None;
-        let mut report = |p: Progress| -> ControlFlow<()> {
-            if starts.last().map(|s| s.0) != Some(p.stage) {
-                starts.push((p.stage, js::now_ms()));
-            }
-            let Some(f) = callback else {
-                return ControlFlow::Continue(());
-            };
-            let object = js_sys::Object::new();
-            let set = |k: &str, v: JsValue| js_sys::Reflect::set(&object, &k.into(), &v);
-            let _ = set("stage", p.stage.into());
-            let _ = set("done", (p.done as f64).into());
-            let _ = set("total", (p.total as f64).into());
-            match f.call1(&JsValue::NULL, &object) {
-                Ok(v) if v.as_bool() == Some(false) => ControlFlow::Break(()),
-                Ok(_) => ControlFlow::Continue(()),
-                Err(e) => {
-                    thrown = Some(e);
-                    ControlFlow::Break(())
-                }
-            }
+        let (mut maps, mut history) = match self.stages {
+            Stages::Epi => (Vec::new(), Vec::new()),
+            Stages::Full => (
+                vec![0.0f32; pipeline::map_scratch_len(&self.plan)],
+                vec![0.0f32; self.plan.params().tv.max_iterations],
+            ),
         };
-        let result = pipeline::estimate(
-            &self.plan,
-            &lf,
-            &mut disparity,
-            &mut confidence,
-            &mut scratch,
-            &mut report,
-        );
-        let end = js::now_ms();
-        if let Some(e) = thrown {
-            return Err(e);
-        }
-        result.map_err(error)?;
-        let timings = starts
-            .iter()
-            .enumerate()
-            .map(|(i, &(stage, start))| StageTiming {
-                stage: stage.to_string(),
-                ms: starts.get(i + 1).map_or(end, |next| next.1) - start,
-            })
-            .collect();
+        let timings = with_progress(on_progress, |report| {
+            let mut scratch = vec![0.0f32; pipeline::scratch_len(&self.plan)];
+            pipeline::run(
+                &self.plan,
+                &lf,
+                self.stages,
+                &mut disparity,
+                &mut confidence,
+                &mut scratch,
+                &mut maps,
+                &mut history,
+                report,
+            )
+        })?;
         Ok(EstimateResult {
             width: self.layout.width,
             height: self.layout.height,
             disparity,
             confidence,
-            residuals: Vec::new(),
+            residuals: iterations_run(history),
+            timings,
+        })
+    }
+
+    /// The stages after EPI, serially on this thread: refine (unless `params.refine` is
+    /// false) then TV, from the fused EPI `disparity` and `confidence` (`fuseBands`) and
+    /// the range `[min, max]` they were estimated over (`disparityRange()`). Gives the
+    /// same bits as `estimate()` with the full pipeline. `onProgress` as for `estimate`.
+    #[wasm_bindgen(js_name = refineAndRegularize)]
+    pub fn refine_and_regularize(
+        &self,
+        disparity: &[f32],
+        confidence: &[f32],
+        min: f32,
+        max: f32,
+        #[wasm_bindgen(
+            js_name = onProgress,
+            unchecked_param_type = "(progress: Progress) => boolean | void"
+        )]
+        on_progress: Option<JsValue>,
+    ) -> Result<EstimateResult, JsValue> {
+        let pixels = self.plan.pixels();
+        for (name, len) in [
+            ("disparity", disparity.len()),
+            ("confidence", confidence.len()),
+        ] {
+            if len != pixels {
+                return Err(message(&format!(
+                    "{name} has {len} values but the view has {pixels} pixels"
+                ))
+                .into());
+            }
+        }
+        let lf = self.light_field()?;
+        let width = self.layout.width;
+        let mut refined = disparity.to_vec();
+        let mut refined_confidence = confidence.to_vec();
+        let mut out = vec![0.0f32; pixels];
+        let mut history = vec![0.0f32; self.plan.params().tv.max_iterations];
+        let timings = with_progress(on_progress, |report| {
+            // The same steps as `pipeline::run` after the EPI stage.
+            if self.plan.params().refine.enabled {
+                let mut scratch = vec![0.0f32; refine::scratch_len(&self.plan)];
+                refine::refine_with_progress(
+                    &self.plan,
+                    &lf,
+                    (min, max),
+                    disparity,
+                    &mut refined,
+                    &mut refined_confidence,
+                    &mut scratch,
+                    report,
+                )?;
+            }
+            let maps = Maps::new(width, self.layout.height, &refined, &refined_confidence)?;
+            let guide = Guide::View(lf.center_view());
+            let (cols, rows) = tv::tile_count(&self.plan);
+            let tiles = cols.saturating_mul(rows);
+            let mut scratch = vec![0.0f32; tv::scratch_len(&self.plan)];
+            for index in 0..tiles {
+                stage_report(report, tv::STAGE, index, tiles)?;
+                let (core, _) = tv::tile_rects(&self.plan, index)?;
+                let start = core.y * width + core.x;
+                tv::refine_tile(
+                    &self.plan,
+                    &maps,
+                    &guide,
+                    index,
+                    SolveOutput {
+                        disparity: &mut out[start..],
+                        stride: width,
+                        history: &mut history,
+                        dual: None,
+                    },
+                    &mut scratch,
+                )?;
+            }
+            tv::normalise_history(&self.plan, &mut history);
+            stage_report(report, tv::STAGE, tiles, tiles)
+        })?;
+        Ok(EstimateResult {
+            width,
+            height: self.layout.height,
+            disparity: out,
+            confidence: refined_confidence,
+            residuals: iterations_run(history),
             timings,
         })
     }
@@ -309,6 +377,83 @@ impl Estimator {
             confidence,
         })
     }
+}
+
+/// One progress report into `report`; a break is the core's `Cancelled`.
+fn stage_report(
+    report: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+    stage: &'static str,
+    done: usize,
+    total: usize,
+) -> lfdepth::Result<()> {
+    match report(Progress {
+        stage,
+        done: done as u64,
+        total: total as u64,
+    }) {
+        ControlFlow::Continue(()) => Ok(()),
+        ControlFlow::Break(()) => Err(lfdepth::Error::Cancelled),
+    }
+}
+
+/// The TV history without the iterations no tile ran (as the native engine trims it).
+fn iterations_run(mut history: Vec<f32>) -> Vec<f32> {
+    while history.last() == Some(&0.0) {
+        history.pop();
+    }
+    history
+}
+
+/// Runs `work` with a progress callback that forwards `{ stage, done, total }` to the JS
+/// `on_progress` (returning `false` cancels; an exception it throws is rethrown) and
+/// returns the wall time of each stage: from its first report to the next stage's first
+/// report.
+fn with_progress(
+    on_progress: Option<JsValue>,
+    work: impl FnOnce(&mut dyn FnMut(Progress) -> ControlFlow<()>) -> lfdepth::Result<()>,
+) -> Result<Vec<StageTiming>, JsValue> {
+    let on_progress = on_progress.unwrap_or(JsValue::UNDEFINED);
+    let callback = on_progress.dyn_ref::<js_sys::Function>();
+    if callback.is_none() && !on_progress.is_undefined() && !on_progress.is_null() {
+        return Err(message("onProgress must be a function").into());
+    }
+    let mut starts: Vec<(&'static str, f64)> = Vec::new();
+    let mut thrown: Option<JsValue> = None;
+    let mut report = |p: Progress| -> ControlFlow<()> {
+        if starts.last().map(|s| s.0) != Some(p.stage) {
+            starts.push((p.stage, js::now_ms()));
+        }
+        let Some(f) = callback else {
+            return ControlFlow::Continue(());
+        };
+        let object = js_sys::Object::new();
+        let set = |k: &str, v: JsValue| js_sys::Reflect::set(&object, &k.into(), &v);
+        let _ = set("stage", p.stage.into());
+        let _ = set("done", (p.done as f64).into());
+        let _ = set("total", (p.total as f64).into());
+        match f.call1(&JsValue::NULL, &object) {
+            Ok(v) if v.as_bool() == Some(false) => ControlFlow::Break(()),
+            Ok(_) => ControlFlow::Continue(()),
+            Err(e) => {
+                thrown = Some(e);
+                ControlFlow::Break(())
+            }
+        }
+    };
+    let result = work(&mut report);
+    let end = js::now_ms();
+    if let Some(e) = thrown {
+        return Err(e);
+    }
+    result.map_err(error)?;
+    Ok(starts
+        .iter()
+        .enumerate()
+        .map(|(i, &(stage, start))| StageTiming {
+            stage: stage.to_string(),
+            ms: starts.get(i + 1).map_or(end, |next| next.1) - start,
+        })
+        .collect())
 }
 
 impl Estimator {

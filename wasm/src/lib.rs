@@ -4,7 +4,8 @@
 //! * [`Estimator`] owns a copy of the views and a validated plan; it runs the whole
 //!   pipeline ([`Estimator::estimate`], with progress and cancel) or single bands
 //!   ([`Estimator::estimate_band`]) so the page can spread them over Web Workers, then
-//!   [`fuse_bands`] combines the two directions exactly as the serial pipeline does.
+//!   [`fuse_bands`] combines the two directions exactly as the serial pipeline does, and
+//!   [`Estimator::refine_and_regularize`] runs the refine and TV stages on the result.
 //! * [`synthesize`], [`render_view`], [`render_ground_truth`]: the core's synthetic scenes.
 //! * [`evaluate`]: the HCI benchmark metrics.
 //!
@@ -61,6 +62,14 @@ export interface EstimateParams {
   fusion?: "coherence" | "weighted";
   /** Colour handling: one tensor over R, G, B, or their mean first. */
   color?: "tensor" | "gray";
+  /** How far `estimate` goes: "full" (EPI → refine → TV, the default) or "epi" alone. */
+  stage?: "epi" | "full";
+  /** Photometric refinement of the EPI disparity over many views (default true). */
+  refine?: boolean;
+  /** Weight λ of the total variation against the data term (larger: smoother), 0…1000. */
+  lambda?: number;
+  /** Most TV (PPXA) iterations per tile, 1…100000. */
+  iterations?: number;
 }
 
 /** A progress report; return `false` from the callback to cancel. */

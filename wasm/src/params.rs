@@ -1,13 +1,14 @@
 //! JS parameter objects → core `Params` and `Layout`.
 
 use lfdepth::epi::{ColorMode, DisparityRange, Fusion};
+use lfdepth::pipeline::Stages;
 use lfdepth::{Grid, Layout, Params};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 9] = [
+const PARAM_KEYS: [&str; 13] = [
     "range",
     "innerSigma",
     "outerSigma",
@@ -17,6 +18,10 @@ const PARAM_KEYS: [&str; 9] = [
     "interpolate",
     "fusion",
     "color",
+    "stage",
+    "refine",
+    "lambda",
+    "iterations",
 ];
 
 /// The packed layout of views described by a `Shape` object.
@@ -96,5 +101,25 @@ pub fn params(object: &JsValue) -> Result<Params, JsError> {
             }
         };
     }
+    if let Some(v) = f.boolean("refine")? {
+        params.refine.enabled = v;
+    }
+    float("lambda", &mut params.tv.lambda)?;
+    if let Some(v) = f.count("iterations")? {
+        params.tv.max_iterations = v;
+    }
     Ok(params)
+}
+
+/// How far `Estimator.estimate` goes: `params.stage`, "full" (EPI → refine → TV) when
+/// absent.
+pub fn stages(object: &JsValue) -> Result<Stages, JsError> {
+    let f = Fields::new(object, "params", &PARAM_KEYS, true)?;
+    match f.string("stage")?.as_deref() {
+        None | Some("full") => Ok(Stages::Full),
+        Some("epi") => Ok(Stages::Epi),
+        Some(v) => Err(message(&format!(
+            "params.stage `{v}` is unknown: use \"full\" or \"epi\""
+        ))),
+    }
 }
