@@ -1,5 +1,6 @@
 // Runs the pipeline over a WorkerPool: the disparity range on one worker, then the
-// horizontal and vertical EPI bands spread over all of them, then the fusion. Bands are
+// horizontal and vertical EPI bands spread over all of them, then the fusion, then the
+// refine and TV stages serially on one worker (off the page's thread). Bands are
 // independent and fused exactly as the serial core does, so the result is bit-identical
 // to `Estimator.estimate()` whatever the number of workers.
 
@@ -18,7 +19,8 @@ export class Cancelled extends Error {
  * @param {{views: Uint8Array, shape: object}} lightField
  * @param {object} params  EstimateParams of the wasm package
  * @param {{stages: string[], onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
- * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, range: number[], timings: {stage: string, ms: number}[]}>}
+ *   `stages`: the EPI stage names of `stageNames()` (range, horizontal, vertical) first.
+ * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], timings: {stage: string, ms: number}[]}>}
  */
 export async function estimate(pool, lightField, params, { stages, onProgress: report, signal }) {
   // Bands still in flight when cancelled finish in their workers; say nothing of them.
@@ -36,7 +38,15 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     onProgress(stage, 1);
     return result;
   };
-  const onAbort = () => pool.clear(new Cancelled());
+  // In-flight work (bands, refine + TV) cannot be interrupted inside its worker: it
+  // finishes there and its reply is ignored; the page returns at once.
+  let abort;
+  const aborted = new Promise((_, reject) => (abort = reject));
+  aborted.catch(() => {});
+  const onAbort = () => {
+    pool.clear(new Cancelled());
+    abort(new Cancelled());
+  };
   signal.addEventListener("abort", onAbort);
   try {
     await timed("load", () => pool.all({ op: "load", views: lightField.views.buffer, shape: lightField.shape, params }));
@@ -72,9 +82,25 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     const fused = await timed("fuse", () =>
       pool.run({ op: "fuse", params, width, height, dh, ch, dv, cv }, [dh.buffer, ch.buffer, dv.buffer, cv.buffer]),
     );
+    check();
+    const request = { op: "regularize", disparity: fused.disparity, confidence: fused.confidence, min, max };
+    const regularized = await Promise.race([
+      aborted,
+      pool.run(request, [fused.disparity.buffer, fused.confidence.buffer], ({ stage, done, total }) => {
+        onProgress(stage, total ? done / total : 1);
+      }),
+    ]);
+    // The worker's own stage timings (refine, tv).
+    timings.push(...regularized.timings);
     // Free the per-worker copies of the views.
     pool.all({ op: "unload" });
-    return { disparity: fused.disparity, confidence: fused.confidence, range, timings };
+    return {
+      disparity: regularized.disparity,
+      confidence: regularized.confidence,
+      residuals: regularized.residuals,
+      range,
+      timings,
+    };
   } catch (e) {
     if (signal.aborted) throw new Cancelled();
     throw e;

@@ -54,6 +54,8 @@ function params() {
     outerSigma: Number($("outer-sigma").value),
     shearStep: Number($("shear-step").value),
     fusion: $("fusion").value,
+    lambda: Number($("tv-lambda").value),
+    iterations: Number($("tv-iterations").value),
   };
   if (manual) p.range = [Number($("range-min").value), Number($("range-max").value)];
   return p;
@@ -164,7 +166,9 @@ async function run() {
   const controller = new AbortController();
   state.controller = controller;
   const stages = stageNames();
-  const order = ["load", ...stages, "fuse"];
+  // The EPI stages run in the workers, then the fusion, then refine and TV in one worker.
+  const epiStages = stages.filter((s) => s.startsWith("epi"));
+  const order = ["load", ...epiStages, "fuse", ...stages.filter((s) => !epiStages.includes(s))];
   const share = (1 - WEIGHTS.load - WEIGHTS.fuse) / stages.length;
   const weight = (s) => WEIGHTS[s] ?? share;
   const onProgress = (stage, fraction) => {
@@ -177,7 +181,7 @@ async function run() {
   const start = performance.now();
   try {
     const p = params();
-    const result = await estimate(await pool(), state.lightField, p, { stages, onProgress, signal: controller.signal });
+    const result = await estimate(await pool(), state.lightField, p, { stages: epiStages, onProgress, signal: controller.signal });
     const total = performance.now() - start;
     state.result = { ...result, params: p };
     setProgress(100, `done in ${(total / 1000).toFixed(2)} s — 100 %`);
@@ -205,14 +209,15 @@ async function run() {
 }
 
 function showResult() {
-  const { disparity, confidence, range } = state.result;
+  const { disparity, confidence, residuals, range } = state.result;
   const { width, height } = state.lightField.shape;
   const [min, max] = range;
   drawMap($("disparity"), disparity, width, height, min, max);
   $("legend-min").textContent = min.toFixed(2);
   $("legend-max").textContent = max.toFixed(2);
   drawMap($("confidence"), confidence, width, height, 0, 1, grays);
-  drawResiduals($("residuals"), new Float32Array());
+  drawResiduals($("residuals"), residuals);
+  $("residuals").dataset.iterations = residuals.length;
   for (const b of document.querySelectorAll("[data-download]")) b.disabled = false;
   const scores = $("scores");
   if (!state.groundTruth) return;

@@ -1,5 +1,6 @@
 // A pool of module workers sharing one compiled WebAssembly.Module. Requests queue and
-// go to the first idle worker; `all` sends one request to every worker.
+// go to the first idle worker; `all` sends one request to every worker. A worker may send
+// `{ id, progress }` reports before its reply; they go to the request's `onProgress`.
 
 export class WorkerPool {
   /** @param {WebAssembly.Module} module @param {number} size */
@@ -16,6 +17,10 @@ export class WorkerPool {
       worker.busy = false;
       worker.onmessage = ({ data }) => {
         const job = worker.pending.get(data.id);
+        if (data.progress) {
+          job?.onProgress?.(data.progress);
+          return;
+        }
         worker.pending.delete(data.id);
         if (data.ok) job.resolve(data);
         else job.reject(new Error(data.message));
@@ -35,18 +40,18 @@ export class WorkerPool {
     return this.workers.length;
   }
 
-  #send(worker, request, transfer = []) {
+  #send(worker, request, transfer = [], onProgress = undefined) {
     const id = this.nextId++;
     return new Promise((resolve, reject) => {
-      worker.pending.set(id, { resolve, reject });
+      worker.pending.set(id, { resolve, reject, onProgress });
       worker.postMessage({ ...request, id }, transfer);
     });
   }
 
-  /** Runs `request` on the first idle worker. */
-  run(request, transfer = []) {
+  /** Runs `request` on the first idle worker; `onProgress` gets its progress reports. */
+  run(request, transfer = [], onProgress = undefined) {
     return new Promise((resolve, reject) => {
-      this.queue.push({ request, transfer, resolve, reject });
+      this.queue.push({ request, transfer, onProgress, resolve, reject });
       this.#dispatch();
     });
   }
@@ -62,7 +67,7 @@ export class WorkerPool {
       if (worker.busy) continue;
       const job = this.queue.shift();
       worker.busy = true;
-      this.#send(worker, job.request, job.transfer)
+      this.#send(worker, job.request, job.transfer, job.onProgress)
         .then(job.resolve, job.reject)
         .finally(() => {
           worker.busy = false;

@@ -142,8 +142,8 @@ export function drawResiduals(canvas, residuals) {
   ctx.fillStyle = "#5a6470";
   const finite = Array.from(residuals).filter((r) => Number.isFinite(r) && r > 0);
   if (!finite.length) {
-    ctx.fillText("No TV iterations: this build's pipeline", 12, cssHeight / 2 - 8);
-    ctx.fillText("ends with the EPI stage.", 12, cssHeight / 2 + 10);
+    ctx.fillText("No TV iterations yet:", 12, cssHeight / 2 - 8);
+    ctx.fillText("run the estimation.", 12, cssHeight / 2 + 10);
     return;
   }
   const pad = { l: 44, r: 10, t: 10, b: 26 };

@@ -1,7 +1,7 @@
 // A module worker: receives the compiled WebAssembly.Module once, then answers requests
-// (bands, ranges, synthetic views, fusion) one at a time. Every request carries an `id`
-// and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
-// `{ id, ok: false, message }`.
+// (bands, ranges, synthetic views, fusion, refine + TV) one at a time. Every request
+// carries an `id` and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
+// `{ id, ok: false, message }`; a long request may first send `{ id, progress }` reports.
 import { initSync, Estimator, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
 
 let estimator = null;
@@ -29,6 +29,23 @@ const handlers = {
   fuse({ params, width, height, dh, ch, dv, cv }) {
     const [disparity, confidence] = fuseBands(params, width, height, dh, ch, dv, cv);
     return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
+  },
+  regularize({ id, disparity, confidence, min, max }) {
+    const result = requireEstimator().refineAndRegularize(disparity, confidence, min, max, (progress) => {
+      self.postMessage({ id, progress: { stage: progress.stage, done: progress.done, total: progress.total } });
+    });
+    const reply = {
+      disparity: result.disparity,
+      confidence: result.confidence,
+      residuals: result.residuals,
+      timings: result.timings.map((t) => {
+        const timing = { stage: t.stage, ms: t.ms };
+        t.free();
+        return timing;
+      }),
+    };
+    result.free();
+    return { ...reply, transfer: [reply.disparity.buffer, reply.confidence.buffer, reply.residuals.buffer] };
   },
   view({ spec, row, col }) {
     const view = renderView(spec, row, col);
