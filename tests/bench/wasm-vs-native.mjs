@@ -20,7 +20,7 @@ function runNative() {
 
 const n = Number(size), g = Number(grid);
 const scene3d = lf.synthesize({ scene, rows: g, cols: g, width: n, height: n, seed: 1 });
-const estimator = new lf.Estimator(scene3d.views, { rows: g, cols: g, width: n, height: n, channels: 3 });
+const estimator = new lf.Estimator(scene3d.views, { rows: g, cols: g, width: n, height: n, channels: 3 }, { stage: "epi" });
 let best = Infinity, disparity;
 const nativeResult = { best_ms: Infinity };
 for (let round = 0; round < Number(rounds); round++) {
