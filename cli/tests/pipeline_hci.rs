@@ -13,13 +13,6 @@ use lfdepth::{LightField, Params, Plan};
 use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
 use tv_support::*;
 
-fn env_f32(name: &str, default: f32) -> f32 {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
 fn params_from_env() -> Params {
     let r = RefineParams::default();
     let t = TvParams::default();

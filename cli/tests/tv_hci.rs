@@ -11,13 +11,6 @@ use lfdepth::tv::{self, Guide, Maps, TvNorm, TvParams};
 use lfdepth::Params;
 use tv_support::*;
 
-fn env_f32(name: &str, default: f32) -> f32 {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
 fn params_from_env() -> TvParams {
     let d = TvParams::default();
     TvParams {

@@ -7,6 +7,15 @@ use std::path::{Path, PathBuf};
 
 use lfdepth::{Grid, Layout, LightField, Params, Plan};
 
+/// The environment variable `name` as a number, or `default` when unset or unparsable
+/// (the development harnesses take their parameters this way).
+pub fn env_f32(name: &str, default: f32) -> f32 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
 /// `../shared/data`, or `None` with a loud SKIPPED line.
 pub fn shared_data(test: &str) -> Option<PathBuf> {
     let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"));

@@ -297,7 +297,8 @@ mod tests {
     use crate::lightfield::Grid;
     use std::vec;
 
-    fn run(
+    /// Runs `estimate` on a packed buffer; shared with `mode_tests`.
+    pub(super) fn run(
         data: &[u8],
         layout: Layout,
         params: &AlignParams,
@@ -345,29 +346,16 @@ mod tests {
 
 #[cfg(test)]
 mod mode_tests {
-    extern crate std;
+    use super::tests::run;
     use super::*;
     use crate::lightfield::Grid;
-    use std::vec;
-
-    fn estimate_with(
-        data: &[u8],
-        layout: Layout,
-        params: &AlignParams,
-    ) -> (Result<AlignReport>, std::vec::Vec<Homography>) {
-        let lf = LightField::new(data, layout).unwrap();
-        let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
-        let mut scratch = vec![0.0f32; scratch_len(&layout, params).unwrap()];
-        let r = estimate(&lf, params, &mut hs, &mut scratch);
-        (r, hs)
-    }
 
     #[test]
     fn auto_leaves_a_rectified_array_alone_and_aligns_a_misaligned_one() {
         let grid = Grid::new(5, 5);
         let params = AlignParams::default();
         let (data, layout, _) = testscene::render(grid, 96, 96, None, 2);
-        let (report, hs) = estimate_with(&data, layout, &params);
+        let (report, hs) = run(&data, layout, &params);
         let report = report.unwrap();
         assert!(report.skipped && report.warning.is_none(), "{report:?}");
         assert!(report.identity_rms < params.rectified_rms, "{report:?}");
@@ -375,7 +363,7 @@ mod mode_tests {
 
         let (data, layout, truth) =
             testscene::render(grid, 128, 128, Some((1.0, 2.0, 0.005, 0.0)), 3);
-        let (report, hs) = estimate_with(&data, layout, &params);
+        let (report, hs) = run(&data, layout, &params);
         let report = report.unwrap();
         assert!(!report.skipped, "{report:?}");
         let err = reprojection_rms(&hs, &truth, grid, 128, 128, &[-0.8, 1.5]).unwrap();
@@ -390,7 +378,7 @@ mod mode_tests {
             mode: AlignMode::Off,
             ..AlignParams::default()
         };
-        let (report, hs) = estimate_with(&data, layout, &params);
+        let (report, hs) = run(&data, layout, &params);
         assert!(report.unwrap().skipped);
         assert!(hs.iter().all(|h| *h == Homography::IDENTITY));
     }
@@ -404,10 +392,10 @@ mod mode_tests {
             mode: AlignMode::On,
             ..AlignParams::default()
         };
-        let (r, _) = estimate_with(&flat, layout, &on);
+        let (r, _) = run(&flat, layout, &on);
         assert!(matches!(r, Err(Error::Alignment { view: 4, .. })), "{r:?}");
         // Auto falls back to the unaligned path with a warning.
-        let (r, hs) = estimate_with(&flat, layout, &AlignParams::default());
+        let (r, hs) = run(&flat, layout, &AlignParams::default());
         let r = r.unwrap();
         assert!(r.skipped && matches!(r.warning, Some(Error::Alignment { .. })));
         assert!(hs.iter().all(|h| *h == Homography::IDENTITY));
@@ -418,7 +406,7 @@ mod mode_tests {
             let (x, y) = ((k % 64) as f32, (k / 64) as f32);
             *v = (testscene::texture(y * 1.7 + 300.0, x * 0.6, 77) * 255.0) as u8;
         }
-        let (r, _) = estimate_with(&data, layout, &on);
+        let (r, _) = run(&data, layout, &on);
         assert!(matches!(r, Err(Error::Alignment { view: 2, .. })), "{r:?}");
     }
 
