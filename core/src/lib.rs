@@ -20,6 +20,7 @@ pub mod epi;
 pub mod error;
 pub mod geometry;
 pub mod lightfield;
+pub mod median;
 pub mod metrics;
 pub mod pipeline;
 pub mod plan;

@@ -19,6 +19,9 @@ pub trait Sample: sealed::Sealed + Copy + Default + PartialEq + core::fmt::Debug
     fn to_unit(self) -> f32;
     /// Whether every value of the type is finite (true for `u8`).
     fn is_finite(self) -> bool;
+    /// The sample as an 8-bit level, rounded and clamped to 0…255 (NaN → 0): integer
+    /// colour comparisons without floating point on `u8` data.
+    fn level(self) -> u8;
 }
 
 impl Sample for u8 {
@@ -30,6 +33,10 @@ impl Sample for u8 {
     fn is_finite(self) -> bool {
         true
     }
+    #[inline(always)]
+    fn level(self) -> u8 {
+        self
+    }
 }
 
 impl Sample for f32 {
@@ -40,6 +47,11 @@ impl Sample for f32 {
     #[inline(always)]
     fn is_finite(self) -> bool {
         f32::is_finite(self)
+    }
+    #[inline(always)]
+    fn level(self) -> u8 {
+        // `as` saturates and maps NaN to 0.
+        (self * 255.0 + 0.5) as u8
     }
 }
 

@@ -1,12 +1,14 @@
 //! The core entry point: runs the stages over a light field into caller-owned maps,
 //! serially, with progress reports that can cancel:
-//! EPI → photometric refinement (when `params.refine.enabled`) → TV.
+//! EPI → photometric refinement (when `params.refine.enabled`) → edge-snapping weighted
+//! median (when `params.median.enabled`, before or after TV) → TV.
 
 use core::ops::ControlFlow;
 
 use crate::epi;
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{LightField, Sample};
+use crate::median;
 use crate::plan::Plan;
 use crate::refine;
 use crate::scalar::Scalar;
@@ -44,7 +46,7 @@ pub fn scratch_len(plan: &Plan) -> usize {
 pub fn map_scratch_len(plan: &Plan) -> usize {
     plan.pixels()
         .saturating_mul(2)
-        .saturating_add(refine::scratch_len(plan))
+        .saturating_add(refine::scratch_len(plan).max(median::scratch_len(plan)))
 }
 
 fn report(
@@ -95,7 +97,55 @@ pub fn run<T: Scalar, S: Sample>(
     if stages == Stages::Epi {
         return Ok(());
     }
+    regularize(
+        plan,
+        lf,
+        (hyps.min(), hyps.max()),
+        disparity,
+        confidence,
+        scratch,
+        maps,
+        history,
+        progress,
+    )
+}
+
+/// Every stage after the EPI one, in place: `disparity` and `confidence` hold the EPI
+/// result (from [`run`] with [`Stages::Epi`], or from EPI bands run elsewhere, e.g. in
+/// other workers) measured over `range` (the hypothesis range), and receive the final
+/// result. `scratch`, `maps` and `history` as in [`run`].
+#[allow(clippy::too_many_arguments)]
+pub fn regularize<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    range: (f32, f32),
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+    maps: &mut [f32],
+    history: &mut [f32],
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<()> {
     let pixels = plan.pixels();
+    for (what, len) in [
+        ("the disparity", disparity.len()),
+        ("the confidence", confidence.len()),
+    ] {
+        if len != pixels {
+            return Err(Error::OutputSize {
+                what,
+                needed: pixels,
+                got: len,
+            });
+        }
+    }
+    let needed = tv::scratch_len(plan);
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
     let needed = map_scratch_len(plan);
     if maps.len() < needed {
         return Err(Error::ScratchTooSmall {
@@ -109,7 +159,7 @@ pub fn run<T: Scalar, S: Sample>(
         refine::refine_with_progress(
             plan,
             lf,
-            (hyps.min(), hyps.max()),
+            range,
             disparity,
             mid_d,
             mid_c,
@@ -121,6 +171,16 @@ pub fn run<T: Scalar, S: Sample>(
         mid_c.copy_from_slice(confidence);
     }
     confidence.copy_from_slice(mid_c);
+    let median = plan.params().median;
+    if median.enabled && median.before_tv {
+        // Passes ping-pong through `disparity`, which TV overwrites next.
+        for pass in 0..median.passes {
+            report(progress, median::STAGE, pass, median.passes)?;
+            median::filter(plan, &lf.center_view(), mid_d, disparity, refine_scratch)?;
+            mid_d.copy_from_slice(disparity);
+        }
+        report(progress, median::STAGE, median.passes, median.passes)?;
+    }
 
     let layout = plan.layout();
     let tv_maps = Maps::new(layout.width, layout.height, mid_d, mid_c)?;
@@ -147,7 +207,16 @@ pub fn run<T: Scalar, S: Sample>(
         )?;
     }
     tv::normalise_history(plan, history);
-    report(progress, tv::STAGE, tiles, tiles)
+    report(progress, tv::STAGE, tiles, tiles)?;
+    if median.enabled && !median.before_tv {
+        for pass in 0..median.passes {
+            report(progress, median::STAGE, pass, median.passes)?;
+            mid_d.copy_from_slice(disparity);
+            median::filter(plan, &lf.center_view(), mid_d, disparity, refine_scratch)?;
+        }
+        report(progress, median::STAGE, median.passes, median.passes)?;
+    }
+    Ok(())
 }
 
 /// The EPI stage alone (`run` with [`Stages::Epi`], which needs no map scratch):

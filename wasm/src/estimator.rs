@@ -4,8 +4,8 @@ use core::ops::ControlFlow;
 
 use lfdepth::epi::{self, Direction, Hypotheses};
 use lfdepth::pipeline::{self, Progress, Stages};
-use lfdepth::tv::{self, Guide, Maps, SolveOutput};
-use lfdepth::{refine, Layout, LightField, Plan};
+use lfdepth::tv;
+use lfdepth::{median, refine, Layout, LightField, Plan};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{self, error, message};
@@ -19,6 +19,7 @@ pub fn stage_names() -> Vec<String> {
         epi::STAGE_HORIZONTAL,
         epi::STAGE_VERTICAL,
         refine::STAGE,
+        median::STAGE,
         tv::STAGE,
     ]
     .iter()
@@ -258,50 +259,23 @@ impl Estimator {
         }
         let lf = self.light_field()?;
         let width = self.layout.width;
-        let mut refined = disparity.to_vec();
+        let mut out = disparity.to_vec();
         let mut refined_confidence = confidence.to_vec();
-        let mut out = vec![0.0f32; pixels];
         let mut history = vec![0.0f32; self.plan.params().tv.max_iterations];
         let timings = with_progress(on_progress, |report| {
-            // The same steps as `pipeline::run` after the EPI stage.
-            if self.plan.params().refine.enabled {
-                let mut scratch = vec![0.0f32; refine::scratch_len(&self.plan)];
-                refine::refine_with_progress(
-                    &self.plan,
-                    &lf,
-                    (min, max),
-                    disparity,
-                    &mut refined,
-                    &mut refined_confidence,
-                    &mut scratch,
-                    report,
-                )?;
-            }
-            let maps = Maps::new(width, self.layout.height, &refined, &refined_confidence)?;
-            let guide = Guide::View(lf.center_view());
-            let (cols, rows) = tv::tile_count(&self.plan);
-            let tiles = cols.saturating_mul(rows);
             let mut scratch = vec![0.0f32; tv::scratch_len(&self.plan)];
-            for index in 0..tiles {
-                stage_report(report, tv::STAGE, index, tiles)?;
-                let (core, _) = tv::tile_rects(&self.plan, index)?;
-                let start = core.y * width + core.x;
-                tv::refine_tile(
-                    &self.plan,
-                    &maps,
-                    &guide,
-                    index,
-                    SolveOutput {
-                        disparity: &mut out[start..],
-                        stride: width,
-                        history: &mut history,
-                        dual: None,
-                    },
-                    &mut scratch,
-                )?;
-            }
-            tv::normalise_history(&self.plan, &mut history);
-            stage_report(report, tv::STAGE, tiles, tiles)
+            let mut maps = vec![0.0f32; pipeline::map_scratch_len(&self.plan)];
+            pipeline::regularize(
+                &self.plan,
+                &lf,
+                (min, max),
+                &mut out,
+                &mut refined_confidence,
+                &mut scratch,
+                &mut maps,
+                &mut history,
+                report,
+            )
         })?;
         Ok(EstimateResult {
             width,
@@ -376,23 +350,6 @@ impl Estimator {
             disparity,
             confidence,
         })
-    }
-}
-
-/// One progress report into `report`; a break is the core's `Cancelled`.
-fn stage_report(
-    report: &mut dyn FnMut(Progress) -> ControlFlow<()>,
-    stage: &'static str,
-    done: usize,
-    total: usize,
-) -> lfdepth::Result<()> {
-    match report(Progress {
-        stage,
-        done: done as u64,
-        total: total as u64,
-    }) {
-        ControlFlow::Continue(()) => Ok(()),
-        ControlFlow::Break(()) => Err(lfdepth::Error::Cancelled),
     }
 }
 

@@ -66,6 +66,8 @@ export interface EstimateParams {
   stage?: "epi" | "full";
   /** Photometric refinement of the EPI disparity over many views (default true). */
   refine?: boolean;
+  /** Edge-snapping weighted median guided by the centre view, between refine and TV (default true). */
+  median?: boolean;
   /** Weight λ of the total variation against the data term (larger: smoother), 0…1000. */
   lambda?: number;
   /** Most TV (PPXA) iterations per tile, 1…100000. */

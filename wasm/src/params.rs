@@ -8,7 +8,7 @@ use wasm_bindgen::prelude::*;
 use crate::js::{message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 13] = [
+const PARAM_KEYS: [&str; 14] = [
     "range",
     "innerSigma",
     "outerSigma",
@@ -20,6 +20,7 @@ const PARAM_KEYS: [&str; 13] = [
     "color",
     "stage",
     "refine",
+    "median",
     "lambda",
     "iterations",
 ];
@@ -103,6 +104,9 @@ pub fn params(object: &JsValue) -> Result<Params, JsError> {
     }
     if let Some(v) = f.boolean("refine")? {
         params.refine.enabled = v;
+    }
+    if let Some(v) = f.boolean("median")? {
+        params.median.enabled = v;
     }
     float("lambda", &mut params.tv.lambda)?;
     if let Some(v) = f.count("iterations")? {

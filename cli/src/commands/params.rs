@@ -49,6 +49,33 @@ pub struct ParamArgs {
     /// TV refinement: most PPXA iterations per tile (default from the core).
     #[arg(long, value_name = "N")]
     pub tv_iterations: Option<usize>,
+    /// Edge-snapping weighted median guided by the centre view (between the refinement
+    /// and TV): window radius in pixels, 1…7, or 0 to switch it off (default from the
+    /// core).
+    #[arg(long, value_name = "R")]
+    pub median: Option<usize>,
+    /// Weighted median: colour scale σ of the weights (unit intensity; default from the
+    /// core).
+    #[arg(long, value_name = "F")]
+    pub median_sigma: Option<f32>,
+    /// Weighted median: passes (default from the core).
+    #[arg(long, value_name = "N")]
+    pub median_passes: Option<usize>,
+    /// Weighted median: only pixels whose window holds a step between adjacent pixels
+    /// larger than this (px) are filtered (default from the core).
+    #[arg(long, value_name = "F")]
+    pub median_gate: Option<f32>,
+    /// Weighted median: a pixel takes the median only when it differs from it by more
+    /// than this (px; default from the core).
+    #[arg(long, value_name = "F")]
+    pub median_snap: Option<f32>,
+    /// Weighted median: neighbours vote with their own value instead of extrapolating
+    /// along the local slope.
+    #[arg(long)]
+    pub median_flat: bool,
+    /// Weighted median: run it after TV instead of between the refinement and TV.
+    #[arg(long)]
+    pub median_after_tv: bool,
 }
 
 impl Default for ParamArgs {
@@ -58,6 +85,13 @@ impl Default for ParamArgs {
             no_shear: false,
             lambda: None,
             tv_iterations: None,
+            median: None,
+            median_sigma: None,
+            median_passes: None,
+            median_gate: None,
+            median_snap: None,
+            median_flat: false,
+            median_after_tv: false,
         }
     }
 }
@@ -75,11 +109,38 @@ impl ParamArgs {
         if let Some(n) = self.tv_iterations {
             params.tv.max_iterations = n;
         }
+        match self.median {
+            Some(0) => params.median.enabled = false,
+            Some(r) => params.median.radius = r,
+            None => {}
+        }
+        if let Some(n) = self.median_passes {
+            params.median.passes = n;
+        }
+        if self.median_after_tv {
+            params.median.before_tv = false;
+        }
+        if self.median_flat {
+            params.median.planar = false;
+        }
+        if let Some(t) = self.median_snap {
+            params.median.snap = t;
+        }
+        if let Some(g) = self.median_gate {
+            params.median.gate = g;
+        }
+        if let Some(sigma) = self.median_sigma {
+            params.median.color_sigma = sigma;
+        }
         // Out-of-range values are reported here, before any view is decoded.
         params
             .tv
             .validate()
             .map_err(|e| CliError::core("checking the TV flags", e))?;
+        params
+            .median
+            .validate()
+            .map_err(|e| CliError::core("checking the --median flags", e))?;
         params.epi.range = match self.disparity_range {
             RangeChoice::Auto if self.no_shear => params.epi.range,
             RangeChoice::Auto => DisparityRange::Auto,

@@ -9,6 +9,7 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use lfdepth::epi::{self, Direction};
+use lfdepth::median;
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
 use lfdepth::{refine, LightField, Params, Plan, Sample};
 use rayon::prelude::*;
@@ -156,12 +157,57 @@ fn run_stages<S: Sample + Sync>(
         estimate.confidence = c;
         estimate.timings.push((refine::STAGE, start.elapsed()));
     }
+    let median = plan.params().median;
+    if median.enabled && median.before_tv {
+        let start = Instant::now();
+        for _ in 0..median.passes {
+            estimate.disparity = median_parallel(plan, lf, &estimate.disparity, tracker)?;
+        }
+        estimate
+            .timings
+            .push((lfdepth::median::STAGE, start.elapsed()));
+    }
     let start = Instant::now();
     let (d, residuals) = tv_parallel(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
     estimate.disparity = d;
     estimate.residuals = residuals;
     estimate.timings.push((tv::STAGE, start.elapsed()));
+    if median.enabled && !median.before_tv {
+        let start = Instant::now();
+        for _ in 0..median.passes {
+            estimate.disparity = median_parallel(plan, lf, &estimate.disparity, tracker)?;
+        }
+        estimate.timings.push((median::STAGE, start.elapsed()));
+    }
     Ok(estimate)
+}
+
+/// The weighted median in parallel bands of rows (each pixel depends only on its
+/// window, so the map does not depend on the banding).
+fn median_parallel<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    disparity: &[f32],
+    tracker: &Tracker<'_>,
+) -> Result<Vec<f32>, lfdepth::Error> {
+    const BAND_ROWS: usize = 16;
+    let (width, height) = (plan.layout().width, plan.layout().height);
+    tracker.start(median::STAGE, height.div_ceil(BAND_ROWS) as u64);
+    let mut out = vec![0.0f32; plan.pixels()];
+    let guide = lf.center_view();
+    out.par_chunks_mut(BAND_ROWS * width)
+        .enumerate()
+        .try_for_each_init(
+            || vec![0.0f32; median::scratch_len(plan)],
+            |scratch, (index, band)| {
+                let start = index * BAND_ROWS;
+                let rows = start..(start + BAND_ROWS).min(height);
+                median::filter_rows(plan, &guide, disparity, rows, band, scratch)?;
+                tracker.add(1);
+                Ok::<(), lfdepth::Error>(())
+            },
+        )?;
+    Ok(out)
 }
 
 /// The refinement stage in parallel bands.
