@@ -178,9 +178,15 @@ fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(
     Ok((w, h))
 }
 
-/// Scratch (`f32` elements) of [`filter_rows`] and [`filter`]: one image row.
+/// Rows of slopes kept: one per window row.
+const SLOPE_ROWS: usize = 2 * MAX_RADIUS + 1;
+
+/// Scratch (`f32` elements) of [`filter_rows`] and [`filter`]: the steps of one row plus
+/// the slopes (x and y) of every window row, `(1 + 2 · SLOPE_ROWS) · width`.
 pub fn scratch_len(plan: &Plan) -> usize {
-    plan.layout().width
+    plan.layout()
+        .width
+        .saturating_mul(1 + 2 * SLOPE_ROWS)
 }
 
 /// Filters the image rows `rows` of `input` (row-major, `plan.pixels()`) into `out`
@@ -211,12 +217,17 @@ pub fn filter_rows<S: Sample>(
             got: out.len(),
         });
     }
-    let Some(column_steps) = scratch.get_mut(..width) else {
+    let needed = scratch_len(plan);
+    if scratch.len() < needed {
         return Err(Error::ScratchTooSmall {
-            needed: width,
+            needed,
             got: scratch.len(),
         });
-    };
+    }
+    let (column_steps, slopes) = scratch[..needed].split_at_mut(width);
+    // Slopes of image row `yy` live in slot `yy % SLOPE_ROWS` (x then y, `width` each),
+    // computed when the row first enters a window: each row once per call.
+    let mut slot_row = [usize::MAX; SLOPE_ROWS];
     let p = plan.params().median;
     let weights = Weights::new(p.color_sigma);
     let channels = guide.channels();
@@ -228,6 +239,19 @@ pub fn filter_rows<S: Sample>(
         let ys = y.saturating_sub(r)..(y + r + 1).min(height);
         if p.gate > 0.0 {
             steps_by_column(input, width, ys.clone(), column_steps);
+        }
+        if p.planar {
+            for yy in ys.clone() {
+                let slot = yy % SLOPE_ROWS;
+                if slot_row[slot] != yy {
+                    let row = &mut slopes[2 * slot * width..2 * (slot + 1) * width];
+                    let (sx, sy) = row.split_at_mut(width);
+                    for (xx, (gx, gy)) in sx.iter_mut().zip(sy.iter_mut()).enumerate() {
+                        (*gx, *gy) = slope(input, width, height, xx, yy, p.gate);
+                    }
+                    slot_row[slot] = yy;
+                }
+            }
         }
         let guide_row = guide.row(y).ok_or(Error::OutOfRange {
             what: "guide row",
@@ -249,7 +273,7 @@ pub fn filter_rows<S: Sample>(
                 *c = i32::from(guide_row[x * channels + k].level());
             }
             let mut n = 0;
-            let mut total = 0u64;
+            let (mut total, mut below, mut above) = (0u64, 0u64, 0u64);
             for yy in ys.clone() {
                 let row = &input[yy * width..(yy + 1) * width];
                 let colours = guide.row(yy).unwrap_or(&[]);
@@ -269,7 +293,8 @@ pub fn filter_rows<S: Sample>(
                     let w = weights.get(d2);
                     if w > 0 {
                         let v = if p.planar {
-                            let (gx, gy) = slope(input, width, height, xx, yy, p.gate);
+                            let base = 2 * (yy % SLOPE_ROWS) * width;
+                            let (gx, gy) = (slopes[base + xx], slopes[base + width + xx]);
                             v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
                         } else {
                             v
@@ -277,12 +302,21 @@ pub fn filter_rows<S: Sample>(
                         values[n] = v;
                         taps[n] = w;
                         total += u64::from(w);
+                        if v < own - p.snap {
+                            below += u64::from(w);
+                        } else if v > own + p.snap {
+                            above += u64::from(w);
+                        }
                         n += 1;
                     }
                 }
             }
-            if n > 0 {
-                let m = weighted_median(&mut values[..n], &mut taps[..n], total.div_ceil(2));
+            // The median lies within `snap` of the pixel's value (which then stays)
+            // unless the weight beyond `own ± snap` on one side reaches half: a linear
+            // test that spares most pixels the selection.
+            let half = total.div_ceil(2);
+            if n > 0 && (below >= half || total - above < half) {
+                let m = weighted_median(&mut values[..n], &mut taps[..n], half);
                 if (m - own).abs() > p.snap {
                     *o = m;
                 }
@@ -484,7 +518,7 @@ mod tests {
             }
         }
         let mut out = [0.0f32; 32 * 24];
-        filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 32]).unwrap();
+        filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 32 * 31]).unwrap();
         for y in 0..h {
             for x in 0..w {
                 let want = if x >= 16 { 1.5 } else { -0.5 };
@@ -517,7 +551,7 @@ mod tests {
             }
         }
         let mut whole = [0.0f32; 24 * 20];
-        filter(&plan, &lf.center_view(), &input, &mut whole, &mut [0.0; 24]).unwrap();
+        filter(&plan, &lf.center_view(), &input, &mut whole, &mut [0.0; 24 * 31]).unwrap();
         // Interior pixels (full symmetric window) keep their value on a plane.
         let r = MedianParams::default().radius;
         for y in r..h - r {
@@ -534,7 +568,7 @@ mod tests {
                 &input,
                 start..end,
                 &mut banded[start * w..end * w],
-                &mut [0.0; 24],
+                &mut [0.0; 24 * 31],
             )
             .unwrap();
         }
@@ -576,18 +610,18 @@ mod tests {
         let lf = LightField::new(&views, *plan.layout()).unwrap();
         let input = [0.0f32; 256];
         let mut out = [0.0f32; 255];
-        assert!(filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 16]).is_err());
+        assert!(filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 16 * 31]).is_err());
         let mut out = [0.0f32; 256];
         assert!(filter(
             &plan,
             &lf.center_view(),
             &input[..10],
             &mut out,
-            &mut [0.0; 16]
+            &mut [0.0; 16 * 31]
         )
         .is_err());
         assert!(matches!(
-            filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 15]),
+            filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 16 * 31 - 1]),
             Err(Error::ScratchTooSmall { .. })
         ));
         assert!(filter_rows(
@@ -596,7 +630,7 @@ mod tests {
             &input,
             10..17,
             &mut out[..112],
-            &mut [0.0; 16]
+            &mut [0.0; 16 * 31]
         )
         .is_err());
     }
@@ -610,7 +644,7 @@ mod tests {
         input[17] = f32::NAN;
         input[40] = f32::INFINITY;
         let mut out = [0.0f32; 256];
-        filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 32]).unwrap();
+        filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 32 * 31]).unwrap();
         assert!(out[17].is_nan());
         assert_eq!(out[40], f32::INFINITY);
         for (i, v) in out.iter().enumerate() {
