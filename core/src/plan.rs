@@ -2,6 +2,7 @@
 //! follows. Stages take `&Plan` and report their own scratch needs
 //! (`epi::scratch_len(&plan)`, `tv::scratch_len(&plan)`).
 
+use crate::align::AlignParams;
 use crate::epi::EpiParams;
 use crate::error::{checked_product, Result};
 use crate::lightfield::Layout;
@@ -11,6 +12,9 @@ use crate::tv::TvParams;
 /// Parameters of every stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Params {
+    /// Alignment of an imperfect array before the other stages (used by
+    /// `pipeline::run_aligned`; `pipeline::run` takes the array as rectified).
+    pub align: AlignParams,
     /// Initial disparity from EPIs.
     pub epi: EpiParams,
     /// Photometric refinement of the EPI disparity over many views.
@@ -31,6 +35,7 @@ impl Plan {
     /// Validates the layout and every stage's parameters.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         layout.validate()?;
+        params.align.validate()?;
         params.epi.validate()?;
         params.refine.validate()?;
         params.tv.validate()?;

@@ -288,7 +288,7 @@ pub fn estimate<S: Sample>(
 }
 
 #[cfg(test)]
-mod testscene;
+pub(crate) mod testscene;
 
 #[cfg(test)]
 mod tests {
