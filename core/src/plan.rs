@@ -2,7 +2,7 @@
 //! follows. Stages take `&Plan` and report their own scratch needs
 //! (`epi::scratch_len(&plan)`, `tv::scratch_len(&plan)`).
 
-use crate::align::AlignParams;
+use crate::align::{AlignMode, AlignParams};
 use crate::epi::EpiParams;
 use crate::error::{checked_product, Result};
 use crate::lightfield::Layout;
@@ -10,10 +10,12 @@ use crate::refine::RefineParams;
 use crate::tv::TvParams;
 
 /// Parameters of every stage.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {
     /// Alignment of an imperfect array before the other stages (used by
-    /// `pipeline::run_aligned`; `pipeline::run` takes the array as rectified).
+    /// `pipeline::run_aligned`; `pipeline::run` takes the array as rectified). The
+    /// default here is [`AlignMode::Off`]: a library caller opts in (the CLI and the page
+    /// default to [`AlignMode::Auto`]).
     pub align: AlignParams,
     /// Initial disparity from EPIs.
     pub epi: EpiParams,
@@ -21,6 +23,20 @@ pub struct Params {
     pub refine: RefineParams,
     /// Total-variation refinement.
     pub tv: TvParams,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            align: AlignParams {
+                mode: AlignMode::Off,
+                ..AlignParams::default()
+            },
+            epi: EpiParams::default(),
+            refine: RefineParams::default(),
+            tv: TvParams::default(),
+        }
+    }
 }
 
 /// Validated dimensions and parameters of one estimation.
