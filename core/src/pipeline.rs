@@ -42,6 +42,15 @@ pub fn scratch_len(plan: &Plan) -> usize {
     epi::scratch_len(plan).max(tv::scratch_len(plan))
 }
 
+/// Scratch (elements of `T`) [`run`] needs for `stages`: the EPI kernels alone for
+/// [`Stages::Epi`], the larger of EPI and TV for [`Stages::Full`].
+pub fn stage_scratch_len(plan: &Plan, stages: Stages) -> usize {
+    match stages {
+        Stages::Epi => epi::scratch_len(plan),
+        Stages::Full => scratch_len(plan),
+    }
+}
+
 /// Scratch (`f32` elements) [`run`] needs for the intermediate maps (disparity and
 /// confidence between the stages) and the refinement stage.
 pub fn map_scratch_len(plan: &Plan) -> usize {
@@ -84,10 +93,7 @@ pub fn run<T: Scalar, S: Sample>(
     history: &mut [f32],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
-    let needed = match stages {
-        Stages::Epi => epi::scratch_len(plan),
-        Stages::Full => scratch_len(plan),
-    };
+    let needed = stage_scratch_len(plan, stages);
     if scratch.len() < needed {
         return Err(Error::ScratchTooSmall {
             needed,
