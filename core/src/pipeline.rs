@@ -5,7 +5,7 @@
 
 use core::ops::ControlFlow;
 
-use crate::align::{self, AlignMode, AlignReport, WarpSample};
+use crate::align::{self, AlignMode, AlignParams, AlignReport, AlignedViews, WarpSample};
 use crate::epi;
 use crate::error::{checked_product, Error, Result};
 use crate::geometry::Homography;
@@ -209,6 +209,20 @@ pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
             .contains(r as isize - r0 as isize, c as isize - c0 as isize)
 }
 
+/// The alignment parameters of `plan` for `stages`: estimating only the centre row and
+/// column ([`AlignedViews::Cross`]) when the stages read no other view.
+pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
+    let mut params = plan.params().align;
+    let grid = plan.layout().grid;
+    let (r0, c0) = grid.center();
+    let off_cross = (0..grid.len())
+        .any(|v| v / grid.cols != r0 && v % grid.cols != c0 && reads_view(plan, stages, v));
+    if !off_cross {
+        params.views = AlignedViews::Cross;
+    }
+    params
+}
+
 /// Elements of the rectified light field buffer of [`align_views`] / [`run_aligned`]:
 /// the plan's layout (same strides as the input).
 pub fn aligned_len(plan: &Plan) -> Result<usize> {
@@ -246,7 +260,7 @@ pub struct AlignBuffers<'a, A> {
 /// The alignment prelude: estimates the homographies of `lf` with `plan`'s
 /// `params.align` and, unless the estimate was skipped (mode off, or auto found the
 /// array rectified or could not align it: see [`AlignReport::warning`]), warps the views
-/// `stages` read into `buffers.aligned` (bilinear). Returns the report; when it says
+/// `stages` read into `buffers.aligned`. Returns the report; when it says
 /// `skipped`, `buffers.aligned` is untouched and the stages should read `lf` itself.
 /// Mode on returns [`Error::Alignment`] for textureless or too different views.
 pub fn align_views<S: Sample, A: WarpSample + Sample>(
@@ -257,7 +271,7 @@ pub fn align_views<S: Sample, A: WarpSample + Sample>(
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<AlignReport> {
     same_layout(plan, lf)?;
-    let params = &plan.params().align;
+    let params = &align_params(plan, stages);
     if params.mode == AlignMode::Off {
         buffers.homographies.fill(Homography::IDENTITY);
         return Ok(AlignReport {
@@ -291,7 +305,8 @@ pub fn align_views<S: Sample, A: WarpSample + Sample>(
 
 /// Warps the views `stages` read ([`reads_view`]) of `lf` by `homographies` (rectified →
 /// view pixels, one per view) into `aligned` ([`aligned_len`] elements, the plan's
-/// layout), bilinear; the other views of `aligned` are left as they were.
+/// layout) with `params.align.interpolation`; the other views of `aligned` are left as
+/// they were.
 pub fn warp_views<S: Sample, A: WarpSample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -324,7 +339,14 @@ pub fn warp_views<S: Sample, A: WarpSample>(
                 .ok_or(Error::SizeOverflow {
                     what: "the aligned light field",
                 })?;
-            align::warp_rows(lf, homographies, view, y..y + 1, out)?;
+            align::warp_rows_with(
+                lf,
+                homographies,
+                view,
+                y..y + 1,
+                plan.params().align.interpolation,
+                out,
+            )?;
         }
     }
     report(progress, STAGE_WARP, views, views)

@@ -207,7 +207,7 @@ impl Estimator {
             stage_report(report, pipeline::STAGE_ALIGN, 0, 1)?;
             let outcome = align::estimate(
                 &lf,
-                &self.plan.params().align,
+                &pipeline::align_params(&self.plan, self.stages),
                 &mut homographies,
                 &mut scratch,
             )?;

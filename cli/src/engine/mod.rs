@@ -155,7 +155,11 @@ fn align_then_run<S: Sample + Sync>(
     stage: StageSelect,
     tracker: &Tracker<'_>,
 ) -> Result<Estimate, lfdepth::Error> {
-    let params = &plan.params().align;
+    let stages = match stage {
+        StageSelect::Epi => Stages::Epi,
+        StageSelect::Full => Stages::Full,
+    };
+    let params = &pipeline::align_params(plan, stages);
     if params.mode == AlignMode::Off {
         return run_stages(plan, lf, stage, tracker);
     }
@@ -172,10 +176,6 @@ fn align_then_run<S: Sample + Sync>(
         run_stages(plan, lf, stage, tracker)?
     } else {
         let start = Instant::now();
-        let stages = match stage {
-            StageSelect::Epi => Stages::Epi,
-            StageSelect::Full => Stages::Full,
-        };
         // Zeroed pages that are never written (views no stage reads) cost no memory.
         let mut aligned = vec![0.0f32; pipeline::aligned_len(plan)?];
         warp_parallel(plan, lf, stages, &homographies, &mut aligned, tracker)?;
@@ -223,7 +223,14 @@ fn warp_parallel<S: Sample + Sync>(
                                 what: "the aligned light field",
                             },
                         )?;
-                        align::warp_rows(lf, homographies, view, y..y + 1, row)?;
+                        align::warp_rows_with(
+                            lf,
+                            homographies,
+                            view,
+                            y..y + 1,
+                            plan.params().align.interpolation,
+                            row,
+                        )?;
                     }
                     Ok::<(), lfdepth::Error>(())
                 })?;

@@ -44,8 +44,8 @@ use crate::error::{checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
 
-pub use gauge::{gauge_fit, gauge_rms, reprojection_rms, GaugeFit};
-pub use warp::{warp_band, warp_rows, WarpSample};
+pub use gauge::{gauge_fit, gauge_fit_where, gauge_rms, reprojection_rms, GaugeFit};
+pub use warp::{warp_band, warp_rows, warp_rows_with, Interpolation, WarpSample};
 
 /// Most corners tracked from the centre view (compile-time capacity).
 pub const MAX_FEATURES: usize = 512;
@@ -95,6 +95,18 @@ pub enum Reference {
     Estimated,
 }
 
+/// Which views get a homography.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum AlignedViews {
+    /// Every view of the grid.
+    #[default]
+    All,
+    /// The centre row and column only (the others keep the identity): all the EPI stage
+    /// and the default refinement read, at a fifth of the tracking work on a 9×9 grid.
+    /// The pipeline picks this itself when its stages read no other view.
+    Cross,
+}
+
 /// Parameters of the alignment stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AlignParams {
@@ -119,6 +131,10 @@ pub struct AlignParams {
     pub min_inliers: usize,
     /// Seed of the RANSAC sampler (results are deterministic for a seed).
     pub seed: u64,
+    /// How the pipeline resamples the views into the rectified array.
+    pub interpolation: Interpolation,
+    /// Which views to estimate.
+    pub views: AlignedViews,
 }
 
 impl Default for AlignParams {
@@ -134,6 +150,8 @@ impl Default for AlignParams {
             rectified_rms: 0.1,
             min_inliers: 12,
             seed: 0x5eed_a11e,
+            interpolation: Interpolation::Bilinear,
+            views: AlignedViews::All,
         }
     }
 }
@@ -250,12 +268,16 @@ pub fn estimate<S: Sample>(
     }
     homographies.fill(Homography::IDENTITY);
     let mut report = AlignReport::default();
+    let set = match params.views {
+        AlignedViews::All => solve::ViewSet::All,
+        AlignedViews::Cross => solve::ViewSet::Cross,
+    };
     match params.mode {
         AlignMode::Off => {
             report.skipped = true;
             Ok(report)
         }
-        AlignMode::On => solve::run(lf, params, solve::ViewSet::All, homographies, scratch),
+        AlignMode::On => solve::run(lf, params, set, homographies, scratch),
         AlignMode::Auto => {
             let probe = solve::run(lf, params, solve::ViewSet::Probe, homographies, scratch);
             homographies.fill(Homography::IDENTITY);
@@ -274,7 +296,7 @@ pub fn estimate<S: Sample>(
                 report.rms = probe.identity_rms;
                 return Ok(report);
             }
-            match solve::run(lf, params, solve::ViewSet::All, homographies, scratch) {
+            match solve::run(lf, params, set, homographies, scratch) {
                 Ok(r) => Ok(r),
                 Err(e) => {
                     homographies.fill(Homography::IDENTITY);
