@@ -209,16 +209,21 @@ pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
             .contains(r as isize - r0 as isize, c as isize - c0 as isize)
 }
 
-/// The alignment parameters of `plan` for `stages`: estimating only the centre row and
-/// column ([`AlignedViews::Cross`]) when the stages read no other view.
+/// The alignment parameters of `plan` for `stages`: [`AlignedViews::Read`] becomes
+/// [`AlignedViews::Cross`] when the stages read no view off the centre row and column,
+/// else [`AlignedViews::All`].
 pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
     let mut params = plan.params().align;
-    let grid = plan.layout().grid;
-    let (r0, c0) = grid.center();
-    let off_cross = (0..grid.len())
-        .any(|v| v / grid.cols != r0 && v % grid.cols != c0 && reads_view(plan, stages, v));
-    if !off_cross {
-        params.views = AlignedViews::Cross;
+    if params.views == AlignedViews::Read {
+        let grid = plan.layout().grid;
+        let (r0, c0) = grid.center();
+        let off_cross = (0..grid.len())
+            .any(|v| v / grid.cols != r0 && v % grid.cols != c0 && reads_view(plan, stages, v));
+        params.views = if off_cross {
+            AlignedViews::All
+        } else {
+            AlignedViews::Cross
+        };
     }
     params
 }
@@ -592,6 +597,7 @@ mod tests {
         let plan = Plan::new(layout, params).unwrap();
         let cross = |plan: &Plan, stages| (0..25).filter(|&v| reads_view(plan, stages, v)).count();
         assert_eq!(cross(&plan, Stages::Full), 9);
+        assert_eq!(align_params(&plan, Stages::Full).views, AlignedViews::Cross);
         params.refine = RefineParams {
             views: ViewSet::CrossDiagonals,
             ..RefineParams::on()
@@ -599,6 +605,8 @@ mod tests {
         let plan = Plan::new(layout, params).unwrap();
         assert_eq!(cross(&plan, Stages::Epi), 9);
         assert_eq!(cross(&plan, Stages::Full), 17);
+        assert_eq!(align_params(&plan, Stages::Epi).views, AlignedViews::Cross);
+        assert_eq!(align_params(&plan, Stages::Full).views, AlignedViews::All);
         assert!(!reads_view(&plan, Stages::Full, 25));
 
         // Unread views keep what the buffer held; a wrong-sized buffer is an error.
