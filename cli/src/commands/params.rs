@@ -68,11 +68,11 @@ pub fn print_alignment(report: Option<&AlignReport>) {
             report.identity_rms
         );
     } else {
+        // Views outside the stages' reach keep the identity and no tracks.
+        let aligned = report.views.iter().filter(|v| v.inliers > 0).count();
         eprintln!(
-            "alignment: {} views aligned, reprojection RMS {:.3} px ({:.3} px before)",
-            report.views.len(),
-            report.rms,
-            report.identity_rms
+            "alignment: {aligned} views aligned, reprojection RMS {:.3} px ({:.3} px before)",
+            report.rms, report.identity_rms
         );
     }
 }
