@@ -257,8 +257,8 @@ pub struct AlignBuffers<'a, A> {
     pub homographies: &'a mut [Homography],
     /// [`align_scratch_len`] elements.
     pub scratch: &'a mut [f32],
-    /// [`aligned_len`] elements (the input's layout): receives the rectified views the stages read (see
-    /// [`reads_view`]); the other views are left as they were.
+    /// [`aligned_len`] elements (the input's layout): receives the rectified views the
+    /// stages read (see [`reads_view`]); the other views are left as they were.
     pub aligned: &'a mut [A],
 }
 
