@@ -1,8 +1,10 @@
 //! The native engine: runs the core pipeline over a loaded light field, bands and tiles
 //! in parallel with rayon, and reports progress and per-stage timings.
 //!
-//! Every pixel is computed by the same core code whatever the banding and the number of
-//! threads, so the result is bit-identical for any `threads`.
+//! Every stage computes in a scalar type `T` ([`estimate_in`]: `f32` or the Q16.16
+//! [`lfdepth::Q16`]; [`estimate`] is `f32`). Every pixel is computed by the same core
+//! code whatever the banding and the number of threads, so the result is bit-identical
+//! for any `threads`, in either type.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -10,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use lfdepth::epi::{self, Direction};
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
-use lfdepth::{refine, LightField, Params, Plan, Sample};
+use lfdepth::{refine, LightField, Params, Plan, Sample, Scalar, Q16};
 use rayon::prelude::*;
 
 /// How far the pipeline runs.
@@ -55,9 +57,41 @@ pub struct Estimate {
 /// enough that per-band overhead (scratch, progress) is negligible.
 pub const BAND_LINES: usize = 16;
 
-/// Estimates the disparity of the centre view. `progress(stage, done, total)` is called
-/// as work completes.
+/// The number type the stages compute in (the maps between them are `f32` either way).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// IEEE single precision.
+    #[default]
+    F32,
+    /// Q16.16 fixed point ([`lfdepth::Q16`]), as on a microcontroller without an FPU.
+    Q16,
+}
+
+/// Estimates the disparity of the centre view, every stage computing in `f32`.
+/// `progress(stage, done, total)` is called as work completes.
 pub fn estimate<S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    estimate_in::<f32, S>(lf, options, progress)
+}
+
+/// [`estimate`] with every stage computing in `precision`.
+pub fn estimate_with<S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    precision: Precision,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    match precision {
+        Precision::F32 => estimate_in::<f32, S>(lf, options, progress),
+        Precision::Q16 => estimate_in::<Q16, S>(lf, options, progress),
+    }
+}
+
+/// [`estimate`] with every stage (EPI, refinement, TV) computing in `T`.
+pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
     options: &EstimateOptions,
     progress: &mut dyn FnMut(&str, u64, u64),
@@ -89,8 +123,10 @@ pub fn estimate<S: Sample + Sync>(
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
             let result = match &pool {
-                Some(pool) => pool.install(|| run_stages(&plan, lf, options.stage, &tracker)),
-                None => run_stages(&plan, lf, options.stage, &tracker),
+                Some(pool) => {
+                    pool.install(|| run_stages::<T, S>(&plan, lf, options.stage, &tracker))
+                }
+                None => run_stages::<T, S>(&plan, lf, options.stage, &tracker),
             };
             finished.store(true, Ordering::Release);
             result
@@ -139,25 +175,26 @@ impl Tracker<'_> {
 }
 
 /// The selected stages, one after another, each in parallel.
-fn run_stages<S: Sample + Sync>(
+fn run_stages<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stage: StageSelect,
     tracker: &Tracker<'_>,
 ) -> Result<Estimate, lfdepth::Error> {
-    let (mut estimate, range) = estimate_epi(plan, lf, tracker)?;
+    let (mut estimate, range) = estimate_epi::<T, S>(plan, lf, tracker)?;
     if stage == StageSelect::Epi {
         return Ok(estimate);
     }
     if plan.params().refine.enabled {
         let start = Instant::now();
-        let (d, c) = refine_parallel(plan, lf, range, &estimate.disparity, tracker)?;
+        let (d, c) = refine_parallel::<T, S>(plan, lf, range, &estimate.disparity, tracker)?;
         estimate.disparity = d;
         estimate.confidence = c;
         estimate.timings.push((refine::STAGE, start.elapsed()));
     }
     let start = Instant::now();
-    let (d, residuals) = tv_parallel(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
+    let (d, residuals) =
+        tv_parallel::<T, S>(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
     estimate.disparity = d;
     estimate.residuals = residuals;
     estimate.timings.push((tv::STAGE, start.elapsed()));
@@ -165,7 +202,7 @@ fn run_stages<S: Sample + Sync>(
 }
 
 /// The refinement stage in parallel bands.
-fn refine_parallel<S: Sample + Sync>(
+fn refine_parallel<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     range: (f32, f32),
@@ -181,7 +218,7 @@ fn refine_parallel<S: Sample + Sync>(
         .zip(c.par_chunks_mut(band))
         .enumerate()
         .try_for_each_init(
-            || vec![0.0f32; refine::scratch_len(plan)],
+            || vec![T::ZERO; refine::scratch_len(plan)],
             |scratch, (index, (d, c))| {
                 let rows = refine::band_rows(plan, index)?;
                 refine::refine_band(plan, lf, range, disparity, rows, d, c, scratch)?;
@@ -194,7 +231,7 @@ fn refine_parallel<S: Sample + Sync>(
 
 /// The TV stage: tiles in parallel into their own buffers, stitched in tile order, their
 /// residual histories summed in tile order (so the sums do not depend on the threads).
-fn tv_parallel<S: Sample + Sync>(
+fn tv_parallel<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     disparity: &[f32],
@@ -210,7 +247,7 @@ fn tv_parallel<S: Sample + Sync>(
     let tiles: Vec<(Vec<f32>, Vec<f32>)> = (0..cols * rows)
         .into_par_iter()
         .map_init(
-            || vec![0.0f32; tv::scratch_len(plan)],
+            || vec![T::ZERO; tv::scratch_len(plan)],
             |scratch, index| {
                 let (core, _) = tv::tile_rects(plan, index)?;
                 let mut out = vec![0.0f32; core.width * core.height];
@@ -254,8 +291,8 @@ fn tv_parallel<S: Sample + Sync>(
     Ok((out, history))
 }
 
-/// The EPI stage in parallel bands (f32 kernels), with its output range.
-fn estimate_epi<S: Sample + Sync>(
+/// The EPI stage in parallel bands (kernels in `T`), with its output range.
+fn estimate_epi<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     tracker: &Tracker<'_>,
@@ -265,7 +302,7 @@ fn estimate_epi<S: Sample + Sync>(
 
     let start = Instant::now();
     tracker.start(epi::STAGE_RANGE, 1);
-    let mut scratch = vec![0.0f32; epi::scratch_len(plan)];
+    let mut scratch = vec![T::ZERO; epi::scratch_len(plan)];
     let hyps = epi::hypotheses(plan, lf, &mut scratch)?;
     drop(scratch);
     tracker.add(1);
@@ -282,7 +319,7 @@ fn estimate_epi<S: Sample + Sync>(
             .zip(c.par_chunks_mut(BAND_LINES * n))
             .enumerate()
             .try_for_each_init(
-                || vec![0.0f32; epi::band_scratch_len(plan, direction)],
+                || vec![T::ZERO; epi::band_scratch_len(plan, direction)],
                 |scratch, (band, (d, c))| {
                     let first = band * BAND_LINES;
                     let count = d.len() / n;
