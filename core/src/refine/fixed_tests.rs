@@ -72,18 +72,19 @@ fn agreement(a: &[f32], b: &[f32], tol: f32) -> (f32, f32) {
 
 #[test]
 fn q16_pipeline_stays_within_two_hundredths_of_f32_on_synthetic_scenes() {
-    // Low-texture is left out: there the EPI stage's Q16.16 estimate already differs
-    // (94 % of pixels within 0.02 px of f32 at 256², docs/bench-fixed.md; the refinement
-    // alone agrees, below).
-    for (scene, seed) in [
-        (SceneKind::Planes, 1),
-        (SceneKind::Slanted, 2),
-        (SceneKind::Spheres, 3),
-        (SceneKind::Occlusion, 4),
-        (SceneKind::Thin, 5),
-        (SceneKind::Mixed, 6),
+    // Low-texture at 64²: at 32² its one textured patch and the borders leave too few
+    // pixels where the views carry information (measured 98.2 % at 32², 99.2 % at 64²,
+    // 99.5 % at 256²; see docs/bench-fixed.md).
+    for (scene, size, seed) in [
+        (SceneKind::Planes, 32, 1),
+        (SceneKind::Slanted, 32, 2),
+        (SceneKind::Spheres, 32, 3),
+        (SceneKind::Occlusion, 32, 4),
+        (SceneKind::Thin, 32, 5),
+        (SceneKind::Mixed, 32, 6),
+        (SceneKind::LowTexture, 64, 7),
     ] {
-        let rendered = render(scene, 32, seed);
+        let rendered = render(scene, size, seed);
         let reference = full::<f32>(&rendered, Params::default());
         let fixed = full::<Q16>(&rendered, Params::default());
         let (share, max) = agreement(&reference, &fixed, 0.02);
