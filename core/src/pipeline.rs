@@ -36,10 +36,12 @@ pub enum Stages {
     Full,
 }
 
-/// Scratch (elements of `T`) [`run`] needs for the EPI and TV kernels ([`Stages::Epi`]
-/// and [`estimate`] need only `epi::scratch_len`).
+/// Scratch (elements of `T`) [`run`] needs for the EPI, refinement and TV kernels
+/// ([`Stages::Epi`] and [`estimate`] need only `epi::scratch_len`).
 pub fn scratch_len(plan: &Plan) -> usize {
-    epi::scratch_len(plan).max(tv::scratch_len(plan))
+    epi::scratch_len(plan)
+        .max(tv::scratch_len(plan))
+        .max(refine::scratch_len(plan))
 }
 
 /// Scratch (elements of `T`) [`run`] needs for `stages`: the EPI kernels alone for
@@ -52,11 +54,9 @@ pub fn stage_scratch_len(plan: &Plan, stages: Stages) -> usize {
 }
 
 /// Scratch (`f32` elements) [`run`] needs for the intermediate maps (disparity and
-/// confidence between the stages) and the refinement stage.
+/// confidence between the stages).
 pub fn map_scratch_len(plan: &Plan) -> usize {
-    plan.pixels()
-        .saturating_mul(2)
-        .saturating_add(refine::scratch_len(plan))
+    plan.pixels().saturating_mul(2)
 }
 
 fn report(
@@ -76,8 +76,8 @@ fn report(
 }
 
 /// Runs `stages`: the disparity (`f32`, row-major, `plan.pixels()`) and its confidence in
-/// `[0, 1]` for the centre view of `lf`, the EPI and TV kernels computing in `T` (the
-/// refinement computes in `f32`). `scratch` needs [`scratch_len`] elements, `maps`
+/// `[0, 1]` for the centre view of `lf`, every stage computing in `T` (the maps between
+/// the stages are `f32`). `scratch` needs [`scratch_len`] elements, `maps`
 /// [`map_scratch_len`]; `history` receives the TV residual norm per iteration (pass an
 /// empty slice to skip it). `progress` is called as work completes; returning
 /// `ControlFlow::Break(())` stops with [`crate::Error::Cancelled`].
@@ -113,7 +113,7 @@ pub fn run<T: Scalar, S: Sample>(
         });
     }
     let (mid_d, rest) = maps.split_at_mut(pixels);
-    let (mid_c, refine_scratch) = rest.split_at_mut(pixels);
+    let mid_c = &mut rest[..pixels];
     if plan.params().refine.enabled {
         refine::refine_with_progress(
             plan,
@@ -122,7 +122,7 @@ pub fn run<T: Scalar, S: Sample>(
             disparity,
             mid_d,
             mid_c,
-            refine_scratch,
+            scratch,
             progress,
         )?;
     } else {

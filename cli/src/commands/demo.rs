@@ -11,7 +11,7 @@ use lfdepth::{Grid, LightField, Params};
 use super::estimate::write_colour_png;
 use super::params::{print_alignment, AlignChoice};
 use super::synth::{default_misalignment, parse_scene, render};
-use super::{create_dir, CliError, Stage};
+use super::{create_dir, CliError, ScalarArg, Stage};
 use crate::colormap;
 use crate::engine::{self, EstimateOptions};
 use crate::io::pfm::{self, Pfm};
@@ -33,6 +33,9 @@ pub struct DemoArgs {
     /// How far to run: `epi` or `full`.
     #[arg(long, value_enum, default_value_t = Stage::Full)]
     pub stage: Stage,
+    /// Number type of every stage: `f32` or `q16` (Q16.16 fixed point).
+    #[arg(long, value_enum, default_value_t = ScalarArg::F32)]
+    pub scalar: ScalarArg,
     /// Worker threads (default: every core).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub threads: Option<u16>,
@@ -71,7 +74,9 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         threads: args.threads.map(usize::from),
     };
     let mut bar = StageProgress::new(args.quiet);
-    let result = engine::estimate(&lf, &options, &mut |s, d, t| bar.update(s, d, t));
+    let result = engine::estimate_with(&lf, &options, args.scalar.into(), &mut |s, d, t| {
+        bar.update(s, d, t)
+    });
     bar.finish();
     let estimate = result.map_err(|e| CliError::core("estimating the demo scene", e))?;
     print_alignment(estimate.align.as_ref());

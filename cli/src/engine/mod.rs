@@ -1,8 +1,10 @@
 //! The native engine: runs the core pipeline over a loaded light field, bands and tiles
 //! in parallel with rayon, and reports progress and per-stage timings.
 //!
-//! Every pixel is computed by the same core code whatever the banding and the number of
-//! threads, so the result is bit-identical for any `threads`.
+//! Every stage computes in a scalar type `T` ([`estimate_in`]: `f32` or the Q16.16
+//! [`lfdepth::Q16`]; [`estimate`] is `f32`). Every pixel is computed by the same core
+//! code whatever the banding and the number of threads, so the result is bit-identical
+//! for any `threads`, in either type.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -12,7 +14,7 @@ use lfdepth::align::{self, AlignMode, AlignReport};
 use lfdepth::epi::{self, Direction};
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
-use lfdepth::{refine, Homography, LightField, Params, Plan, Sample};
+use lfdepth::{refine, Homography, LightField, Params, Plan, Sample, Scalar, Q16};
 use rayon::prelude::*;
 
 /// How far the pipeline runs.
@@ -63,9 +65,41 @@ pub const BAND_LINES: usize = 16;
 /// Rows per parallel band of the warp into the rectified array.
 pub const WARP_BAND_ROWS: usize = 32;
 
-/// Estimates the disparity of the centre view. `progress(stage, done, total)` is called
-/// as work completes.
+/// The number type the stages compute in (the maps between them are `f32` either way).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// IEEE single precision.
+    #[default]
+    F32,
+    /// Q16.16 fixed point ([`lfdepth::Q16`]), as on a microcontroller without an FPU.
+    Q16,
+}
+
+/// Estimates the disparity of the centre view, every stage computing in `f32`.
+/// `progress(stage, done, total)` is called as work completes.
 pub fn estimate<S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    estimate_in::<f32, S>(lf, options, progress)
+}
+
+/// [`estimate`] with every stage computing in `precision`.
+pub fn estimate_with<S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    precision: Precision,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    match precision {
+        Precision::F32 => estimate_in::<f32, S>(lf, options, progress),
+        Precision::Q16 => estimate_in::<Q16, S>(lf, options, progress),
+    }
+}
+
+/// [`estimate`] with every stage (EPI, refinement, TV) computing in `T`.
+pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
     options: &EstimateOptions,
     progress: &mut dyn FnMut(&str, u64, u64),
@@ -97,8 +131,10 @@ pub fn estimate<S: Sample + Sync>(
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
             let result = match &pool {
-                Some(pool) => pool.install(|| align_then_run(&plan, lf, options.stage, &tracker)),
-                None => align_then_run(&plan, lf, options.stage, &tracker),
+                Some(pool) => {
+                    pool.install(|| align_then_run::<T, S>(&plan, lf, options.stage, &tracker))
+                }
+                None => align_then_run::<T, S>(&plan, lf, options.stage, &tracker),
             };
             finished.store(true, Ordering::Release);
             result
@@ -149,7 +185,7 @@ impl Tracker<'_> {
 /// The alignment prelude (when `params.align.mode` is not off), then the stages on the
 /// rectified views: homographies by the core estimate, the views the stages read warped
 /// in parallel bands into an `f32` light field of the input's layout.
-fn align_then_run<S: Sample + Sync>(
+fn align_then_run<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stage: StageSelect,
@@ -161,7 +197,7 @@ fn align_then_run<S: Sample + Sync>(
     };
     let params = &pipeline::align_params(plan, stages);
     if params.mode == AlignMode::Off {
-        return run_stages(plan, lf, stage, tracker);
+        return run_stages::<T, S>(plan, lf, stage, tracker);
     }
     let start = Instant::now();
     tracker.start(pipeline::STAGE_ALIGN, 1);
@@ -173,7 +209,7 @@ fn align_then_run<S: Sample + Sync>(
     tracker.add(1);
     let mut timings = vec![(pipeline::STAGE_ALIGN, start.elapsed())];
     let mut estimate = if report.skipped {
-        run_stages(plan, lf, stage, tracker)?
+        run_stages::<T, S>(plan, lf, stage, tracker)?
     } else {
         let start = Instant::now();
         // Zeroed pages that are never written (views no stage reads) cost no memory.
@@ -181,7 +217,7 @@ fn align_then_run<S: Sample + Sync>(
         warp_parallel(plan, lf, stages, &homographies, &mut aligned, tracker)?;
         timings.push((pipeline::STAGE_WARP, start.elapsed()));
         let rectified = LightField::new(&aligned[..], layout)?;
-        run_stages(plan, &rectified, stage, tracker)?
+        run_stages::<T, f32>(plan, &rectified, stage, tracker)?
     };
     timings.append(&mut estimate.timings);
     estimate.timings = timings;
@@ -240,25 +276,26 @@ fn warp_parallel<S: Sample + Sync>(
 }
 
 /// The selected stages, one after another, each in parallel.
-fn run_stages<S: Sample + Sync>(
+fn run_stages<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stage: StageSelect,
     tracker: &Tracker<'_>,
 ) -> Result<Estimate, lfdepth::Error> {
-    let (mut estimate, range) = estimate_epi(plan, lf, tracker)?;
+    let (mut estimate, range) = estimate_epi::<T, S>(plan, lf, tracker)?;
     if stage == StageSelect::Epi {
         return Ok(estimate);
     }
     if plan.params().refine.enabled {
         let start = Instant::now();
-        let (d, c) = refine_parallel(plan, lf, range, &estimate.disparity, tracker)?;
+        let (d, c) = refine_parallel::<T, S>(plan, lf, range, &estimate.disparity, tracker)?;
         estimate.disparity = d;
         estimate.confidence = c;
         estimate.timings.push((refine::STAGE, start.elapsed()));
     }
     let start = Instant::now();
-    let (d, residuals) = tv_parallel(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
+    let (d, residuals) =
+        tv_parallel::<T, S>(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
     estimate.disparity = d;
     estimate.residuals = residuals;
     estimate.timings.push((tv::STAGE, start.elapsed()));
@@ -266,7 +303,7 @@ fn run_stages<S: Sample + Sync>(
 }
 
 /// The refinement stage in parallel bands.
-fn refine_parallel<S: Sample + Sync>(
+fn refine_parallel<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     range: (f32, f32),
@@ -282,7 +319,7 @@ fn refine_parallel<S: Sample + Sync>(
         .zip(c.par_chunks_mut(band))
         .enumerate()
         .try_for_each_init(
-            || vec![0.0f32; refine::scratch_len(plan)],
+            || vec![T::ZERO; refine::scratch_len(plan)],
             |scratch, (index, (d, c))| {
                 let rows = refine::band_rows(plan, index)?;
                 refine::refine_band(plan, lf, range, disparity, rows, d, c, scratch)?;
@@ -295,7 +332,7 @@ fn refine_parallel<S: Sample + Sync>(
 
 /// The TV stage: tiles in parallel into their own buffers, stitched in tile order, their
 /// residual histories summed in tile order (so the sums do not depend on the threads).
-fn tv_parallel<S: Sample + Sync>(
+fn tv_parallel<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     disparity: &[f32],
@@ -311,7 +348,7 @@ fn tv_parallel<S: Sample + Sync>(
     let tiles: Vec<(Vec<f32>, Vec<f32>)> = (0..cols * rows)
         .into_par_iter()
         .map_init(
-            || vec![0.0f32; tv::scratch_len(plan)],
+            || vec![T::ZERO; tv::scratch_len(plan)],
             |scratch, index| {
                 let (core, _) = tv::tile_rects(plan, index)?;
                 let mut out = vec![0.0f32; core.width * core.height];
@@ -355,8 +392,8 @@ fn tv_parallel<S: Sample + Sync>(
     Ok((out, history))
 }
 
-/// The EPI stage in parallel bands (f32 kernels), with its output range.
-fn estimate_epi<S: Sample + Sync>(
+/// The EPI stage in parallel bands (kernels in `T`), with its output range.
+fn estimate_epi<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     tracker: &Tracker<'_>,
@@ -366,7 +403,7 @@ fn estimate_epi<S: Sample + Sync>(
 
     let start = Instant::now();
     tracker.start(epi::STAGE_RANGE, 1);
-    let mut scratch = vec![0.0f32; epi::scratch_len(plan)];
+    let mut scratch = vec![T::ZERO; epi::scratch_len(plan)];
     let hyps = epi::hypotheses(plan, lf, &mut scratch)?;
     drop(scratch);
     tracker.add(1);
@@ -383,7 +420,7 @@ fn estimate_epi<S: Sample + Sync>(
             .zip(c.par_chunks_mut(BAND_LINES * n))
             .enumerate()
             .try_for_each_init(
-                || vec![0.0f32; epi::band_scratch_len(plan, direction)],
+                || vec![T::ZERO; epi::band_scratch_len(plan, direction)],
                 |scratch, (band, (d, c))| {
                     let first = band * BAND_LINES;
                     let count = d.len() / n;
