@@ -1,7 +1,9 @@
 //! Criterion benchmarks of the whole pipeline (engine, `StageSelect::Full`) on a
 //! 9×9×512×512 light field: HCI cotton when `../shared/data` is present, else a synthetic
 //! Mixed scene; 1 and 2 threads; the default pipeline (EPI → refine → TV), the refinement
-//! without propagation, and the paper's pipeline (EPI → TV).
+//! without propagation, and the paper's pipeline (EPI → TV). Group `scalar`: the default
+//! pipeline computing in `f32` and in Q16.16 fixed point, one thread, on a smaller
+//! synthetic scene (9×9×192×192 Mixed) so that the Q16.16 case stays under two minutes.
 
 #[path = "../tests/tv_support.rs"]
 mod tv_support;
@@ -12,7 +14,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use lfdepth::refine::RefineParams;
 use lfdepth::synth::{self, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, Layout, LightField, Params};
-use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, estimate_with, EstimateOptions, Precision, StageSelect};
 
 /// The views and layout of the benchmark scene, and its name.
 fn scene() -> (Vec<u8>, Layout, &'static str) {
@@ -77,5 +79,33 @@ fn pipeline(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, pipeline);
+/// The default pipeline in `f32` and in Q16.16 (ids `scalar/mixed192_{f32,q16}_1t`).
+fn scalar(c: &mut Criterion) {
+    let size = 192;
+    let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), size, size);
+    let layout = spec.layout();
+    let mut views = vec![0u8; layout.validate().unwrap()];
+    let mut gt = vec![0.0f32; size * size];
+    let mut homographies = vec![Homography::IDENTITY; 81];
+    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
+    let lf = LightField::new(&views, layout).unwrap();
+    let mut group = c.benchmark_group("scalar");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(15))
+        .warm_up_time(Duration::from_secs(2));
+    let options = EstimateOptions {
+        params: Params::default(),
+        stage: StageSelect::Full,
+        threads: Some(1),
+    };
+    for (name, precision) in [("f32", Precision::F32), ("q16", Precision::Q16)] {
+        group.bench_function(format!("mixed{size}_{name}_1t"), |b| {
+            b.iter(|| estimate_with(&lf, &options, precision, &mut |_, _, _| {}).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, pipeline, scalar);
 criterion_main!(benches);

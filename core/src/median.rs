@@ -184,9 +184,7 @@ const SLOPE_ROWS: usize = 2 * MAX_RADIUS + 1;
 /// Scratch (`f32` elements) of [`filter_rows`] and [`filter`]: the steps of one row plus
 /// the slopes (x and y) of every window row, `(1 + 2 · SLOPE_ROWS) · width`.
 pub fn scratch_len(plan: &Plan) -> usize {
-    plan.layout()
-        .width
-        .saturating_mul(1 + 2 * SLOPE_ROWS)
+    plan.layout().width.saturating_mul(1 + 2 * SLOPE_ROWS)
 }
 
 /// Filters the image rows `rows` of `input` (row-major, `plan.pixels()`) into `out`
@@ -518,7 +516,14 @@ mod tests {
             }
         }
         let mut out = [0.0f32; 32 * 24];
-        filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 32 * 31]).unwrap();
+        filter(
+            &plan,
+            &lf.center_view(),
+            &input,
+            &mut out,
+            &mut [0.0; 32 * 31],
+        )
+        .unwrap();
         for y in 0..h {
             for x in 0..w {
                 let want = if x >= 16 { 1.5 } else { -0.5 };
@@ -551,7 +556,14 @@ mod tests {
             }
         }
         let mut whole = [0.0f32; 24 * 20];
-        filter(&plan, &lf.center_view(), &input, &mut whole, &mut [0.0; 24 * 31]).unwrap();
+        filter(
+            &plan,
+            &lf.center_view(),
+            &input,
+            &mut whole,
+            &mut [0.0; 24 * 31],
+        )
+        .unwrap();
         // Interior pixels (full symmetric window) keep their value on a plane.
         let r = MedianParams::default().radius;
         for y in r..h - r {
@@ -610,7 +622,14 @@ mod tests {
         let lf = LightField::new(&views, *plan.layout()).unwrap();
         let input = [0.0f32; 256];
         let mut out = [0.0f32; 255];
-        assert!(filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 16 * 31]).is_err());
+        assert!(filter(
+            &plan,
+            &lf.center_view(),
+            &input,
+            &mut out,
+            &mut [0.0; 16 * 31]
+        )
+        .is_err());
         let mut out = [0.0f32; 256];
         assert!(filter(
             &plan,
@@ -621,7 +640,13 @@ mod tests {
         )
         .is_err());
         assert!(matches!(
-            filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 16 * 31 - 1]),
+            filter(
+                &plan,
+                &lf.center_view(),
+                &input,
+                &mut out,
+                &mut [0.0; 16 * 31 - 1]
+            ),
             Err(Error::ScratchTooSmall { .. })
         ));
         assert!(filter_rows(
@@ -644,7 +669,14 @@ mod tests {
         input[17] = f32::NAN;
         input[40] = f32::INFINITY;
         let mut out = [0.0f32; 256];
-        filter(&plan, &lf.center_view(), &input, &mut out, &mut [0.0; 32 * 31]).unwrap();
+        filter(
+            &plan,
+            &lf.center_view(),
+            &input,
+            &mut out,
+            &mut [0.0; 32 * 31],
+        )
+        .unwrap();
         assert!(out[17].is_nan());
         assert_eq!(out[40], f32::INFINITY);
         for (i, v) in out.iter().enumerate() {

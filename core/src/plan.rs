@@ -2,6 +2,7 @@
 //! follows. Stages take `&Plan` and report their own scratch needs
 //! (`epi::scratch_len(&plan)`, `tv::scratch_len(&plan)`).
 
+use crate::align::{AlignMode, AlignParams};
 use crate::epi::EpiParams;
 use crate::error::{checked_product, Result};
 use crate::lightfield::Layout;
@@ -12,23 +13,32 @@ use crate::tv::TvParams;
 /// Parameters of every stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {
+    /// Alignment of an imperfect array before the other stages (used by
+    /// `pipeline::run_aligned`; `pipeline::run` takes the array as rectified). The
+    /// default here is [`AlignMode::Off`]: a library caller opts in (the CLI and the page
+    /// default to [`AlignMode::Auto`]).
+    pub align: AlignParams,
     /// Initial disparity from EPIs.
     pub epi: EpiParams,
     /// Photometric refinement of the EPI disparity over many views.
     pub refine: RefineParams,
     /// Total-variation refinement.
     pub tv: TvParams,
-    /// Edge-snapping weighted median after TV.
+    /// Edge-snapping weighted median guided by the centre view (before TV by default).
     pub median: MedianParams,
 }
 
 impl Default for Params {
-    /// Every stage's default, except TV's λ: 0.1 instead of the paper's 0.5
+    /// Every stage's default, alignment off (see [`Params::align`]), and TV's λ: 0.1 instead of the paper's 0.5
     /// ([`TvParams::default`]). After the refinement and the median the data term is
     /// accurate to a few hundredths of a pixel almost everywhere, and λ = 0.5 flattens
     /// curved surfaces (docs/bench-median.md has the λ table).
     fn default() -> Self {
         Params {
+            align: AlignParams {
+                mode: AlignMode::Off,
+                ..AlignParams::default()
+            },
             epi: EpiParams::default(),
             refine: RefineParams::default(),
             tv: TvParams {
@@ -44,6 +54,7 @@ impl Params {
     /// The paper's pipeline: its EPI variant, no refinement, no median, TV with λ = 0.5.
     pub fn paper() -> Self {
         Params {
+            align: Params::default().align,
             epi: EpiParams::paper(),
             refine: RefineParams::off(),
             tv: TvParams::default(),
@@ -64,6 +75,7 @@ impl Plan {
     /// Validates the layout and every stage's parameters.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         layout.validate()?;
+        params.align.validate()?;
         params.epi.validate()?;
         params.refine.validate()?;
         params.tv.validate()?;

@@ -71,6 +71,10 @@ pub trait Scalar:
     fn abs(self) -> Self;
     /// Whether the value is finite (always true for fixed point).
     fn is_finite(self) -> bool;
+    /// `(⌊self⌋, self − ⌊self⌋)`: the integer part rounded down (saturating to the `i32`
+    /// range) and the fraction in `[0, 1)`. Fixed point splits the raw bits, exactly;
+    /// kernels that index pixels at sub-pixel positions use it instead of leaving `Self`.
+    fn floor_fract(self) -> (i32, Self);
 
     /// The smaller of two values (`f32`: a NaN operand yields the other one).
     #[inline]
@@ -134,6 +138,12 @@ impl Scalar for f32 {
     #[inline(always)]
     fn is_finite(self) -> bool {
         self.is_finite()
+    }
+    #[inline(always)]
+    fn floor_fract(self) -> (i32, Self) {
+        let floor = libm::floorf(self);
+        // `as` saturates (and maps NaN to 0).
+        (floor as i32, self - floor)
     }
 }
 
@@ -337,6 +347,11 @@ impl Scalar for Q16 {
     fn is_finite(self) -> bool {
         true
     }
+    #[inline(always)]
+    fn floor_fract(self) -> (i32, Self) {
+        // Arithmetic shift rounds towards −∞; the low bits are the fraction.
+        (self.0 >> FRAC_BITS, Q16(self.0 & (ONE_RAW as i32 - 1)))
+    }
 }
 
 #[cfg(test)]
@@ -427,6 +442,21 @@ mod tests {
         assert_eq!(q(-4.0).sqrt(), Q16::ZERO);
         assert_eq!(Q16::MAX.sqrt().raw(), 11863283); // sqrt(32768) * 65536 = 11863283.2
         assert_eq!(Q16::LSB.sqrt().raw(), 256);
+    }
+
+    #[test]
+    fn floor_fract_splits_at_the_floor() {
+        for (v, i, f) in [
+            (2.75f32, 2, 0.75f32),
+            (-2.25, -3, 0.75),
+            (3.0, 3, 0.0),
+            (-0.5, -1, 0.5),
+        ] {
+            assert_eq!(Scalar::floor_fract(v), (i, f), "{v}");
+            assert_eq!(q(v).floor_fract(), (i, q(f)), "{v}");
+        }
+        assert_eq!(Q16::MIN.floor_fract(), (-32768, Q16::ZERO));
+        assert_eq!(Q16::MAX.floor_fract(), (32767, q(1.0) - Q16::LSB));
     }
 
     #[test]

@@ -7,9 +7,9 @@ use clap::Args;
 use lfdepth::LightField;
 
 use super::params::ParamArgs;
-use super::{CliError, Stage, ViewArgs};
+use super::{CliError, ScalarArg, Stage, ViewArgs};
 use crate::colormap;
-use crate::engine::{self, Estimate, EstimateOptions};
+use crate::engine::{self, Estimate, EstimateOptions, Precision};
 use crate::io::scene::{self, Scene, Views};
 use crate::io::{pfm, png};
 use crate::progress::StageProgress;
@@ -45,6 +45,9 @@ pub struct EstimateArgs {
     /// How far to run: `epi` (initial estimate) or `full` (with TV refinement).
     #[arg(long, value_enum, default_value_t = Stage::Full)]
     pub stage: Stage,
+    /// Number type of every stage: `f32` or `q16` (Q16.16 fixed point).
+    #[arg(long, value_enum, default_value_t = ScalarArg::F32)]
+    pub scalar: ScalarArg,
     /// Worker threads (default: every core).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub threads: Option<u16>,
@@ -59,18 +62,19 @@ pub struct EstimateArgs {
     pub quiet: bool,
 }
 
-/// Runs the engine on a loaded scene, whatever its sample type.
+/// Runs the engine on a loaded scene, whatever its sample type, computing in `precision`.
 pub fn estimate_scene(
     scene: &Scene,
     options: &EstimateOptions,
+    precision: Precision,
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, CliError> {
     let context = || format!("estimating {}", scene.dir().display());
     let result = match &scene.views {
         Views::U8(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate(&lf, options, progress)),
+            .and_then(|lf| engine::estimate_with(&lf, options, precision, progress)),
         Views::F32(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate(&lf, options, progress)),
+            .and_then(|lf| engine::estimate_with(&lf, options, precision, progress)),
     };
     result.map_err(|e| CliError::core(context(), e))
 }
@@ -122,9 +126,12 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
         threads: args.threads.map(usize::from),
     };
     let mut bar = StageProgress::new(args.quiet);
-    let result = estimate_scene(&scene, &options, &mut |s, d, t| bar.update(s, d, t));
+    let result = estimate_scene(&scene, &options, args.scalar.into(), &mut |s, d, t| {
+        bar.update(s, d, t)
+    });
     bar.finish();
     let estimate = result?;
+    super::params::print_alignment(estimate.align.as_ref());
     let (w, h) = (estimate.width, estimate.height);
     pfm::write(
         &args.output,

@@ -8,7 +8,7 @@ use lfdepth::metrics::{self, EvalOptions, Scores};
 
 use super::estimate::estimate_scene;
 use super::params::ParamArgs;
-use super::{CliError, Stage, ViewArgs};
+use super::{CliError, ScalarArg, Stage, ViewArgs};
 use crate::engine::EstimateOptions;
 use crate::io::pfm::{self, Pfm};
 use crate::io::png::{self, Samples};
@@ -47,6 +47,9 @@ pub struct EvalArgs {
     /// With --dataset: how far to run the estimator.
     #[arg(long, value_enum, default_value_t = Stage::Full, requires = "dataset")]
     pub stage: Stage,
+    /// With --dataset: number type of every stage, `f32` or `q16` (Q16.16 fixed point).
+    #[arg(long, value_enum, default_value_t = ScalarArg::F32, requires = "dataset")]
+    pub scalar: ScalarArg,
     /// With --dataset: worker threads (default: every core).
     #[arg(long, value_name = "N", requires = "dataset", value_parser = clap::value_parser!(u16).range(1..))]
     pub threads: Option<u16>,
@@ -255,9 +258,13 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
             threads: args.threads.map(usize::from),
         };
         let mut bar = StageProgress::new(false);
-        let result = estimate_scene(&loaded, &options, &mut |s, d, t| bar.update(s, d, t));
+        let result = estimate_scene(&loaded, &options, args.scalar.into(), &mut |s, d, t| {
+            bar.update(s, d, t)
+        });
         bar.finish();
         let estimate = result?;
+        eprint!("{name}: ");
+        super::params::print_alignment(estimate.align.as_ref());
         let seconds = start.elapsed().as_secs_f64();
         let gt_path = dir.join(GROUND_TRUTH_FILE);
         let gt = pfm::read(&gt_path)?;

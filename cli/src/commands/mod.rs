@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use lfdepth::Grid;
 
-use crate::engine::StageSelect;
+use crate::engine::{Precision, StageSelect};
 use crate::io::IoError;
 
 /// Dense disparity (depth) from light fields: EPI structure tensor + weighted
@@ -78,6 +78,25 @@ impl From<Stage> for StageSelect {
         match s {
             Stage::Epi => StageSelect::Epi,
             Stage::Full => StageSelect::Full,
+        }
+    }
+}
+
+/// The number type every stage computes in (`--scalar`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum ScalarArg {
+    /// IEEE single precision.
+    #[default]
+    F32,
+    /// Q16.16 fixed point, as firmware without an FPU runs it.
+    Q16,
+}
+
+impl From<ScalarArg> for Precision {
+    fn from(s: ScalarArg) -> Self {
+        match s {
+            ScalarArg::F32 => Precision::F32,
+            ScalarArg::Q16 => Precision::Q16,
         }
     }
 }

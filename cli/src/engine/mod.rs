@@ -1,17 +1,21 @@
 //! The native engine: runs the core pipeline over a loaded light field, bands and tiles
 //! in parallel with rayon, and reports progress and per-stage timings.
 //!
-//! Every pixel is computed by the same core code whatever the banding and the number of
-//! threads, so the result is bit-identical for any `threads`.
+//! Every stage computes in a scalar type `T` ([`estimate_in`]: `f32` or the Q16.16
+//! [`lfdepth::Q16`]; [`estimate`] is `f32`). Every pixel is computed by the same core
+//! code whatever the banding and the number of threads, so the result is bit-identical
+//! for any `threads`, in either type.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use lfdepth::align::{self, AlignMode, AlignReport};
 use lfdepth::epi::{self, Direction};
 use lfdepth::median;
+use lfdepth::pipeline::{self, Stages};
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
-use lfdepth::{refine, LightField, Params, Plan, Sample};
+use lfdepth::{refine, Homography, LightField, Params, Plan, Sample, Scalar, Q16};
 use rayon::prelude::*;
 
 /// How far the pipeline runs.
@@ -50,15 +54,53 @@ pub struct Estimate {
     pub timings: Vec<(&'static str, Duration)>,
     /// TV residual norm per iteration (empty when TV did not run).
     pub residuals: Vec<f32>,
+    /// What the alignment did (`None` when `params.align.mode` is off). A warning in it
+    /// means auto mode could not align and the views were used as they are.
+    pub align: Option<AlignReport>,
 }
 
 /// Lines per parallel band: small enough to balance two threads on small frames, large
 /// enough that per-band overhead (scratch, progress) is negligible.
 pub const BAND_LINES: usize = 16;
 
-/// Estimates the disparity of the centre view. `progress(stage, done, total)` is called
-/// as work completes.
+/// Rows per parallel band of the warp into the rectified array.
+pub const WARP_BAND_ROWS: usize = 32;
+
+/// The number type the stages compute in (the maps between them are `f32` either way).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// IEEE single precision.
+    #[default]
+    F32,
+    /// Q16.16 fixed point ([`lfdepth::Q16`]), as on a microcontroller without an FPU.
+    Q16,
+}
+
+/// Estimates the disparity of the centre view, every stage computing in `f32`.
+/// `progress(stage, done, total)` is called as work completes.
 pub fn estimate<S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    estimate_in::<f32, S>(lf, options, progress)
+}
+
+/// [`estimate`] with every stage computing in `precision`.
+pub fn estimate_with<S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    precision: Precision,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    match precision {
+        Precision::F32 => estimate_in::<f32, S>(lf, options, progress),
+        Precision::Q16 => estimate_in::<Q16, S>(lf, options, progress),
+    }
+}
+
+/// [`estimate`] with every stage (EPI, refinement, TV) computing in `T`.
+pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
     options: &EstimateOptions,
     progress: &mut dyn FnMut(&str, u64, u64),
@@ -90,8 +132,10 @@ pub fn estimate<S: Sample + Sync>(
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
             let result = match &pool {
-                Some(pool) => pool.install(|| run_stages(&plan, lf, options.stage, &tracker)),
-                None => run_stages(&plan, lf, options.stage, &tracker),
+                Some(pool) => {
+                    pool.install(|| align_then_run::<T, S>(&plan, lf, options.stage, &tracker))
+                }
+                None => align_then_run::<T, S>(&plan, lf, options.stage, &tracker),
             };
             finished.store(true, Ordering::Release);
             result
@@ -139,20 +183,113 @@ impl Tracker<'_> {
     }
 }
 
-/// The selected stages, one after another, each in parallel.
-fn run_stages<S: Sample + Sync>(
+/// The alignment prelude (when `params.align.mode` is not off), then the stages on the
+/// rectified views: homographies by the core estimate, the views the stages read warped
+/// in parallel bands into an `f32` light field of the input's layout.
+fn align_then_run<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stage: StageSelect,
     tracker: &Tracker<'_>,
 ) -> Result<Estimate, lfdepth::Error> {
-    let (mut estimate, range) = estimate_epi(plan, lf, tracker)?;
+    let stages = match stage {
+        StageSelect::Epi => Stages::Epi,
+        StageSelect::Full => Stages::Full,
+    };
+    let params = &pipeline::align_params(plan, stages);
+    if params.mode == AlignMode::Off {
+        return run_stages::<T, S>(plan, lf, stage, tracker);
+    }
+    let start = Instant::now();
+    tracker.start(pipeline::STAGE_ALIGN, 1);
+    let layout = *plan.layout();
+    let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
+    let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
+    let report = align::estimate(lf, params, &mut homographies, &mut scratch)?;
+    drop(scratch);
+    tracker.add(1);
+    let mut timings = vec![(pipeline::STAGE_ALIGN, start.elapsed())];
+    let mut estimate = if report.skipped {
+        run_stages::<T, S>(plan, lf, stage, tracker)?
+    } else {
+        let start = Instant::now();
+        // Zeroed pages that are never written (views no stage reads) cost no memory.
+        let mut aligned = vec![0.0f32; pipeline::aligned_len(plan)?];
+        warp_parallel(plan, lf, stages, &homographies, &mut aligned, tracker)?;
+        timings.push((pipeline::STAGE_WARP, start.elapsed()));
+        let rectified = LightField::new(&aligned[..], layout)?;
+        run_stages::<T, f32>(plan, &rectified, stage, tracker)?
+    };
+    timings.append(&mut estimate.timings);
+    estimate.timings = timings;
+    estimate.align = Some(report);
+    Ok(estimate)
+}
+
+/// The views `stages` read, warped in parallel bands of [`WARP_BAND_ROWS`] rows (every
+/// row by the same core code as `pipeline::warp_views`).
+fn warp_parallel<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    homographies: &[Homography],
+    aligned: &mut [f32],
+    tracker: &Tracker<'_>,
+) -> Result<(), lfdepth::Error> {
+    let layout = *plan.layout();
+    let row_len = layout.width * layout.channels;
+    let views = (0..layout.grid.len())
+        .filter(|&v| pipeline::reads_view(plan, stages, v))
+        .count();
+    tracker.start(pipeline::STAGE_WARP, views as u64);
+    aligned
+        .par_chunks_mut(layout.view_stride)
+        .enumerate()
+        .filter(|(view, _)| pipeline::reads_view(plan, stages, *view))
+        .try_for_each(|(view, samples)| {
+            samples
+                .par_chunks_mut(WARP_BAND_ROWS * layout.row_stride)
+                .enumerate()
+                .try_for_each(|(band, samples)| {
+                    let first = band * WARP_BAND_ROWS;
+                    let last = (first + WARP_BAND_ROWS).min(layout.height);
+                    for y in first..last {
+                        let at = (y - first) * layout.row_stride;
+                        let row = samples.get_mut(at..at + row_len).ok_or(
+                            lfdepth::Error::SizeOverflow {
+                                what: "the aligned light field",
+                            },
+                        )?;
+                        align::warp_rows_with(
+                            lf,
+                            homographies,
+                            view,
+                            y..y + 1,
+                            plan.params().align.interpolation,
+                            row,
+                        )?;
+                    }
+                    Ok::<(), lfdepth::Error>(())
+                })?;
+            tracker.add(1);
+            Ok(())
+        })
+}
+
+/// The selected stages, one after another, each in parallel.
+fn run_stages<T: Scalar, S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stage: StageSelect,
+    tracker: &Tracker<'_>,
+) -> Result<Estimate, lfdepth::Error> {
+    let (mut estimate, range) = estimate_epi::<T, S>(plan, lf, tracker)?;
     if stage == StageSelect::Epi {
         return Ok(estimate);
     }
     if plan.params().refine.enabled {
         let start = Instant::now();
-        let (d, c) = refine_parallel(plan, lf, range, &estimate.disparity, tracker)?;
+        let (d, c) = refine_parallel::<T, S>(plan, lf, range, &estimate.disparity, tracker)?;
         estimate.disparity = d;
         estimate.confidence = c;
         estimate.timings.push((refine::STAGE, start.elapsed()));
@@ -168,7 +305,8 @@ fn run_stages<S: Sample + Sync>(
             .push((lfdepth::median::STAGE, start.elapsed()));
     }
     let start = Instant::now();
-    let (d, residuals) = tv_parallel(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
+    let (d, residuals) =
+        tv_parallel::<T, S>(plan, lf, &estimate.disparity, &estimate.confidence, tracker)?;
     estimate.disparity = d;
     estimate.residuals = residuals;
     estimate.timings.push((tv::STAGE, start.elapsed()));
@@ -211,7 +349,7 @@ fn median_parallel<S: Sample + Sync>(
 }
 
 /// The refinement stage in parallel bands.
-fn refine_parallel<S: Sample + Sync>(
+fn refine_parallel<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     range: (f32, f32),
@@ -227,7 +365,7 @@ fn refine_parallel<S: Sample + Sync>(
         .zip(c.par_chunks_mut(band))
         .enumerate()
         .try_for_each_init(
-            || vec![0.0f32; refine::scratch_len(plan)],
+            || vec![T::ZERO; refine::scratch_len(plan)],
             |scratch, (index, (d, c))| {
                 let rows = refine::band_rows(plan, index)?;
                 refine::refine_band(plan, lf, range, disparity, rows, d, c, scratch)?;
@@ -240,7 +378,7 @@ fn refine_parallel<S: Sample + Sync>(
 
 /// The TV stage: tiles in parallel into their own buffers, stitched in tile order, their
 /// residual histories summed in tile order (so the sums do not depend on the threads).
-fn tv_parallel<S: Sample + Sync>(
+fn tv_parallel<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     disparity: &[f32],
@@ -256,7 +394,7 @@ fn tv_parallel<S: Sample + Sync>(
     let tiles: Vec<(Vec<f32>, Vec<f32>)> = (0..cols * rows)
         .into_par_iter()
         .map_init(
-            || vec![0.0f32; tv::scratch_len(plan)],
+            || vec![T::ZERO; tv::scratch_len(plan)],
             |scratch, index| {
                 let (core, _) = tv::tile_rects(plan, index)?;
                 let mut out = vec![0.0f32; core.width * core.height];
@@ -300,8 +438,8 @@ fn tv_parallel<S: Sample + Sync>(
     Ok((out, history))
 }
 
-/// The EPI stage in parallel bands (f32 kernels), with its output range.
-fn estimate_epi<S: Sample + Sync>(
+/// The EPI stage in parallel bands (kernels in `T`), with its output range.
+fn estimate_epi<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     tracker: &Tracker<'_>,
@@ -311,7 +449,7 @@ fn estimate_epi<S: Sample + Sync>(
 
     let start = Instant::now();
     tracker.start(epi::STAGE_RANGE, 1);
-    let mut scratch = vec![0.0f32; epi::scratch_len(plan)];
+    let mut scratch = vec![T::ZERO; epi::scratch_len(plan)];
     let hyps = epi::hypotheses(plan, lf, &mut scratch)?;
     drop(scratch);
     tracker.add(1);
@@ -328,7 +466,7 @@ fn estimate_epi<S: Sample + Sync>(
             .zip(c.par_chunks_mut(BAND_LINES * n))
             .enumerate()
             .try_for_each_init(
-                || vec![0.0f32; epi::band_scratch_len(plan, direction)],
+                || vec![T::ZERO; epi::band_scratch_len(plan, direction)],
                 |scratch, (band, (d, c))| {
                     let first = band * BAND_LINES;
                     let count = d.len() / n;
@@ -374,6 +512,7 @@ fn estimate_epi<S: Sample + Sync>(
         confidence,
         timings,
         residuals: Vec::new(),
+        align: None,
     };
     Ok((estimate, (hyps.min(), hyps.max())))
 }

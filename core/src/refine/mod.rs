@@ -40,8 +40,29 @@
 //! independent and the map is bit-identical for any banding and thread count.
 //!
 //! # Numbers
-//! The stage computes in `f32` only (bilinear sampling of sub-pixel positions): a
-//! Q16.16 version would need a fixed-point bilinear kernel and is not written yet.
+//! The stage computes in the scalar type `T` of its scratch (`f32` or Q16.16); the
+//! disparity maps it reads and writes are `f32` (converted at the ends). Q16.16 saturates
+//! at ±32768 and resolves 2^-16, so two scales keep it precise and in range. Both are
+//! powers of two, applied to every term alike: `f32` gives the same bits as unscaled, and
+//! the ratios the stage uses (`B / A`, `E / A`, mean residuals) do not change.
+//! - Intensities are multiplied by `INTENSITY_SCALE` = 16, so that the squared residual
+//!   of one 8-bit level is 256 LSB rather than one: the robust weights, `E` and the `A` of
+//!   weakly textured pixels keep their precision. (Measured, Q16 vs f32 refinement on
+//!   HCI cotton: with the statistics scaled down instead by 2^-2 / 2^-4 / 2^-9 so that
+//!   sums can never overflow, 99.78 / 99.39 / 91.6 % of pixels within 0.02 px; unscaled
+//!   99.87 %.)
+//! - Window sums are formed unscaled: on the HCI scenes the largest total `A` of a window
+//!   is 6738 (cotton; 2649 backgammon), well inside the range. A window whose total `A`
+//!   exceeds `MAX / 32` (1024 in Q16.16, never reached in `f32`) is summed again with each
+//!   term scaled by 2^-8, which covers every window on a 9×9 grid; such strongly textured
+//!   windows do not need the low bits. Below that limit `|B| ≤ 8A + √(AE)` cannot
+//!   overflow either (|d| ≤ 8 px). The damping and the group term counts take the same
+//!   scale as the sums.
+//! - One pixel's group statistics are not scaled: a view adds at most `3 · (reach · 16)²`
+//!   to `A` (12288 at reach 4), so only a pixel whose views all see near full-contrast
+//!   edges at the largest reach could saturate; on HCI the largest view term is 779.
+//!
+//! The tests (`fixed_tests`) and `docs/bench-fixed.md` measure Q16.16 against `f32`.
 
 mod params;
 mod photo;
@@ -51,10 +72,11 @@ pub use params::{RefineParams, ViewSet};
 use core::ops::{ControlFlow, Range};
 
 use crate::error::{checked_product, Error, Result};
-use crate::lightfield::{LightField, Sample};
+use crate::lightfield::{LightField, Sample, GRID_MAX};
 use crate::pipeline::Progress;
 use crate::plan::Plan;
-use photo::{Views, GROUPS, STATS};
+use crate::scalar::Scalar;
+use photo::{Views, GROUPS, INTENSITY_SCALE, STATS};
 
 /// Progress stage name.
 pub const STAGE: &str = "refine";
@@ -95,7 +117,7 @@ fn region_rows(plan: &Plan) -> usize {
     rows.min(plan.layout().height)
 }
 
-/// Scratch (`f32` elements) one band needs: `2 + 12` values per pixel of the band and
+/// Scratch (elements of the scalar type) one band needs: `2 + 12` values per pixel of the band and
 /// its halo; independent of the image height.
 pub fn scratch_len(plan: &Plan) -> usize {
     region_rows(plan)
@@ -153,12 +175,114 @@ fn check_inputs<S: Sample>(
     Ok(())
 }
 
+/// The stage's constants in the scalar type, scaled as the module's "Numbers" says.
+struct Constants<T> {
+    /// Output range (the EPI range).
+    lo: T,
+    hi: T,
+    /// Squared residual scale times the channels, in scaled intensity².
+    robust: T,
+    /// Curvature damping per (statistics-scaled) term.
+    damping: T,
+    gate: T,
+    accept: T,
+    max_step: T,
+    occlusion_ratio: T,
+    occlusion_floor: T,
+    axis_agreement: T,
+    /// Squared confidence scale.
+    confidence2: T,
+}
+
+impl<T: Scalar> Constants<T> {
+    fn new(p: &RefineParams, channels: usize, range: (f32, f32)) -> Self {
+        let intensity2 = INTENSITY_SCALE * INTENSITY_SCALE;
+        Constants {
+            lo: T::from_f32(range.0),
+            hi: T::from_f32(range.1),
+            robust: if p.robust_scale > 0.0 {
+                T::from_f32(p.robust_scale * p.robust_scale * channels as f32 * intensity2)
+            } else {
+                T::MAX
+            },
+            damping: T::from_f32(DAMPING_PER_TERM * intensity2),
+            gate: T::from_f32(WINDOW_GATE),
+            accept: T::from_f32(PROPAGATION_ACCEPT),
+            max_step: T::from_f32(p.max_step),
+            occlusion_ratio: T::from_f32(OCCLUSION_RATIO),
+            occlusion_floor: T::from_f32(OCCLUSION_FLOOR * intensity2),
+            axis_agreement: T::from_f32(AXIS_AGREEMENT),
+            confidence2: T::from_f32(p.confidence_scale * p.confidence_scale),
+        }
+    }
+}
+
+/// Term counts of the groups over one window, as the window sums are scaled: the
+/// divisors of the mean residuals and the damping's term counts.
+struct Counts<T> {
+    /// Per group, its terms over one window times the scale (exact).
+    terms: [T; GROUPS],
+    /// The same, at least one term's worth: the divisor of the group's mean residual.
+    means: [T; GROUPS],
+    /// The factor of the window sums.
+    scale: T,
+}
+
+impl<T: Scalar> Counts<T> {
+    fn new(terms: &[f32; GROUPS], area: f32, shift: i32) -> Self {
+        let scale = libm::ldexpf(1.0, -shift);
+        Counts {
+            terms: terms.map(|t| T::from_f32(t * area * scale)),
+            means: terms.map(|t| T::from_f32((t * area).max(1.0) * scale)),
+            scale: T::from_f32(scale),
+        }
+    }
+}
+
+/// Window sums whose total curvature `A` exceeds `T::MAX · 2^-WIDE_LIMIT_SHIFT` are
+/// summed again with every term scaled by `2^-WIDE_SHIFT` (see the module's "Numbers").
+const WIDE_LIMIT_SHIFT: i32 = 5;
+/// See [`WIDE_LIMIT_SHIFT`]: `2^8` covers the terms of any window on a 9×9 grid.
+const WIDE_SHIFT: i32 = 8;
+
+/// The window sum of the statistics of the pixels within `gate` of `d`, over
+/// `ys × xs` of the region (`width` wide), in a fixed order so that every band sums
+/// alike. Each term is multiplied by `scale` when one is given.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn window_sum<T: Scalar>(
+    stats: &[T],
+    previous: &[T],
+    width: usize,
+    ys: Range<usize>,
+    xs: Range<usize>,
+    d: T,
+    gate: T,
+    scale: Option<T>,
+) -> [T; STATS] {
+    let mut sum = [T::ZERO; STATS];
+    for yy in ys {
+        for xx in xs.clone() {
+            let j = yy * width + xx;
+            if (previous[j] - d).abs() > gate {
+                continue;
+            }
+            let terms = sum.iter_mut().zip(&stats[j * STATS..(j + 1) * STATS]);
+            match scale {
+                None => terms.for_each(|(s, &v)| *s += v),
+                Some(f) => terms.for_each(|(s, &v)| *s += v * f),
+            }
+        }
+    }
+    sum
+}
+
 /// Refines the rows `rows` of `disparity` (the whole EPI map, row-major) into `out`
 /// and `confidence` (`rows.len() · width` each, first row of the band first), keeping
-/// the result in `range` (the EPI stage's output range). `scratch` needs
-/// [`scratch_len`] elements.
+/// the result in `range` (the EPI stage's output range), computing in `T`. `scratch`
+/// needs [`scratch_len`] elements.
 #[allow(clippy::too_many_arguments)]
-pub fn refine_band<S: Sample>(
+pub fn refine_band<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     range: (f32, f32),
@@ -166,7 +290,7 @@ pub fn refine_band<S: Sample>(
     rows: Range<usize>,
     out: &mut [f32],
     confidence: &mut [f32],
-    scratch: &mut [f32],
+    scratch: &mut [T],
 ) -> Result<()> {
     check_inputs(plan, lf, range, disparity)?;
     let (width, height) = (plan.layout().width, plan.layout().height);
@@ -192,6 +316,17 @@ pub fn refine_band<S: Sample>(
             got: out.len().min(confidence.len()),
         });
     }
+    // Sample positions reach `|d| · reach ≤ 8 · 8` px beyond the image before the
+    // inside test: the coordinates must not saturate in `T`.
+    let reach = i32::try_from(width.max(height))
+        .ok()
+        .and_then(|n| n.checked_add(2 * 8 * (GRID_MAX as i32)));
+    if reach.is_none_or(|n| T::from_i32(n) >= T::MAX) {
+        return Err(Error::InvalidParameter {
+            name: "scalar",
+            reason: "views this large exceed the fixed-point range in the refinement: use f32",
+        });
+    }
     let halo = halo(plan);
     let first = rows.start.saturating_sub(halo);
     let last = (rows.end + halo).min(height);
@@ -204,34 +339,38 @@ pub fn refine_band<S: Sample>(
             got: scratch.len(),
         });
     }
-    let (current, rest) = scratch.split_at_mut(pixels);
-    let (previous, rest) = rest.split_at_mut(pixels);
-    let stats = &mut rest[..pixels * STATS];
-    current.copy_from_slice(&disparity[first * width..last * width]);
-    if current.iter().any(|v| !v.is_finite()) {
+    let input = &disparity[first * width..last * width];
+    if input.iter().any(|v| !v.is_finite()) {
         return Err(Error::NonFinite {
             what: "the input disparity",
         });
     }
+    let (current, rest) = scratch.split_at_mut(pixels);
+    let (previous, rest) = rest.split_at_mut(pixels);
+    let stats = &mut rest[..pixels * STATS];
+    for (c, &v) in current.iter_mut().zip(input) {
+        *c = T::from_f32(v);
+    }
 
-    let views = Views::new(plan.layout(), p.views);
-    let data = lf.data();
     let r = p.radius;
+    let views = Views::<T>::new(plan.layout(), p.views);
     let area = ((2 * r + 1) * (2 * r + 1)) as f32;
-    let robust = if p.robust_scale > 0.0 {
-        p.robust_scale * p.robust_scale * plan.layout().channels.min(3) as f32
-    } else {
-        f32::MAX
-    };
+    let (narrow, wide) = (
+        Counts::<T>::new(&views.terms, area, 0),
+        Counts::<T>::new(&views.terms, area, WIDE_SHIFT),
+    );
+    let wide_limit = T::MAX * T::from_f32(libm::ldexpf(1.0, -WIDE_LIMIT_SHIFT));
+    let data = lf.data();
+    let k = Constants::<T>::new(&p, plan.layout().channels.min(3), range);
     // Propagation: each pixel tries the disparities of its four neighbours at each
     // jump and keeps the one the views agree on best (robust cost of the pixel alone),
     // which pulls wrong regions to their surroundings' disparity.
     // `stats[i · STATS]` caches the cost of pixel i at its current disparity: it is
     // read and written only for pixel i, so the order of pixels does not matter.
-    let cost = |x: usize, y: usize, d: f32| -> f32 {
-        let mut s = [0.0f32; STATS];
-        views.pixel(data, x, first + y, d, robust, &mut s);
-        (0..GROUPS).map(|k| s[3 * k + 2]).sum()
+    let cost = |x: usize, y: usize, d: T| -> T {
+        let mut s = [T::ZERO; STATS];
+        views.pixel(data, x, first + y, d, k.robust, &mut s);
+        (0..GROUPS).fold(T::ZERO, |sum, g| sum + s[3 * g + 2])
     };
     if !jumps(plan).is_empty() {
         for y in 0..region {
@@ -248,7 +387,7 @@ pub fn refine_band<S: Sample>(
                 let i = y * width + x;
                 let own = previous[i];
                 let mut best = (stats[i * STATS], own);
-                let mut bar = best.0 * PROPAGATION_ACCEPT;
+                let mut bar = best.0 * k.accept;
                 let candidates = [
                     x.checked_sub(jump).map(|xx| y * width + xx),
                     (x + jump < width).then(|| y * width + x + jump),
@@ -257,7 +396,7 @@ pub fn refine_band<S: Sample>(
                 ];
                 for j in candidates.into_iter().flatten() {
                     let d = previous[j];
-                    if libm::fabsf(d - own) <= WINDOW_GATE {
+                    if (d - own).abs() <= k.gate {
                         continue;
                     }
                     let c = cost(x, y, d);
@@ -285,8 +424,8 @@ pub fn refine_band<S: Sample>(
         for y in measured.clone() {
             for x in 0..width {
                 let i = y * width + x;
-                let mut s = [0.0f32; STATS];
-                views.pixel(data, x, first + y, current[i], robust, &mut s);
+                let mut s = [T::ZERO; STATS];
+                views.pixel(data, x, first + y, current[i], k.robust, &mut s);
                 stats[i * STATS..(i + 1) * STATS].copy_from_slice(&s);
             }
         }
@@ -297,35 +436,46 @@ pub fn refine_band<S: Sample>(
             for x in 0..width {
                 // Window sum over the neighbours whose disparity is within
                 // `WINDOW_GATE` of this pixel's: the window does not reach across depth
-                // edges. Summed in a fixed order, so every band sums alike.
+                // edges.
                 let d = previous[y * width + x];
-                let mut sum = [0.0f32; STATS];
-                for yy in y.saturating_sub(r)..(y + r + 1).min(region) {
-                    for xx in x.saturating_sub(r)..(x + r + 1).min(width) {
-                        let j = yy * width + xx;
-                        if libm::fabsf(previous[j] - d) > WINDOW_GATE {
-                            continue;
-                        }
-                        for (s, v) in sum.iter_mut().zip(&stats[j * STATS..(j + 1) * STATS]) {
-                            *s += v;
-                        }
-                    }
+                let (ys, xs) = (
+                    y.saturating_sub(r)..(y + r + 1).min(region),
+                    x.saturating_sub(r)..(x + r + 1).min(width),
+                );
+                let mut sum = window_sum(
+                    stats,
+                    previous,
+                    width,
+                    ys.clone(),
+                    xs.clone(),
+                    d,
+                    k.gate,
+                    None,
+                );
+                let mut counts = &narrow;
+                let curvature = (0..GROUPS).fold(T::ZERO, |a, g| a + sum[3 * g]);
+                if curvature > wide_limit {
+                    sum = window_sum(stats, previous, width, ys, xs, d, k.gate, Some(wide.scale));
+                    counts = &wide;
                 }
                 let i = y * width + x;
-                let (a, b, e, terms) =
-                    select(&sum, &views.terms, area, p.occlusion, d, DAMPING_PER_TERM);
-                let damping = DAMPING_PER_TERM * terms;
+                let (a, b, e, terms) = select(&sum, counts, &k, p.occlusion, d);
+                let damping = k.damping * terms;
                 let target = (b + damping * d) / (a + damping);
-                let step = (target - d).clamp(-p.max_step, p.max_step);
-                let next = (d + step).clamp(range.0, range.1);
+                let step = (target - d).clamp(-k.max_step, k.max_step);
+                let next = (d + step).clamp(k.lo, k.hi);
                 current[i] = if next.is_finite() { next } else { d };
                 if last_iteration {
                     let o = (first + y - rows.start) * width + x;
-                    out[o] = current[i];
+                    // Fixed-point rounding of the range ends must not step outside it.
+                    out[o] = current[i].to_f32().clamp(range.0, range.1);
                     let err2 = e / (a + damping);
-                    let s2 = p.confidence_scale * p.confidence_scale;
-                    let c = 1.0 / (1.0 + err2 / s2);
-                    confidence[o] = if c.is_finite() { c } else { 0.0 };
+                    let c = T::ONE / (T::ONE + err2 / k.confidence2);
+                    confidence[o] = if c.is_finite() {
+                        c.to_f32().clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
                 }
             }
         }
@@ -338,45 +488,45 @@ pub fn refine_band<S: Sample>(
 /// horizontal and vertical views then disagree on the disparity by more than
 /// [`AXIS_AGREEMENT`], only the axis with the smaller error `E / A` is kept: along
 /// edges parallel to an axis, that axis' views only see aliasing and noise.
-/// Returns `(A, B, E, terms)`.
+/// Returns `(A, B, E, terms)` (the terms scaled like the statistics).
 #[inline]
-fn select(
-    sum: &[f32; STATS],
-    terms: &[f32; GROUPS],
-    area: f32,
+fn select<T: Scalar>(
+    sum: &[T; STATS],
+    counts: &Counts<T>,
+    k: &Constants<T>,
     occlusion: bool,
-    d: f32,
-    damping: f32,
-) -> (f32, f32, f32, f32) {
+    d: T,
+) -> (T, T, T, T) {
     let mut keep = [true; GROUPS];
     if occlusion {
         for pair in [[0, 1], [2, 3]] {
-            let mean = |k: usize| sum[3 * k + 2] / (terms[k] * area).max(1.0);
+            let mean = |g: usize| sum[3 * g + 2] / counts.means[g];
             let (m0, m1) = (mean(pair[0]), mean(pair[1]));
-            if m0 > OCCLUSION_RATIO * m1 + OCCLUSION_FLOOR {
+            if m0 > k.occlusion_ratio * m1 + k.occlusion_floor {
                 keep[pair[0]] = false;
-            } else if m1 > OCCLUSION_RATIO * m0 + OCCLUSION_FLOOR {
+            } else if m1 > k.occlusion_ratio * m0 + k.occlusion_floor {
                 keep[pair[1]] = false;
             }
         }
     }
     let axis = |groups: [usize; 2]| {
-        let (mut a, mut b, mut e, mut n) = (0.0, 0.0, 0.0, 0.0);
-        for k in groups {
-            if keep[k] {
-                a += sum[3 * k];
-                b += sum[3 * k + 1];
-                e += sum[3 * k + 2];
-                n += terms[k] * area;
+        let (mut a, mut b, mut e, mut n) = (T::ZERO, T::ZERO, T::ZERO, T::ZERO);
+        for g in groups {
+            if keep[g] {
+                a += sum[3 * g];
+                b += sum[3 * g + 1];
+                e += sum[3 * g + 2];
+                n += counts.terms[g];
             }
         }
         (a, b, e, n)
     };
     let h = axis([0, 1]);
     let v = axis([2, 3]);
-    let solve = |s: (f32, f32, f32, f32)| (s.1 + damping * s.3 * d) / (s.0 + damping * s.3);
-    let error = |s: (f32, f32, f32, f32)| s.2 / (s.0 + damping * s.3);
-    if h.3 > 0.0 && v.3 > 0.0 && libm::fabsf(solve(h) - solve(v)) > AXIS_AGREEMENT {
+    let damping = k.damping;
+    let solve = |s: (T, T, T, T)| (s.1 + damping * s.3 * d) / (s.0 + damping * s.3);
+    let error = |s: (T, T, T, T)| s.2 / (s.0 + damping * s.3);
+    if h.3 > T::ZERO && v.3 > T::ZERO && (solve(h) - solve(v)).abs() > k.axis_agreement {
         return if error(h) <= error(v) { h } else { v };
     }
     (h.0 + v.0, h.1 + v.1, h.2 + v.2, h.3 + v.3)
@@ -385,14 +535,14 @@ fn select(
 /// The serial stage with progress: every band in order into `out` / `confidence`
 /// (row-major, `plan.pixels()` each).
 #[allow(clippy::too_many_arguments)]
-pub fn refine_with_progress<S: Sample>(
+pub fn refine_with_progress<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
     out: &mut [f32],
     confidence: &mut [f32],
-    scratch: &mut [f32],
+    scratch: &mut [T],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
     check_inputs(plan, lf, range, disparity)?;
@@ -438,15 +588,16 @@ pub fn refine_with_progress<S: Sample>(
     }
 }
 
-/// The serial stage: refines `disparity` into `out` with a new `confidence`.
-pub fn refine<S: Sample>(
+/// The serial stage: refines `disparity` into `out` with a new `confidence`, computing
+/// in `T`.
+pub fn refine<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
     out: &mut [f32],
     confidence: &mut [f32],
-    scratch: &mut [f32],
+    scratch: &mut [T],
 ) -> Result<()> {
     refine_with_progress(
         plan,
@@ -460,5 +611,7 @@ pub fn refine<S: Sample>(
     )
 }
 
+#[cfg(test)]
+mod fixed_tests;
 #[cfg(test)]
 mod tests;

@@ -23,7 +23,7 @@ fn run(scene: &Scene, refine: RefineParams, input: &[f32]) -> (Vec<f32>, Vec<f32
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
     let mut d = vec![0.0; plan.pixels()];
     let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![0.0; scratch_len(&plan)];
+    let mut scratch = vec![0.0f32; scratch_len(&plan)];
     super::refine(&plan, &lf, (-4.0, 4.0), input, &mut d, &mut c, &mut scratch).unwrap();
     (d, c)
 }
@@ -129,7 +129,7 @@ fn outputs_stay_finite_in_range_on_flat_and_extreme_inputs() {
     let input: Vec<f32> = (0..plan.pixels()).map(|i| (i % 7) as f32 - 3.0).collect();
     let mut d = vec![0.0; plan.pixels()];
     let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![0.0; scratch_len(&plan)];
+    let mut scratch = vec![0.0f32; scratch_len(&plan)];
     super::refine(
         &plan,
         &lf,
@@ -152,7 +152,7 @@ fn bad_inputs_are_errors() {
     let mut input = vec![0.0; plan.pixels()];
     let mut d = vec![0.0; plan.pixels()];
     let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![0.0; scratch_len(&plan)];
+    let mut scratch = vec![0.0f32; scratch_len(&plan)];
     let short = scratch.len() - 1;
     assert!(matches!(
         super::refine(

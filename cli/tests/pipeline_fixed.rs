@@ -1,0 +1,377 @@
+//! The whole pipeline in Q16.16 fixed point against `f32`: the rayon engine is
+//! bit-identical for any thread count in Q16.16 too and matches the serial core
+//! pipeline; `--scalar` on the command line; and (release only) agreement with `f32` on
+//! the shared HCI scenes.
+
+#[path = "tv_support.rs"]
+mod tv_support;
+
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::process::Command;
+
+use lfdepth::pipeline::{self, Stages};
+use lfdepth::refine::{self, RefineParams};
+use lfdepth::synth::{self, SceneKind, SynthSpec};
+use lfdepth::tv::{self, Guide, Maps};
+use lfdepth::{Grid, Homography, LightField, Params, Plan, Scalar, Q16};
+use lfdepth_cli::engine::{estimate_with, Estimate, EstimateOptions, Precision, StageSelect};
+use tv_support::{load_hci, read_pfm, scores, shared_data};
+
+fn synthetic(kind: SceneKind, size: usize) -> (Vec<u8>, SynthSpec) {
+    let spec = SynthSpec {
+        noise_sigma: 1.0,
+        seed: 9,
+        ..SynthSpec::new(kind, Grid::new(9, 9), size, size)
+    };
+    let layout = spec.layout();
+    let mut views = vec![0u8; layout.validate().unwrap()];
+    let mut gt = vec![0.0f32; size * size];
+    let mut homographies = vec![Homography::IDENTITY; 81];
+    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
+    (views, spec)
+}
+
+fn params() -> Params {
+    Params {
+        refine: RefineParams {
+            band_rows: 8,
+            ..RefineParams::on()
+        },
+        ..Params::default()
+    }
+}
+
+fn engine(
+    lf: &LightField<'_, u8>,
+    params: Params,
+    precision: Precision,
+    threads: usize,
+) -> Estimate {
+    let options = EstimateOptions {
+        params,
+        stage: StageSelect::Full,
+        threads: Some(threads),
+    };
+    estimate_with(lf, &options, precision, &mut |_, _, _| {}).unwrap()
+}
+
+fn same_bits(a: &[f32], b: &[f32]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+#[test]
+fn q16_engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipeline() {
+    let (views, spec) = synthetic(SceneKind::Mixed, 40);
+    let layout = spec.layout();
+    let lf = LightField::new(&views, layout).unwrap();
+    let reference = engine(&lf, params(), Precision::Q16, 1);
+    for threads in [2, 3] {
+        let e = engine(&lf, params(), Precision::Q16, threads);
+        assert!(
+            same_bits(&e.disparity, &reference.disparity),
+            "{threads} threads"
+        );
+        assert!(
+            same_bits(&e.confidence, &reference.confidence),
+            "{threads} threads"
+        );
+        assert!(
+            same_bits(&e.residuals, &reference.residuals),
+            "{threads} threads"
+        );
+    }
+    // The serial core pipeline in Q16.16 computes the same maps.
+    let plan = Plan::new(layout, params()).unwrap();
+    let mut d = vec![0.0f32; plan.pixels()];
+    let mut c = vec![0.0f32; plan.pixels()];
+    let mut scratch = vec![Q16::ZERO; pipeline::scratch_len(&plan)];
+    let mut maps = vec![0.0f32; pipeline::map_scratch_len(&plan)];
+    pipeline::run(
+        &plan,
+        &lf,
+        Stages::Full,
+        &mut d,
+        &mut c,
+        &mut scratch,
+        &mut maps,
+        &mut [],
+        &mut |_| ControlFlow::Continue(()),
+    )
+    .unwrap();
+    assert!(same_bits(&d, &reference.disparity));
+    assert!(same_bits(&c, &reference.confidence));
+    // And it is not the f32 result under another name.
+    let float = engine(&lf, params(), Precision::F32, 2);
+    assert!(!same_bits(&float.disparity, &reference.disparity));
+}
+
+fn lfdepth(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_lfdepth"))
+        .args(args)
+        .output()
+        .expect("the lfdepth binary runs")
+}
+
+#[test]
+fn scalar_option_selects_fixed_point_and_names_bad_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |scalar: &str| {
+        let out = dir.path().join(scalar);
+        let output = lfdepth(&[
+            "demo",
+            "--size",
+            "32",
+            "--quiet",
+            "--scalar",
+            scalar,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let stdout = String::from_utf8_lossy(&output.stdout).to_string();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        assert!(stdout.contains("BadPix0.07 "), "{stdout}");
+        std::fs::read(out.join("disparity.pfm")).unwrap()
+    };
+    assert_ne!(run("f32"), run("q16"), "--scalar q16 gave the f32 map");
+    for command in [
+        &["demo"][..],
+        &["estimate", "in", "-o", "out.pfm"],
+        &["eval", "--dataset", "x"],
+    ] {
+        let mut args = command.to_vec();
+        args.extend(["--scalar", "f64"]);
+        let output = lfdepth(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{command:?}");
+        assert!(
+            stderr.contains("'f64'") && stderr.contains("f32") && stderr.contains("q16"),
+            "{command:?}: {stderr}"
+        );
+    }
+}
+
+/// Share of pixels within `tol` px, largest difference.
+fn agreement(a: &[f32], b: &[f32], tol: f32) -> (f64, f32) {
+    let within = a
+        .iter()
+        .zip(b)
+        .filter(|(x, y)| (*x - *y).abs() <= tol)
+        .count();
+    let max = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max);
+    (within as f64 / a.len() as f64, max)
+}
+
+/// Q16.16 against `f32` on one HCI scene, the whole pipeline and each stage from the
+/// same `f32` input: the shares of pixels within 0.02 px (whole, EPI, refinement, TV).
+fn hci_scene(dir: &Path) -> [f64; 4] {
+    let (views, layout) = load_hci(dir);
+    let (w, h, gt) = read_pfm(&dir.join("gt_disp_lowres.pfm"));
+    let lf = LightField::new(&views, layout).unwrap();
+    let float = engine(&lf, Params::default(), Precision::F32, 2);
+    let fixed = engine(&lf, Params::default(), Precision::Q16, 2);
+    let (share, max) = agreement(&float.disparity, &fixed.disparity, 0.02);
+    let (f, q) = (
+        scores(&float.disparity, &gt, w, h),
+        scores(&fixed.disparity, &gt, w, h),
+    );
+    eprintln!(
+        "{}: whole pipeline, Q16 within 0.02 px of f32 on {:.3} % of pixels, max |Δ| \
+         {max:.3} px; BadPix0.07 / MSE×100 f32 {:.3} / {:.3}, Q16 {:.3} / {:.3}",
+        dir.display(),
+        100.0 * share,
+        f.0,
+        f.1,
+        q.0,
+        q.1
+    );
+    // Each stage from the same f32 input.
+    let epi_only = EstimateOptions {
+        params: Params::default(),
+        stage: StageSelect::Epi,
+        threads: Some(2),
+    };
+    let epi_f = estimate_with(&lf, &epi_only, Precision::F32, &mut |_, _, _| {}).unwrap();
+    let epi_q = estimate_with(&lf, &epi_only, Precision::Q16, &mut |_, _, _| {}).unwrap();
+    let epi = agreement(&epi_f.disparity, &epi_q.disparity, 0.02);
+    let plan = Plan::new(layout, Params::default()).unwrap();
+    let hyps = lfdepth::epi::hypotheses(
+        &plan,
+        &lf,
+        &mut vec![0.0f32; lfdepth::epi::scratch_len(&plan)],
+    )
+    .unwrap();
+    let range = (hyps.min(), hyps.max());
+    let n = plan.pixels();
+    let (mut rf, mut cf, mut rq, mut cq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    let mut s = vec![0.0f32; refine::scratch_len(&plan)];
+    refine::refine(
+        &plan,
+        &lf,
+        range,
+        &epi_f.disparity,
+        &mut rf,
+        &mut cf,
+        &mut s,
+    )
+    .unwrap();
+    let mut s = vec![Q16::ZERO; refine::scratch_len(&plan)];
+    refine::refine(
+        &plan,
+        &lf,
+        range,
+        &epi_f.disparity,
+        &mut rq,
+        &mut cq,
+        &mut s,
+    )
+    .unwrap();
+    let refined = agreement(&rf, &rq, 0.02);
+    let maps = Maps::new(w, h, &rf, &cf).unwrap();
+    let guide = Guide::View(lf.center_view());
+    let (mut tf, mut tq) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let mut s = vec![0.0f32; tv::scratch_len(&plan)];
+    tv::refine(&plan, &maps, &guide, &mut tf, &mut [], &mut s).unwrap();
+    let mut s = vec![Q16::ZERO; tv::scratch_len(&plan)];
+    tv::refine(&plan, &maps, &guide, &mut tq, &mut [], &mut s).unwrap();
+    let regularised = agreement(&tf, &tq, 0.02);
+    eprintln!(
+        "  stages from the same f32 input: EPI {:.3} % (max {:.3}), refinement {:.3} % \
+         (max {:.3}), TV {:.3} % (max {:.4})",
+        100.0 * epi.0,
+        epi.1,
+        100.0 * refined.0,
+        refined.1,
+        100.0 * regularised.0,
+        regularised.1
+    );
+    // Fixed point must not cost accuracy against the ground truth.
+    assert!(q.0 < f.0 + 0.1 && q.1 < f.1 + 0.05, "{}", dir.display());
+    [share, epi.0, refined.0, regularised.0]
+}
+
+#[test]
+#[cfg_attr(debug_assertions, ignore)]
+fn q16_pipeline_stays_within_two_hundredths_of_f32_on_both_hci_scenes() {
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: the HCI fixed-point test runs only with --release");
+        return;
+    }
+    let Some(data) = shared_data("the HCI fixed-point test") else {
+        return;
+    };
+    for scene in ["stratified/backgammon", "training/cotton"] {
+        let shares = hci_scene(&data.join("hci").join(scene));
+        for (what, share) in ["whole pipeline", "EPI", "refinement", "TV"]
+            .iter()
+            .zip(&shares)
+        {
+            assert!(*share >= 0.99, "{scene}, {what}: {share} within 0.02 px");
+        }
+    }
+}
+
+/// CPU seconds (user + system, all threads) of this process so far, from /proc.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    // Fields 14 and 15 of stat (utime, stime), counted after the command name.
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+/// CPU seconds of each serial core stage in `T` on HCI cotton (each stage from the same
+/// `f32` input): EPI, refinement, TV, and the whole `pipeline::run`.
+fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
+    let plan = Plan::new(*lf.layout(), Params::default()).unwrap();
+    let n = plan.pixels();
+    let (mut d, mut c) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let mut scratch = vec![0.0f32; pipeline::scratch_len(&plan)];
+    let hyps = lfdepth::epi::estimate(&plan, lf, &mut d, &mut c, &mut scratch).unwrap();
+    let range = (hyps.min(), hyps.max());
+    let (mut rd, mut rc) = (vec![0.0f32; n], vec![0.0f32; n]);
+    refine::refine(&plan, lf, range, &d, &mut rd, &mut rc, &mut scratch).unwrap();
+    let mut work = vec![T::ZERO; pipeline::scratch_len(&plan)];
+    let (mut od, mut oc) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let maps = Maps::new(lf.width(), lf.height(), &rd, &rc).unwrap();
+    let guide = Guide::View(lf.center_view());
+    let mut mid = vec![0.0f32; pipeline::map_scratch_len(&plan)];
+    let time = |f: &mut dyn FnMut()| {
+        let start = cpu_seconds();
+        for _ in 0..repeats {
+            f();
+        }
+        (cpu_seconds() - start) / repeats as f64
+    };
+    let epi = time(&mut || {
+        lfdepth::epi::estimate(&plan, lf, &mut od, &mut oc, &mut work).unwrap();
+    });
+    let refined = time(&mut || {
+        refine::refine(&plan, lf, range, &d, &mut od, &mut oc, &mut work).unwrap();
+    });
+    let regularised = time(&mut || {
+        tv::refine(&plan, &maps, &guide, &mut od, &mut [], &mut work).unwrap();
+    });
+    let whole = time(&mut || {
+        pipeline::run(
+            &plan,
+            lf,
+            Stages::Full,
+            &mut od,
+            &mut oc,
+            &mut work,
+            &mut mid,
+            &mut [],
+            &mut |_| ControlFlow::Continue(()),
+        )
+        .unwrap();
+    });
+    [epi, refined, regularised, whole]
+}
+
+#[test]
+#[ignore = "timing report: CPU seconds per serial stage, f32 and Q16.16, on HCI cotton"]
+fn fixed_point_stage_cpu_times() {
+    let Some(data) = shared_data("the fixed-point timing report") else {
+        return;
+    };
+    let (views, layout) = load_hci(&data.join("hci/training/cotton"));
+    let lf = LightField::new(&views, layout).unwrap();
+    let repeats = std::env::var("REPEATS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2);
+    let float = stage_cpu::<f32>(&lf, repeats);
+    let fixed = stage_cpu::<Q16>(&lf, repeats);
+    println!("| stage | f32 CPU s | Q16.16 CPU s | Q16 / f32 |");
+    println!("|---|---:|---:|---:|");
+    for (i, name) in ["EPI", "refinement", "TV", "whole pipeline::run"]
+        .iter()
+        .enumerate()
+    {
+        println!(
+            "| {name} | {:.2} | {:.2} | {:.1}× |",
+            float[i],
+            fixed[i],
+            fixed[i] / float[i]
+        );
+    }
+}
