@@ -29,10 +29,11 @@ pub struct Params {
 }
 
 impl Default for Params {
-    /// Every stage's default, alignment off (see [`Params::align`]), and TV's λ: 0.1 instead of the paper's 0.5
-    /// ([`TvParams::default`]). After the refinement and the median the data term is
-    /// accurate to a few hundredths of a pixel almost everywhere, and λ = 0.5 flattens
-    /// curved surfaces (docs/bench-median.md has the λ table).
+    /// Every stage's default, alignment off (see [`Params::align`]), and TV's λ = 0.25
+    /// instead of the paper's 0.5 ([`TvParams::default`]): with the refinement and the
+    /// median in front, λ 0.1…0.5 all meet the same goals and 0.25 has the smallest sum
+    /// of ratios to SPO's scores; smaller λ flattens curved surfaces less
+    /// (docs/bench-median.md has the λ table).
     fn default() -> Self {
         Params {
             align: AlignParams {
@@ -42,7 +43,7 @@ impl Default for Params {
             epi: EpiParams::default(),
             refine: RefineParams::default(),
             tv: TvParams {
-                lambda: 0.1,
+                lambda: 0.25,
                 ..TvParams::default()
             },
             median: MedianParams::default(),
