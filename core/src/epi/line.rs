@@ -2,7 +2,7 @@
 //! centre view along one image row (horizontal EPI) or column (vertical EPI), tested over
 //! every shear hypothesis.
 
-use super::hypotheses::Hypotheses;
+use super::hypotheses::{Hypotheses, MAX_DISPARITY};
 use super::kernels::{centre_weights, truncated_gaussian, Kernel};
 use super::{ColorMode, EpiParams};
 use crate::error::{Error, Result};
@@ -15,20 +15,15 @@ pub(crate) struct LineEstimator<T: Scalar> {
     derivative: Kernel<T>,
     smoothing: Kernel<T>,
     outer: Kernel<T>,
-    /// Outer (Gaussian) smoothing across views, evaluated at the centre view only.
-    weights: [T; GRID_MAX],
-    /// Mixing rows (weights over views) of view k: `mix_smooth`, the inner Gaussian
-    /// followed by the Scharr cross smoothing (for the along-line gradient), and
-    /// `mix_derivative`, the inner Gaussian followed by the across-view derivative
-    /// (central; one-sided at the first and last view so that the ends keep the scale).
-    /// Per view k, the significant entries of `mix_smooth[k]` and `mix_derivative[k]`.
-    smooth_taps: [Taps<T>; GRID_MAX],
-    derivative_taps: [Taps<T>; GRID_MAX],
+    band: Band<T>,
     views: usize,
     centre: usize,
     channels: usize,
     hypotheses: Hypotheses,
     interpolate: bool,
+    /// Whether some hypothesis shifts a view by a half-integer (the half-shifted planes
+    /// are then filled).
+    half_shifts: bool,
 }
 
 /// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
@@ -37,46 +32,152 @@ pub(crate) struct LineEstimator<T: Scalar> {
 const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
-/// Samples per register block of the gradient sums.
-const CHUNK: usize = 32;
+/// Samples per register block of the tensor sums: the two gradients and the three sums of
+/// a block stay in (SSE2) registers across every channel and view.
+const BLOCK: usize = 8;
 /// Mixing entries below this fraction of their row's largest are dropped: the inner
 /// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
 /// row by two views for no measurable change (docs/bench-epi.md).
 const PRUNE: f32 = 1e-3;
 
-/// The significant entries of one mixing row: `weights[i]` multiplies view `views[i]`.
+/// The across-view gradients of every view as bands of `taps` consecutive views: view `k`
+/// reads views `rows[k][..taps]` with weights `smooth[k]` (smoothing across views, for the
+/// along-line gradient) and `derivative[k]` (derivative across views), both scaled by the
+/// square root of view k's outer weight so that the tensor terms are plain products.
+/// Entries below `PRUNE` of their row's largest are zero.
 #[derive(Clone, Copy, Debug)]
-struct Taps<T: Scalar> {
-    views: [usize; GRID_MAX],
-    weights: [T; GRID_MAX],
-    len: usize,
+struct Band<T: Scalar> {
+    rows: [[usize; GRID_MAX]; GRID_MAX],
+    smooth: [[T; GRID_MAX]; GRID_MAX],
+    derivative: [[T; GRID_MAX]; GRID_MAX],
+    /// Views with a non-zero outer weight.
+    active: [bool; GRID_MAX],
+    taps: usize,
 }
 
-impl<T: Scalar> Taps<T> {
-    /// The entries of `row` whose magnitude reaches `PRUNE` of the largest one.
-    fn significant(row: &[f32]) -> Self {
-        let largest = row.iter().fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
-        let mut taps = Taps {
-            views: [0; GRID_MAX],
-            weights: [T::ZERO; GRID_MAX],
-            len: 0,
+impl<T: Scalar> Band<T> {
+    /// Bands of the mixing rows `smooth[k]`, `derivative[k]` of `views` views.
+    fn new(
+        smooth: &[[f32; GRID_MAX]; GRID_MAX],
+        derivative: &[[f32; GRID_MAX]; GRID_MAX],
+        active: [bool; GRID_MAX],
+        views: usize,
+    ) -> Self {
+        let significant = |row: &[f32; GRID_MAX], j: usize| {
+            let largest = row[..views]
+                .iter()
+                .fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
+            row[j] != 0.0 && libm::fabsf(row[j]) >= PRUNE * largest
         };
-        for (j, &v) in row.iter().enumerate().take(GRID_MAX) {
-            if v != 0.0 && libm::fabsf(v) >= PRUNE * largest {
-                taps.views[taps.len] = j;
-                taps.weights[taps.len] = T::from_f32(v);
-                taps.len += 1;
+        let mut spans = [(0usize, 0usize); GRID_MAX];
+        let mut taps = 1;
+        for (k, span) in spans.iter_mut().enumerate().take(views) {
+            let used = |j: &usize| significant(&smooth[k], *j) || significant(&derivative[k], *j);
+            let first = (0..views).find(used).unwrap_or(k);
+            let last = (0..views).rev().find(used).unwrap_or(k);
+            *span = (first, last.max(first));
+            taps = taps.max(last.max(first) - first + 1);
+        }
+        let mut band = Band {
+            rows: [[0; GRID_MAX]; GRID_MAX],
+            smooth: [[T::ZERO; GRID_MAX]; GRID_MAX],
+            derivative: [[T::ZERO; GRID_MAX]; GRID_MAX],
+            active,
+            taps,
+        };
+        let last_view = views.saturating_sub(1);
+        for (k, &(first, last)) in spans.iter().enumerate().take(views) {
+            // The window starts early enough to stay inside the views where it can.
+            let start = first.min(views.saturating_sub(Self::width_for(taps)));
+            for m in 0..GRID_MAX {
+                let j = (start + m).min(last_view);
+                band.rows[k][m] = j;
+                if start + m == j && (first..=last).contains(&j) {
+                    if significant(&smooth[k], j) {
+                        band.smooth[k][m] = T::from_f32(smooth[k][j]);
+                    }
+                    if significant(&derivative[k], j) {
+                        band.derivative[k][m] = T::from_f32(derivative[k][j]);
+                    }
+                }
             }
         }
-        taps
+        band
     }
 
-    fn views(&self) -> &[usize] {
-        &self.views[..self.len]
+    /// The compiled band width used for `taps` significant views.
+    fn width_for(taps: usize) -> usize {
+        match taps {
+            0..=3 => 3,
+            4..=5 => 5,
+            6..=7 => 7,
+            8..=9 => 9,
+            _ => GRID_MAX,
+        }
+    }
+}
+
+/// Where the sheared samples of one hypothesis are read: sample `t` of view `j`, channel
+/// `c` is `bank[d[c][j] + t]` (along-line derivative) and `bank[s[c][j] + t]` (along-line
+/// smoothing).
+struct Sources {
+    d: [[usize; GRID_MAX]; 3],
+    s: [[usize; GRID_MAX]; 3],
+}
+
+/// Layout of the stored planes of one line. Every view and channel has four planes of
+/// `len` samples — derivative, smoothing, and both shifted by half a sample — holding
+/// samples `−lead ≤ u < n_blocks + reach` (edge-replicated outside the line), then one
+/// fallback plane pair per view and channel for shifts of any other fraction.
+#[derive(Clone, Copy, Debug)]
+struct Planes {
+    n: usize,
+    /// `n` rounded up to whole blocks.
+    n_blocks: usize,
+    /// Largest whole shift read from the stored planes.
+    reach: usize,
+    lead: usize,
+    len: usize,
+    views: usize,
+    channels: usize,
+}
+
+impl Planes {
+    fn new(views: usize, centre: usize, channels: usize, n: usize) -> Self {
+        let far = centre.max(views.saturating_sub(1).saturating_sub(centre));
+        // Shears never exceed MAX_DISPARITY + 1 (multiples of a step ≤ 2 nearest the range).
+        let reach = libm::ceilf(far as f32 * (MAX_DISPARITY + 1.0)) as usize + 1;
+        let n_blocks = n.div_ceil(BLOCK) * BLOCK;
+        let lead = reach + 1;
+        Planes {
+            n,
+            n_blocks,
+            reach,
+            lead,
+            len: lead + n_blocks + reach,
+            views,
+            channels,
+        }
     }
 
-    fn weights(&self) -> &[T] {
-        &self.weights[..self.len]
+    /// Start of plane `kind` (0 derivative, 1 smoothing, 2 and 3 the same shifted by half a
+    /// sample) of view `k`, channel `c`.
+    fn plane(&self, kind: usize, k: usize, c: usize) -> usize {
+        ((kind * self.views + k) * self.channels + c) * self.len
+    }
+
+    /// Start of the fallback plane `kind` (0 derivative, 1 smoothing) of view `k`,
+    /// channel `c`.
+    fn fallback(&self, kind: usize, k: usize, c: usize) -> usize {
+        self.stored_len() + ((kind * self.views + k) * self.channels + c) * self.n_blocks
+    }
+
+    fn stored_len(&self) -> usize {
+        4 * self.views * self.channels * self.len
+    }
+
+    fn bank_len(&self) -> usize {
+        self.stored_len() + 2 * self.views * self.channels * self.n_blocks
     }
 }
 
@@ -92,10 +193,6 @@ impl<T: Scalar> LineEstimator<T> {
         let views = views.min(GRID_MAX);
         let mut outer_weights = [0.0f32; GRID_MAX];
         centre_weights(params.outer_sigma, views, centre, &mut outer_weights);
-        let mut weights = [T::ZERO; GRID_MAX];
-        for (w, &v) in weights.iter_mut().zip(&outer_weights) {
-            *w = T::from_f32(v);
-        }
         // Inner Gaussian across views, truncated at the first and last view and
         // renormalised; then per view a Scharr cross smoothing ([3, 10, 3], renormalised
         // at the ends) and a central difference (one-sided at the ends). Averaging
@@ -125,34 +222,36 @@ impl<T: Scalar> LineEstimator<T> {
                 diff[i][im] -= scale;
             }
         }
-        let empty = Taps::significant(&[]);
-        let mut smooth_taps = [empty; GRID_MAX];
-        let mut derivative_taps = [empty; GRID_MAX];
+        let mut mix_smooth = [[0.0f32; GRID_MAX]; GRID_MAX];
+        let mut mix_derivative = [[0.0f32; GRID_MAX]; GRID_MAX];
+        let mut active = [false; GRID_MAX];
         for k in 0..views {
-            let mut mix_smooth = [0.0f32; GRID_MAX];
-            let mut mix_derivative = [0.0f32; GRID_MAX];
             for j in 0..views {
                 for i in 0..views {
-                    mix_smooth[j] += gauss[k][i] * smooth[i][j];
-                    mix_derivative[j] += gauss[k][i] * diff[i][j];
+                    mix_smooth[k][j] += gauss[k][i] * smooth[i][j];
+                    mix_derivative[k][j] += gauss[k][i] * diff[i][j];
                 }
             }
             // The outer weight of view k enters as √w in both gradients, so the tensor
             // terms are plain products (w·gx² = (√w·gx)²).
             let root = libm::sqrtf(outer_weights[k].max(0.0));
-            for m in mix_smooth.iter_mut().chain(mix_derivative.iter_mut()) {
+            active[k] = T::from_f32(outer_weights[k]) != T::ZERO;
+            for m in mix_smooth[k].iter_mut().chain(mix_derivative[k].iter_mut()) {
                 *m *= root;
             }
-            smooth_taps[k] = Taps::significant(&mix_smooth[..views]);
-            derivative_taps[k] = Taps::significant(&mix_derivative[..views]);
+        }
+        let mut half_shifts = false;
+        for i in 0..hypotheses.count() {
+            for k in 0..views {
+                let offset = (k as f32 - centre as f32) * hypotheses.shear(i);
+                half_shifts |= offset - libm::floorf(offset) == 0.5;
+            }
         }
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
             outer: Kernel::gaussian(params.outer_sigma),
-            weights,
-            smooth_taps,
-            derivative_taps,
+            band: Band::new(&mix_smooth, &mix_derivative, active, views),
             views,
             centre,
             channels: match params.color {
@@ -161,17 +260,19 @@ impl<T: Scalar> LineEstimator<T> {
             },
             hypotheses,
             interpolate: params.interpolate,
+            half_shifts,
         }
     }
 
-    /// Planes the loader must fill per view.
-    pub(crate) fn channels(&self) -> usize {
-        self.channels
+    /// Work elements (of `T`) for a line of `n` samples.
+    pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
+        let planes = Planes::new(views, centre, channels, n);
+        planes.bank_len() + 3 * planes.n_blocks + 8 * n
     }
 
-    /// Work elements (of `T`) for a line of `n` samples.
-    pub(crate) fn work_len(views: usize, channels: usize, n: usize) -> usize {
-        (2 * views * channels + 2 * views + 10) * n
+    /// Work elements (of `T`) this estimator needs for a line of `n` samples.
+    pub(crate) fn line_work_len(&self, n: usize) -> usize {
+        Self::work_len(self.views, self.centre, self.channels, n)
     }
 
     /// Estimates one line of `n` samples. `load(view, channel, out)` fills `out` (length `n`)
@@ -186,7 +287,7 @@ impl<T: Scalar> LineEstimator<T> {
         confidence: &mut [T],
     ) -> Result<()> {
         let (k_n, c_n) = (self.views, self.channels);
-        let needed = Self::work_len(k_n, c_n, n);
+        let needed = Self::work_len(k_n, self.centre, c_n, n);
         if work.len() < needed {
             return Err(Error::ScratchTooSmall {
                 needed,
@@ -200,14 +301,16 @@ impl<T: Scalar> LineEstimator<T> {
                 got: disparity.len().min(confidence.len()),
             });
         }
-        let (pre_d, rest) = work.split_at_mut(k_n * c_n * n);
-        let (pre_s, rest) = rest.split_at_mut(k_n * c_n * n);
-        let (sh_d, rest) = rest.split_at_mut(k_n * n);
-        let (sh_s, rest) = rest.split_at_mut(k_n * n);
+        if n == 0 {
+            return Ok(());
+        }
+        let planes = Planes::new(k_n, self.centre, c_n, n);
+        let nb = planes.n_blocks;
+        let (bank, rest) = work.split_at_mut(planes.bank_len());
+        let (jxx, rest) = rest.split_at_mut(nb);
+        let (jxk, rest) = rest.split_at_mut(nb);
+        let (jkk, rest) = rest.split_at_mut(nb);
         let (raw, rest) = rest.split_at_mut(n);
-        let (jxx, rest) = rest.split_at_mut(n);
-        let (jxk, rest) = rest.split_at_mut(n);
-        let (jkk, rest) = rest.split_at_mut(n);
         let (sxx, rest) = rest.split_at_mut(n);
         let (sxk, rest) = rest.split_at_mut(n);
         let (skk, rest) = rest.split_at_mut(n);
@@ -216,13 +319,32 @@ impl<T: Scalar> LineEstimator<T> {
         let prev_c = &mut rest[..n];
 
         // Filtering along the line commutes with the shear (a shift along the line), so the
-        // inner smoothing and the along-line parts of the Scharr filters run once per line.
+        // inner smoothing and the along-line parts of the Scharr filters run once per line,
+        // into planes padded with their edge values (the clamped shift reads them).
+        let half = T::from_f32(0.5);
         for k in 0..k_n {
             for c in 0..c_n {
                 load(k, c, raw)?;
-                let at = (k * c_n + c) * n;
-                self.derivative.apply(raw, &mut pre_d[at..at + n]);
-                self.smoothing.apply(raw, &mut pre_s[at..at + n]);
+                for (kind, kernel) in [(0, &self.derivative), (1, &self.smoothing)] {
+                    let at = planes.plane(kind, k, c);
+                    let plane = &mut bank[at..at + planes.len];
+                    let (head, tail) = plane.split_at_mut(planes.lead);
+                    kernel.apply(raw, &mut tail[..n]);
+                    let (first, last) = (tail[0], tail[n - 1]);
+                    head.fill(first);
+                    tail[n..].fill(last);
+                    if self.half_shifts {
+                        // out[t] = ½·in[t − w] + ½·in[t − w − 1]: the shift's interpolation.
+                        let to = planes.plane(kind + 2, k, c);
+                        let (stored, shifted) = bank.split_at_mut(to);
+                        let plane = &stored[at..at + planes.len];
+                        let shifted = &mut shifted[..planes.len];
+                        shifted[0] = half * plane[0] + half * plane[0];
+                        for (o, pair) in shifted[1..].iter_mut().zip(plane.windows(2)) {
+                            *o = half * pair[1] + half * pair[0];
+                        }
+                    }
+                }
             }
         }
 
@@ -252,49 +374,18 @@ impl<T: Scalar> LineEstimator<T> {
         for i in 0..h.count() {
             let shear = h.shear(i);
             let shear_t = T::from_f32(shear);
-            jxx.fill(T::ZERO);
-            jxk.fill(T::ZERO);
-            jkk.fill(T::ZERO);
-            for c in 0..c_n {
-                for k in 0..k_n {
-                    let offset = (k as f32 - self.centre as f32) * shear;
-                    let at = (k * c_n + c) * n;
-                    shift(&pre_d[at..at + n], &mut sh_d[k * n..(k + 1) * n], offset);
-                    shift(&pre_s[at..at + n], &mut sh_s[k * n..(k + 1) * n], offset);
-                }
-                // Chunks of CHUNK samples; the last one overlaps its predecessor so that
-                // every chunk has the constant length the compiler unrolls and keeps in
-                // registers (overlapping samples are computed again, identically).
-                let mut done = 0;
-                while done < n {
-                    let mut sums = [[T::ZERO; CHUNK]; 3];
-                    let (t0, len) = if n >= CHUNK {
-                        let t0 = done.min(n - CHUNK);
-                        self.tensor_chunk(sh_d, sh_s, n, t0, CHUNK, &mut sums);
-                        (t0, CHUNK)
-                    } else {
-                        self.tensor_chunk(sh_d, sh_s, n, 0, n, &mut sums);
-                        (0, n)
-                    };
-                    let new = done - t0..len;
-                    let span = done..t0 + len;
-                    for ((((xx, xk), kk), &sxx), (&sxk, &skk)) in jxx[span.clone()]
-                        .iter_mut()
-                        .zip(jxk[span.clone()].iter_mut())
-                        .zip(jkk[span].iter_mut())
-                        .zip(sums[0][new.clone()].iter())
-                        .zip(sums[1][new.clone()].iter().zip(sums[2][new].iter()))
-                    {
-                        *xx += sxx;
-                        *xk += sxk;
-                        *kk += skk;
-                    }
-                    done = t0 + len;
-                }
+            let sources = self.sources(&planes, bank, shear);
+            let bank = &*bank;
+            match Band::<T>::width_for(self.band.taps) {
+                3 => self.tensor_line::<3>(bank, &sources, jxx, jxk, jkk),
+                5 => self.tensor_line::<5>(bank, &sources, jxx, jxk, jkk),
+                7 => self.tensor_line::<7>(bank, &sources, jxx, jxk, jkk),
+                9 => self.tensor_line::<9>(bank, &sources, jxx, jxk, jkk),
+                _ => self.tensor_line::<GRID_MAX>(bank, &sources, jxx, jxk, jkk),
             }
-            self.outer.apply(jxx, sxx);
-            self.outer.apply(jxk, sxk);
-            self.outer.apply(jkk, skk);
+            self.outer.apply(&jxx[..n], sxx);
+            self.outer.apply(&jxk[..n], sxk);
+            self.outer.apply(&jkk[..n], skk);
             for t in 0..n {
                 let trace = sxx[t] + skk[t];
                 // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
@@ -364,55 +455,132 @@ impl<T: Scalar> LineEstimator<T> {
         Ok(())
     }
 
-    /// Adds to `sums` (xx, xk, kk) the outer-weighted tensor of samples `t0..t0 + len`
-    /// (`len ≤ CHUNK`) of one channel: gradients of every view across the views (rows of
-    /// the mixing matrices) from the sheared planes `sh_d` / `sh_s` (`views · n`), kept
-    /// out of memory.
-    #[inline(always)]
-    fn tensor_chunk(
-        &self,
-        sh_d: &[T],
-        sh_s: &[T],
-        n: usize,
-        t0: usize,
-        len: usize,
-        sums: &mut [[T; CHUNK]; 3],
-    ) {
-        let [sum_xx, sum_xk, sum_kk] = sums;
+    /// Where hypothesis `shear` reads every view: the stored planes at a whole-sample
+    /// offset (the half-shifted ones for half-sample offsets), or, for any other fraction
+    /// and for shifts beyond the stored padding, a fallback plane interpolated here.
+    fn sources(&self, planes: &Planes, bank: &mut [T], shear: f32) -> Sources {
+        let mut sources = Sources {
+            d: [[0; GRID_MAX]; 3],
+            s: [[0; GRID_MAX]; 3],
+        };
+        let stored_len = planes.stored_len();
         for k in 0..self.views {
-            let w = self.weights[k];
-            if w == T::ZERO {
-                continue;
-            }
-            // Only the significant entries of the two rows (the inner Gaussian is short,
-            // and the derivative row has no centre entry).
-            let (smooth, derivative) = (&self.smooth_taps[k], &self.derivative_taps[k]);
-            let mut ax = [T::ZERO; CHUNK];
-            let mut ak = [T::ZERO; CHUNK];
-            for (&j, &a) in smooth.views().iter().zip(smooth.weights()) {
-                let at = j * n + t0;
-                for (x, &p) in ax[..len].iter_mut().zip(&sh_d[at..at + len]) {
-                    *x += a * p;
+            let offset = (k as f32 - self.centre as f32) * shear;
+            let floor = libm::floorf(offset);
+            let frac = offset - floor;
+            let whole = floor as isize;
+            let stored_kind = if frac == 0.0 {
+                Some(0)
+            } else if frac == 0.5 && self.half_shifts {
+                Some(2)
+            } else {
+                None
+            };
+            for c in 0..self.channels {
+                match stored_kind {
+                    Some(kind) if whole.unsigned_abs() <= planes.reach => {
+                        // Sample t of the sheared view is stored sample t − whole.
+                        let start = |kind| {
+                            let at = (planes.plane(kind, k, c) + planes.lead) as isize - whole;
+                            at as usize
+                        };
+                        sources.d[c][k] = start(kind);
+                        sources.s[c][k] = start(kind + 1);
+                    }
+                    _ => {
+                        let (stored, spare) = bank.split_at_mut(stored_len);
+                        for kind in 0..2 {
+                            let from = planes.plane(kind, k, c) + planes.lead;
+                            let to = planes.fallback(kind, k, c);
+                            let out =
+                                &mut spare[to - stored_len..to - stored_len + planes.n_blocks];
+                            let (line, tail) = out.split_at_mut(planes.n);
+                            shift(&stored[from..from + planes.n], line, offset);
+                            let last = line[planes.n - 1];
+                            tail.fill(last);
+                            if kind == 0 {
+                                sources.d[c][k] = to;
+                            } else {
+                                sources.s[c][k] = to;
+                            }
+                        }
+                    }
                 }
-            }
-            for (&j, &b) in derivative.views().iter().zip(derivative.weights()) {
-                let at = j * n + t0;
-                for (y, &q) in ak[..len].iter_mut().zip(&sh_s[at..at + len]) {
-                    *y += b * q;
-                }
-            }
-            for ((((xx, xk), kk), &gx), &gk) in sum_xx[..len]
-                .iter_mut()
-                .zip(sum_xk[..len].iter_mut())
-                .zip(sum_kk[..len].iter_mut())
-                .zip(ax.iter())
-                .zip(ak.iter())
-            {
-                *xx += gx * gx;
-                *xk += gx * gk;
-                *kk += gk * gk;
             }
         }
+        sources
+    }
+
+    /// The outer-weighted tensor (xx, xk, kk) of every sample of the line (rounded up to
+    /// whole blocks), summed over channels and views.
+    fn tensor_line<const TAPS: usize>(
+        &self,
+        bank: &[T],
+        sources: &Sources,
+        jxx: &mut [T],
+        jxk: &mut [T],
+        jkk: &mut [T],
+    ) {
+        let blocks = jxx
+            .chunks_exact_mut(BLOCK)
+            .zip(jxk.chunks_exact_mut(BLOCK))
+            .zip(jkk.chunks_exact_mut(BLOCK));
+        for (b, ((xx, xk), kk)) in blocks.enumerate() {
+            let [sxx, sxk, skk] = self.tensor_block::<TAPS>(bank, sources, b * BLOCK);
+            xx.copy_from_slice(&sxx);
+            xk.copy_from_slice(&sxk);
+            kk.copy_from_slice(&skk);
+        }
+    }
+
+    /// The tensor of samples `t0..t0 + BLOCK`: per channel and view, both gradients across
+    /// the views' band, then their products, all in registers.
+    #[inline(always)]
+    fn tensor_block<const TAPS: usize>(
+        &self,
+        bank: &[T],
+        sources: &Sources,
+        t0: usize,
+    ) -> [[T; BLOCK]; 3] {
+        let mut xx = [T::ZERO; BLOCK];
+        let mut xk = [T::ZERO; BLOCK];
+        let mut kk = [T::ZERO; BLOCK];
+        let band = &self.band;
+        for (sd, ss) in sources.d.iter().zip(&sources.s).take(self.channels) {
+            for k in 0..self.views {
+                if !band.active[k] {
+                    continue;
+                }
+                let mut gx = [T::ZERO; BLOCK];
+                let mut gk = [T::ZERO; BLOCK];
+                let taps = band.rows[k][..TAPS]
+                    .iter()
+                    .zip(&band.smooth[k][..TAPS])
+                    .zip(&band.derivative[k][..TAPS]);
+                for ((&j, &a), &b) in taps {
+                    let (at_d, at_s) = (sd[j] + t0, ss[j] + t0);
+                    let d = &bank[at_d..at_d + BLOCK];
+                    let s = &bank[at_s..at_s + BLOCK];
+                    for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(d.iter().zip(s))
+                    {
+                        *x += a * p;
+                        *y += b * q;
+                    }
+                }
+                for ((((sxx, sxk), skk), &x), &y) in xx
+                    .iter_mut()
+                    .zip(xk.iter_mut())
+                    .zip(kk.iter_mut())
+                    .zip(&gx)
+                    .zip(&gk)
+                {
+                    *sxx += x * x;
+                    *sxk += x * y;
+                    *skk += y * y;
+                }
+            }
+        }
+        [xx, xk, kk]
     }
 }
 

@@ -197,9 +197,9 @@ fn used_channels(plan: &Plan) -> usize {
 
 /// Scratch (elements of `T`) one band of `direction` needs; independent of the band size.
 pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
-    let (views, _) = direction.views(plan);
+    let (views, centre) = direction.views(plan);
     let n = direction.line_len(plan);
-    LineEstimator::<f32>::work_len(views, used_channels(plan), n) + 2 * n
+    LineEstimator::<f32>::work_len(views, centre, used_channels(plan), n) + 2 * n
 }
 
 /// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`].
@@ -305,7 +305,6 @@ pub(crate) struct BandEstimator<'p, 'a, T: Scalar, S: Sample> {
     lf: &'p LightField<'a, S>,
     direction: Direction,
     n: usize,
-    views: usize,
     color: ColorMode,
 }
 
@@ -329,7 +328,6 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             lf,
             direction,
             n: direction.line_len(plan),
-            views,
             color: params.color,
         }
     }
@@ -341,7 +339,7 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
         scratch: &'s mut [T],
     ) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
         let n = self.n;
-        let needed = LineEstimator::<T>::work_len(self.views, self.estimator.channels(), n) + 2 * n;
+        let needed = self.estimator.line_work_len(n) + 2 * n;
         if scratch.len() < needed {
             return Err(Error::ScratchTooSmall {
                 needed,
