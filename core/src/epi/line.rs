@@ -4,10 +4,11 @@
 
 use super::hypotheses::{Hypotheses, MAX_DISPARITY};
 use super::kernels::{centre_weights, truncated_gaussian, Kernel};
-use super::{ColorMode, EpiParams};
+use super::{ColorMode, EpiParams, Search};
 use crate::error::{Error, Result};
 use crate::lightfield::GRID_MAX;
 use crate::scalar::Scalar;
+use core::ops::Range;
 
 /// Everything that does not change from line to line, converted to `T` once.
 #[derive(Clone, Copy, Debug)]
@@ -24,6 +25,7 @@ pub(crate) struct LineEstimator<T: Scalar> {
     /// Whether some hypothesis shifts a view by a half-integer (the half-shifted planes
     /// are then filled).
     half_shifts: bool,
+    coarse: Option<Coarse<T>>,
 }
 
 /// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
@@ -35,6 +37,10 @@ const DEGENERATE: f32 = -3.0;
 /// Samples per register block of the tensor sums: the two gradients and the three sums of
 /// a block stay in (SSE2) registers across every channel and view.
 const BLOCK: usize = 8;
+/// The coarse pass tests every `COARSE_STEPS`-th shear step (at most 2 px apart, the
+/// largest step the residual window still covers): 2 and 3 steps gave the same HCI
+/// scores as 4 (docs/bench-epi.md).
+const COARSE_STEPS: f32 = 4.0;
 /// Mixing entries below this fraction of their row's largest are dropped: the inner
 /// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
 /// row by two views for no measurable change (docs/bench-epi.md).
@@ -123,6 +129,56 @@ impl<T: Scalar> Band<T> {
 struct Sources {
     d: [[usize; GRID_MAX]; 3],
     s: [[usize; GRID_MAX]; 3],
+    /// Channels read.
+    slots: usize,
+}
+
+/// The tensor of one hypothesis: raw sums over views (`jxx`, `jxk`, `jkk`, whole blocks)
+/// and smoothed along the line (`sxx`, `sxk`, `skk`).
+struct Tensor<'a, T> {
+    jxx: &'a mut [T],
+    jxk: &'a mut [T],
+    jkk: &'a mut [T],
+    sxx: &'a mut [T],
+    sxk: &'a mut [T],
+    skk: &'a mut [T],
+}
+
+/// Per sample: the best candidate so far (`best_d`, `best_c`, ranked by `score`), and the
+/// residual and coherence at the previous hypothesis (`prev_c < 0`: none usable).
+struct State<'a, T> {
+    best_d: &'a mut [T],
+    best_c: &'a mut [T],
+    score: &'a mut [T],
+    prev_r: &'a mut [T],
+    prev_c: &'a mut [T],
+}
+
+/// The coarse pass's result that decides which hypotheses a sample is tested at.
+struct Guide<'a, T> {
+    estimate: &'a [T],
+    score: &'a [T],
+    /// Hypotheses closer than this to the estimate are tested.
+    reach: T,
+}
+
+impl<T: Scalar> Guide<'_, T> {
+    /// Whether sample `t` needs the hypothesis `shear` (of `first..=last`): every one when
+    /// the coarse pass found no estimate inside a window, else those near the estimate.
+    #[inline(always)]
+    fn needs(&self, t: usize, shear: T, first: T, last: T) -> bool {
+        if self.score[t] < T::from_f32(SINGLE) {
+            return true;
+        }
+        (shear - self.estimate[t].clamp(first, last)).abs() < self.reach
+    }
+}
+
+/// The coarse pass: its hypotheses and the reach of the fine ones around its estimate.
+#[derive(Clone, Copy, Debug)]
+struct Coarse<T> {
+    hypotheses: Hypotheses,
+    reach: T,
 }
 
 /// Layout of the stored planes of one line. Every view and channel has four planes of
@@ -261,13 +317,30 @@ impl<T: Scalar> LineEstimator<T> {
             hypotheses,
             interpolate: params.interpolate,
             half_shifts,
+            coarse: match params.search {
+                Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
+                    let step = hypotheses.step();
+                    Hypotheses::sheared(
+                        hypotheses.min(),
+                        hypotheses.max(),
+                        (COARSE_STEPS * step).min(2.0),
+                        1.0,
+                    )
+                    .ok()
+                    .map(|coarse| Coarse {
+                        hypotheses: coarse,
+                        reach: T::from_f32((1.0 + margin) * step),
+                    })
+                }
+                _ => None,
+            },
         }
     }
 
     /// Work elements (of `T`) for a line of `n` samples.
     pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
-        let planes = Planes::new(views, centre, channels, n);
-        planes.bank_len() + 3 * planes.n_blocks + 8 * n
+        let planes = Planes::new(views, centre, channels + 1, n);
+        planes.bank_len() + 3 * planes.n_blocks + 13 * n
     }
 
     /// Work elements (of `T`) this estimator needs for a line of `n` samples.
@@ -304,7 +377,8 @@ impl<T: Scalar> LineEstimator<T> {
         if n == 0 {
             return Ok(());
         }
-        let planes = Planes::new(k_n, self.centre, c_n, n);
+        // One plane slot per channel and one for the coarse pass's gray.
+        let planes = Planes::new(k_n, self.centre, c_n + 1, n);
         let nb = planes.n_blocks;
         let (bank, rest) = work.split_at_mut(planes.bank_len());
         let (jxx, rest) = rest.split_at_mut(nb);
@@ -316,7 +390,16 @@ impl<T: Scalar> LineEstimator<T> {
         let (skk, rest) = rest.split_at_mut(n);
         let (score, rest) = rest.split_at_mut(n);
         let (prev_r, rest) = rest.split_at_mut(n);
-        let prev_c = &mut rest[..n];
+        let (prev_c, rest) = rest.split_at_mut(n);
+        let coarse_work = &mut rest[..5 * n];
+        let mut tensor = Tensor {
+            jxx,
+            jxk,
+            jkk,
+            sxx,
+            sxk,
+            skk,
+        };
 
         // Filtering along the line commutes with the shear (a shift along the line), so the
         // inner smoothing and the along-line parts of the Scharr filters run once per line,
@@ -348,21 +431,172 @@ impl<T: Scalar> LineEstimator<T> {
             }
         }
 
-        let best_d = &mut disparity[..n];
-        let best_c = &mut confidence[..n];
-        let lowest = T::from_f32(DEGENERATE - 1.0);
-        for ((d, c), sc) in best_d
-            .iter_mut()
-            .zip(best_c.iter_mut())
-            .zip(score.iter_mut())
-        {
-            *d = T::ZERO;
-            *c = T::ZERO;
-            *sc = lowest;
+        if let Some(coarse) = &self.coarse {
+            // The coarse pass reads the mean of the channels' planes (filters are linear).
+            let kinds = if self.half_shifts { 4 } else { 2 };
+            let scale = T::from_f32(1.0 / c_n as f32);
+            for kind in 0..kinds {
+                for k in 0..k_n {
+                    let to = planes.plane(kind, k, c_n);
+                    let (stored, gray) = bank.split_at_mut(to);
+                    let gray = &mut gray[..planes.len];
+                    gray.fill(T::ZERO);
+                    for c in 0..c_n {
+                        let at = planes.plane(kind, k, c);
+                        for (g, &v) in gray.iter_mut().zip(&stored[at..at + planes.len]) {
+                            *g += v;
+                        }
+                    }
+                    for g in gray.iter_mut() {
+                        *g *= scale;
+                    }
+                }
+            }
+            let (estimate, rest) = coarse_work.split_at_mut(n);
+            let (coherence, rest) = rest.split_at_mut(n);
+            let (coarse_score, rest) = rest.split_at_mut(n);
+            let (coarse_prev_r, coarse_prev_c) = rest.split_at_mut(n);
+            let mut state = State {
+                best_d: estimate,
+                best_c: coherence,
+                score: coarse_score,
+                prev_r: coarse_prev_r,
+                prev_c: &mut coarse_prev_c[..n],
+            };
+            self.sweep(
+                &coarse.hypotheses,
+                c_n..c_n + 1,
+                &planes,
+                bank,
+                &mut tensor,
+                &mut state,
+                None,
+            );
+            let guide = Guide {
+                estimate: state.best_d,
+                score: state.score,
+                reach: coarse.reach,
+            };
+            let mut state = State {
+                best_d: &mut disparity[..n],
+                best_c: &mut confidence[..n],
+                score,
+                prev_r,
+                prev_c,
+            };
+            self.sweep(
+                &self.hypotheses,
+                0..c_n,
+                &planes,
+                bank,
+                &mut tensor,
+                &mut state,
+                Some(guide),
+            );
+        } else {
+            let mut state = State {
+                best_d: &mut disparity[..n],
+                best_c: &mut confidence[..n],
+                score,
+                prev_r,
+                prev_c,
+            };
+            self.sweep(
+                &self.hypotheses,
+                0..c_n,
+                &planes,
+                bank,
+                &mut tensor,
+                &mut state,
+                None,
+            );
         }
         let h = &self.hypotheses;
-        let window = T::from_f32(h.window());
-        let step = T::from_f32(h.step());
+        let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
+        for d in disparity[..n].iter_mut() {
+            *d = d.clamp(lo, hi);
+        }
+        Ok(())
+    }
+
+    /// Tests the hypotheses `hyps` on the channel planes `slots`, keeping each sample's
+    /// best candidate in `state`. With a `guide`, a sample is only tested at the
+    /// hypotheses it needs (see [`Guide::needs`]); the tensor is then computed only
+    /// within the outer smoothing's reach of those samples.
+    #[allow(clippy::too_many_arguments)]
+    fn sweep(
+        &self,
+        hyps: &Hypotheses,
+        slots: Range<usize>,
+        planes: &Planes,
+        bank: &mut [T],
+        tensor: &mut Tensor<'_, T>,
+        state: &mut State<'_, T>,
+        guide: Option<Guide<'_, T>>,
+    ) {
+        let n = planes.n;
+        let degenerate = T::from_f32(DEGENERATE);
+        let lowest = T::from_f32(DEGENERATE - 1.0);
+        state.best_d.fill(T::ZERO);
+        state.best_c.fill(T::ZERO);
+        state.score.fill(lowest);
+        state.prev_c.fill(degenerate);
+        let reach = self.outer.radius();
+        // Needed samples closer than this share their tensor blocks: one run.
+        let merge = 2 * reach + BLOCK;
+        let (first, last) = (
+            T::from_f32(hyps.shear(0)),
+            T::from_f32(hyps.shear(hyps.count().saturating_sub(1))),
+        );
+        for i in 0..hyps.count() {
+            let shear = hyps.shear(i);
+            let shear_t = T::from_f32(shear);
+            let needs = |t: usize| match &guide {
+                None => true,
+                Some(g) => g.needs(t, shear_t, first, last),
+            };
+            let sources = self.sources(planes, bank, shear, slots.clone());
+            let mut t = 0;
+            while t < n {
+                if !needs(t) {
+                    // Not tested here: no zero crossing with the next hypothesis.
+                    state.prev_c[t] = degenerate;
+                    t += 1;
+                    continue;
+                }
+                let start = t;
+                let mut end = t + 1;
+                let mut probe = t + 1;
+                while probe < n && probe < end + merge {
+                    if needs(probe) {
+                        end = probe + 1;
+                    }
+                    probe += 1;
+                }
+                let blocks = start.saturating_sub(reach) / BLOCK
+                    ..(end + reach).div_ceil(BLOCK).min(planes.n_blocks / BLOCK);
+                self.tensor_blocks(bank, &sources, tensor, blocks);
+                let sums = &mut *tensor;
+                self.outer.apply_range(&sums.jxx[..n], sums.sxx, start..end);
+                self.outer.apply_range(&sums.jxk[..n], sums.sxk, start..end);
+                self.outer.apply_range(&sums.jkk[..n], sums.skk, start..end);
+                self.score(hyps, i, sums, state, start..end);
+                t = end;
+            }
+        }
+    }
+
+    /// Scores hypothesis `i` of `hyps` at the samples `range` from the smoothed tensor.
+    fn score(
+        &self,
+        hyps: &Hypotheses,
+        i: usize,
+        tensor: &Tensor<'_, T>,
+        state: &mut State<'_, T>,
+        range: Range<usize>,
+    ) {
+        let window = T::from_f32(hyps.window());
+        let step = T::from_f32(hyps.step());
         let degenerate = T::from_f32(DEGENERATE);
         let single = T::from_f32(SINGLE);
         let out_of_window = T::from_f32(OUT_OF_WINDOW);
@@ -370,98 +604,86 @@ impl<T: Scalar> LineEstimator<T> {
         let min_den = T::from_f32(1.0 / 64.0);
         let min_gap = T::from_f32(1.0 / 256.0);
         let two = T::from_i32(2);
-        let mut previous_shear = T::ZERO;
-        for i in 0..h.count() {
-            let shear = h.shear(i);
-            let shear_t = T::from_f32(shear);
-            let sources = self.sources(&planes, bank, shear);
-            let bank = &*bank;
-            match Band::<T>::width_for(self.band.taps) {
-                3 => self.tensor_line::<3>(bank, &sources, jxx, jxk, jkk),
-                5 => self.tensor_line::<5>(bank, &sources, jxx, jxk, jkk),
-                7 => self.tensor_line::<7>(bank, &sources, jxx, jxk, jkk),
-                9 => self.tensor_line::<9>(bank, &sources, jxx, jxk, jkk),
-                _ => self.tensor_line::<GRID_MAX>(bank, &sources, jxx, jxk, jkk),
-            }
-            self.outer.apply(&jxx[..n], sxx);
-            self.outer.apply(&jxk[..n], sxk);
-            self.outer.apply(&jkk[..n], skk);
-            for t in 0..n {
-                let trace = sxx[t] + skk[t];
-                // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
-                let (r, coherence) = if trace <= tiny_trace {
+        let shear_t = T::from_f32(hyps.shear(i));
+        let previous_shear = T::from_f32(hyps.shear(i.saturating_sub(1)));
+        let (sxx, sxk, skk) = (&tensor.sxx[..], &tensor.sxk[..], &tensor.skk[..]);
+        let State {
+            best_d,
+            best_c,
+            score,
+            prev_r,
+            prev_c,
+        } = state;
+        for t in range {
+            let trace = sxx[t] + skk[t];
+            // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
+            let (r, coherence) = if trace <= tiny_trace {
+                (T::ZERO, degenerate)
+            } else {
+                // Normalised by the trace so that fixed point never overflows:
+                // a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the
+                // dominant eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
+                let a = (sxx[t] - skk[t]) / trace;
+                let b = two * sxk[t] / trace;
+                let coherence = (a * a + b * b).sqrt().min(T::ONE);
+                let den = a + coherence;
+                if den <= min_den {
                     (T::ZERO, degenerate)
                 } else {
-                    // Normalised by the trace so that fixed point never overflows:
-                    // a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the
-                    // dominant eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
-                    let a = (sxx[t] - skk[t]) / trace;
-                    let b = two * sxk[t] / trace;
-                    let coherence = (a * a + b * b).sqrt().min(T::ONE);
-                    let den = a + coherence;
-                    if den <= min_den {
-                        (T::ZERO, degenerate)
-                    } else {
-                        (b / den, coherence)
-                    }
-                };
-                let valid = coherence >= T::ZERO;
-                let inside = valid && r.abs() <= window;
-                let (mut cand_score, mut cand_d) = if !valid {
-                    (degenerate, shear_t)
-                } else if inside {
-                    (coherence + single, shear_t + r)
-                } else {
-                    (
-                        coherence + out_of_window,
-                        shear_t + r.clamp(-window, window),
-                    )
-                };
-                if self.interpolate && i > 0 {
-                    // The residual slope falls linearly through zero between the two
-                    // shears that bracket the disparity; its zero crossing cancels the
-                    // tensor's slope-proportional bias.
-                    let (pr, pc) = (prev_r[t], prev_c[t]);
-                    if inside && pc >= T::ZERO && pr >= T::ZERO && r <= T::ZERO {
-                        let gap = pr - r;
-                        if gap > min_gap {
-                            let crossing = previous_shear + step * (pr / gap).min(T::ONE);
-                            let both = pc.min(coherence);
-                            if both > cand_score {
-                                cand_score = both;
-                                cand_d = crossing;
-                            }
+                    (b / den, coherence)
+                }
+            };
+            let valid = coherence >= T::ZERO;
+            let inside = valid && r.abs() <= window;
+            let (mut cand_score, mut cand_d) = if !valid {
+                (degenerate, shear_t)
+            } else if inside {
+                (coherence + single, shear_t + r)
+            } else {
+                (
+                    coherence + out_of_window,
+                    shear_t + r.clamp(-window, window),
+                )
+            };
+            if self.interpolate {
+                // The residual slope falls linearly through zero between the two
+                // shears that bracket the disparity; its zero crossing cancels the
+                // tensor's slope-proportional bias.
+                let (pr, pc) = (prev_r[t], prev_c[t]);
+                if inside && pc >= T::ZERO && pr >= T::ZERO && r <= T::ZERO {
+                    let gap = pr - r;
+                    if gap > min_gap {
+                        let crossing = previous_shear + step * (pr / gap).min(T::ONE);
+                        let both = pc.min(coherence);
+                        if both > cand_score {
+                            cand_score = both;
+                            cand_d = crossing;
                         }
                     }
                 }
-                if cand_score > score[t] {
-                    score[t] = cand_score;
-                    best_d[t] = cand_d;
-                    best_c[t] = coherence.max(T::ZERO);
-                }
-                if inside {
-                    prev_r[t] = r;
-                    prev_c[t] = coherence;
-                } else {
-                    prev_c[t] = degenerate;
-                }
             }
-            previous_shear = shear_t;
+            if cand_score > score[t] {
+                score[t] = cand_score;
+                best_d[t] = cand_d;
+                best_c[t] = coherence.max(T::ZERO);
+            }
+            if inside {
+                prev_r[t] = r;
+                prev_c[t] = coherence;
+            } else {
+                prev_c[t] = degenerate;
+            }
         }
-        let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
-        for d in best_d.iter_mut() {
-            *d = d.clamp(lo, hi);
-        }
-        Ok(())
     }
 
     /// Where hypothesis `shear` reads every view: the stored planes at a whole-sample
     /// offset (the half-shifted ones for half-sample offsets), or, for any other fraction
     /// and for shifts beyond the stored padding, a fallback plane interpolated here.
-    fn sources(&self, planes: &Planes, bank: &mut [T], shear: f32) -> Sources {
+    fn sources(&self, planes: &Planes, bank: &mut [T], shear: f32, slots: Range<usize>) -> Sources {
         let mut sources = Sources {
             d: [[0; GRID_MAX]; 3],
             s: [[0; GRID_MAX]; 3],
+            slots: slots.len().min(3),
         };
         let stored_len = planes.stored_len();
         for k in 0..self.views {
@@ -476,7 +698,7 @@ impl<T: Scalar> LineEstimator<T> {
             } else {
                 None
             };
-            for c in 0..self.channels {
+            for (slot, c) in slots.clone().enumerate().take(3) {
                 match stored_kind {
                     Some(kind) if whole.unsigned_abs() <= planes.reach => {
                         // Sample t of the sheared view is stored sample t − whole.
@@ -484,8 +706,8 @@ impl<T: Scalar> LineEstimator<T> {
                             let at = (planes.plane(kind, k, c) + planes.lead) as isize - whole;
                             at as usize
                         };
-                        sources.d[c][k] = start(kind);
-                        sources.s[c][k] = start(kind + 1);
+                        sources.d[slot][k] = start(kind);
+                        sources.s[slot][k] = start(kind + 1);
                     }
                     _ => {
                         let (stored, spare) = bank.split_at_mut(stored_len);
@@ -499,9 +721,9 @@ impl<T: Scalar> LineEstimator<T> {
                             let last = line[planes.n - 1];
                             tail.fill(last);
                             if kind == 0 {
-                                sources.d[c][k] = to;
+                                sources.d[slot][k] = to;
                             } else {
-                                sources.s[c][k] = to;
+                                sources.s[slot][k] = to;
                             }
                         }
                     }
@@ -511,21 +733,37 @@ impl<T: Scalar> LineEstimator<T> {
         sources
     }
 
-    /// The outer-weighted tensor (xx, xk, kk) of every sample of the line (rounded up to
-    /// whole blocks), summed over channels and views.
+    /// The outer-weighted tensor (xx, xk, kk) of the samples of `blocks` (of `BLOCK`
+    /// samples) into `tensor.jxx` etc., summed over the source channels and the views.
+    fn tensor_blocks(
+        &self,
+        bank: &[T],
+        sources: &Sources,
+        tensor: &mut Tensor<'_, T>,
+        blocks: Range<usize>,
+    ) {
+        match Band::<T>::width_for(self.band.taps) {
+            3 => self.tensor_line::<3>(bank, sources, tensor, blocks),
+            5 => self.tensor_line::<5>(bank, sources, tensor, blocks),
+            7 => self.tensor_line::<7>(bank, sources, tensor, blocks),
+            9 => self.tensor_line::<9>(bank, sources, tensor, blocks),
+            _ => self.tensor_line::<GRID_MAX>(bank, sources, tensor, blocks),
+        }
+    }
+
     fn tensor_line<const TAPS: usize>(
         &self,
         bank: &[T],
         sources: &Sources,
-        jxx: &mut [T],
-        jxk: &mut [T],
-        jkk: &mut [T],
+        tensor: &mut Tensor<'_, T>,
+        blocks: Range<usize>,
     ) {
-        let blocks = jxx
+        let span = blocks.start * BLOCK..blocks.end * BLOCK;
+        let lines = tensor.jxx[span.clone()]
             .chunks_exact_mut(BLOCK)
-            .zip(jxk.chunks_exact_mut(BLOCK))
-            .zip(jkk.chunks_exact_mut(BLOCK));
-        for (b, ((xx, xk), kk)) in blocks.enumerate() {
+            .zip(tensor.jxk[span.clone()].chunks_exact_mut(BLOCK))
+            .zip(tensor.jkk[span].chunks_exact_mut(BLOCK));
+        for (b, ((xx, xk), kk)) in blocks.zip(lines) {
             let [sxx, sxk, skk] = self.tensor_block::<TAPS>(bank, sources, b * BLOCK);
             xx.copy_from_slice(&sxx);
             xk.copy_from_slice(&sxk);
@@ -546,7 +784,7 @@ impl<T: Scalar> LineEstimator<T> {
         let mut xk = [T::ZERO; BLOCK];
         let mut kk = [T::ZERO; BLOCK];
         let band = &self.band;
-        for (sd, ss) in sources.d.iter().zip(&sources.s).take(self.channels) {
+        for (sd, ss) in sources.d.iter().zip(&sources.s).take(sources.slots) {
             for k in 0..self.views {
                 if !band.active[k] {
                     continue;

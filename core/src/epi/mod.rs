@@ -60,6 +60,22 @@ pub enum ColorMode {
     Gray,
 }
 
+/// Which shear hypotheses each sample is tested at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Search {
+    /// Every hypothesis of the range.
+    Exhaustive,
+    /// A gray pass at four times the shear step (at most 2 px) estimates every sample
+    /// first; then only the hypotheses within `(1 + margin)·shear_step` of that estimate
+    /// are tested in full colour: the two that bracket it, and a neighbour when it lies
+    /// within `margin` steps of one of them. Samples the gray pass cannot place inside a
+    /// window are tested at every hypothesis.
+    CoarseToFine {
+        /// Extra reach, in shear steps, 0…2.
+        margin: f32,
+    },
+}
+
 /// The two EPI directions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Direction {
@@ -91,6 +107,8 @@ pub struct EpiParams {
     pub fusion: Fusion,
     /// Colour handling.
     pub color: ColorMode,
+    /// Which hypotheses each sample is tested at.
+    pub search: Search,
 }
 
 impl Default for EpiParams {
@@ -108,6 +126,7 @@ impl Default for EpiParams {
             interpolate: true,
             fusion: Fusion::Coherence,
             color: ColorMode::Tensor,
+            search: Search::CoarseToFine { margin: 0.0 },
         }
     }
 }
@@ -154,6 +173,14 @@ impl EpiParams {
                 name: "window",
                 reason: "must be between 0.5 and 2 shear steps",
             });
+        }
+        if let Search::CoarseToFine { margin } = self.search {
+            if !within(margin, 0.0, 2.0) {
+                return Err(Error::InvalidParameter {
+                    name: "search margin",
+                    reason: "must be between 0 and 2 shear steps",
+                });
+            }
         }
         if let DisparityRange::Fixed { min, max } = self.range {
             Hypotheses::new(self, min, max)?;
