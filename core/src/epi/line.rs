@@ -28,6 +28,16 @@ pub(crate) struct LineEstimator<T: Scalar> {
     coarse: Option<Coarse<T>>,
 }
 
+/// Whether some hypothesis of `hyps` shifts one of `views` views by a half-integer.
+fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
+    (0..hyps.count()).any(|i| {
+        (0..views).any(|k| {
+            let offset = (k as f32 - centre as f32) * hyps.shear(i);
+            offset - libm::floorf(offset) == 0.5
+        })
+    })
+}
+
 /// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
 /// (`coherence − 1`), an estimate outside its hypothesis' window (`coherence − 2`) and a
 /// degenerate tensor (no texture, or an orientation the window can never hold).
@@ -41,6 +51,9 @@ const BLOCK: usize = 8;
 /// largest step the residual window still covers): 2 and 3 steps gave the same HCI
 /// scores as 4 (docs/bench-epi.md).
 const COARSE_STEPS: f32 = 4.0;
+/// The coarse pass scores every `COARSE_STRIDE`-th sample along the line (the tensor is
+/// smoothed over ±3·outer_sigma samples anyway); the others take their neighbour's.
+const COARSE_STRIDE: usize = 2;
 /// Mixing entries below this fraction of their row's largest are dropped: the inner
 /// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
 /// row by two views for no measurable change (docs/bench-epi.md).
@@ -179,6 +192,9 @@ impl<T: Scalar> Guide<'_, T> {
 struct Coarse<T> {
     hypotheses: Hypotheses,
     reach: T,
+    /// Whether its gray planes need the half-shifted kinds (only when the fine ones have
+    /// them too; otherwise half shifts take the fallback planes).
+    half_shifts: bool,
 }
 
 /// Layout of the stored planes of one line. Every view and channel has four planes of
@@ -296,13 +312,7 @@ impl<T: Scalar> LineEstimator<T> {
                 *m *= root;
             }
         }
-        let mut half_shifts = false;
-        for i in 0..hypotheses.count() {
-            for k in 0..views {
-                let offset = (k as f32 - centre as f32) * hypotheses.shear(i);
-                half_shifts |= offset - libm::floorf(offset) == 0.5;
-            }
-        }
+        let half_shifts = shifts_by_halves(&hypotheses, views, centre);
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
@@ -330,6 +340,7 @@ impl<T: Scalar> LineEstimator<T> {
                     .map(|coarse| Coarse {
                         hypotheses: coarse,
                         reach: T::from_f32((1.0 + margin) * step),
+                        half_shifts: half_shifts && shifts_by_halves(&coarse, views, centre),
                     })
                 }
                 _ => None,
@@ -340,7 +351,7 @@ impl<T: Scalar> LineEstimator<T> {
     /// Work elements (of `T`) for a line of `n` samples.
     pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
         let planes = Planes::new(views, centre, channels + 1, n);
-        planes.bank_len() + 3 * planes.n_blocks + 13 * n
+        planes.bank_len() + 3 * planes.n_blocks + (12 + channels) * n
     }
 
     /// Work elements (of `T`) this estimator needs for a line of `n` samples.
@@ -348,13 +359,14 @@ impl<T: Scalar> LineEstimator<T> {
         Self::work_len(self.views, self.centre, self.channels, n)
     }
 
-    /// Estimates one line of `n` samples. `load(view, channel, out)` fills `out` (length `n`)
-    /// with the samples of that view along the line, scaled intensities. Writes the
+    /// Estimates one line of `n` samples. `load(view, out)` fills `out` (`channels` planes
+    /// of `n`, one after the other) with the samples of that view along the line, scaled
+    /// intensities. Writes the
     /// disparity and the confidence of every sample into `disparity` / `confidence`.
     pub(crate) fn estimate(
         &self,
         n: usize,
-        mut load: impl FnMut(usize, usize, &mut [T]) -> Result<()>,
+        mut load: impl FnMut(usize, &mut [T]) -> Result<()>,
         work: &mut [T],
         disparity: &mut [T],
         confidence: &mut [T],
@@ -384,7 +396,7 @@ impl<T: Scalar> LineEstimator<T> {
         let (jxx, rest) = rest.split_at_mut(nb);
         let (jxk, rest) = rest.split_at_mut(nb);
         let (jkk, rest) = rest.split_at_mut(nb);
-        let (raw, rest) = rest.split_at_mut(n);
+        let (raw, rest) = rest.split_at_mut(c_n * n);
         let (sxx, rest) = rest.split_at_mut(n);
         let (sxk, rest) = rest.split_at_mut(n);
         let (skk, rest) = rest.split_at_mut(n);
@@ -406,8 +418,8 @@ impl<T: Scalar> LineEstimator<T> {
         // into planes padded with their edge values (the clamped shift reads them).
         let half = T::from_f32(0.5);
         for k in 0..k_n {
-            for c in 0..c_n {
-                load(k, c, raw)?;
+            load(k, raw)?;
+            for (c, raw) in raw.chunks_exact(n).enumerate() {
                 for (kind, kernel) in [(0, &self.derivative), (1, &self.smoothing)] {
                     let at = planes.plane(kind, k, c);
                     let plane = &mut bank[at..at + planes.len];
@@ -433,7 +445,7 @@ impl<T: Scalar> LineEstimator<T> {
 
         if let Some(coarse) = &self.coarse {
             // The coarse pass reads the mean of the channels' planes (filters are linear).
-            let kinds = if self.half_shifts { 4 } else { 2 };
+            let kinds = if coarse.half_shifts { 4 } else { 2 };
             let scale = T::from_f32(1.0 / c_n as f32);
             for kind in 0..kinds {
                 for k in 0..k_n {
@@ -471,7 +483,17 @@ impl<T: Scalar> LineEstimator<T> {
                 &mut tensor,
                 &mut state,
                 None,
+                COARSE_STRIDE,
             );
+            // Samples between the scored ones take their left neighbour's estimate.
+            for pair in state.best_d.chunks_exact_mut(COARSE_STRIDE) {
+                let first = pair[0];
+                pair.fill(first);
+            }
+            for pair in state.score.chunks_exact_mut(COARSE_STRIDE) {
+                let first = pair[0];
+                pair.fill(first);
+            }
             let guide = Guide {
                 estimate: state.best_d,
                 score: state.score,
@@ -492,6 +514,7 @@ impl<T: Scalar> LineEstimator<T> {
                 &mut tensor,
                 &mut state,
                 Some(guide),
+                1,
             );
         } else {
             let mut state = State {
@@ -509,6 +532,7 @@ impl<T: Scalar> LineEstimator<T> {
                 &mut tensor,
                 &mut state,
                 None,
+                1,
             );
         }
         let h = &self.hypotheses;
@@ -533,6 +557,7 @@ impl<T: Scalar> LineEstimator<T> {
         tensor: &mut Tensor<'_, T>,
         state: &mut State<'_, T>,
         guide: Option<Guide<'_, T>>,
+        stride: usize,
     ) {
         let n = planes.n;
         let degenerate = T::from_f32(DEGENERATE);
@@ -580,7 +605,7 @@ impl<T: Scalar> LineEstimator<T> {
                 self.outer.apply_range(&sums.jxx[..n], sums.sxx, start..end);
                 self.outer.apply_range(&sums.jxk[..n], sums.sxk, start..end);
                 self.outer.apply_range(&sums.jkk[..n], sums.skk, start..end);
-                self.score(hyps, i, sums, state, start..end);
+                self.score(hyps, i, sums, state, start..end, stride);
                 t = end;
             }
         }
@@ -594,6 +619,7 @@ impl<T: Scalar> LineEstimator<T> {
         tensor: &Tensor<'_, T>,
         state: &mut State<'_, T>,
         range: Range<usize>,
+        stride: usize,
     ) {
         let window = T::from_f32(hyps.window());
         let step = T::from_f32(hyps.step());
@@ -614,7 +640,7 @@ impl<T: Scalar> LineEstimator<T> {
             prev_r,
             prev_c,
         } = state;
-        for t in range {
+        for t in (range.start.next_multiple_of(stride)..range.end).step_by(stride) {
             let trace = sxx[t] + skk[t];
             // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
             let (r, coherence) = if trace <= tiny_trace {
@@ -686,6 +712,10 @@ impl<T: Scalar> LineEstimator<T> {
             slots: slots.len().min(3),
         };
         let stored_len = planes.stored_len();
+        let half_ready = match &self.coarse {
+            Some(coarse) if slots.start >= self.channels => coarse.half_shifts,
+            _ => self.half_shifts,
+        };
         for k in 0..self.views {
             let offset = (k as f32 - self.centre as f32) * shear;
             let floor = libm::floorf(offset);
@@ -693,7 +723,7 @@ impl<T: Scalar> LineEstimator<T> {
             let whole = floor as isize;
             let stored_kind = if frac == 0.0 {
                 Some(0)
-            } else if frac == 0.5 && self.half_shifts {
+            } else if frac == 0.5 && half_ready {
                 Some(2)
             } else {
                 None

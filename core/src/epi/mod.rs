@@ -401,7 +401,10 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             }
         };
         let n = self.n;
-        let load = |k: usize, c: usize, out: &mut [T]| -> Result<()> {
+        let used = ch_n.min(3);
+        // All channels of a view in one pass over its pixels (a vertical line strides
+        // through the image: one pass instead of one per channel).
+        let load = |k: usize, out: &mut [T]| -> Result<()> {
             let (start, step) = locate(k);
             let end = start + (n - 1) * step + ch_n;
             let src = data.get(start..end).ok_or(Error::BufferTooSmall {
@@ -411,12 +414,37 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             })?;
             match color {
                 ColorMode::Tensor => {
-                    for (o, px) in out.iter_mut().zip(src.chunks(step)) {
-                        *o = T::from_f32(px[c].to_unit() * INTENSITY_SCALE);
+                    let scale = INTENSITY_SCALE;
+                    let (first, rest) = out.split_at_mut(n.min(out.len()));
+                    let (second, third) = rest.split_at_mut(n.min(rest.len()));
+                    let pixels = src.chunks(step).take(n);
+                    match used {
+                        3 => {
+                            for (((o0, o1), o2), px) in first
+                                .iter_mut()
+                                .zip(second.iter_mut())
+                                .zip(third.iter_mut())
+                                .zip(pixels)
+                            {
+                                if let [r, g, b, ..] = *px {
+                                    *o0 = T::from_f32(r.to_unit() * scale);
+                                    *o1 = T::from_f32(g.to_unit() * scale);
+                                    *o2 = T::from_f32(b.to_unit() * scale);
+                                }
+                            }
+                        }
+                        _ => {
+                            for (t, px) in pixels.enumerate() {
+                                for (c, &v) in px.iter().take(used).enumerate() {
+                                    if let Some(o) = out.get_mut(c * n + t) {
+                                        *o = T::from_f32(v.to_unit() * scale);
+                                    }
+                                }
+                            }
+                        }
                     }
                 }
                 ColorMode::Gray => {
-                    let used = ch_n.min(3);
                     let scale = INTENSITY_SCALE / used as f32;
                     for (o, px) in out.iter_mut().zip(src.chunks(step)) {
                         let sum: f32 = px[..used].iter().map(|s| s.to_unit()).sum();

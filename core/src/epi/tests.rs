@@ -285,7 +285,9 @@ fn invalid_parameters_are_rejected() {
             ..EpiParams::default()
         },
         EpiParams {
-            search: Search::CoarseToFine { margin: f32::INFINITY },
+            search: Search::CoarseToFine {
+                margin: f32::INFINITY,
+            },
             ..EpiParams::default()
         },
     ] {
@@ -322,6 +324,9 @@ fn coarse_to_fine_search_finds_the_exhaustive_estimate() {
         assert!(share > 0.9, "margin {margin}: {share}");
         let good = share_within(&scene, &d, 0.02, 14);
         let good_all = share_within(&scene, &d_all, 0.02, 14);
-        assert!(good >= good_all - 0.01, "margin {margin}: {good} vs {good_all}");
+        assert!(
+            good >= good_all - 0.01,
+            "margin {margin}: {good} vs {good_all}"
+        );
     }
 }
