@@ -181,7 +181,11 @@ impl<T: Scalar> Kernel<T> {
                 self.interior_block(input, base, inner_len, &mut acc);
                 (0, inner_len)
             };
-            inner[done..t0 + len].copy_from_slice(&acc[done - t0..len]);
+            // An element loop, not `copy_from_slice`: the length varies, and a library
+            // `memmove` call per block cost more than the copy.
+            for (o, &v) in inner[done..t0 + len].iter_mut().zip(&acc[done - t0..len]) {
+                *o = v;
+            }
             done = t0 + len;
         }
     }

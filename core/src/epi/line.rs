@@ -54,6 +54,8 @@ const COARSE_STEPS: f32 = 4.0;
 /// The coarse pass scores every `COARSE_STRIDE`-th sample along the line (the tensor is
 /// smoothed over ±3·outer_sigma samples anyway); the others take their neighbour's.
 const COARSE_STRIDE: usize = 2;
+/// The coarse pass sums the tensor of the views at most this far from the centre.
+const COARSE_VIEWS: usize = 2;
 /// Mixing entries below this fraction of their row's largest are dropped: the inner
 /// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
 /// row by two views for no measurable change (docs/bench-epi.md).
@@ -144,6 +146,8 @@ struct Sources {
     s: [[usize; GRID_MAX]; 3],
     /// Channels read.
     slots: usize,
+    /// Views whose tensor enters the sum.
+    active: [bool; GRID_MAX],
 }
 
 /// The tensor of one hypothesis: raw sums over views (`jxx`, `jxk`, `jkk`, whole blocks)
@@ -710,7 +714,13 @@ impl<T: Scalar> LineEstimator<T> {
             d: [[0; GRID_MAX]; 3],
             s: [[0; GRID_MAX]; 3],
             slots: slots.len().min(3),
+            active: self.band.active,
         };
+        if slots.start >= self.channels {
+            for (k, a) in sources.active.iter_mut().enumerate() {
+                *a &= k.abs_diff(self.centre) <= COARSE_VIEWS;
+            }
+        }
         let stored_len = planes.stored_len();
         let half_ready = match &self.coarse {
             Some(coarse) if slots.start >= self.channels => coarse.half_shifts,
@@ -816,7 +826,7 @@ impl<T: Scalar> LineEstimator<T> {
         let band = &self.band;
         for (sd, ss) in sources.d.iter().zip(&sources.s).take(sources.slots) {
             for k in 0..self.views {
-                if !band.active[k] {
+                if !sources.active[k] {
                     continue;
                 }
                 let mut gx = [T::ZERO; BLOCK];
