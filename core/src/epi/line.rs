@@ -44,9 +44,10 @@ fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
 const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
-/// Samples per register block of the tensor sums: the two gradients and the three sums of
-/// a block stay in (SSE2) registers across every channel and view.
-const BLOCK: usize = 8;
+/// Samples per register block of the tensor sums: the gradients and sums of a block are
+/// accumulated over every channel and view before they are stored (8: 123–124 ms,
+/// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/bench-epi.md).
+const BLOCK: usize = 16;
 /// The coarse pass tests every `COARSE_STEPS`-th shear step (at most 2 px apart, the
 /// largest step the residual window still covers): 2 and 3 steps gave the same HCI
 /// scores as 4 (docs/bench-epi.md).
