@@ -172,23 +172,19 @@ struct State<'a, T> {
     prev_c: &'a mut [T],
 }
 
-/// The coarse pass's result that decides which hypotheses a sample is tested at.
+/// The coarse pass's result that decides which hypotheses a sample is tested at: those
+/// closer than `reach[t]` to `estimate[t]` (`T::MAX` where the coarse pass found no
+/// estimate inside a window: every hypothesis).
 struct Guide<'a, T> {
     estimate: &'a [T],
-    score: &'a [T],
-    /// Hypotheses closer than this to the estimate are tested.
-    reach: T,
+    reach: &'a [T],
 }
 
 impl<T: Scalar> Guide<'_, T> {
-    /// Whether sample `t` needs the hypothesis `shear` (of `first..=last`): every one when
-    /// the coarse pass found no estimate inside a window, else those near the estimate.
+    /// Whether sample `t` needs the hypothesis `shear`.
     #[inline(always)]
-    fn needs(&self, t: usize, shear: T, first: T, last: T) -> bool {
-        if self.score[t] < T::from_f32(SINGLE) {
-            return true;
-        }
-        (shear - self.estimate[t].clamp(first, last)).abs() < self.reach
+    fn needs(&self, t: usize, shear: T) -> bool {
+        (shear - self.estimate[t]).abs() < self.reach[t]
     }
 }
 
@@ -499,10 +495,26 @@ impl<T: Scalar> LineEstimator<T> {
                 let first = pair[0];
                 pair.fill(first);
             }
+            // Estimates clamped to the fine shears (each sample then needs at least the
+            // nearest one), reach per sample.
+            let h = &self.hypotheses;
+            let (first, last) = (
+                T::from_f32(h.shear(0)),
+                T::from_f32(h.shear(h.count().saturating_sub(1))),
+            );
+            let single = T::from_f32(SINGLE);
+            for ((d, reach), &score) in state
+                .best_d
+                .iter_mut()
+                .zip(state.best_c.iter_mut())
+                .zip(state.score.iter())
+            {
+                *d = d.clamp(first, last);
+                *reach = if score < single { T::MAX } else { coarse.reach };
+            }
             let guide = Guide {
                 estimate: state.best_d,
-                score: state.score,
-                reach: coarse.reach,
+                reach: state.best_c,
             };
             let mut state = State {
                 best_d: &mut disparity[..n],
@@ -574,16 +586,12 @@ impl<T: Scalar> LineEstimator<T> {
         let reach = self.outer.radius();
         // Needed samples closer than this share their tensor blocks: one run.
         let merge = 2 * reach + BLOCK;
-        let (first, last) = (
-            T::from_f32(hyps.shear(0)),
-            T::from_f32(hyps.shear(hyps.count().saturating_sub(1))),
-        );
         for i in 0..hyps.count() {
             let shear = hyps.shear(i);
             let shear_t = T::from_f32(shear);
             let needs = |t: usize| match &guide {
                 None => true,
-                Some(g) => g.needs(t, shear_t, first, last),
+                Some(g) => g.needs(t, shear_t),
             };
             let sources = self.sources(planes, bank, shear, slots.clone());
             let mut t = 0;
@@ -611,7 +619,11 @@ impl<T: Scalar> LineEstimator<T> {
                 self.outer.apply_range(&sums.jxk[..n], sums.sxk, start..end);
                 self.outer.apply_range(&sums.jkk[..n], sums.skk, start..end);
                 self.score(hyps, i, sums, state, start..end, stride);
-                t = end;
+                // The samples the probe passed after the run are not needed either.
+                for c in &mut state.prev_c[end..probe] {
+                    *c = degenerate;
+                }
+                t = probe;
             }
         }
     }
