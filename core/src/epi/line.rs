@@ -2,8 +2,10 @@
 //! centre view along one image row (horizontal EPI) or column (vertical EPI), tested over
 //! every shear hypothesis.
 
-use super::hypotheses::{Hypotheses, MAX_DISPARITY};
+use super::band::Band;
+use super::hypotheses::Hypotheses;
 use super::kernels::{centre_weights, truncated_gaussian, Kernel};
+use super::planes::{shift, Planes, Sources};
 use super::{ColorMode, EpiParams, Search};
 use crate::error::{Error, Result};
 use crate::lightfield::GRID_MAX;
@@ -47,7 +49,7 @@ const DEGENERATE: f32 = -3.0;
 /// Samples per register block of the tensor sums: the gradients and sums of a block are
 /// accumulated over every channel and view before they are stored (8: 123–124 ms,
 /// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/bench-epi.md).
-const BLOCK: usize = 16;
+pub(super) const BLOCK: usize = 16;
 /// The coarse pass tests every `COARSE_STEPS`-th shear step (at most 2 px apart, the
 /// largest step the residual window still covers): 2 and 3 steps gave the same HCI
 /// scores as 4 (docs/bench-epi.md).
@@ -57,100 +59,6 @@ const COARSE_STEPS: f32 = 4.0;
 const COARSE_STRIDE: usize = 2;
 /// The coarse pass sums the tensor of the views at most this far from the centre.
 const COARSE_VIEWS: usize = 2;
-/// Mixing entries below this fraction of their row's largest are dropped: the inner
-/// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
-/// row by two views for no measurable change (docs/bench-epi.md).
-const PRUNE: f32 = 1e-3;
-
-/// The across-view gradients of every view as bands of `taps` consecutive views: view `k`
-/// reads views `rows[k][..taps]` with weights `smooth[k]` (smoothing across views, for the
-/// along-line gradient) and `derivative[k]` (derivative across views), both scaled by the
-/// square root of view k's outer weight so that the tensor terms are plain products.
-/// Entries below `PRUNE` of their row's largest are zero.
-#[derive(Clone, Copy, Debug)]
-struct Band<T: Scalar> {
-    rows: [[usize; GRID_MAX]; GRID_MAX],
-    smooth: [[T; GRID_MAX]; GRID_MAX],
-    derivative: [[T; GRID_MAX]; GRID_MAX],
-    /// Views with a non-zero outer weight.
-    active: [bool; GRID_MAX],
-    taps: usize,
-}
-
-impl<T: Scalar> Band<T> {
-    /// Bands of the mixing rows `smooth[k]`, `derivative[k]` of `views` views.
-    fn new(
-        smooth: &[[f32; GRID_MAX]; GRID_MAX],
-        derivative: &[[f32; GRID_MAX]; GRID_MAX],
-        active: [bool; GRID_MAX],
-        views: usize,
-    ) -> Self {
-        let significant = |row: &[f32; GRID_MAX], j: usize| {
-            let largest = row[..views]
-                .iter()
-                .fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
-            row[j] != 0.0 && libm::fabsf(row[j]) >= PRUNE * largest
-        };
-        let mut spans = [(0usize, 0usize); GRID_MAX];
-        let mut taps = 1;
-        for (k, span) in spans.iter_mut().enumerate().take(views) {
-            let used = |j: &usize| significant(&smooth[k], *j) || significant(&derivative[k], *j);
-            let first = (0..views).find(used).unwrap_or(k);
-            let last = (0..views).rev().find(used).unwrap_or(k);
-            *span = (first, last.max(first));
-            taps = taps.max(last.max(first) - first + 1);
-        }
-        let mut band = Band {
-            rows: [[0; GRID_MAX]; GRID_MAX],
-            smooth: [[T::ZERO; GRID_MAX]; GRID_MAX],
-            derivative: [[T::ZERO; GRID_MAX]; GRID_MAX],
-            active,
-            taps,
-        };
-        let last_view = views.saturating_sub(1);
-        for (k, &(first, last)) in spans.iter().enumerate().take(views) {
-            // The window starts early enough to stay inside the views where it can.
-            let start = first.min(views.saturating_sub(Self::width_for(taps)));
-            for m in 0..GRID_MAX {
-                let j = (start + m).min(last_view);
-                band.rows[k][m] = j;
-                if start + m == j && (first..=last).contains(&j) {
-                    if significant(&smooth[k], j) {
-                        band.smooth[k][m] = T::from_f32(smooth[k][j]);
-                    }
-                    if significant(&derivative[k], j) {
-                        band.derivative[k][m] = T::from_f32(derivative[k][j]);
-                    }
-                }
-            }
-        }
-        band
-    }
-
-    /// The compiled band width used for `taps` significant views.
-    fn width_for(taps: usize) -> usize {
-        match taps {
-            0..=3 => 3,
-            4..=5 => 5,
-            6..=7 => 7,
-            8..=9 => 9,
-            _ => GRID_MAX,
-        }
-    }
-}
-
-/// Where the sheared samples of one hypothesis are read: sample `t` of view `j`, channel
-/// `c` is `bank[d[c][j] + t]` (along-line derivative) and `bank[s[c][j] + t]` (along-line
-/// smoothing).
-struct Sources {
-    d: [[usize; GRID_MAX]; 3],
-    s: [[usize; GRID_MAX]; 3],
-    /// Channels read.
-    slots: usize,
-    /// Views whose tensor enters the sum.
-    active: [bool; GRID_MAX],
-}
-
 /// The tensor of one hypothesis: raw sums over views (`jxx`, `jxk`, `jkk`, whole blocks)
 /// and smoothed along the line (`sxx`, `sxk`, `skk`).
 struct Tensor<'a, T> {
@@ -196,62 +104,6 @@ struct Coarse<T> {
     /// Whether its gray planes need the half-shifted kinds (only when the fine ones have
     /// them too; otherwise half shifts take the fallback planes).
     half_shifts: bool,
-}
-
-/// Layout of the stored planes of one line. Every view and channel has four planes of
-/// `len` samples — derivative, smoothing, and both shifted by half a sample — holding
-/// samples `−lead ≤ u < n_blocks + reach` (edge-replicated outside the line), then one
-/// fallback plane pair per view and channel for shifts of any other fraction.
-#[derive(Clone, Copy, Debug)]
-struct Planes {
-    n: usize,
-    /// `n` rounded up to whole blocks.
-    n_blocks: usize,
-    /// Largest whole shift read from the stored planes.
-    reach: usize,
-    lead: usize,
-    len: usize,
-    views: usize,
-    channels: usize,
-}
-
-impl Planes {
-    fn new(views: usize, centre: usize, channels: usize, n: usize) -> Self {
-        let far = centre.max(views.saturating_sub(1).saturating_sub(centre));
-        // Shears never exceed MAX_DISPARITY + 1 (multiples of a step ≤ 2 nearest the range).
-        let reach = libm::ceilf(far as f32 * (MAX_DISPARITY + 1.0)) as usize + 1;
-        let n_blocks = n.div_ceil(BLOCK) * BLOCK;
-        let lead = reach + 1;
-        Planes {
-            n,
-            n_blocks,
-            reach,
-            lead,
-            len: lead + n_blocks + reach,
-            views,
-            channels,
-        }
-    }
-
-    /// Start of plane `kind` (0 derivative, 1 smoothing, 2 and 3 the same shifted by half a
-    /// sample) of view `k`, channel `c`.
-    fn plane(&self, kind: usize, k: usize, c: usize) -> usize {
-        ((kind * self.views + k) * self.channels + c) * self.len
-    }
-
-    /// Start of the fallback plane `kind` (0 derivative, 1 smoothing) of view `k`,
-    /// channel `c`.
-    fn fallback(&self, kind: usize, k: usize, c: usize) -> usize {
-        self.stored_len() + ((kind * self.views + k) * self.channels + c) * self.n_blocks
-    }
-
-    fn stored_len(&self) -> usize {
-        4 * self.views * self.channels * self.len
-    }
-
-    fn bank_len(&self) -> usize {
-        self.stored_len() + 2 * self.views * self.channels * self.n_blocks
-    }
 }
 
 impl<T: Scalar> LineEstimator<T> {
@@ -872,88 +724,5 @@ impl<T: Scalar> LineEstimator<T> {
             }
         }
         [xx, xk, kk]
-    }
-}
-
-/// `out[t] = input(t − offset)`, linear interpolation, clamped at the ends. Integer offsets
-/// are exact copies (no interpolation blur).
-fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
-    let n = input.len().min(out.len());
-    if n == 0 {
-        return;
-    }
-    let (input, out) = (&input[..n], &mut out[..n]);
-    let floor = libm::floorf(offset);
-    let frac = offset - floor;
-    // out[t] = (1 − f)·in[t − whole] + f·in[t − whole − 1]; with f = 0 only the first term.
-    let whole = floor as isize;
-    let lag = if frac == 0.0 { 0 } else { 1 };
-    let last = n as isize - 1;
-    let at = |i: isize| input[i.clamp(0, last) as usize];
-    // Interior: every index in range, t ∈ [whole + lag, last + whole].
-    let lo = (whole + lag as isize).clamp(0, n as isize) as usize;
-    let hi = (last + whole + 1).clamp(lo as isize, n as isize) as usize;
-    if frac == 0.0 {
-        for (t, o) in out.iter_mut().enumerate().take(lo) {
-            *o = at(t as isize - whole);
-        }
-        if hi > lo {
-            let src = (lo as isize - whole) as usize;
-            out[lo..hi].copy_from_slice(&input[src..src + (hi - lo)]);
-        }
-        for (t, o) in out.iter_mut().enumerate().skip(hi) {
-            *o = at(t as isize - whole);
-        }
-        return;
-    }
-    let (wa, wb) = (T::from_f32(1.0 - frac), T::from_f32(frac));
-    let edge = |t: usize| {
-        let i = t as isize - whole;
-        wa * at(i) + wb * at(i - 1)
-    };
-    for (t, o) in out.iter_mut().enumerate().take(lo) {
-        *o = edge(t);
-    }
-    if hi > lo {
-        let src = (lo as isize - whole) as usize;
-        let a = &input[src..src + (hi - lo)];
-        let b = &input[src - 1..src - 1 + (hi - lo)];
-        for ((o, &x), &y) in out[lo..hi].iter_mut().zip(a).zip(b) {
-            *o = wa * x + wb * y;
-        }
-    }
-    for (t, o) in out.iter_mut().enumerate().skip(hi) {
-        *o = edge(t);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn shift_moves_content_and_clamps() {
-        let input = [0.0f32, 1.0, 2.0, 3.0, 4.0];
-        let mut out = [0.0; 5];
-        shift(&input, &mut out, 2.0);
-        assert_eq!(out, [0.0, 0.0, 0.0, 1.0, 2.0]);
-        shift(&input, &mut out, -1.0);
-        assert_eq!(out, [1.0, 2.0, 3.0, 4.0, 4.0]);
-        shift(&input, &mut out, 0.25);
-        assert_eq!(out[2], 1.75);
-        // Every offset agrees with the clamped definition, including huge ones.
-        let input: [f32; 9] = core::array::from_fn(|i| (i * i) as f32);
-        for offset in [
-            -12.5f32, -3.0, -2.75, -0.5, 0.0, 0.5, 1.0, 3.25, 8.0, 8.5, 20.0,
-        ] {
-            shift(&input, &mut out, offset);
-            for (t, &got) in out.iter().enumerate() {
-                let x = t as f32 - offset;
-                let (i, f) = (x.floor(), x - x.floor());
-                let at = |i: f32| input[(i.max(0.0) as usize).min(4)];
-                let want = (1.0 - f) * at(i) + f * at(i + 1.0);
-                assert!((got - want).abs() < 1e-4, "{offset} {t}: {got} vs {want}");
-            }
-        }
     }
 }

@@ -7,9 +7,11 @@
 //! the result never depends on how lines are grouped or threaded. Scratch covers one line.
 //! The two directions are fused per pixel with [`fuse`].
 
+mod band;
 mod hypotheses;
 mod kernels;
 mod line;
+mod planes;
 mod range;
 
 pub use hypotheses::{Hypotheses, MAX_DISPARITY, MAX_HYPOTHESES};
