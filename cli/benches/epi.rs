@@ -1,12 +1,13 @@
 //! Criterion benchmarks of the EPI stage on a 9×9×512×512 RGB synthetic scene (`Mixed`,
-//! disparities −1.5…1.5 px, automatic range): the engine with 1 and 2 threads, and the
-//! core's serial `pipeline::estimate` in f32 and Q16.16.
+//! disparities −1.5…1.5 px, automatic range): the engine with 1 and 2 threads (and 1 thread
+//! with the exhaustive hypothesis search, for a same-run comparison), and the core's serial
+//! `pipeline::estimate` in Q16.16.
 //! `cargo bench -p lfdepth-cli --bench epi`
 
 use std::ops::ControlFlow;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use lfdepth::epi::{self, Direction};
+use lfdepth::epi::{self, Direction, EpiParams, Search};
 use lfdepth::synth::{render, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, Layout, LightField, Params, Plan, Scalar, Q16};
 use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
@@ -54,6 +55,20 @@ fn bench(c: &mut Criterion) {
             b.iter(|| estimate(&lf, &options, &mut |_, _, _| {}).unwrap())
         });
     }
+    let exhaustive = EstimateOptions {
+        params: Params {
+            epi: EpiParams {
+                search: Search::Exhaustive,
+                ..EpiParams::default()
+            },
+            ..Params::default()
+        },
+        stage: StageSelect::Epi,
+        threads: Some(1),
+    };
+    group.bench_function("engine_9x9x512x512_1_thread_exhaustive", |b| {
+        b.iter(|| estimate(&lf, &exhaustive, &mut |_, _, _| {}).unwrap())
+    });
     let plan = Plan::new(spec.layout(), Params::default()).unwrap();
     let mut d = vec![0.0; plan.pixels()];
     let mut conf = vec![0.0; plan.pixels()];

@@ -5,7 +5,7 @@ mod epi_support;
 
 use std::ops::ControlFlow;
 
-use lfdepth::epi::{DisparityRange, EpiParams};
+use lfdepth::epi::{DisparityRange, EpiParams, Search};
 use lfdepth::{Grid, LightField, Params, Plan};
 use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
 
@@ -113,13 +113,28 @@ fn workload_three_estimates_of_a_512_scene() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(5);
+    // `EPI_WORKLOAD_THREADS` (default 1) and `EPI_WORKLOAD_SEARCH=exhaustive` select the
+    // variant measured.
+    let threads: usize = std::env::var("EPI_WORKLOAD_THREADS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
+    let epi = match std::env::var("EPI_WORKLOAD_SEARCH").as_deref() {
+        Ok("exhaustive") => EpiParams {
+            search: Search::Exhaustive,
+            ..EpiParams::default()
+        },
+        _ => EpiParams::default(),
+    };
     let mut cpu_times = Vec::new();
+    let mut wall_times = Vec::new();
     for _ in 0..reps {
         let (wall, cpu) = (std::time::Instant::now(), process_cpu_seconds());
-        estimate(&lf, &options(1, EpiParams::default()), &mut |_, _, _| {}).unwrap();
+        estimate(&lf, &options(threads, epi), &mut |_, _, _| {}).unwrap();
+        wall_times.push(wall.elapsed().as_secs_f64());
         let cpu = process_cpu_seconds().zip(cpu).map(|(b, a)| b - a);
         eprintln!(
-            "1-thread estimate of 9x9x512x512 RGB: wall {:?}, process CPU {:?} s",
+            "{threads}-thread estimate of 9x9x512x512 RGB: wall {:?}, process CPU {:?} s",
             wall.elapsed(),
             cpu
         );
@@ -133,6 +148,14 @@ fn workload_three_estimates_of_a_512_scene() {
             min * 1e3,
             median * 1e3,
             mean * 1e3
+        );
+    }
+    wall_times.sort_by(f64::total_cmp);
+    if let (Some(min), Some(median)) = (wall_times.first(), wall_times.get(wall_times.len() / 2)) {
+        eprintln!(
+            "wall per estimate over {reps}: min {:.0} ms, median {:.0} ms",
+            min * 1e3,
+            median * 1e3
         );
     }
 }

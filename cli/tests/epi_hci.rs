@@ -7,7 +7,7 @@ mod epi_support;
 
 use std::time::Instant;
 
-use lfdepth::epi::{ColorMode, DisparityRange, EpiParams, Fusion};
+use lfdepth::epi::{ColorMode, DisparityRange, EpiParams, Fusion, Search};
 use lfdepth::{LightField, Params};
 use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
 
@@ -74,6 +74,36 @@ fn variants_table() {
     let variants: Vec<(&str, EpiParams)> = vec![
         ("paper (unsheared)", EpiParams::paper()),
         ("default", d),
+        (
+            "exhaustive search",
+            EpiParams {
+                search: Search::Exhaustive,
+                ..d
+            },
+        ),
+        (
+            "coarse-to-fine, margin 0.5",
+            EpiParams {
+                search: Search::CoarseToFine { margin: 0.5 },
+                ..d
+            },
+        ),
+        (
+            "step 1, exhaustive",
+            EpiParams {
+                shear_step: 1.0,
+                search: Search::Exhaustive,
+                ..d
+            },
+        ),
+        (
+            "gray, exhaustive",
+            EpiParams {
+                color: ColorMode::Gray,
+                search: Search::Exhaustive,
+                ..d
+            },
+        ),
         (
             "gray",
             EpiParams {

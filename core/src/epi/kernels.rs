@@ -1,6 +1,8 @@
 //! 1-D correlation kernels (Gaussian, Gaussian-smoothed derivative and Scharr smoothing)
 //! and their application along a line with clamped ("nearest") borders.
 
+use core::ops::Range;
+
 use crate::scalar::Scalar;
 
 /// Largest kernel radius: `ceil(3σ) + 1` for the largest σ `EpiParams::validate` accepts.
@@ -113,7 +115,6 @@ impl<T: Scalar> Kernel<T> {
     }
 
     /// Kernel radius.
-    #[cfg(test)]
     pub(crate) fn radius(&self) -> usize {
         self.radius
     }
@@ -123,9 +124,17 @@ impl<T: Scalar> Kernel<T> {
     /// line length, so results never depend on how lines are grouped into bands.
     pub(crate) fn apply(&self, input: &[T], out: &mut [T]) {
         let n = input.len().min(out.len());
+        self.apply_range(input, out, 0..n);
+    }
+
+    /// [`Kernel::apply`] for the outputs `range` only (bit-identical to the full call there;
+    /// the rest of `out` is left alone).
+    pub(crate) fn apply_range(&self, input: &[T], out: &mut [T], range: Range<usize>) {
+        let n = input.len().min(out.len());
         let r = self.radius;
         let taps = &self.taps[..2 * r + 1];
-        if n == 0 {
+        let (a, b) = (range.start.min(n), range.end.min(n));
+        if a >= b {
             return;
         }
         let last = n - 1;
@@ -138,34 +147,45 @@ impl<T: Scalar> Kernel<T> {
             *out = acc;
         };
         if n <= 2 * r {
-            for (t, o) in out.iter_mut().enumerate().take(n) {
+            for (t, o) in out.iter_mut().enumerate().take(b).skip(a) {
                 clamped(t, o);
             }
             return;
         }
-        for (t, o) in out.iter_mut().enumerate().take(r) {
+        // Clamped edges, then the interior samples of the range.
+        for (t, o) in out.iter_mut().enumerate().take(b.min(r)).skip(a) {
             clamped(t, o);
         }
-        for (t, o) in out.iter_mut().enumerate().take(n).skip(n - r) {
+        for (t, o) in out.iter_mut().enumerate().take(b).skip(a.max(n - r)) {
             clamped(t, o);
+        }
+        let (lo, hi) = (a.max(r), b.min(n - r));
+        if lo >= hi {
+            return;
         }
         // Interior: tap-major sums over contiguous slices (vectorises for f32), in blocks
         // of constant length held in registers; the last block overlaps its predecessor
-        // (overlapping samples are computed again, identically).
-        let inner_len = n - 2 * r;
-        let inner = &mut out[r..n - r];
+        // (overlapping samples are computed again, identically). Input index of output t
+        // is t − r + tap, so block starts are counted from t − r.
+        let inner_len = hi - lo;
+        let inner = &mut out[lo..hi];
+        let base = lo - r;
         let mut done = 0;
         while done < inner_len {
             let mut acc = [T::ZERO; BLOCK];
             let (t0, len) = if inner_len >= BLOCK {
                 let t0 = done.min(inner_len - BLOCK);
-                self.interior_block(input, t0, BLOCK, &mut acc);
+                self.interior_block(input, base + t0, BLOCK, &mut acc);
                 (t0, BLOCK)
             } else {
-                self.interior_block(input, 0, inner_len, &mut acc);
+                self.interior_block(input, base, inner_len, &mut acc);
                 (0, inner_len)
             };
-            inner[done..t0 + len].copy_from_slice(&acc[done - t0..len]);
+            // An element loop, not `copy_from_slice`: the length varies, and a library
+            // `memmove` call per block cost more than the copy.
+            for (o, &v) in inner[done..t0 + len].iter_mut().zip(&acc[done - t0..len]) {
+                *o = v;
+            }
             done = t0 + len;
         }
     }
@@ -248,6 +268,7 @@ pub(crate) fn truncated_gaussian(sigma: f32, len: usize, centre: usize, out: &mu
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
 
     #[test]
@@ -258,6 +279,27 @@ mod tests {
         k.apply(&input, &mut out);
         for &v in &out[k.radius()..40 - k.radius()] {
             assert!((v - 0.25).abs() < 1e-5, "{v}");
+        }
+    }
+
+    #[test]
+    fn any_output_range_matches_the_full_correlation_bit_for_bit() {
+        let k = Kernel::<f32>::gaussian(2.0);
+        for n in [5usize, 13, 40, 100] {
+            let input: std::vec::Vec<f32> = (0..n).map(|i| ((i * 37) % 11) as f32 * 0.3).collect();
+            let mut full = std::vec![0.0f32; n];
+            k.apply(&input, &mut full);
+            for (a, b) in [(0, n), (0, 3), (2, 9), (n / 2, n), (n - 1, n), (7, 45)] {
+                let mut part = std::vec![f32::NAN; n];
+                k.apply_range(&input, &mut part, a..b);
+                for t in 0..n {
+                    if (a..b.min(n)).contains(&t) {
+                        assert_eq!(part[t].to_bits(), full[t].to_bits(), "n {n} {a}..{b} t {t}");
+                    } else {
+                        assert!(part[t].is_nan(), "n {n} {a}..{b} wrote {t}");
+                    }
+                }
+            }
         }
     }
 

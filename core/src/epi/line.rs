@@ -2,12 +2,15 @@
 //! centre view along one image row (horizontal EPI) or column (vertical EPI), tested over
 //! every shear hypothesis.
 
+use super::band::Band;
 use super::hypotheses::Hypotheses;
 use super::kernels::{centre_weights, truncated_gaussian, Kernel};
-use super::{ColorMode, EpiParams};
+use super::planes::{shift, Planes, Sources};
+use super::{ColorMode, EpiParams, Search};
 use crate::error::{Error, Result};
 use crate::lightfield::GRID_MAX;
 use crate::scalar::Scalar;
+use core::ops::Range;
 
 /// Everything that does not change from line to line, converted to `T` once.
 #[derive(Clone, Copy, Debug)]
@@ -15,20 +18,26 @@ pub(crate) struct LineEstimator<T: Scalar> {
     derivative: Kernel<T>,
     smoothing: Kernel<T>,
     outer: Kernel<T>,
-    /// Outer (Gaussian) smoothing across views, evaluated at the centre view only.
-    weights: [T; GRID_MAX],
-    /// Mixing rows (weights over views) of view k: `mix_smooth`, the inner Gaussian
-    /// followed by the Scharr cross smoothing (for the along-line gradient), and
-    /// `mix_derivative`, the inner Gaussian followed by the across-view derivative
-    /// (central; one-sided at the first and last view so that the ends keep the scale).
-    /// Per view k, the significant entries of `mix_smooth[k]` and `mix_derivative[k]`.
-    smooth_taps: [Taps<T>; GRID_MAX],
-    derivative_taps: [Taps<T>; GRID_MAX],
+    band: Band<T>,
     views: usize,
     centre: usize,
     channels: usize,
     hypotheses: Hypotheses,
     interpolate: bool,
+    /// Whether some hypothesis shifts a view by a half-integer (the half-shifted planes
+    /// are then filled).
+    half_shifts: bool,
+    coarse: Option<Coarse<T>>,
+}
+
+/// Whether some hypothesis of `hyps` shifts one of `views` views by a half-integer.
+fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
+    (0..hyps.count()).any(|i| {
+        (0..views).any(|k| {
+            let offset = (k as f32 - centre as f32) * hyps.shear(i);
+            offset - libm::floorf(offset) == 0.5
+        })
+    })
 }
 
 /// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
@@ -37,47 +46,64 @@ pub(crate) struct LineEstimator<T: Scalar> {
 const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
-/// Samples per register block of the gradient sums.
-const CHUNK: usize = 32;
-/// Mixing entries below this fraction of their row's largest are dropped: the inner
-/// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
-/// row by two views for no measurable change (docs/bench-epi.md).
-const PRUNE: f32 = 1e-3;
-
-/// The significant entries of one mixing row: `weights[i]` multiplies view `views[i]`.
-#[derive(Clone, Copy, Debug)]
-struct Taps<T: Scalar> {
-    views: [usize; GRID_MAX],
-    weights: [T; GRID_MAX],
-    len: usize,
+/// Samples per register block of the tensor sums: the gradients and sums of a block are
+/// accumulated over every channel and view before they are stored (8: 123–124 ms,
+/// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/bench-epi.md).
+pub(super) const BLOCK: usize = 16;
+/// The coarse pass tests every `COARSE_STEPS`-th shear step (at most 2 px apart, the
+/// largest step the residual window still covers): 2 and 3 steps gave the same HCI
+/// scores as 4 (docs/bench-epi.md).
+const COARSE_STEPS: f32 = 4.0;
+/// The coarse pass scores every `COARSE_STRIDE`-th sample along the line (the tensor is
+/// smoothed over ±3·outer_sigma samples anyway); the others take their neighbour's.
+const COARSE_STRIDE: usize = 2;
+/// The coarse pass sums the tensor of the views at most this far from the centre.
+const COARSE_VIEWS: usize = 2;
+/// The tensor of one hypothesis: raw sums over views (`jxx`, `jxk`, `jkk`, whole blocks)
+/// and smoothed along the line (`sxx`, `sxk`, `skk`).
+struct Tensor<'a, T> {
+    jxx: &'a mut [T],
+    jxk: &'a mut [T],
+    jkk: &'a mut [T],
+    sxx: &'a mut [T],
+    sxk: &'a mut [T],
+    skk: &'a mut [T],
 }
 
-impl<T: Scalar> Taps<T> {
-    /// The entries of `row` whose magnitude reaches `PRUNE` of the largest one.
-    fn significant(row: &[f32]) -> Self {
-        let largest = row.iter().fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
-        let mut taps = Taps {
-            views: [0; GRID_MAX],
-            weights: [T::ZERO; GRID_MAX],
-            len: 0,
-        };
-        for (j, &v) in row.iter().enumerate().take(GRID_MAX) {
-            if v != 0.0 && libm::fabsf(v) >= PRUNE * largest {
-                taps.views[taps.len] = j;
-                taps.weights[taps.len] = T::from_f32(v);
-                taps.len += 1;
-            }
-        }
-        taps
-    }
+/// Per sample: the best candidate so far (`best_d`, `best_c`, ranked by `score`), and the
+/// residual and coherence at the previous hypothesis (`prev_c < 0`: none usable).
+struct State<'a, T> {
+    best_d: &'a mut [T],
+    best_c: &'a mut [T],
+    score: &'a mut [T],
+    prev_r: &'a mut [T],
+    prev_c: &'a mut [T],
+}
 
-    fn views(&self) -> &[usize] {
-        &self.views[..self.len]
-    }
+/// The coarse pass's result that decides which hypotheses a sample is tested at: those
+/// closer than `reach[t]` to `estimate[t]` (`T::MAX` where the coarse pass found no
+/// estimate inside a window: every hypothesis).
+struct Guide<'a, T> {
+    estimate: &'a [T],
+    reach: &'a [T],
+}
 
-    fn weights(&self) -> &[T] {
-        &self.weights[..self.len]
+impl<T: Scalar> Guide<'_, T> {
+    /// Whether sample `t` needs the hypothesis `shear`.
+    #[inline(always)]
+    fn needs(&self, t: usize, shear: T) -> bool {
+        (shear - self.estimate[t]).abs() < self.reach[t]
     }
+}
+
+/// The coarse pass: its hypotheses and the reach of the fine ones around its estimate.
+#[derive(Clone, Copy, Debug)]
+struct Coarse<T> {
+    hypotheses: Hypotheses,
+    reach: T,
+    /// Whether its gray planes need the half-shifted kinds (only when the fine ones have
+    /// them too; otherwise half shifts take the fallback planes).
+    half_shifts: bool,
 }
 
 impl<T: Scalar> LineEstimator<T> {
@@ -92,10 +118,6 @@ impl<T: Scalar> LineEstimator<T> {
         let views = views.min(GRID_MAX);
         let mut outer_weights = [0.0f32; GRID_MAX];
         centre_weights(params.outer_sigma, views, centre, &mut outer_weights);
-        let mut weights = [T::ZERO; GRID_MAX];
-        for (w, &v) in weights.iter_mut().zip(&outer_weights) {
-            *w = T::from_f32(v);
-        }
         // Inner Gaussian across views, truncated at the first and last view and
         // renormalised; then per view a Scharr cross smoothing ([3, 10, 3], renormalised
         // at the ends) and a central difference (one-sided at the ends). Averaging
@@ -125,34 +147,30 @@ impl<T: Scalar> LineEstimator<T> {
                 diff[i][im] -= scale;
             }
         }
-        let empty = Taps::significant(&[]);
-        let mut smooth_taps = [empty; GRID_MAX];
-        let mut derivative_taps = [empty; GRID_MAX];
+        let mut mix_smooth = [[0.0f32; GRID_MAX]; GRID_MAX];
+        let mut mix_derivative = [[0.0f32; GRID_MAX]; GRID_MAX];
+        let mut active = [false; GRID_MAX];
         for k in 0..views {
-            let mut mix_smooth = [0.0f32; GRID_MAX];
-            let mut mix_derivative = [0.0f32; GRID_MAX];
             for j in 0..views {
                 for i in 0..views {
-                    mix_smooth[j] += gauss[k][i] * smooth[i][j];
-                    mix_derivative[j] += gauss[k][i] * diff[i][j];
+                    mix_smooth[k][j] += gauss[k][i] * smooth[i][j];
+                    mix_derivative[k][j] += gauss[k][i] * diff[i][j];
                 }
             }
             // The outer weight of view k enters as √w in both gradients, so the tensor
             // terms are plain products (w·gx² = (√w·gx)²).
             let root = libm::sqrtf(outer_weights[k].max(0.0));
-            for m in mix_smooth.iter_mut().chain(mix_derivative.iter_mut()) {
+            active[k] = T::from_f32(outer_weights[k]) != T::ZERO;
+            for m in mix_smooth[k].iter_mut().chain(mix_derivative[k].iter_mut()) {
                 *m *= root;
             }
-            smooth_taps[k] = Taps::significant(&mix_smooth[..views]);
-            derivative_taps[k] = Taps::significant(&mix_derivative[..views]);
         }
+        let half_shifts = shifts_by_halves(&hypotheses, views, centre);
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
             outer: Kernel::gaussian(params.outer_sigma),
-            weights,
-            smooth_taps,
-            derivative_taps,
+            band: Band::new(&mix_smooth, &mix_derivative, active, views),
             views,
             centre,
             channels: match params.color {
@@ -161,32 +179,53 @@ impl<T: Scalar> LineEstimator<T> {
             },
             hypotheses,
             interpolate: params.interpolate,
+            half_shifts,
+            coarse: match params.search {
+                Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
+                    let step = hypotheses.step();
+                    Hypotheses::sheared(
+                        hypotheses.min(),
+                        hypotheses.max(),
+                        (COARSE_STEPS * step).min(2.0),
+                        1.0,
+                    )
+                    .ok()
+                    .map(|coarse| Coarse {
+                        hypotheses: coarse,
+                        reach: T::from_f32((1.0 + margin) * step),
+                        half_shifts: half_shifts && shifts_by_halves(&coarse, views, centre),
+                    })
+                }
+                _ => None,
+            },
         }
     }
 
-    /// Planes the loader must fill per view.
-    pub(crate) fn channels(&self) -> usize {
-        self.channels
-    }
-
     /// Work elements (of `T`) for a line of `n` samples.
-    pub(crate) fn work_len(views: usize, channels: usize, n: usize) -> usize {
-        (2 * views * channels + 2 * views + 10) * n
+    pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
+        let planes = Planes::new(views, centre, channels + 1, n);
+        planes.bank_len() + 3 * planes.n_blocks + (12 + channels) * n
     }
 
-    /// Estimates one line of `n` samples. `load(view, channel, out)` fills `out` (length `n`)
-    /// with the samples of that view along the line, scaled intensities. Writes the
+    /// Work elements (of `T`) this estimator needs for a line of `n` samples.
+    pub(crate) fn line_work_len(&self, n: usize) -> usize {
+        Self::work_len(self.views, self.centre, self.channels, n)
+    }
+
+    /// Estimates one line of `n` samples. `load(view, out)` fills `out` (`channels` planes
+    /// of `n`, one after the other) with the samples of that view along the line, scaled
+    /// intensities. Writes the
     /// disparity and the confidence of every sample into `disparity` / `confidence`.
     pub(crate) fn estimate(
         &self,
         n: usize,
-        mut load: impl FnMut(usize, usize, &mut [T]) -> Result<()>,
+        mut load: impl FnMut(usize, &mut [T]) -> Result<()>,
         work: &mut [T],
         disparity: &mut [T],
         confidence: &mut [T],
     ) -> Result<()> {
         let (k_n, c_n) = (self.views, self.channels);
-        let needed = Self::work_len(k_n, c_n, n);
+        let needed = Self::work_len(k_n, self.centre, c_n, n);
         if work.len() < needed {
             return Err(Error::ScratchTooSmall {
                 needed,
@@ -200,47 +239,259 @@ impl<T: Scalar> LineEstimator<T> {
                 got: disparity.len().min(confidence.len()),
             });
         }
-        let (pre_d, rest) = work.split_at_mut(k_n * c_n * n);
-        let (pre_s, rest) = rest.split_at_mut(k_n * c_n * n);
-        let (sh_d, rest) = rest.split_at_mut(k_n * n);
-        let (sh_s, rest) = rest.split_at_mut(k_n * n);
-        let (raw, rest) = rest.split_at_mut(n);
-        let (jxx, rest) = rest.split_at_mut(n);
-        let (jxk, rest) = rest.split_at_mut(n);
-        let (jkk, rest) = rest.split_at_mut(n);
+        if n == 0 {
+            return Ok(());
+        }
+        // One plane slot per channel and one for the coarse pass's gray.
+        let planes = Planes::new(k_n, self.centre, c_n + 1, n);
+        let nb = planes.n_blocks;
+        let (bank, rest) = work.split_at_mut(planes.bank_len());
+        let (jxx, rest) = rest.split_at_mut(nb);
+        let (jxk, rest) = rest.split_at_mut(nb);
+        let (jkk, rest) = rest.split_at_mut(nb);
+        let (raw, rest) = rest.split_at_mut(c_n * n);
         let (sxx, rest) = rest.split_at_mut(n);
         let (sxk, rest) = rest.split_at_mut(n);
         let (skk, rest) = rest.split_at_mut(n);
         let (score, rest) = rest.split_at_mut(n);
         let (prev_r, rest) = rest.split_at_mut(n);
-        let prev_c = &mut rest[..n];
+        let (prev_c, rest) = rest.split_at_mut(n);
+        let coarse_work = &mut rest[..5 * n];
+        let mut tensor = Tensor {
+            jxx,
+            jxk,
+            jkk,
+            sxx,
+            sxk,
+            skk,
+        };
 
         // Filtering along the line commutes with the shear (a shift along the line), so the
-        // inner smoothing and the along-line parts of the Scharr filters run once per line.
+        // inner smoothing and the along-line parts of the Scharr filters run once per line,
+        // into planes padded with their edge values (the clamped shift reads them).
+        let half = T::from_f32(0.5);
         for k in 0..k_n {
-            for c in 0..c_n {
-                load(k, c, raw)?;
-                let at = (k * c_n + c) * n;
-                self.derivative.apply(raw, &mut pre_d[at..at + n]);
-                self.smoothing.apply(raw, &mut pre_s[at..at + n]);
+            load(k, raw)?;
+            for (c, raw) in raw.chunks_exact(n).enumerate() {
+                for (kind, kernel) in [(0, &self.derivative), (1, &self.smoothing)] {
+                    let at = planes.plane(kind, k, c);
+                    let plane = &mut bank[at..at + planes.len];
+                    let (head, tail) = plane.split_at_mut(planes.lead);
+                    kernel.apply(raw, &mut tail[..n]);
+                    let (first, last) = (tail[0], tail[n - 1]);
+                    head.fill(first);
+                    tail[n..].fill(last);
+                    if self.half_shifts {
+                        // out[t] = ½·in[t − w] + ½·in[t − w − 1]: the shift's interpolation.
+                        let to = planes.plane(kind + 2, k, c);
+                        let (stored, shifted) = bank.split_at_mut(to);
+                        let plane = &stored[at..at + planes.len];
+                        let shifted = &mut shifted[..planes.len];
+                        shifted[0] = half * plane[0] + half * plane[0];
+                        for (o, pair) in shifted[1..].iter_mut().zip(plane.windows(2)) {
+                            *o = half * pair[1] + half * pair[0];
+                        }
+                    }
+                }
             }
         }
 
-        let best_d = &mut disparity[..n];
-        let best_c = &mut confidence[..n];
-        let lowest = T::from_f32(DEGENERATE - 1.0);
-        for ((d, c), sc) in best_d
-            .iter_mut()
-            .zip(best_c.iter_mut())
-            .zip(score.iter_mut())
-        {
-            *d = T::ZERO;
-            *c = T::ZERO;
-            *sc = lowest;
+        if let Some(coarse) = &self.coarse {
+            // The coarse pass reads the mean of the channels' planes (filters are linear).
+            let kinds = if coarse.half_shifts { 4 } else { 2 };
+            let scale = T::from_f32(1.0 / c_n as f32);
+            for kind in 0..kinds {
+                for k in 0..k_n {
+                    let to = planes.plane(kind, k, c_n);
+                    let (stored, gray) = bank.split_at_mut(to);
+                    let gray = &mut gray[..planes.len];
+                    gray.fill(T::ZERO);
+                    for c in 0..c_n {
+                        let at = planes.plane(kind, k, c);
+                        for (g, &v) in gray.iter_mut().zip(&stored[at..at + planes.len]) {
+                            *g += v;
+                        }
+                    }
+                    for g in gray.iter_mut() {
+                        *g *= scale;
+                    }
+                }
+            }
+            let (estimate, rest) = coarse_work.split_at_mut(n);
+            let (coherence, rest) = rest.split_at_mut(n);
+            let (coarse_score, rest) = rest.split_at_mut(n);
+            let (coarse_prev_r, coarse_prev_c) = rest.split_at_mut(n);
+            let mut state = State {
+                best_d: estimate,
+                best_c: coherence,
+                score: coarse_score,
+                prev_r: coarse_prev_r,
+                prev_c: &mut coarse_prev_c[..n],
+            };
+            self.sweep(
+                &coarse.hypotheses,
+                c_n..c_n + 1,
+                &planes,
+                bank,
+                &mut tensor,
+                &mut state,
+                None,
+                COARSE_STRIDE,
+            );
+            // Samples between the scored ones take their left neighbour's estimate.
+            for pair in state.best_d.chunks_exact_mut(COARSE_STRIDE) {
+                let first = pair[0];
+                pair.fill(first);
+            }
+            for pair in state.score.chunks_exact_mut(COARSE_STRIDE) {
+                let first = pair[0];
+                pair.fill(first);
+            }
+            // Estimates clamped to the fine shears (each sample then needs at least the
+            // nearest one), reach per sample.
+            let h = &self.hypotheses;
+            let (first, last) = (
+                T::from_f32(h.shear(0)),
+                T::from_f32(h.shear(h.count().saturating_sub(1))),
+            );
+            let single = T::from_f32(SINGLE);
+            for ((d, reach), &score) in state
+                .best_d
+                .iter_mut()
+                .zip(state.best_c.iter_mut())
+                .zip(state.score.iter())
+            {
+                *d = d.clamp(first, last);
+                *reach = if score < single { T::MAX } else { coarse.reach };
+            }
+            let guide = Guide {
+                estimate: state.best_d,
+                reach: state.best_c,
+            };
+            let mut state = State {
+                best_d: &mut disparity[..n],
+                best_c: &mut confidence[..n],
+                score,
+                prev_r,
+                prev_c,
+            };
+            self.sweep(
+                &self.hypotheses,
+                0..c_n,
+                &planes,
+                bank,
+                &mut tensor,
+                &mut state,
+                Some(guide),
+                1,
+            );
+        } else {
+            let mut state = State {
+                best_d: &mut disparity[..n],
+                best_c: &mut confidence[..n],
+                score,
+                prev_r,
+                prev_c,
+            };
+            self.sweep(
+                &self.hypotheses,
+                0..c_n,
+                &planes,
+                bank,
+                &mut tensor,
+                &mut state,
+                None,
+                1,
+            );
         }
         let h = &self.hypotheses;
-        let window = T::from_f32(h.window());
-        let step = T::from_f32(h.step());
+        let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
+        for d in disparity[..n].iter_mut() {
+            *d = d.clamp(lo, hi);
+        }
+        Ok(())
+    }
+
+    /// Tests the hypotheses `hyps` on the channel planes `slots`, keeping each sample's
+    /// best candidate in `state`. With a `guide`, a sample is only tested at the
+    /// hypotheses it needs (see [`Guide::needs`]); the tensor is then computed only
+    /// within the outer smoothing's reach of those samples.
+    #[allow(clippy::too_many_arguments)]
+    fn sweep(
+        &self,
+        hyps: &Hypotheses,
+        slots: Range<usize>,
+        planes: &Planes,
+        bank: &mut [T],
+        tensor: &mut Tensor<'_, T>,
+        state: &mut State<'_, T>,
+        guide: Option<Guide<'_, T>>,
+        stride: usize,
+    ) {
+        let n = planes.n;
+        let degenerate = T::from_f32(DEGENERATE);
+        let lowest = T::from_f32(DEGENERATE - 1.0);
+        state.best_d.fill(T::ZERO);
+        state.best_c.fill(T::ZERO);
+        state.score.fill(lowest);
+        state.prev_c.fill(degenerate);
+        let reach = self.outer.radius();
+        // Needed samples closer than this share their tensor blocks: one run.
+        let merge = 2 * reach + BLOCK;
+        for i in 0..hyps.count() {
+            let shear = hyps.shear(i);
+            let shear_t = T::from_f32(shear);
+            let needs = |t: usize| match &guide {
+                None => true,
+                Some(g) => g.needs(t, shear_t),
+            };
+            let sources = self.sources(planes, bank, shear, slots.clone());
+            let mut t = 0;
+            while t < n {
+                if !needs(t) {
+                    // Not tested here: no zero crossing with the next hypothesis.
+                    state.prev_c[t] = degenerate;
+                    t += 1;
+                    continue;
+                }
+                let start = t;
+                let mut end = t + 1;
+                let mut probe = t + 1;
+                while probe < n && probe < end + merge {
+                    if needs(probe) {
+                        end = probe + 1;
+                    }
+                    probe += 1;
+                }
+                let blocks = start.saturating_sub(reach) / BLOCK
+                    ..(end + reach).div_ceil(BLOCK).min(planes.n_blocks / BLOCK);
+                self.tensor_blocks(bank, &sources, tensor, blocks);
+                let sums = &mut *tensor;
+                self.outer.apply_range(&sums.jxx[..n], sums.sxx, start..end);
+                self.outer.apply_range(&sums.jxk[..n], sums.sxk, start..end);
+                self.outer.apply_range(&sums.jkk[..n], sums.skk, start..end);
+                self.score(hyps, i, sums, state, start..end, stride);
+                // The samples the probe passed after the run are not needed either.
+                for c in &mut state.prev_c[end..probe] {
+                    *c = degenerate;
+                }
+                t = probe;
+            }
+        }
+    }
+
+    /// Scores hypothesis `i` of `hyps` at the samples `range` from the smoothed tensor.
+    fn score(
+        &self,
+        hyps: &Hypotheses,
+        i: usize,
+        tensor: &Tensor<'_, T>,
+        state: &mut State<'_, T>,
+        range: Range<usize>,
+        stride: usize,
+    ) {
+        let window = T::from_f32(hyps.window());
+        let step = T::from_f32(hyps.step());
         let degenerate = T::from_f32(DEGENERATE);
         let single = T::from_f32(SINGLE);
         let out_of_window = T::from_f32(OUT_OF_WINDOW);
@@ -248,253 +499,230 @@ impl<T: Scalar> LineEstimator<T> {
         let min_den = T::from_f32(1.0 / 64.0);
         let min_gap = T::from_f32(1.0 / 256.0);
         let two = T::from_i32(2);
-        let mut previous_shear = T::ZERO;
-        for i in 0..h.count() {
-            let shear = h.shear(i);
-            let shear_t = T::from_f32(shear);
-            jxx.fill(T::ZERO);
-            jxk.fill(T::ZERO);
-            jkk.fill(T::ZERO);
-            for c in 0..c_n {
-                for k in 0..k_n {
-                    let offset = (k as f32 - self.centre as f32) * shear;
-                    let at = (k * c_n + c) * n;
-                    shift(&pre_d[at..at + n], &mut sh_d[k * n..(k + 1) * n], offset);
-                    shift(&pre_s[at..at + n], &mut sh_s[k * n..(k + 1) * n], offset);
-                }
-                // Chunks of CHUNK samples; the last one overlaps its predecessor so that
-                // every chunk has the constant length the compiler unrolls and keeps in
-                // registers (overlapping samples are computed again, identically).
-                let mut done = 0;
-                while done < n {
-                    let mut sums = [[T::ZERO; CHUNK]; 3];
-                    let (t0, len) = if n >= CHUNK {
-                        let t0 = done.min(n - CHUNK);
-                        self.tensor_chunk(sh_d, sh_s, n, t0, CHUNK, &mut sums);
-                        (t0, CHUNK)
-                    } else {
-                        self.tensor_chunk(sh_d, sh_s, n, 0, n, &mut sums);
-                        (0, n)
-                    };
-                    let new = done - t0..len;
-                    let span = done..t0 + len;
-                    for ((((xx, xk), kk), &sxx), (&sxk, &skk)) in jxx[span.clone()]
-                        .iter_mut()
-                        .zip(jxk[span.clone()].iter_mut())
-                        .zip(jkk[span].iter_mut())
-                        .zip(sums[0][new.clone()].iter())
-                        .zip(sums[1][new.clone()].iter().zip(sums[2][new].iter()))
-                    {
-                        *xx += sxx;
-                        *xk += sxk;
-                        *kk += skk;
-                    }
-                    done = t0 + len;
-                }
-            }
-            self.outer.apply(jxx, sxx);
-            self.outer.apply(jxk, sxk);
-            self.outer.apply(jkk, skk);
-            for t in 0..n {
-                let trace = sxx[t] + skk[t];
-                // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
-                let (r, coherence) = if trace <= tiny_trace {
+        let shear_t = T::from_f32(hyps.shear(i));
+        let previous_shear = T::from_f32(hyps.shear(i.saturating_sub(1)));
+        let (sxx, sxk, skk) = (&tensor.sxx[..], &tensor.sxk[..], &tensor.skk[..]);
+        let State {
+            best_d,
+            best_c,
+            score,
+            prev_r,
+            prev_c,
+        } = state;
+        for t in (range.start.next_multiple_of(stride)..range.end).step_by(stride) {
+            let trace = sxx[t] + skk[t];
+            // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
+            let (r, coherence) = if trace <= tiny_trace {
+                (T::ZERO, degenerate)
+            } else {
+                // Normalised by the trace so that fixed point never overflows:
+                // a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the
+                // dominant eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
+                let a = (sxx[t] - skk[t]) / trace;
+                let b = two * sxk[t] / trace;
+                let coherence = (a * a + b * b).sqrt().min(T::ONE);
+                let den = a + coherence;
+                if den <= min_den {
                     (T::ZERO, degenerate)
                 } else {
-                    // Normalised by the trace so that fixed point never overflows:
-                    // a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the
-                    // dominant eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
-                    let a = (sxx[t] - skk[t]) / trace;
-                    let b = two * sxk[t] / trace;
-                    let coherence = (a * a + b * b).sqrt().min(T::ONE);
-                    let den = a + coherence;
-                    if den <= min_den {
-                        (T::ZERO, degenerate)
-                    } else {
-                        (b / den, coherence)
+                    (b / den, coherence)
+                }
+            };
+            let valid = coherence >= T::ZERO;
+            let inside = valid && r.abs() <= window;
+            let (mut cand_score, mut cand_d) = if !valid {
+                (degenerate, shear_t)
+            } else if inside {
+                (coherence + single, shear_t + r)
+            } else {
+                (
+                    coherence + out_of_window,
+                    shear_t + r.clamp(-window, window),
+                )
+            };
+            if self.interpolate {
+                // The residual slope falls linearly through zero between the two
+                // shears that bracket the disparity; its zero crossing cancels the
+                // tensor's slope-proportional bias.
+                let (pr, pc) = (prev_r[t], prev_c[t]);
+                if inside && pc >= T::ZERO && pr >= T::ZERO && r <= T::ZERO {
+                    let gap = pr - r;
+                    if gap > min_gap {
+                        let crossing = previous_shear + step * (pr / gap).min(T::ONE);
+                        let both = pc.min(coherence);
+                        if both > cand_score {
+                            cand_score = both;
+                            cand_d = crossing;
+                        }
                     }
-                };
-                let valid = coherence >= T::ZERO;
-                let inside = valid && r.abs() <= window;
-                let (mut cand_score, mut cand_d) = if !valid {
-                    (degenerate, shear_t)
-                } else if inside {
-                    (coherence + single, shear_t + r)
-                } else {
-                    (
-                        coherence + out_of_window,
-                        shear_t + r.clamp(-window, window),
-                    )
-                };
-                if self.interpolate && i > 0 {
-                    // The residual slope falls linearly through zero between the two
-                    // shears that bracket the disparity; its zero crossing cancels the
-                    // tensor's slope-proportional bias.
-                    let (pr, pc) = (prev_r[t], prev_c[t]);
-                    if inside && pc >= T::ZERO && pr >= T::ZERO && r <= T::ZERO {
-                        let gap = pr - r;
-                        if gap > min_gap {
-                            let crossing = previous_shear + step * (pr / gap).min(T::ONE);
-                            let both = pc.min(coherence);
-                            if both > cand_score {
-                                cand_score = both;
-                                cand_d = crossing;
+                }
+            }
+            if cand_score > score[t] {
+                score[t] = cand_score;
+                best_d[t] = cand_d;
+                best_c[t] = coherence.max(T::ZERO);
+            }
+            if inside {
+                prev_r[t] = r;
+                prev_c[t] = coherence;
+            } else {
+                prev_c[t] = degenerate;
+            }
+        }
+    }
+
+    /// Where hypothesis `shear` reads every view: the stored planes at a whole-sample
+    /// offset (the half-shifted ones for half-sample offsets), or, for any other fraction
+    /// and for shifts beyond the stored padding, a fallback plane interpolated here.
+    fn sources(&self, planes: &Planes, bank: &mut [T], shear: f32, slots: Range<usize>) -> Sources {
+        let mut sources = Sources {
+            d: [[0; GRID_MAX]; 3],
+            s: [[0; GRID_MAX]; 3],
+            slots: slots.len().min(3),
+            active: self.band.active,
+        };
+        if slots.start >= self.channels {
+            for (k, a) in sources.active.iter_mut().enumerate() {
+                *a &= k.abs_diff(self.centre) <= COARSE_VIEWS;
+            }
+        }
+        let stored_len = planes.stored_len();
+        let half_ready = match &self.coarse {
+            Some(coarse) if slots.start >= self.channels => coarse.half_shifts,
+            _ => self.half_shifts,
+        };
+        for k in 0..self.views {
+            let offset = (k as f32 - self.centre as f32) * shear;
+            let floor = libm::floorf(offset);
+            let frac = offset - floor;
+            let whole = floor as isize;
+            let stored_kind = if frac == 0.0 {
+                Some(0)
+            } else if frac == 0.5 && half_ready {
+                Some(2)
+            } else {
+                None
+            };
+            for (slot, c) in slots.clone().enumerate().take(3) {
+                match stored_kind {
+                    Some(kind) if whole.unsigned_abs() <= planes.reach => {
+                        // Sample t of the sheared view is stored sample t − whole.
+                        let start = |kind| {
+                            let at = (planes.plane(kind, k, c) + planes.lead) as isize - whole;
+                            at as usize
+                        };
+                        sources.d[slot][k] = start(kind);
+                        sources.s[slot][k] = start(kind + 1);
+                    }
+                    _ => {
+                        let (stored, spare) = bank.split_at_mut(stored_len);
+                        for kind in 0..2 {
+                            let from = planes.plane(kind, k, c) + planes.lead;
+                            let to = planes.fallback(kind, k, c);
+                            let out =
+                                &mut spare[to - stored_len..to - stored_len + planes.n_blocks];
+                            let (line, tail) = out.split_at_mut(planes.n);
+                            shift(&stored[from..from + planes.n], line, offset);
+                            let last = line[planes.n - 1];
+                            tail.fill(last);
+                            if kind == 0 {
+                                sources.d[slot][k] = to;
+                            } else {
+                                sources.s[slot][k] = to;
                             }
                         }
                     }
                 }
-                if cand_score > score[t] {
-                    score[t] = cand_score;
-                    best_d[t] = cand_d;
-                    best_c[t] = coherence.max(T::ZERO);
-                }
-                if inside {
-                    prev_r[t] = r;
-                    prev_c[t] = coherence;
-                } else {
-                    prev_c[t] = degenerate;
-                }
             }
-            previous_shear = shear_t;
         }
-        let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
-        for d in best_d.iter_mut() {
-            *d = d.clamp(lo, hi);
-        }
-        Ok(())
+        sources
     }
 
-    /// Adds to `sums` (xx, xk, kk) the outer-weighted tensor of samples `t0..t0 + len`
-    /// (`len ≤ CHUNK`) of one channel: gradients of every view across the views (rows of
-    /// the mixing matrices) from the sheared planes `sh_d` / `sh_s` (`views · n`), kept
-    /// out of memory.
-    #[inline(always)]
-    fn tensor_chunk(
+    /// The outer-weighted tensor (xx, xk, kk) of the samples of `blocks` (of `BLOCK`
+    /// samples) into `tensor.jxx` etc., summed over the source channels and the views.
+    fn tensor_blocks(
         &self,
-        sh_d: &[T],
-        sh_s: &[T],
-        n: usize,
-        t0: usize,
-        len: usize,
-        sums: &mut [[T; CHUNK]; 3],
+        bank: &[T],
+        sources: &Sources,
+        tensor: &mut Tensor<'_, T>,
+        blocks: Range<usize>,
     ) {
-        let [sum_xx, sum_xk, sum_kk] = sums;
-        for k in 0..self.views {
-            let w = self.weights[k];
-            if w == T::ZERO {
-                continue;
-            }
-            // Only the significant entries of the two rows (the inner Gaussian is short,
-            // and the derivative row has no centre entry).
-            let (smooth, derivative) = (&self.smooth_taps[k], &self.derivative_taps[k]);
-            let mut ax = [T::ZERO; CHUNK];
-            let mut ak = [T::ZERO; CHUNK];
-            for (&j, &a) in smooth.views().iter().zip(smooth.weights()) {
-                let at = j * n + t0;
-                for (x, &p) in ax[..len].iter_mut().zip(&sh_d[at..at + len]) {
-                    *x += a * p;
+        match Band::<T>::width_for(self.band.taps) {
+            3 => self.tensor_line::<3>(bank, sources, tensor, blocks),
+            5 => self.tensor_line::<5>(bank, sources, tensor, blocks),
+            7 => self.tensor_line::<7>(bank, sources, tensor, blocks),
+            9 => self.tensor_line::<9>(bank, sources, tensor, blocks),
+            _ => self.tensor_line::<GRID_MAX>(bank, sources, tensor, blocks),
+        }
+    }
+
+    fn tensor_line<const TAPS: usize>(
+        &self,
+        bank: &[T],
+        sources: &Sources,
+        tensor: &mut Tensor<'_, T>,
+        blocks: Range<usize>,
+    ) {
+        let span = blocks.start * BLOCK..blocks.end * BLOCK;
+        let lines = tensor.jxx[span.clone()]
+            .chunks_exact_mut(BLOCK)
+            .zip(tensor.jxk[span.clone()].chunks_exact_mut(BLOCK))
+            .zip(tensor.jkk[span].chunks_exact_mut(BLOCK));
+        for (b, ((xx, xk), kk)) in blocks.zip(lines) {
+            let [sxx, sxk, skk] = self.tensor_block::<TAPS>(bank, sources, b * BLOCK);
+            xx.copy_from_slice(&sxx);
+            xk.copy_from_slice(&sxk);
+            kk.copy_from_slice(&skk);
+        }
+    }
+
+    /// The tensor of samples `t0..t0 + BLOCK`: per channel and view, both gradients across
+    /// the views' band, then their products, all in registers.
+    #[inline(always)]
+    fn tensor_block<const TAPS: usize>(
+        &self,
+        bank: &[T],
+        sources: &Sources,
+        t0: usize,
+    ) -> [[T; BLOCK]; 3] {
+        let mut xx = [T::ZERO; BLOCK];
+        let mut xk = [T::ZERO; BLOCK];
+        let mut kk = [T::ZERO; BLOCK];
+        let band = &self.band;
+        for (sd, ss) in sources.d.iter().zip(&sources.s).take(sources.slots) {
+            for k in 0..self.views {
+                if !sources.active[k] {
+                    continue;
+                }
+                let mut gx = [T::ZERO; BLOCK];
+                let mut gk = [T::ZERO; BLOCK];
+                let taps = band.rows[k][..TAPS]
+                    .iter()
+                    .zip(&band.smooth[k][..TAPS])
+                    .zip(&band.derivative[k][..TAPS]);
+                for ((&j, &a), &b) in taps {
+                    let (at_d, at_s) = (sd[j] + t0, ss[j] + t0);
+                    let d = &bank[at_d..at_d + BLOCK];
+                    let s = &bank[at_s..at_s + BLOCK];
+                    for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(d.iter().zip(s))
+                    {
+                        *x += a * p;
+                        *y += b * q;
+                    }
+                }
+                for ((((sxx, sxk), skk), &x), &y) in xx
+                    .iter_mut()
+                    .zip(xk.iter_mut())
+                    .zip(kk.iter_mut())
+                    .zip(&gx)
+                    .zip(&gk)
+                {
+                    *sxx += x * x;
+                    *sxk += x * y;
+                    *skk += y * y;
                 }
             }
-            for (&j, &b) in derivative.views().iter().zip(derivative.weights()) {
-                let at = j * n + t0;
-                for (y, &q) in ak[..len].iter_mut().zip(&sh_s[at..at + len]) {
-                    *y += b * q;
-                }
-            }
-            for ((((xx, xk), kk), &gx), &gk) in sum_xx[..len]
-                .iter_mut()
-                .zip(sum_xk[..len].iter_mut())
-                .zip(sum_kk[..len].iter_mut())
-                .zip(ax.iter())
-                .zip(ak.iter())
-            {
-                *xx += gx * gx;
-                *xk += gx * gk;
-                *kk += gk * gk;
-            }
         }
-    }
-}
-
-/// `out[t] = input(t − offset)`, linear interpolation, clamped at the ends. Integer offsets
-/// are exact copies (no interpolation blur).
-fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
-    let n = input.len().min(out.len());
-    if n == 0 {
-        return;
-    }
-    let (input, out) = (&input[..n], &mut out[..n]);
-    let floor = libm::floorf(offset);
-    let frac = offset - floor;
-    // out[t] = (1 − f)·in[t − whole] + f·in[t − whole − 1]; with f = 0 only the first term.
-    let whole = floor as isize;
-    let lag = if frac == 0.0 { 0 } else { 1 };
-    let last = n as isize - 1;
-    let at = |i: isize| input[i.clamp(0, last) as usize];
-    // Interior: every index in range, t ∈ [whole + lag, last + whole].
-    let lo = (whole + lag as isize).clamp(0, n as isize) as usize;
-    let hi = (last + whole + 1).clamp(lo as isize, n as isize) as usize;
-    if frac == 0.0 {
-        for (t, o) in out.iter_mut().enumerate().take(lo) {
-            *o = at(t as isize - whole);
-        }
-        if hi > lo {
-            let src = (lo as isize - whole) as usize;
-            out[lo..hi].copy_from_slice(&input[src..src + (hi - lo)]);
-        }
-        for (t, o) in out.iter_mut().enumerate().skip(hi) {
-            *o = at(t as isize - whole);
-        }
-        return;
-    }
-    let (wa, wb) = (T::from_f32(1.0 - frac), T::from_f32(frac));
-    let edge = |t: usize| {
-        let i = t as isize - whole;
-        wa * at(i) + wb * at(i - 1)
-    };
-    for (t, o) in out.iter_mut().enumerate().take(lo) {
-        *o = edge(t);
-    }
-    if hi > lo {
-        let src = (lo as isize - whole) as usize;
-        let a = &input[src..src + (hi - lo)];
-        let b = &input[src - 1..src - 1 + (hi - lo)];
-        for ((o, &x), &y) in out[lo..hi].iter_mut().zip(a).zip(b) {
-            *o = wa * x + wb * y;
-        }
-    }
-    for (t, o) in out.iter_mut().enumerate().skip(hi) {
-        *o = edge(t);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn shift_moves_content_and_clamps() {
-        let input = [0.0f32, 1.0, 2.0, 3.0, 4.0];
-        let mut out = [0.0; 5];
-        shift(&input, &mut out, 2.0);
-        assert_eq!(out, [0.0, 0.0, 0.0, 1.0, 2.0]);
-        shift(&input, &mut out, -1.0);
-        assert_eq!(out, [1.0, 2.0, 3.0, 4.0, 4.0]);
-        shift(&input, &mut out, 0.25);
-        assert_eq!(out[2], 1.75);
-        // Every offset agrees with the clamped definition, including huge ones.
-        let input: [f32; 9] = core::array::from_fn(|i| (i * i) as f32);
-        for offset in [
-            -12.5f32, -3.0, -2.75, -0.5, 0.0, 0.5, 1.0, 3.25, 8.0, 8.5, 20.0,
-        ] {
-            shift(&input, &mut out, offset);
-            for (t, &got) in out.iter().enumerate() {
-                let x = t as f32 - offset;
-                let (i, f) = (x.floor(), x - x.floor());
-                let at = |i: f32| input[(i.max(0.0) as usize).min(4)];
-                let want = (1.0 - f) * at(i) + f * at(i + 1.0);
-                assert!((got - want).abs() < 1e-4, "{offset} {t}: {got} vs {want}");
-            }
-        }
+        [xx, xk, kk]
     }
 }

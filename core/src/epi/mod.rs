@@ -7,9 +7,11 @@
 //! the result never depends on how lines are grouped or threaded. Scratch covers one line.
 //! The two directions are fused per pixel with [`fuse`].
 
+mod band;
 mod hypotheses;
 mod kernels;
 mod line;
+mod planes;
 mod range;
 
 pub use hypotheses::{Hypotheses, MAX_DISPARITY, MAX_HYPOTHESES};
@@ -64,6 +66,22 @@ pub enum ColorMode {
     Gray,
 }
 
+/// Which shear hypotheses each sample is tested at.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Search {
+    /// Every hypothesis of the range.
+    Exhaustive,
+    /// A gray pass at four times the shear step (at most 2 px) estimates every sample
+    /// first; then only the hypotheses within `(1 + margin)·shear_step` of that estimate
+    /// are tested in full colour: the two that bracket it, and a neighbour when it lies
+    /// within `margin` steps of one of them. Samples the gray pass cannot place inside a
+    /// window are tested at every hypothesis.
+    CoarseToFine {
+        /// Extra reach, in shear steps, 0…2.
+        margin: f32,
+    },
+}
+
 /// The two EPI directions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Direction {
@@ -95,6 +113,8 @@ pub struct EpiParams {
     pub fusion: Fusion,
     /// Colour handling.
     pub color: ColorMode,
+    /// Which hypotheses each sample is tested at.
+    pub search: Search,
 }
 
 impl Default for EpiParams {
@@ -112,6 +132,7 @@ impl Default for EpiParams {
             interpolate: true,
             fusion: Fusion::Coherence,
             color: ColorMode::Tensor,
+            search: Search::CoarseToFine { margin: 0.0 },
         }
     }
 }
@@ -159,6 +180,14 @@ impl EpiParams {
                 reason: "must be between 0.5 and 2 shear steps",
             });
         }
+        if let Search::CoarseToFine { margin } = self.search {
+            if !within(margin, 0.0, 2.0) {
+                return Err(Error::InvalidParameter {
+                    name: "search margin",
+                    reason: "must be between 0 and 2 shear steps",
+                });
+            }
+        }
         if let DisparityRange::Fixed { min, max } = self.range {
             Hypotheses::new(self, min, max)?;
         }
@@ -201,9 +230,9 @@ fn used_channels(plan: &Plan) -> usize {
 
 /// Scratch (elements of `T`) one band of `direction` needs; independent of the band size.
 pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
-    let (views, _) = direction.views(plan);
+    let (views, centre) = direction.views(plan);
     let n = direction.line_len(plan);
-    LineEstimator::<f32>::work_len(views, used_channels(plan), n) + 2 * n
+    LineEstimator::<f32>::work_len(views, centre, used_channels(plan), n) + 2 * n
 }
 
 /// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`].
@@ -309,7 +338,6 @@ pub(crate) struct BandEstimator<'p, 'a, T: Scalar, S: Sample> {
     lf: &'p LightField<'a, S>,
     direction: Direction,
     n: usize,
-    views: usize,
     color: ColorMode,
 }
 
@@ -333,7 +361,6 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             lf,
             direction,
             n: direction.line_len(plan),
-            views,
             color: params.color,
         }
     }
@@ -345,7 +372,7 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
         scratch: &'s mut [T],
     ) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
         let n = self.n;
-        let needed = LineEstimator::<T>::work_len(self.views, self.estimator.channels(), n) + 2 * n;
+        let needed = self.estimator.line_work_len(n) + 2 * n;
         if scratch.len() < needed {
             return Err(Error::ScratchTooSmall {
                 needed,
@@ -380,7 +407,10 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             }
         };
         let n = self.n;
-        let load = |k: usize, c: usize, out: &mut [T]| -> Result<()> {
+        let used = ch_n.min(3);
+        // All channels of a view in one pass over its pixels (a vertical line strides
+        // through the image: one pass instead of one per channel).
+        let load = |k: usize, out: &mut [T]| -> Result<()> {
             let (start, step) = locate(k);
             let end = start + (n - 1) * step + ch_n;
             let src = data.get(start..end).ok_or(Error::BufferTooSmall {
@@ -390,12 +420,37 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             })?;
             match color {
                 ColorMode::Tensor => {
-                    for (o, px) in out.iter_mut().zip(src.chunks(step)) {
-                        *o = T::from_f32(px[c].to_unit() * INTENSITY_SCALE);
+                    let scale = INTENSITY_SCALE;
+                    let (first, rest) = out.split_at_mut(n.min(out.len()));
+                    let (second, third) = rest.split_at_mut(n.min(rest.len()));
+                    let pixels = src.chunks(step).take(n);
+                    match used {
+                        3 => {
+                            for (((o0, o1), o2), px) in first
+                                .iter_mut()
+                                .zip(second.iter_mut())
+                                .zip(third.iter_mut())
+                                .zip(pixels)
+                            {
+                                if let [r, g, b, ..] = *px {
+                                    *o0 = T::from_f32(r.to_unit() * scale);
+                                    *o1 = T::from_f32(g.to_unit() * scale);
+                                    *o2 = T::from_f32(b.to_unit() * scale);
+                                }
+                            }
+                        }
+                        _ => {
+                            for (t, px) in pixels.enumerate() {
+                                for (c, &v) in px.iter().take(used).enumerate() {
+                                    if let Some(o) = out.get_mut(c * n + t) {
+                                        *o = T::from_f32(v.to_unit() * scale);
+                                    }
+                                }
+                            }
+                        }
                     }
                 }
                 ColorMode::Gray => {
-                    let used = ch_n.min(3);
                     let scale = INTENSITY_SCALE / used as f32;
                     for (o, px) in out.iter_mut().zip(src.chunks(step)) {
                         let sum: f32 = px[..used].iter().map(|s| s.to_unit()).sum();

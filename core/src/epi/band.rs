@@ -1,0 +1,88 @@
+//! The across-view parts of the gradients as bands of consecutive views: each view's
+//! gradients read a fixed number of neighbouring views, so the tensor kernel's loops have
+//! a compile-time length.
+
+use crate::lightfield::GRID_MAX;
+use crate::scalar::Scalar;
+
+/// Mixing entries below this fraction of their row's largest are dropped: the inner
+/// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
+/// row by two views for no measurable change (docs/bench-epi.md).
+const PRUNE: f32 = 1e-3;
+
+/// The across-view gradients of every view as bands of `taps` consecutive views: view `k`
+/// reads views `rows[k][..taps]` with weights `smooth[k]` (smoothing across views, for the
+/// along-line gradient) and `derivative[k]` (derivative across views), both scaled by the
+/// square root of view k's outer weight so that the tensor terms are plain products.
+/// Entries below `PRUNE` of their row's largest are zero.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Band<T: Scalar> {
+    pub(super) rows: [[usize; GRID_MAX]; GRID_MAX],
+    pub(super) smooth: [[T; GRID_MAX]; GRID_MAX],
+    pub(super) derivative: [[T; GRID_MAX]; GRID_MAX],
+    /// Views with a non-zero outer weight.
+    pub(super) active: [bool; GRID_MAX],
+    pub(super) taps: usize,
+}
+
+impl<T: Scalar> Band<T> {
+    /// Bands of the mixing rows `smooth[k]`, `derivative[k]` of `views` views.
+    pub(super) fn new(
+        smooth: &[[f32; GRID_MAX]; GRID_MAX],
+        derivative: &[[f32; GRID_MAX]; GRID_MAX],
+        active: [bool; GRID_MAX],
+        views: usize,
+    ) -> Self {
+        let significant = |row: &[f32; GRID_MAX], j: usize| {
+            let largest = row[..views]
+                .iter()
+                .fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
+            row[j] != 0.0 && libm::fabsf(row[j]) >= PRUNE * largest
+        };
+        let mut spans = [(0usize, 0usize); GRID_MAX];
+        let mut taps = 1;
+        for (k, span) in spans.iter_mut().enumerate().take(views) {
+            let used = |j: &usize| significant(&smooth[k], *j) || significant(&derivative[k], *j);
+            let first = (0..views).find(used).unwrap_or(k);
+            let last = (0..views).rev().find(used).unwrap_or(k);
+            *span = (first, last.max(first));
+            taps = taps.max(last.max(first) - first + 1);
+        }
+        let mut band = Band {
+            rows: [[0; GRID_MAX]; GRID_MAX],
+            smooth: [[T::ZERO; GRID_MAX]; GRID_MAX],
+            derivative: [[T::ZERO; GRID_MAX]; GRID_MAX],
+            active,
+            taps,
+        };
+        let last_view = views.saturating_sub(1);
+        for (k, &(first, last)) in spans.iter().enumerate().take(views) {
+            // The window starts early enough to stay inside the views where it can.
+            let start = first.min(views.saturating_sub(Self::width_for(taps)));
+            for m in 0..GRID_MAX {
+                let j = (start + m).min(last_view);
+                band.rows[k][m] = j;
+                if start + m == j && (first..=last).contains(&j) {
+                    if significant(&smooth[k], j) {
+                        band.smooth[k][m] = T::from_f32(smooth[k][j]);
+                    }
+                    if significant(&derivative[k], j) {
+                        band.derivative[k][m] = T::from_f32(derivative[k][j]);
+                    }
+                }
+            }
+        }
+        band
+    }
+
+    /// The compiled band width used for `taps` significant views.
+    pub(super) fn width_for(taps: usize) -> usize {
+        match taps {
+            0..=3 => 3,
+            4..=5 => 5,
+            6..=7 => 7,
+            8..=9 => 9,
+            _ => GRID_MAX,
+        }
+    }
+}

@@ -1,0 +1,158 @@
+//! Where a line's filtered samples live: edge-padded planes per view and channel, read at
+//! an offset by every shear hypothesis, and the interpolating shift for other fractions.
+
+use super::hypotheses::MAX_DISPARITY;
+use super::line::BLOCK;
+use crate::lightfield::GRID_MAX;
+use crate::scalar::Scalar;
+
+/// Where the sheared samples of one hypothesis are read: sample `t` of view `j`, channel
+/// `c` is `bank[d[c][j] + t]` (along-line derivative) and `bank[s[c][j] + t]` (along-line
+/// smoothing).
+pub(super) struct Sources {
+    pub(super) d: [[usize; GRID_MAX]; 3],
+    pub(super) s: [[usize; GRID_MAX]; 3],
+    /// Channels read.
+    pub(super) slots: usize,
+    /// Views whose tensor enters the sum.
+    pub(super) active: [bool; GRID_MAX],
+}
+
+/// Layout of the stored planes of one line. Every view and channel has four planes of
+/// `len` samples — derivative, smoothing, and both shifted by half a sample — holding
+/// samples `−lead ≤ u < n_blocks + reach` (edge-replicated outside the line), then one
+/// fallback plane pair per view and channel for shifts of any other fraction.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Planes {
+    pub(super) n: usize,
+    /// `n` rounded up to whole blocks.
+    pub(super) n_blocks: usize,
+    /// Largest whole shift read from the stored planes.
+    pub(super) reach: usize,
+    pub(super) lead: usize,
+    pub(super) len: usize,
+    views: usize,
+    channels: usize,
+}
+
+impl Planes {
+    pub(super) fn new(views: usize, centre: usize, channels: usize, n: usize) -> Self {
+        let far = centre.max(views.saturating_sub(1).saturating_sub(centre));
+        // Shears never exceed MAX_DISPARITY + 1 (multiples of a step ≤ 2 nearest the range).
+        let reach = libm::ceilf(far as f32 * (MAX_DISPARITY + 1.0)) as usize + 1;
+        let n_blocks = n.div_ceil(BLOCK) * BLOCK;
+        let lead = reach + 1;
+        Planes {
+            n,
+            n_blocks,
+            reach,
+            lead,
+            len: lead + n_blocks + reach,
+            views,
+            channels,
+        }
+    }
+
+    /// Start of plane `kind` (0 derivative, 1 smoothing, 2 and 3 the same shifted by half a
+    /// sample) of view `k`, channel `c`.
+    pub(super) fn plane(&self, kind: usize, k: usize, c: usize) -> usize {
+        ((kind * self.views + k) * self.channels + c) * self.len
+    }
+
+    /// Start of the fallback plane `kind` (0 derivative, 1 smoothing) of view `k`,
+    /// channel `c`.
+    pub(super) fn fallback(&self, kind: usize, k: usize, c: usize) -> usize {
+        self.stored_len() + ((kind * self.views + k) * self.channels + c) * self.n_blocks
+    }
+
+    pub(super) fn stored_len(&self) -> usize {
+        4 * self.views * self.channels * self.len
+    }
+
+    pub(super) fn bank_len(&self) -> usize {
+        self.stored_len() + 2 * self.views * self.channels * self.n_blocks
+    }
+}
+
+/// `out[t] = input(t − offset)`, linear interpolation, clamped at the ends. Integer offsets
+/// are exact copies (no interpolation blur).
+pub(super) fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
+    let n = input.len().min(out.len());
+    if n == 0 {
+        return;
+    }
+    let (input, out) = (&input[..n], &mut out[..n]);
+    let floor = libm::floorf(offset);
+    let frac = offset - floor;
+    // out[t] = (1 − f)·in[t − whole] + f·in[t − whole − 1]; with f = 0 only the first term.
+    let whole = floor as isize;
+    let lag = if frac == 0.0 { 0 } else { 1 };
+    let last = n as isize - 1;
+    let at = |i: isize| input[i.clamp(0, last) as usize];
+    // Interior: every index in range, t ∈ [whole + lag, last + whole].
+    let lo = (whole + lag as isize).clamp(0, n as isize) as usize;
+    let hi = (last + whole + 1).clamp(lo as isize, n as isize) as usize;
+    if frac == 0.0 {
+        for (t, o) in out.iter_mut().enumerate().take(lo) {
+            *o = at(t as isize - whole);
+        }
+        if hi > lo {
+            let src = (lo as isize - whole) as usize;
+            out[lo..hi].copy_from_slice(&input[src..src + (hi - lo)]);
+        }
+        for (t, o) in out.iter_mut().enumerate().skip(hi) {
+            *o = at(t as isize - whole);
+        }
+        return;
+    }
+    let (wa, wb) = (T::from_f32(1.0 - frac), T::from_f32(frac));
+    let edge = |t: usize| {
+        let i = t as isize - whole;
+        wa * at(i) + wb * at(i - 1)
+    };
+    for (t, o) in out.iter_mut().enumerate().take(lo) {
+        *o = edge(t);
+    }
+    if hi > lo {
+        let src = (lo as isize - whole) as usize;
+        let a = &input[src..src + (hi - lo)];
+        let b = &input[src - 1..src - 1 + (hi - lo)];
+        for ((o, &x), &y) in out[lo..hi].iter_mut().zip(a).zip(b) {
+            *o = wa * x + wb * y;
+        }
+    }
+    for (t, o) in out.iter_mut().enumerate().skip(hi) {
+        *o = edge(t);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shift_moves_content_and_clamps() {
+        let input = [0.0f32, 1.0, 2.0, 3.0, 4.0];
+        let mut out = [0.0; 5];
+        shift(&input, &mut out, 2.0);
+        assert_eq!(out, [0.0, 0.0, 0.0, 1.0, 2.0]);
+        shift(&input, &mut out, -1.0);
+        assert_eq!(out, [1.0, 2.0, 3.0, 4.0, 4.0]);
+        shift(&input, &mut out, 0.25);
+        assert_eq!(out[2], 1.75);
+        // Every offset agrees with the clamped definition, including huge ones.
+        let input: [f32; 9] = core::array::from_fn(|i| (i * i) as f32);
+        for offset in [
+            -12.5f32, -3.0, -2.75, -0.5, 0.0, 0.5, 1.0, 3.25, 8.0, 8.5, 20.0,
+        ] {
+            shift(&input, &mut out, offset);
+            for (t, &got) in out.iter().enumerate() {
+                let x = t as f32 - offset;
+                let (i, f) = (x.floor(), x - x.floor());
+                let at = |i: f32| input[(i.max(0.0) as usize).min(4)];
+                let want = (1.0 - f) * at(i) + f * at(i + 1.0);
+                assert!((got - want).abs() < 1e-4, "{offset} {t}: {got} vs {want}");
+            }
+        }
+    }
+}
