@@ -25,6 +25,7 @@ pub mod pipeline;
 pub mod plan;
 pub mod refine;
 pub mod scalar;
+pub mod stream;
 pub mod synth;
 pub mod tv;
 

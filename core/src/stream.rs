@@ -1,0 +1,565 @@
+//! Streaming estimation for firmware: rows of the cross views arrive band by band as from
+//! a sensor, and the disparity of each band leaves before the next arrives, from scratch
+//! whose size does not depend on the frame size.
+//!
+//! The frame is cut into the TV tiles of the plan (`params.tv.tile`, `params.tv.halo`,
+//! see [`crate::tv::tile_rects`]). A *band* is one row of tiles. For each tile the stream
+//! runs the EPI stage on the tile's region (core + halo) only, over EPI lines cropped to
+//! the region plus a margin that covers the shear and the filters, then solves TV on the
+//! region and writes the core. The crop margin makes every region sample bit-identical to
+//! the whole-frame EPI stage, and the TV regions are the pipeline's own, so a stream gives
+//! exactly what [`crate::pipeline::run`] gives with the same parameters (refinement off):
+//! the test `stream_equals_the_whole_frame_pipeline` checks it.
+//!
+//! Memory: the input band ([`CrossBand`], the 17 cross views of a 9×9 grid, rows
+//! [`StreamPlan::input_rows`]), the output rows, and two scratch slices sized by
+//! [`StreamPlan::scratch_len`] (kernel scalars) and [`StreamPlan::map_scratch_len`]
+//! (`f32` disparity and confidence of one region). Both depend on the tile, halo, margin
+//! and grid, never on the frame width or height (for frames larger than one region).
+//!
+//! The disparity range must be given ([`DisparityRange::Fixed`]): the automatic range
+//! probes the whole frame. The photometric refinement is not streamed.
+
+use core::ops::Range;
+
+use crate::epi::{fuse, ColorMode, DisparityRange, Hypotheses, LineEstimator, INTENSITY_SCALE};
+use crate::error::{checked_product, Error, Result};
+use crate::lightfield::{Grid, Layout, Sample, View};
+use crate::plan::{Params, Plan};
+use crate::scalar::Scalar;
+use crate::tv::{self, Guide, Maps, Rect, SolveOutput};
+
+/// Largest kernel radius of the EPI filters (`MAX_RADIUS` of the EPI kernels).
+const MAX_KERNEL_RADIUS: usize = 16;
+
+/// Radius of a Gaussian truncated at 3σ, as the EPI kernels build it.
+fn gaussian_radius(sigma: f32) -> usize {
+    if sigma > 0.0 {
+        (libm::ceilf(3.0 * sigma) as usize).min(MAX_KERNEL_RADIUS - 1)
+    } else {
+        0
+    }
+}
+
+/// The rows of one band of the cross views, held by the caller.
+///
+/// Slots: view `(r0, c)` of the centre row is slot `c`; view `(r, c0)` of the centre
+/// column, `r ≠ r0`, is slot `cols + r` for `r < r0` and `cols + r − 1` above (see
+/// [`CrossBand::slot`]): `rows + cols − 1` views. Slot `s` holds image row `y` of
+/// `rows` at `data[s · view_stride + (y − rows.start) · row_stride + x · channels]`.
+#[derive(Clone, Debug)]
+pub struct CrossBand<'a, S: Sample> {
+    data: &'a [S],
+    grid: Grid,
+    width: usize,
+    channels: usize,
+    rows: Range<usize>,
+    row_stride: usize,
+    view_stride: usize,
+}
+
+impl<'a, S: Sample> CrossBand<'a, S> {
+    /// Number of views a band holds for `grid`.
+    pub fn slots(grid: Grid) -> usize {
+        (grid.rows + grid.cols).saturating_sub(1)
+    }
+
+    /// The slot of view `(row, col)`, or `None` when it is not on the cross.
+    pub fn slot(grid: Grid, row: usize, col: usize) -> Option<usize> {
+        let (r0, c0) = grid.center();
+        if row == r0 && col < grid.cols {
+            Some(col)
+        } else if col == c0 && row < grid.rows {
+            Some(grid.cols + if row < r0 { row } else { row - 1 })
+        } else {
+            None
+        }
+    }
+
+    /// A band of image rows `rows` of every cross view of `layout`'s grid, the views of
+    /// `layout.width` pixels of `layout.channels` samples. Checks that `data` holds them.
+    pub fn new(
+        data: &'a [S],
+        layout: &Layout,
+        rows: Range<usize>,
+        row_stride: usize,
+        view_stride: usize,
+    ) -> Result<Self> {
+        layout.validate()?;
+        if rows.start >= rows.end || rows.end > layout.height {
+            return Err(Error::OutOfRange {
+                what: "band end row",
+                index: rows.end,
+                len: layout.height,
+            });
+        }
+        let row_len = checked_product(&[layout.width, layout.channels], "a band row")?;
+        if row_stride < row_len {
+            return Err(Error::Stride {
+                which: "band row stride",
+                stride: row_stride,
+                needed: row_len,
+            });
+        }
+        let view_len = checked_product(&[rows.len() - 1, row_stride], "a band view")?
+            .checked_add(row_len)
+            .ok_or(Error::SizeOverflow {
+                what: "a band view",
+            })?;
+        if view_stride < view_len {
+            return Err(Error::Stride {
+                which: "band view stride",
+                stride: view_stride,
+                needed: view_len,
+            });
+        }
+        let needed = checked_product(&[Self::slots(layout.grid) - 1, view_stride], "a band")?
+            .checked_add(view_len)
+            .ok_or(Error::SizeOverflow { what: "a band" })?;
+        if data.len() < needed {
+            return Err(Error::BufferTooSmall {
+                what: "the band buffer",
+                needed,
+                got: data.len(),
+            });
+        }
+        Ok(CrossBand {
+            data,
+            grid: layout.grid,
+            width: layout.width,
+            channels: layout.channels,
+            rows,
+            row_stride,
+            view_stride,
+        })
+    }
+
+    /// A packed band: rows `width · channels` apart, views `rows.len()` rows apart.
+    pub fn packed(data: &'a [S], layout: &Layout, rows: Range<usize>) -> Result<Self> {
+        let row_stride = checked_product(&[layout.width, layout.channels], "a band row")?;
+        let view_stride = checked_product(&[rows.len(), row_stride], "a band view")?;
+        Self::new(data, layout, rows, row_stride, view_stride)
+    }
+
+    /// The image rows the band holds.
+    pub fn rows(&self) -> Range<usize> {
+        self.rows.clone()
+    }
+
+    /// Where pixel `x` of row `y` of slot `slot` starts in the buffer.
+    fn offset(&self, slot: usize, x: usize, y: usize) -> usize {
+        slot * self.view_stride + (y - self.rows.start) * self.row_stride + x * self.channels
+    }
+}
+
+/// A validated streaming plan: the frame plan, the resolved hypotheses and the crop
+/// margins of the EPI lines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StreamPlan {
+    plan: Plan,
+    hypotheses: Hypotheses,
+    /// Samples beyond a region the horizontal / vertical EPI lines need.
+    margin_h: usize,
+    margin_v: usize,
+}
+
+/// Samples a line needs beyond the outputs it must reproduce exactly: the outer smoothing,
+/// the shear (`views_out` views from the centre at the largest shear, plus one sample of
+/// linear interpolation) and the inner filters.
+fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> usize {
+    let count = hypotheses.count();
+    let shear = libm::fabsf(hypotheses.shear(0))
+        .max(libm::fabsf(hypotheses.shear(count.saturating_sub(1))));
+    let shift = libm::ceilf(shear * views_out as f32) as usize + 1;
+    gaussian_radius(params.epi.outer_sigma) + shift + gaussian_radius(params.epi.inner_sigma) + 1
+}
+
+impl StreamPlan {
+    /// Validates `layout` and `params` for streaming: the disparity range must be fixed
+    /// (or the shear off) and the refinement off.
+    pub fn new(layout: Layout, params: Params) -> Result<Self> {
+        let plan = Plan::new(layout, params)?;
+        if params.refine.enabled {
+            return Err(Error::InvalidParameter {
+                name: "refine.enabled",
+                reason: "must be off for a stream: the photometric refinement is not streamed",
+            });
+        }
+        let epi = &params.epi;
+        let hypotheses = match epi.range {
+            DisparityRange::Fixed { min, max } => Hypotheses::new(epi, min, max)?,
+            DisparityRange::Auto if !epi.shear => Hypotheses::new(
+                epi,
+                -crate::epi::MAX_DISPARITY,
+                crate::epi::MAX_DISPARITY,
+            )?,
+            DisparityRange::Auto => {
+                return Err(Error::InvalidParameter {
+                    name: "epi.range",
+                    reason: "must be Fixed for a stream (the automatic range probes the whole frame): give the camera's range",
+                })
+            }
+        };
+        let (r0, c0) = layout.grid.center();
+        let out_h = c0.max(layout.grid.cols - 1 - c0);
+        let out_v = r0.max(layout.grid.rows - 1 - r0);
+        Ok(StreamPlan {
+            plan,
+            hypotheses,
+            margin_h: line_margin(&params, &hypotheses, out_h),
+            margin_v: line_margin(&params, &hypotheses, out_v),
+        })
+    }
+
+    /// The frame plan.
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// The shear hypotheses and output range.
+    pub fn hypotheses(&self) -> &Hypotheses {
+        &self.hypotheses
+    }
+
+    /// Samples the horizontal and vertical EPI lines reach beyond a region.
+    pub fn margins(&self) -> (usize, usize) {
+        (self.margin_h, self.margin_v)
+    }
+
+    /// Number of bands (rows of tiles).
+    pub fn bands(&self) -> usize {
+        tv::tile_count(&self.plan).1
+    }
+
+    /// Image rows of the disparity band `band` writes.
+    pub fn output_rows(&self, band: usize) -> Result<Range<usize>> {
+        let bands = self.bands();
+        if band >= bands {
+            return Err(Error::OutOfRange {
+                what: "band",
+                index: band,
+                len: bands,
+            });
+        }
+        let tile = self.plan.params().tv.tile;
+        let height = self.plan.layout().height;
+        Ok(band * tile..((band + 1) * tile).min(height))
+    }
+
+    /// Image rows of the cross views band `band` reads.
+    pub fn input_rows(&self, band: usize) -> Result<Range<usize>> {
+        let out = self.output_rows(band)?;
+        let reach = self.plan.params().tv.halo + self.margin_v;
+        let height = self.plan.layout().height;
+        Ok(out.start.saturating_sub(reach)..(out.end + reach).min(height))
+    }
+
+    /// Most input rows any band reads.
+    pub fn max_input_rows(&self) -> usize {
+        let tv = &self.plan.params().tv;
+        (tv.tile + 2 * (tv.halo + self.margin_v)).min(self.plan.layout().height)
+    }
+
+    /// Elements of a packed [`CrossBand`] of [`StreamPlan::max_input_rows`] rows.
+    pub fn band_len(&self) -> usize {
+        let layout = self.plan.layout();
+        CrossBand::<u8>::slots(layout.grid)
+            .saturating_mul(self.max_input_rows())
+            .saturating_mul(layout.width)
+            .saturating_mul(layout.channels)
+    }
+
+    /// Largest region (core + halo) side: `(width, height)`.
+    fn region_size(&self) -> (usize, usize) {
+        let tv = &self.plan.params().tv;
+        let layout = self.plan.layout();
+        let side = tv.tile + 2 * tv.halo;
+        (side.min(layout.width), side.min(layout.height))
+    }
+
+    /// Kernel scratch (elements of `T`): one EPI line of a region with its margins, or
+    /// one TV solve of a region, whichever is larger.
+    pub fn scratch_len(&self) -> usize {
+        let layout = self.plan.layout();
+        let (rw, rh) = self.region_size();
+        let channels = match self.plan.params().epi.color {
+            ColorMode::Gray => 1,
+            ColorMode::Tensor => layout.channels.min(3),
+        };
+        let line =
+            |views: usize, n: usize| LineEstimator::<f32>::work_len(views, channels, n) + 2 * n;
+        let n_h = (rw + 2 * self.margin_h).min(layout.width);
+        let n_v = (rh + 2 * self.margin_v).min(layout.height);
+        line(layout.grid.cols, n_h)
+            .max(line(layout.grid.rows, n_v))
+            .max(tv::scratch_len_for(rw, rh))
+    }
+
+    /// Map scratch (`f32` elements): the EPI disparity and confidence of one region.
+    pub fn map_scratch_len(&self) -> usize {
+        let (rw, rh) = self.region_size();
+        2 * rw * rh
+    }
+
+    /// Bytes of both scratch slices with kernel scalars of `bytes_per_scalar` bytes
+    /// (4 for `f32` and `Q16`).
+    pub fn scratch_bytes(&self, bytes_per_scalar: usize) -> usize {
+        self.scratch_len()
+            .saturating_mul(bytes_per_scalar)
+            .saturating_add(self.map_scratch_len().saturating_mul(4))
+    }
+
+    /// Estimates band `band` from `input` (which must hold [`StreamPlan::input_rows`]) into
+    /// `disparity` and `confidence` (exactly `output_rows(band).len() · width` each,
+    /// row-major): EPI on each tile's region, then TV on it. `scratch` needs
+    /// [`StreamPlan::scratch_len`] elements, `maps` [`StreamPlan::map_scratch_len`].
+    pub fn process_band<T: Scalar, S: Sample>(
+        &self,
+        band: usize,
+        input: &CrossBand<'_, S>,
+        disparity: &mut [f32],
+        confidence: &mut [f32],
+        scratch: &mut [T],
+        maps: &mut [f32],
+    ) -> Result<tv::RefineReport> {
+        let layout = *self.plan.layout();
+        if input.grid != layout.grid
+            || input.width != layout.width
+            || input.channels != layout.channels
+        {
+            return Err(Error::InvalidParameter {
+                name: "band",
+                reason: "must have the grid, width and channels of the stream plan's layout",
+            });
+        }
+        let out_rows = self.output_rows(band)?;
+        let need = self.input_rows(band)?;
+        if input.rows.start > need.start || input.rows.end < need.end {
+            return Err(Error::OutOfRange {
+                what: "band row (the band must hold input_rows(band))",
+                index: if input.rows.start > need.start {
+                    need.start
+                } else {
+                    need.end - 1
+                },
+                len: input.rows.end,
+            });
+        }
+        let width = layout.width;
+        let out_len = out_rows.len() * width;
+        if disparity.len() != out_len || confidence.len() != out_len {
+            return Err(Error::OutputSize {
+                what: "the band disparity/confidence",
+                needed: out_len,
+                got: disparity.len().min(confidence.len()),
+            });
+        }
+        for (needed, got) in [
+            (self.scratch_len(), scratch.len()),
+            (self.map_scratch_len(), maps.len()),
+        ] {
+            if got < needed {
+                return Err(Error::ScratchTooSmall { needed, got });
+            }
+        }
+        let (cols, _) = tv::tile_count(&self.plan);
+        let mut report = tv::RefineReport::default();
+        for tx in 0..cols {
+            let (core, region) = tv::tile_rects(&self.plan, band * cols + tx)?;
+            let pixels = region.width * region.height;
+            let (map_d, rest) = maps.split_at_mut(pixels);
+            let map_c = &mut rest[..pixels];
+            self.epi_region(input, region, map_d, map_c, scratch)?;
+
+            let (_, c0) = layout.grid.center();
+            let (r0, _) = layout.grid.center();
+            let centre = CrossBand::<S>::slot(layout.grid, r0, c0).unwrap_or(0);
+            let start = input.offset(centre, region.x, region.y);
+            let guide_data = input.data.get(start..).unwrap_or(&[]);
+            let guide = Guide::View(View::new(
+                guide_data,
+                region.width,
+                region.height,
+                layout.channels,
+                input.row_stride,
+            )?);
+            let tv_maps = Maps::new(region.width, region.height, map_d, map_c)?;
+            let local_core = Rect {
+                x: core.x - region.x,
+                y: core.y - region.y,
+                width: core.width,
+                height: core.height,
+            };
+            let out_start = (core.y - out_rows.start) * width + core.x;
+            let tile = tv::solve(
+                &tv_maps,
+                &guide,
+                &self.plan.params().tv,
+                Rect {
+                    x: 0,
+                    y: 0,
+                    width: region.width,
+                    height: region.height,
+                },
+                local_core,
+                SolveOutput {
+                    disparity: disparity.get_mut(out_start..).unwrap_or_default(),
+                    stride: width,
+                    history: &mut [],
+                    dual: None,
+                },
+                scratch,
+            )?;
+            report.add(&tile);
+            for y in 0..core.height {
+                let from = (local_core.y + y) * region.width + local_core.x;
+                let to = out_start + y * width;
+                let src = map_c.get(from..from + core.width);
+                let dst = confidence.get_mut(to..to + core.width);
+                if let (Some(src), Some(dst)) = (src, dst) {
+                    dst.copy_from_slice(src);
+                }
+            }
+        }
+        Ok(report)
+    }
+
+    /// The fused EPI disparity and confidence of `region` (row-major, region-sized), each
+    /// sample equal to the whole-frame stage's.
+    fn epi_region<T: Scalar, S: Sample>(
+        &self,
+        input: &CrossBand<'_, S>,
+        region: Rect,
+        map_d: &mut [f32],
+        map_c: &mut [f32],
+        scratch: &mut [T],
+    ) -> Result<()> {
+        let layout = self.plan.layout();
+        let params = &self.plan.params().epi;
+        let grid = layout.grid;
+        let (r0, c0) = grid.center();
+        let h = &self.hypotheses;
+        let (lo, hi) = (h.min(), h.max());
+        let ch_n = layout.channels;
+        let color = params.color;
+
+        // Horizontal lines: image rows of the region, cropped to its columns ± margin.
+        let x0 = region.x.saturating_sub(self.margin_h);
+        let x1 = (region.x + region.width + self.margin_h).min(layout.width);
+        let n = x1 - x0;
+        let estimator = LineEstimator::<T>::new(params, *h, grid.cols, c0, ch_n);
+        let (d_line, c_line, work) = split_line(scratch, &estimator, grid.cols, n)?;
+        for ly in 0..region.height {
+            let y = region.y + ly;
+            let load = |k: usize, c: usize, out: &mut [T]| {
+                let slot = CrossBand::<S>::slot(grid, r0, k).unwrap_or(0);
+                load_line(input, input.offset(slot, x0, y), ch_n, n, color, c, out)
+            };
+            estimator.estimate(n, load, work, d_line, c_line)?;
+            let first = region.x - x0;
+            let row = ly * region.width..(ly + 1) * region.width;
+            for (((o, oc), &v), &w) in map_d[row.clone()]
+                .iter_mut()
+                .zip(map_c[row].iter_mut())
+                .zip(&d_line[first..])
+                .zip(&c_line[first..])
+            {
+                *o = v.to_f32().clamp(lo, hi);
+                *oc = w.to_f32().clamp(0.0, 1.0);
+            }
+        }
+
+        // Vertical lines: image columns of the region, cropped to its rows ± margin,
+        // fused into the horizontal estimate.
+        let y0 = region.y.saturating_sub(self.margin_v);
+        let y1 = (region.y + region.height + self.margin_v).min(layout.height);
+        let n = y1 - y0;
+        let estimator = LineEstimator::<T>::new(params, *h, grid.rows, r0, ch_n);
+        let (d_line, c_line, work) = split_line(scratch, &estimator, grid.rows, n)?;
+        let fusion = params.fusion;
+        let step = input.row_stride;
+        for lx in 0..region.width {
+            let x = region.x + lx;
+            let load = |k: usize, c: usize, out: &mut [T]| {
+                let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
+                load_line(input, input.offset(slot, x, y0), step, n, color, c, out)
+            };
+            estimator.estimate(n, load, work, d_line, c_line)?;
+            let first = region.y - y0;
+            for (ly, (&dv, &cv)) in d_line[first..first + region.height]
+                .iter()
+                .zip(&c_line[first..first + region.height])
+                .enumerate()
+            {
+                let i = ly * region.width + lx;
+                let (dv, cv) = (dv.to_f32().clamp(lo, hi), cv.to_f32().clamp(0.0, 1.0));
+                if let (Some(d), Some(c)) = (map_d.get(i).copied(), map_c.get(i).copied()) {
+                    let (d, c) = fuse(fusion, d, c, dv, cv);
+                    map_d[i] = d;
+                    map_c[i] = c;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Splits scratch into one line's disparity, confidence and work.
+#[allow(clippy::type_complexity)]
+fn split_line<'s, T: Scalar>(
+    scratch: &'s mut [T],
+    estimator: &LineEstimator<T>,
+    views: usize,
+    n: usize,
+) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
+    let needed = LineEstimator::<T>::work_len(views, estimator.channels(), n) + 2 * n;
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
+    let (d, rest) = scratch.split_at_mut(n);
+    let (c, work) = rest.split_at_mut(n);
+    Ok((d, c, work))
+}
+
+/// Loads `n` samples `step` apart from `start` as the EPI stage does: channel `c` (or the
+/// channel mean in gray mode), in unit intensity times [`INTENSITY_SCALE`].
+fn load_line<T: Scalar, S: Sample>(
+    input: &CrossBand<'_, S>,
+    start: usize,
+    step: usize,
+    n: usize,
+    color: ColorMode,
+    c: usize,
+    out: &mut [T],
+) -> Result<()> {
+    let ch_n = input.channels;
+    let end = start + (n - 1) * step + ch_n;
+    let src = input.data.get(start..end).ok_or(Error::BufferTooSmall {
+        what: "the band buffer",
+        needed: end,
+        got: input.data.len(),
+    })?;
+    match color {
+        ColorMode::Tensor => {
+            for (o, px) in out.iter_mut().zip(src.chunks(step)) {
+                let v = px.get(c).map_or(0.0, |s| s.to_unit());
+                *o = T::from_f32(v * INTENSITY_SCALE);
+            }
+        }
+        ColorMode::Gray => {
+            let used = ch_n.min(3);
+            let scale = INTENSITY_SCALE / used as f32;
+            for (o, px) in out.iter_mut().zip(src.chunks(step)) {
+                let sum: f32 = px.iter().take(used).map(|s| s.to_unit()).sum();
+                *o = T::from_f32(sum * scale);
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;
