@@ -367,8 +367,12 @@ impl StreamPlan {
         for tx in 0..cols {
             let (core, region) = tv::tile_rects(&self.plan, band * cols + tx)?;
             let pixels = region.width * region.height;
-            let (map_d, rest) = maps.split_at_mut(pixels);
-            let map_c = &mut rest[..pixels];
+            let short = Error::ScratchTooSmall {
+                needed: 2 * pixels,
+                got: maps.len(),
+            };
+            let (map_d, rest) = maps.split_at_mut_checked(pixels).ok_or(short)?;
+            let map_c = rest.get_mut(..pixels).ok_or(short)?;
             self.epi_region(input, region, map_d, map_c, scratch)?;
 
             let (_, c0) = layout.grid.center();
@@ -458,12 +462,15 @@ impl StreamPlan {
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.x - x0;
             let row = ly * region.width..(ly + 1) * region.width;
-            for (((o, oc), &v), &w) in map_d[row.clone()]
-                .iter_mut()
-                .zip(map_c[row].iter_mut())
-                .zip(&d_line[first..])
-                .zip(&c_line[first..])
-            {
+            let (Some(out_d), Some(out_c), Some(d), Some(c)) = (
+                map_d.get_mut(row.clone()),
+                map_c.get_mut(row),
+                d_line.get(first..),
+                c_line.get(first..),
+            ) else {
+                continue;
+            };
+            for (((o, oc), &v), &w) in out_d.iter_mut().zip(out_c).zip(d).zip(c) {
                 *o = v.to_f32().clamp(lo, hi);
                 *oc = w.to_f32().clamp(0.0, 1.0);
             }
@@ -486,18 +493,16 @@ impl StreamPlan {
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.y - y0;
-            for (ly, (&dv, &cv)) in d_line[first..first + region.height]
-                .iter()
-                .zip(&c_line[first..first + region.height])
-                .enumerate()
-            {
-                let i = ly * region.width + lx;
+            let column = first..first + region.height;
+            let (Some(d), Some(c)) = (d_line.get(column.clone()), c_line.get(column)) else {
+                continue;
+            };
+            // Column `lx` of the region maps: every `region.width`-th element from `lx`.
+            let column_d = map_d.iter_mut().skip(lx).step_by(region.width);
+            let column_c = map_c.iter_mut().skip(lx).step_by(region.width);
+            for (((od, oc), &dv), &cv) in column_d.zip(column_c).zip(d).zip(c) {
                 let (dv, cv) = (dv.to_f32().clamp(lo, hi), cv.to_f32().clamp(0.0, 1.0));
-                if let (Some(d), Some(c)) = (map_d.get(i).copied(), map_c.get(i).copied()) {
-                    let (d, c) = fuse(fusion, d, c, dv, cv);
-                    map_d[i] = d;
-                    map_c[i] = c;
-                }
+                (*od, *oc) = fuse(fusion, *od, *oc, dv, cv);
             }
         }
         Ok(())
@@ -519,8 +524,12 @@ fn split_line<'s, T: Scalar>(
             got: scratch.len(),
         });
     }
-    let (d, rest) = scratch.split_at_mut(n);
-    let (c, work) = rest.split_at_mut(n);
+    let short = Error::ScratchTooSmall {
+        needed,
+        got: scratch.len(),
+    };
+    let (d, rest) = scratch.split_at_mut_checked(n).ok_or(short)?;
+    let (c, work) = rest.split_at_mut_checked(n).ok_or(short)?;
     Ok((d, c, work))
 }
 
@@ -536,7 +545,9 @@ fn load_line<T: Scalar, S: Sample>(
     out: &mut [T],
 ) -> Result<()> {
     let ch_n = input.channels;
-    let end = start + (n - 1) * step + ch_n;
+    // Every pixel starts `step ≥ channels ≥ 1` elements after the previous one.
+    let step = step.max(1);
+    let end = start + n.saturating_sub(1) * step + ch_n;
     let src = input.data.get(start..end).ok_or(Error::BufferTooSmall {
         what: "the band buffer",
         needed: end,
