@@ -438,6 +438,22 @@ impl StreamPlan {
         map_c: &mut [f32],
         scratch: &mut [T],
     ) -> Result<()> {
+        self.epi_rows(input, region, map_d, map_c, scratch)?;
+        self.epi_columns(input, region, map_d, map_c, scratch)
+    }
+
+    /// Horizontal lines: image rows of the region, cropped to its columns ± margin.
+    /// Not inlined, like [`StreamPlan::epi_columns`], so that only one line estimator
+    /// (a few KiB) is on the stack at a time.
+    #[inline(never)]
+    fn epi_rows<T: Scalar, S: Sample>(
+        &self,
+        input: &CrossBand<'_, S>,
+        region: Rect,
+        map_d: &mut [f32],
+        map_c: &mut [f32],
+        scratch: &mut [T],
+    ) -> Result<()> {
         let layout = self.plan.layout();
         let params = &self.plan.params().epi;
         let grid = layout.grid;
@@ -446,8 +462,6 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
-
-        // Horizontal lines: image rows of the region, cropped to its columns ± margin.
         let x0 = region.x.saturating_sub(self.margin_h);
         let x1 = (region.x + region.width + self.margin_h).min(layout.width);
         let n = x1 - x0;
@@ -476,8 +490,28 @@ impl StreamPlan {
             }
         }
 
-        // Vertical lines: image columns of the region, cropped to its rows ± margin,
-        // fused into the horizontal estimate.
+        Ok(())
+    }
+
+    /// Vertical lines: image columns of the region, cropped to its rows ± margin,
+    /// fused into the horizontal estimate.
+    #[inline(never)]
+    fn epi_columns<T: Scalar, S: Sample>(
+        &self,
+        input: &CrossBand<'_, S>,
+        region: Rect,
+        map_d: &mut [f32],
+        map_c: &mut [f32],
+        scratch: &mut [T],
+    ) -> Result<()> {
+        let layout = self.plan.layout();
+        let params = &self.plan.params().epi;
+        let grid = layout.grid;
+        let (r0, c0) = grid.center();
+        let h = &self.hypotheses;
+        let (lo, hi) = (h.min(), h.max());
+        let ch_n = layout.channels;
+        let color = params.color;
         let y0 = region.y.saturating_sub(self.margin_v);
         let y1 = (region.y + region.height + self.margin_v).min(layout.height);
         let n = y1 - y0;
