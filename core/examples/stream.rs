@@ -6,7 +6,7 @@
 //! ```sh
 //! cargo run --release -p lfdepth --example stream                 # 512² and 1024², mixed
 //! cargo run --release -p lfdepth --example stream -- 512 --compare # + the whole-frame pipeline
-//! cargo run --release -p lfdepth --example stream -- 256 --scene planes --q16
+//! cargo run --release -p lfdepth --example stream -- 256 --scene planes --q16 --halo 8
 //! ```
 //!
 //! The host side uses std (Vec) only for what stands for the outside world: the sensor's
@@ -28,12 +28,12 @@ use lfdepth::{Grid, Layout, LightField, Params, Plan, Scalar, Q16};
 /// region maps, split so that a 68-pixel region (tile 36 + halo 16) fits exactly.
 const KERNEL_ELEMENTS: usize = 56_064;
 const MAP_ELEMENTS: usize = 256 * 1024 / 4 - KERNEL_ELEMENTS;
-/// TV context around each tile.
+/// TV context around each tile, unless `--halo` says otherwise.
 const HALO: usize = 16;
 
 /// Stream parameters: the defaults with the camera's disparity range, no refinement, and
 /// the largest TV tile whose scratch fits the two arrays.
-fn stream_params(layout: Layout, min: f32, max: f32) -> (Params, StreamPlan) {
+fn stream_params(layout: Layout, min: f32, max: f32, halo: usize) -> (Params, StreamPlan) {
     let mut best = None;
     for tile in 8..=512 {
         let params = Params {
@@ -44,7 +44,7 @@ fn stream_params(layout: Layout, min: f32, max: f32) -> (Params, StreamPlan) {
             refine: RefineParams::off(),
             tv: TvParams {
                 tile,
-                halo: HALO,
+                halo,
                 ..TvParams::default()
             },
         };
@@ -208,12 +208,18 @@ fn whole_frame(spec: &SynthSpec, params: Params) -> (Vec<f32>, f64) {
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut sides = Vec::new();
-    let (mut compare, mut q16, mut scene) = (false, false, SceneKind::Mixed);
+    let (mut compare, mut q16, mut scene, mut halo) = (false, false, SceneKind::Mixed, HALO);
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--compare" => compare = true,
             "--q16" => q16 = true,
+            "--halo" => {
+                halo = it
+                    .next()
+                    .and_then(|h| h.parse().ok())
+                    .expect("--halo PIXELS");
+            }
             "--scene" => {
                 let name = it.next().expect("--scene NAME");
                 scene = SceneKind::from_name(name).expect("a scene name");
@@ -230,7 +236,8 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for side in sides {
         let spec = SynthSpec::new(scene, Grid::new(9, 9), side, side);
-        let (params, plan) = stream_params(spec.layout(), spec.disparity_min, spec.disparity_max);
+        let (params, plan) =
+            stream_params(spec.layout(), spec.disparity_min, spec.disparity_max, halo);
         let sensor = Sensor::new(&spec);
         let mut gt = vec![0.0f32; side * side];
         synth::render_ground_truth(&spec, &mut gt).unwrap();
@@ -242,7 +249,7 @@ fn main() {
             run_stream::<f32>(&plan, &sensor, &mut d, &mut c)
         };
         println!(
-            "| 9×9×{side}² {} | {} | {}+{HALO} | {} | {} | {} | {:.2} | {:.2}× | {:.2}× | {:.3} |",
+            "| 9×9×{side}² {} | {} | {}+{halo} | {} | {} | {} | {:.2} | {:.2}× | {:.2}× | {:.3} |",
             scene.name(),
             if q16 { "Q16" } else { "f32" },
             f.tile,
