@@ -163,9 +163,17 @@ fn run_stream<T: Scalar>(
     let (mut epi, mut nodes) = (0usize, 0usize);
     for index in 0..cols * rows {
         let (_, region) = tv::tile_rects(plan.plan(), index).unwrap();
-        let n_h = (region.x + region.width + mh).min(layout.width) - region.x.saturating_sub(mh);
+        // Columns shared with the tile to the left are moved, not estimated again.
+        let shared = if index % cols == 0 {
+            0
+        } else {
+            let (_, left) = tv::tile_rects(plan.plan(), index - 1).unwrap();
+            (left.x + left.width).saturating_sub(region.x)
+        };
+        let (x0, x1) = (region.x + shared, region.x + region.width);
+        let n_h = (x1 + mh).min(layout.width) - x0.saturating_sub(mh);
         let n_v = (region.y + region.height + mv).min(layout.height) - region.y.saturating_sub(mv);
-        epi += region.height * n_h + region.width * n_v;
+        epi += region.height * n_h + (x1 - x0) * n_v;
         nodes += region.width * region.height;
     }
     let pixels = layout.pixels();

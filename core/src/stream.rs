@@ -363,31 +363,49 @@ impl StreamPlan {
             }
         }
         let (cols, _) = tv::tile_count(&self.plan);
+        // The region maps keep the stride of the widest region, so that the columns a
+        // tile shares with the previous one of the band move left instead of being
+        // estimated again; TV reads them through maps of that width.
+        let (stride, max_height) = self.region_size();
+        let plane = stride * max_height;
+        let short = Error::ScratchTooSmall {
+            needed: 2 * plane,
+            got: maps.len(),
+        };
+        let (map_d, rest) = maps.split_at_mut_checked(plane).ok_or(short)?;
+        let map_c = rest.get_mut(..plane).ok_or(short)?;
+        // Columns past a region's width are never used, but the maps must be finite.
+        map_d.fill(0.0);
+        map_c.fill(0.0);
+        let (r0, c0) = layout.grid.center();
+        let centre = CrossBand::<S>::slot(layout.grid, r0, c0).unwrap_or(0);
         let mut report = tv::RefineReport::default();
+        let mut previous: Option<Rect> = None;
         for tx in 0..cols {
             let (core, region) = tv::tile_rects(&self.plan, band * cols + tx)?;
-            let pixels = region.width * region.height;
-            let short = Error::ScratchTooSmall {
-                needed: 2 * pixels,
-                got: maps.len(),
+            let shared = match previous {
+                Some(p) => shift_left(p, region, stride, map_d, map_c),
+                None => 0,
             };
-            let (map_d, rest) = maps.split_at_mut_checked(pixels).ok_or(short)?;
-            let map_c = rest.get_mut(..pixels).ok_or(short)?;
-            self.epi_region(input, region, map_d, map_c, scratch)?;
+            previous = Some(region);
+            let fresh = shared..region.width;
+            self.epi_rows(input, region, fresh.clone(), stride, map_d, map_c, scratch)?;
+            self.epi_columns(input, region, fresh, stride, map_d, map_c, scratch)?;
 
-            let (_, c0) = layout.grid.center();
-            let (r0, _) = layout.grid.center();
-            let centre = CrossBand::<S>::slot(layout.grid, r0, c0).unwrap_or(0);
             let start = input.offset(centre, region.x, region.y);
             let guide_data = input.data.get(start..).unwrap_or(&[]);
             let guide = Guide::View(View::new(
                 guide_data,
-                region.width,
+                stride,
                 region.height,
                 layout.channels,
                 input.row_stride,
             )?);
-            let tv_maps = Maps::new(region.width, region.height, map_d, map_c)?;
+            let used = stride * region.height;
+            let (Some(used_d), Some(used_c)) = (map_d.get(..used), map_c.get(..used)) else {
+                return Err(short);
+            };
+            let tv_maps = Maps::new(stride, region.height, used_d, used_c)?;
             let local_core = Rect {
                 x: core.x - region.x,
                 y: core.y - region.y,
@@ -416,7 +434,7 @@ impl StreamPlan {
             )?;
             report.add(&tile);
             for y in 0..core.height {
-                let from = (local_core.y + y) * region.width + local_core.x;
+                let from = (local_core.y + y) * stride + local_core.x;
                 let to = out_start + y * width;
                 let src = map_c.get(from..from + core.width);
                 let dst = confidence.get_mut(to..to + core.width);
@@ -428,32 +446,25 @@ impl StreamPlan {
         Ok(report)
     }
 
-    /// The fused EPI disparity and confidence of `region` (row-major, region-sized), each
-    /// sample equal to the whole-frame stage's.
-    fn epi_region<T: Scalar, S: Sample>(
-        &self,
-        input: &CrossBand<'_, S>,
-        region: Rect,
-        map_d: &mut [f32],
-        map_c: &mut [f32],
-        scratch: &mut [T],
-    ) -> Result<()> {
-        self.epi_rows(input, region, map_d, map_c, scratch)?;
-        self.epi_columns(input, region, map_d, map_c, scratch)
-    }
-
     /// Horizontal lines: image rows of the region, cropped to its columns ± margin.
     /// Not inlined, like [`StreamPlan::epi_columns`], so that only one line estimator
     /// (a few KiB) is on the stack at a time.
+    /// Writes the local columns `fresh` of every region row (`stride` apart in the maps).
+    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn epi_rows<T: Scalar, S: Sample>(
         &self,
         input: &CrossBand<'_, S>,
         region: Rect,
+        fresh: Range<usize>,
+        stride: usize,
         map_d: &mut [f32],
         map_c: &mut [f32],
         scratch: &mut [T],
     ) -> Result<()> {
+        if fresh.is_empty() {
+            return Ok(());
+        }
         let layout = self.plan.layout();
         let params = &self.plan.params().epi;
         let grid = layout.grid;
@@ -462,8 +473,8 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
-        let x0 = region.x.saturating_sub(self.margin_h);
-        let x1 = (region.x + region.width + self.margin_h).min(layout.width);
+        let x0 = (region.x + fresh.start).saturating_sub(self.margin_h);
+        let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
         let n = x1 - x0;
         let estimator = LineEstimator::<T>::new(params, *h, grid.cols, c0, ch_n);
         let (d_line, c_line, work) = split_line(scratch, &estimator, grid.cols, n)?;
@@ -474,8 +485,8 @@ impl StreamPlan {
                 load_line(input, input.offset(slot, x0, y), ch_n, n, color, c, out)
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
-            let first = region.x - x0;
-            let row = ly * region.width..(ly + 1) * region.width;
+            let first = region.x + fresh.start - x0;
+            let row = ly * stride + fresh.start..ly * stride + fresh.end;
             let (Some(out_d), Some(out_c), Some(d), Some(c)) = (
                 map_d.get_mut(row.clone()),
                 map_c.get_mut(row),
@@ -495,15 +506,21 @@ impl StreamPlan {
 
     /// Vertical lines: image columns of the region, cropped to its rows ± margin,
     /// fused into the horizontal estimate.
+    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn epi_columns<T: Scalar, S: Sample>(
         &self,
         input: &CrossBand<'_, S>,
         region: Rect,
+        fresh: Range<usize>,
+        stride: usize,
         map_d: &mut [f32],
         map_c: &mut [f32],
         scratch: &mut [T],
     ) -> Result<()> {
+        if fresh.is_empty() {
+            return Ok(());
+        }
         let layout = self.plan.layout();
         let params = &self.plan.params().epi;
         let grid = layout.grid;
@@ -519,7 +536,7 @@ impl StreamPlan {
         let (d_line, c_line, work) = split_line(scratch, &estimator, grid.rows, n)?;
         let fusion = params.fusion;
         let step = input.row_stride;
-        for lx in 0..region.width {
+        for lx in fresh {
             let x = region.x + lx;
             let load = |k: usize, c: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
@@ -531,9 +548,9 @@ impl StreamPlan {
             let (Some(d), Some(c)) = (d_line.get(column.clone()), c_line.get(column)) else {
                 continue;
             };
-            // Column `lx` of the region maps: every `region.width`-th element from `lx`.
-            let column_d = map_d.iter_mut().skip(lx).step_by(region.width);
-            let column_c = map_c.iter_mut().skip(lx).step_by(region.width);
+            // Column `lx` of the region maps: every `stride`-th element from `lx`.
+            let column_d = map_d.iter_mut().skip(lx).step_by(stride.max(1));
+            let column_c = map_c.iter_mut().skip(lx).step_by(stride.max(1));
             for (((od, oc), &dv), &cv) in column_d.zip(column_c).zip(d).zip(c) {
                 let (dv, cv) = (dv.to_f32().clamp(lo, hi), cv.to_f32().clamp(0.0, 1.0));
                 (*od, *oc) = fuse(fusion, *od, *oc, dv, cv);
@@ -541,6 +558,36 @@ impl StreamPlan {
         }
         Ok(())
     }
+}
+
+/// Moves the columns that `region` shares with `previous` (the tile to its left in the
+/// same band) to the left edge of the maps (`stride` apart); returns how many there are.
+fn shift_left(
+    previous: Rect,
+    region: Rect,
+    stride: usize,
+    map_d: &mut [f32],
+    map_c: &mut [f32],
+) -> usize {
+    if region.y != previous.y || region.height != previous.height || region.x < previous.x {
+        return 0;
+    }
+    let shared = (previous.x + previous.width)
+        .saturating_sub(region.x)
+        .min(region.width);
+    let dx = region.x - previous.x;
+    if shared == 0 || dx + shared > stride {
+        return 0;
+    }
+    for ly in 0..region.height {
+        let from = ly * stride + dx;
+        if from + shared > map_d.len().min(map_c.len()) {
+            return 0;
+        }
+        map_d.copy_within(from..from + shared, ly * stride);
+        map_c.copy_within(from..from + shared, ly * stride);
+    }
+    shared
 }
 
 /// Splits scratch into one line's disparity, confidence and work.
