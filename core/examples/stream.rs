@@ -1,7 +1,8 @@
 //! Streams synthetic 9×9 light fields band by band, as firmware would: the "sensor" (the
 //! 17 cross views, rendered up front) delivers each image row once into a sliding band
 //! buffer, the stream estimates each band into the output map, and every working byte is
-//! one fixed scratch array of 256 KiB sized at compile time and checked against the plan.
+//! in two fixed arrays (kernel scalars and `f32` region maps) of 256 KiB together, sized
+//! at compile time and checked against the plan.
 //!
 //! ```sh
 //! cargo run --release -p lfdepth --example stream                 # 512² and 1024², mixed

@@ -6,10 +6,11 @@
 //! see [`crate::tv::tile_rects`]). A *band* is one row of tiles. For each tile the stream
 //! runs the EPI stage on the tile's region (core + halo) only, over EPI lines cropped to
 //! the region plus a margin that covers the shear and the filters, then solves TV on the
-//! region and writes the core. The crop margin makes every region sample bit-identical to
-//! the whole-frame EPI stage, and the TV regions are the pipeline's own, so a stream gives
-//! exactly what [`crate::pipeline::run`] gives with the same parameters (refinement off):
-//! the test `stream_equals_the_whole_frame_pipeline` checks it.
+//! region and writes the core; the columns a region shares with the previous tile of the
+//! band are moved rather than estimated again. The crop margin makes every region sample
+//! bit-identical to the whole-frame EPI stage, and the TV regions are the pipeline's own,
+//! so a stream gives exactly what [`crate::pipeline::run`] gives with the same parameters
+//! (refinement off): the test `stream_equals_the_whole_frame_pipeline` checks it.
 //!
 //! Memory: the input band ([`CrossBand`], the 17 cross views of a 9×9 grid, rows
 //! [`StreamPlan::input_rows`]), the output rows, and two scratch slices sized by
