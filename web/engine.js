@@ -1,4 +1,5 @@
-// Runs the pipeline over a WorkerPool: the disparity range on one worker, then the
+// Runs the pipeline over a WorkerPool: the alignment (unless `params.align` is "off")
+// on one worker, whose rectified views every worker then loads; the disparity range on one worker, then the
 // horizontal and vertical EPI bands spread over all of them, then the fusion, then the
 // refine and TV stages serially on one worker (off the page's thread). Bands are
 // independent and fused exactly as the serial core does, so the result is bit-identical
@@ -19,13 +20,15 @@ export class Cancelled extends Error {
  * @param {{views: Uint8Array, shape: object}} lightField
  * @param {object} params  EstimateParams of the wasm package
  * @param {{stages: string[], onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
- *   `stages`: the EPI stage names of `stageNames()` (range, horizontal, vertical) first.
- * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], timings: {stage: string, ms: number}[]}>}
+ *   `stages`: the stage names of `stageNames()` (the EPI ones, starting with "epi", are
+ *   range, horizontal and vertical in that order).
+ * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], timings: {stage: string, ms: number}[], align: object | null}>}
+ *   `align`: `{ skipped, warning, rms, identityRms }` of the alignment, null when "off".
  */
 export async function estimate(pool, lightField, params, { stages, onProgress: report, signal }) {
   // Bands still in flight when cancelled finish in their workers; say nothing of them.
   const onProgress = (stage, fraction) => signal.aborted || report(stage, fraction);
-  const [rangeStage, horizontalStage, verticalStage] = stages;
+  const [rangeStage, horizontalStage, verticalStage] = stages.filter((s) => s.startsWith("epi"));
   const timings = [];
   const check = () => {
     if (signal.aborted) throw new Cancelled();
@@ -49,7 +52,24 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
   };
   signal.addEventListener("abort", onAbort);
   try {
-    await timed("load", () => pool.all({ op: "load", views: lightField.views.buffer, shape: lightField.shape, params }));
+    // Alignment once, on one worker; the others load its rectified views and do not align
+    // again.
+    let align = null;
+    let views = lightField.views;
+    if ((params.align ?? "auto") !== "off") {
+      const reply = await Promise.race([
+        aborted,
+        pool.run({ op: "align", views: lightField.views, shape: lightField.shape, params }, [], ({ stage, done, total }) => {
+          onProgress(stage, total ? done / total : 1);
+        }),
+      ]);
+      timings.push(...reply.timings);
+      align = reply.align;
+      if (reply.views) views = reply.views;
+    }
+    check();
+    const loaded = { ...params, align: "off" };
+    await timed("load", () => pool.all({ op: "load", views: views.buffer, shape: lightField.shape, params: loaded }));
     check();
     const { range } = await timed(rangeStage, () => pool.run({ op: "range" }));
     check();
@@ -100,6 +120,7 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       residuals: regularized.residuals,
       range,
       timings,
+      align,
     };
   } catch (e) {
     if (signal.aborted) throw new Cancelled();

@@ -56,6 +56,7 @@ function params() {
     fusion: $("fusion").value,
     lambda: Number($("tv-lambda").value),
     iterations: Number($("tv-iterations").value),
+    align: $("align").value,
   };
   if (manual) p.range = [Number($("range-min").value), Number($("range-max").value)];
   return p;
@@ -71,6 +72,8 @@ function setLightField(lightField, groundTruth, name) {
   const { rows, cols, width, height } = lightField.shape;
   $("lf-info").textContent = `${name}: ${rows}×${cols} views of ${width}×${height}` + (groundTruth ? ", with ground truth" : "");
   $("run").disabled = false;
+  $("align-info").textContent = "";
+  delete $("align-info").dataset.align;
   for (const b of document.querySelectorAll("[data-download]")) b.disabled = true;
   for (const id of ["disparity", "confidence", "error-map"]) {
     const c = $(id);
@@ -142,16 +145,16 @@ async function decodePending(rows, cols) {
   setLightField(lightField, groundTruth, folder);
 }
 
-async function generate(scene, size, grid) {
+async function generate(scene, size, grid, misalign = false) {
   showError(null);
   setStatus("generating");
-  const spec = { scene, rows: grid, cols: grid, width: size, height: size, channels: 3, disparityMin: -1.5, disparityMax: 1.5, seed: 1 };
+  const spec = { scene, rows: grid, cols: grid, width: size, height: size, channels: 3, disparityMin: -1.5, disparityMax: 1.5, seed: 1, misalign };
   const start = performance.now();
   const { views, groundTruth, shape } = await synthesize(await pool(), spec, (f) =>
     setProgress(100 * f, `rendering ${scene}: ${Math.round(100 * f)} %`),
   );
   setProgress(0, `rendered in ${((performance.now() - start) / 1000).toFixed(2)} s`);
-  setLightField({ views, shape }, groundTruth, `synthetic “${scene}”`);
+  setLightField({ views, shape }, groundTruth, `synthetic “${scene}”` + (misalign ? " (misaligned)" : ""));
   setStatus("idle");
 }
 
@@ -167,8 +170,11 @@ async function run() {
   state.controller = controller;
   const stages = stageNames();
   // The EPI stages run in the workers, then the fusion, then refine and TV in one worker.
+  // Alignment (on one worker) comes first, then every worker loads the rectified views.
+  const alignStages = ["align", "warp"];
   const epiStages = stages.filter((s) => s.startsWith("epi"));
-  const order = ["load", ...epiStages, "fuse", ...stages.filter((s) => !epiStages.includes(s))];
+  const later = stages.filter((s) => !epiStages.includes(s) && !alignStages.includes(s));
+  const order = [...alignStages, "load", ...epiStages, "fuse", ...later];
   const share = (1 - WEIGHTS.load - WEIGHTS.fuse) / stages.length;
   const weight = (s) => WEIGHTS[s] ?? share;
   const onProgress = (stage, fraction) => {
@@ -181,7 +187,8 @@ async function run() {
   const start = performance.now();
   try {
     const p = params();
-    const result = await estimate(await pool(), state.lightField, p, { stages: epiStages, onProgress, signal: controller.signal });
+    const result = await estimate(await pool(), state.lightField, p, { stages, onProgress, signal: controller.signal });
+    showAlignment(result.align);
     const total = performance.now() - start;
     state.result = { ...result, params: p };
     setProgress(100, `done in ${(total / 1000).toFixed(2)} s — 100 %`);
@@ -206,6 +213,17 @@ async function run() {
     $("run").disabled = false;
     $("cancel").disabled = true;
   }
+}
+
+/** What the alignment did, in words and as data attributes (for tests). */
+function showAlignment(align) {
+  const info = $("align-info");
+  info.dataset.align = !align ? "off" : align.warning ? "failed" : align.skipped ? "skipped" : "aligned";
+  if (!align) info.textContent = "Alignment off: views taken as rectified.";
+  else if (align.warning) info.textContent = `Views not aligned: ${align.warning}`;
+  else if (align.skipped) info.textContent = `Already rectified (residual ${align.identityRms.toFixed(3)} px): not aligned.`;
+  else info.textContent = `Aligned: reprojection ${align.identityRms.toFixed(2)} px → ${align.rms.toFixed(3)} px.`;
+  if (align) info.dataset.rms = align.rms;
 }
 
 function showResult() {
@@ -277,7 +295,9 @@ function wire() {
   });
   $("synth-form").addEventListener("submit", (e) => {
     e.preventDefault();
-    generate($("synth-scene").value, Number($("synth-size").value), Number($("synth-grid").value)).catch((err) => showError(err.message));
+    generate($("synth-scene").value, Number($("synth-size").value), Number($("synth-grid").value), $("synth-misalign").checked).catch((err) =>
+      showError(err.message),
+    );
   });
   for (const radio of document.querySelectorAll("input[name=range]")) {
     radio.addEventListener("change", () => {
@@ -309,13 +329,15 @@ async function main() {
   document.querySelector("footer p").textContent += ` · v${version()}`;
   for (const name of sceneNames()) $("synth-scene").add(new Option(name, name));
   setStatus("idle");
-  // ?scene=planes&size=512&grid=9&workers=4&run : generate (and run) without clicks.
+  // ?scene=planes&size=512&grid=9&workers=4&misalign&align=on&run : generate (and run) without clicks.
   const query = new URLSearchParams(location.search);
   if (query.has("workers")) $("workers").value = query.get("workers");
   if (query.has("scene")) {
     $("synth-scene").value = query.get("scene");
     for (const key of ["size", "grid"]) if (query.has(key)) $(`synth-${key}`).value = query.get(key);
-    await generate(query.get("scene"), Number(query.get("size") ?? 256), Number(query.get("grid") ?? 9));
+    if (query.has("align")) $("align").value = query.get("align");
+    $("synth-misalign").checked = query.has("misalign");
+    await generate(query.get("scene"), Number(query.get("size") ?? 256), Number(query.get("grid") ?? 9), query.has("misalign"));
     if (query.has("run")) await run();
   }
 }

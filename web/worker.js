@@ -1,5 +1,5 @@
 // A module worker: receives the compiled WebAssembly.Module once, then answers requests
-// (bands, ranges, synthetic views, fusion, refine + TV) one at a time. Every request
+// (alignment, bands, ranges, synthetic views, fusion, refine + TV) one at a time. Every request
 // carries an `id` and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
 // `{ id, ok: false, message }`; a long request may first send `{ id, progress }` reports.
 import { initSync, Estimator, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
@@ -15,6 +15,25 @@ const handlers = {
     estimator?.free();
     estimator = new Estimator(new Uint8Array(views), shape, params);
     return {};
+  },
+  align({ id, views, shape, params }) {
+    const aligner = new Estimator(views, shape, params);
+    try {
+      const result = aligner.align((progress) => {
+        self.postMessage({ id, progress: { stage: progress.stage, done: progress.done, total: progress.total } });
+      });
+      const align = { skipped: result.skipped, warning: result.warning ?? null, rms: result.rms, identityRms: result.identityRms };
+      const timings = result.timings.map((t) => {
+        const timing = { stage: t.stage, ms: t.ms };
+        t.free();
+        return timing;
+      });
+      result.free();
+      const rectified = align.skipped ? null : aligner.views;
+      return { align, timings, views: rectified, transfer: rectified ? [rectified.buffer] : [] };
+    } finally {
+      aligner.free();
+    }
   },
   range() {
     return { range: Array.from(requireEstimator().disparityRange()) };

@@ -1,153 +1,89 @@
 //! Alignment on the shared real data (`../shared/data`): the rectified HCI scenes and
-//! the Lytro capture must be recognised as rectified (auto leaves them alone), and HCI
-//! scenes misaligned with synth-style homographies must be realigned to within 0.1 px
-//! reprojection error. Heavy: run with `cargo test --release`.
+//! the Lytro capture must be recognised as rectified (auto leaves them alone, the
+//! pipeline output bit-identical to alignment off), and HCI scenes misaligned with the
+//! homographies `lfdepth synth --misalign` uses (at 2°, 3 px, 1 %, perspective 0.002)
+//! must be realigned to within 0.1 px reprojection error; their EPI accuracy before and
+//! after is printed (docs/bench-align.md). Heavy: run with `cargo test --release`.
 
-mod align_scene;
+use std::path::PathBuf;
 
-use std::path::{Path, PathBuf};
-use std::time::Instant;
-
-use lfdepth::align::{self, gauge_fit, reprojection_rms, AlignMode, AlignParams};
+use lfdepth::align::{
+    self, gauge_fit, reprojection_rms, warp_rows_with, AlignMode, AlignParams, Interpolation,
+};
 use lfdepth::metrics::{self, EvalOptions, Scores, BORDER};
-use lfdepth::{Grid, Homography, Layout, LightField, Params};
+use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
+use lfdepth::{Homography, Layout, LightField, Params, Sample};
 use lfdepth_cli::engine::{self, EstimateOptions, StageSelect};
-
-/// A packed RGB light field and its layout.
-type Loaded = (Vec<u8>, Layout);
+use lfdepth_cli::io::pfm;
+use lfdepth_cli::io::scene::{self, LoadOptions, Views};
 
 fn data_dir() -> PathBuf {
     PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"))
 }
 
-/// Reads an 8-bit RGB(A) or gray PNG as RGB.
-fn read_rgb(path: &Path) -> Option<(usize, usize, Vec<u8>)> {
-    let decoder = png::Decoder::new(std::fs::File::open(path).ok()?);
-    let mut reader = decoder.read_info().ok()?;
-    let mut buf = vec![0u8; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).ok()?;
-    if info.bit_depth != png::BitDepth::Eight {
-        return None;
-    }
-    let (w, h) = (info.width as usize, info.height as usize);
-    let channels = match info.color_type {
-        png::ColorType::Rgb => 3,
-        png::ColorType::Rgba => 4,
-        png::ColorType::Grayscale => 1,
-        _ => return None,
-    };
-    let mut rgb = Vec::with_capacity(w * h * 3);
-    for px in buf[..w * h * channels].chunks_exact(channels) {
-        if channels == 1 {
-            rgb.extend_from_slice(&[px[0]; 3]);
-        } else {
-            rgb.extend_from_slice(&px[..3]);
+/// The 8-bit views of `../shared/data/<path>` and their layout, or `None` (with a loud
+/// SKIPPED line) when they are missing.
+fn load(path: &str) -> Option<(Vec<u8>, Layout)> {
+    let loaded = scene::load(&data_dir().join(path), &LoadOptions::default());
+    match loaded {
+        Ok(scene::Scene {
+            views: Views::U8(data),
+            layout,
+            ..
+        }) => Some((data, layout)),
+        Ok(_) => {
+            eprintln!("SKIPPED: {path} has 16-bit views; this test reads 8-bit ones");
+            None
+        }
+        Err(e) => {
+            eprintln!("SKIPPED: ../shared/data not found: {path}: {e}");
+            None
         }
     }
-    Some((w, h, rgb))
 }
 
-/// 9×9 views named by `name(row, col)` in `dir`, packed RGB.
-fn load(dir: &Path, name: &dyn Fn(usize, usize) -> String) -> Option<Loaded> {
-    let mut data = Vec::new();
-    let mut size = None;
-    for r in 0..9 {
-        for c in 0..9 {
-            let (w, h, rgb) = read_rgb(&dir.join(name(r, c)))?;
-            if *size.get_or_insert((w, h)) != (w, h) {
-                return None;
-            }
-            data.extend_from_slice(&rgb);
-        }
-    }
-    let (w, h) = size?;
-    Some((data, Layout::packed(Grid::new(9, 9), w, h, 3)))
-}
-
-fn hci(scene: &str) -> Option<Loaded> {
-    load(&data_dir().join("hci").join(scene), &|r, c| {
-        format!("input_Cam{:03}.png", r * 9 + c)
-    })
-}
-
-fn lytro() -> Option<Loaded> {
-    load(&data_dir().join("real/lytro-2067"), &|r, c| {
-        format!("2067_{:02}_{:02}.png", r + 1, c + 1)
-    })
-}
-
-/// A little-endian or big-endian gray PFM as top-row-first f32.
-fn read_pfm(path: &Path) -> Option<(usize, usize, Vec<f32>)> {
-    let bytes = std::fs::read(path).ok()?;
-    let mut fields = Vec::new();
-    let mut start = 0;
-    let mut pos = 0;
-    while fields.len() < 4 && pos < bytes.len() {
-        if bytes[pos].is_ascii_whitespace() {
-            if pos > start {
-                fields.push(std::str::from_utf8(&bytes[start..pos]).ok()?.to_string());
-            }
-            start = pos + 1;
-        }
-        pos += 1;
-    }
-    if fields.len() < 4 || fields[0] != "Pf" {
-        return None;
-    }
-    let (w, h): (usize, usize) = (fields[1].parse().ok()?, fields[2].parse().ok()?);
-    let little = fields[3].parse::<f32>().ok()? < 0.0;
-    let body = bytes.get(start..start + w * h * 4)?;
-    let mut out = vec![0.0f32; w * h];
-    for (i, c) in body.chunks_exact(4).enumerate() {
-        let b = [c[0], c[1], c[2], c[3]];
-        let v = if little {
-            f32::from_le_bytes(b)
-        } else {
-            f32::from_be_bytes(b)
-        };
-        // Rows are stored bottom to top.
-        let (x, y) = (i % w, h - 1 - i / w);
-        out[y * w + x] = v;
-    }
-    Some((w, h, out))
-}
-
-fn epi_scores(data: &[u8], layout: Layout, gt: &[f32], adjust: &dyn Fn(f32) -> f32) -> Scores {
+fn epi<S: Sample + Sync>(data: &[S], layout: Layout, align: AlignMode) -> Vec<f32> {
     let lf = LightField::new(data, layout).unwrap();
+    let mut params = Params::default();
+    params.align.mode = align;
     let options = EstimateOptions {
-        params: Params::default(),
+        params,
         stage: StageSelect::Epi,
         threads: None,
     };
-    let est: Vec<f32> = engine::estimate(&lf, &options, &mut |_, _, _| {})
+    engine::estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()
         .disparity
-        .iter()
-        .map(|&d| adjust(d))
-        .collect();
+}
+
+fn scores(est: &[f32], gt: &[f32], layout: Layout) -> Scores {
     let (w, h) = (layout.width, layout.height);
     let mut scratch = vec![0.0f32; metrics::scratch_len(w, h)];
     let eval = EvalOptions {
         border: BORDER,
         mask: None,
     };
-    metrics::evaluate(&est, gt, w, h, &eval, &mut scratch).unwrap()
+    metrics::evaluate(est, gt, w, h, &eval, &mut scratch).unwrap()
 }
 
 fn run(data: &[u8], layout: Layout, params: &AlignParams) -> (align::AlignReport, Vec<Homography>) {
     let lf = LightField::new(data, layout).unwrap();
-    let mut hs = vec![Homography::IDENTITY; 81];
+    let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
     let mut scratch = vec![0.0f32; align::scratch_len(&layout, params).unwrap()];
-    let (t, cpu) = (Instant::now(), align_scene::thread_cpu_ns());
     let report = align::estimate(&lf, params, &mut hs, &mut scratch)
         .unwrap_or_else(|e| panic!("{params:?}: {e}"));
-    eprintln!(
-        "  {:?}: {:.1} ms wall, {:.1} ms on-CPU",
-        params.mode,
-        t.elapsed().as_secs_f64() * 1e3,
-        (align_scene::thread_cpu_ns() - cpu) as f64 * 1e-6
-    );
     (report, hs)
+}
+
+/// Every view of `lf` warped by `hs` into `O` (the pipeline's default interpolation).
+fn warp_all<O: align::WarpSample>(lf: &LightField<'_, u8>, hs: &[Homography]) -> Vec<O> {
+    let l = lf.layout();
+    let view = l.width * l.height * l.channels;
+    let mut out = vec![O::default(); l.validate().unwrap()];
+    for (v, chunk) in out.chunks_exact_mut(view).enumerate() {
+        warp_rows_with(lf, hs, v, 0..l.height, Interpolation::default(), chunk).unwrap();
+    }
+    out
 }
 
 #[test]
@@ -156,14 +92,12 @@ fn rectified_real_arrays_are_left_alone() {
         eprintln!("SKIPPED: heavy 512x512 test, run it with `cargo test --release`");
         return;
     }
-    let scenes: [(&str, Option<Loaded>); 3] = [
-        ("hci/stratified/backgammon", hci("stratified/backgammon")),
-        ("hci/training/cotton", hci("training/cotton")),
-        ("real/lytro-2067", lytro()),
-    ];
-    for (name, loaded) in scenes {
-        let Some((data, layout)) = loaded else {
-            eprintln!("SKIPPED: ../shared/data not found: {name} is missing or unreadable");
+    for name in [
+        "hci/stratified/backgammon",
+        "hci/training/cotton",
+        "real/lytro-2067",
+    ] {
+        let Some((data, layout)) = load(name) else {
             continue;
         };
         let (report, hs) = run(&data, layout, &AlignParams::default());
@@ -176,6 +110,15 @@ fn rectified_real_arrays_are_left_alone() {
             "{name}: {report:?}"
         );
         assert!(hs.iter().all(|h| *h == Homography::IDENTITY));
+        // The pipeline with auto alignment gives exactly the output of alignment off.
+        let auto = epi(&data, layout, AlignMode::Auto);
+        let off = epi(&data, layout, AlignMode::Off);
+        assert!(
+            auto.iter()
+                .zip(&off)
+                .all(|(a, b)| a.to_bits() == b.to_bits()),
+            "{name}: auto changed the disparity"
+        );
         // Forced alignment agrees that there is (almost) nothing to undo.
         let on = AlignParams {
             mode: AlignMode::On,
@@ -183,7 +126,7 @@ fn rectified_real_arrays_are_left_alone() {
         };
         let (report, hs) = run(&data, layout, &on);
         let (w, h) = (layout.width, layout.height);
-        let identity = vec![Homography::IDENTITY; 81];
+        let identity = vec![Homography::IDENTITY; layout.grid.len()];
         let change =
             reprojection_rms(&identity, &hs, layout.grid, w, h, &[-1.5, 0.0, 1.5]).unwrap();
         eprintln!(
@@ -200,30 +143,28 @@ fn misaligned_hci_scenes_are_realigned() {
         return;
     }
     for scene in ["stratified/backgammon", "training/cotton"] {
-        let Some((data, layout)) = hci(scene) else {
-            eprintln!("SKIPPED: ../shared/data not found: hci/{scene} is missing or unreadable");
+        let Some((data, layout)) = load(&format!("hci/{scene}")) else {
             continue;
         };
         let (w, h) = (layout.width, layout.height);
-        let o = ((w as f32 - 1.0) * 0.5, (h as f32 - 1.0) * 0.5);
-        // Synth-style misalignment: up to 2°, 3 px, 1 %, a little perspective.
-        let truth: Vec<Homography> = (0..81u32)
-            .map(|v| {
-                let u = |k| align_scene::unit(v * 8 + 5000, k);
-                align_scene::misalignment(
-                    o,
-                    2.0 * u(0),
-                    (3.0 * u(1), 3.0 * u(2)),
-                    0.01 * u(3),
-                    (1e-5 * u(4), 1e-5 * u(5)),
-                )
-            })
+        // The homographies of a misaligned synthetic array of this size (the scene kind
+        // does not matter for them; the centre view stays put).
+        let mut spec = SynthSpec::new(SceneKind::Planes, layout.grid, w, h);
+        spec.seed = 5;
+        spec.misalign = Some(Misalignment {
+            max_rotation_deg: 2.0,
+            max_translation_px: 3.0,
+            max_scale: 0.01,
+            max_perspective: 0.002,
+        });
+        let cols = layout.grid.cols;
+        let truth: Vec<Homography> = (0..layout.grid.len())
+            .map(|v| synth::view_homography(&spec, v / cols, v % cols).unwrap())
             .collect();
         // Observed view = ideal view resampled at H⁻¹: warp with the inverses.
         let inverses: Vec<Homography> = truth.iter().map(|t| t.inverse().unwrap()).collect();
         let lf = LightField::new(&data[..], layout).unwrap();
-        let mut misaligned = vec![0u8; data.len()];
-        align::warp_band(&lf, &inverses, 0..h, &mut misaligned).unwrap();
+        let misaligned: Vec<u8> = warp_all(&lf, &inverses);
 
         let on = AlignParams {
             mode: AlignMode::On,
@@ -231,7 +172,7 @@ fn misaligned_hci_scenes_are_realigned() {
         };
         let (report, hs) = run(&misaligned, layout, &on);
         let disparities = [-1.5, 0.0, 1.5];
-        let identity = vec![Homography::IDENTITY; 81];
+        let identity = vec![Homography::IDENTITY; layout.grid.len()];
         let before = reprojection_rms(&identity, &truth, layout.grid, w, h, &disparities).unwrap();
         let after = reprojection_rms(&hs, &truth, layout.grid, w, h, &disparities).unwrap();
         eprintln!(
@@ -239,44 +180,62 @@ fn misaligned_hci_scenes_are_realigned() {
             report.rms, report.features
         );
         assert!(after < 0.1, "{scene}: {after}");
-        // Disparity accuracy of the EPI stage: original, misaligned, realigned (the
-        // unobservable disparity offset and scale removed, see `align::gauge_fit`).
-        if let Some((_, _, gt)) = read_pfm(
-            &data_dir()
-                .join("hci")
-                .join(scene)
-                .join("gt_disp_lowres.pfm"),
-        ) {
-            let gauge = gauge_fit(&hs, &truth, layout.grid, w, h).unwrap();
-            let mut aligned = vec![0u8; data.len()];
-            let lf = LightField::new(&misaligned[..], layout).unwrap();
-            align::warp_band(&lf, &hs, 0..h, &mut aligned).unwrap();
-            let mut oracle = vec![0u8; data.len()];
-            align::warp_band(&lf, &truth, 0..h, &mut oracle).unwrap();
-            let same = |d: f32| d;
-            let corrected = |d: f32| (d + gauge.disparity_offset) / gauge.scale;
-            for (label, views, adjust) in [
-                ("original (rectified)", &data, &same as &dyn Fn(f32) -> f32),
-                ("misaligned, not aligned", &misaligned, &same),
-                ("misaligned, warped with the true H", &oracle, &same),
-                ("misaligned, aligned (raw)", &aligned, &same),
-                ("misaligned, aligned (offset removed)", &aligned, &corrected),
-            ] {
-                let s = epi_scores(views, layout, &gt, adjust);
-                eprintln!(
-                    "| {scene} | {label} | {:.2} | {:.2} | {:.2} |",
-                    s.badpix_007, s.mse100, s.q25
-                );
-            }
-            eprintln!(
-                "{scene}: disparity offset {:.4} px, scale {:.5}",
-                gauge.disparity_offset, gauge.scale
-            );
-        }
         let (auto, _) = run(&misaligned, layout, &AlignParams::default());
         assert!(
             !auto.skipped,
             "{scene}: auto missed the misalignment: {auto:?}"
+        );
+        // Disparity accuracy of the EPI stage: original, misaligned, realigned (the
+        // unobservable disparity plane and scale removed, see `align::gauge_fit`).
+        let gt_path = data_dir()
+            .join("hci")
+            .join(scene)
+            .join("gt_disp_lowres.pfm");
+        let Ok(gt) = pfm::read(&gt_path) else {
+            eprintln!(
+                "SKIPPED: {} is missing: no accuracy table",
+                gt_path.display()
+            );
+            continue;
+        };
+        let gauge = gauge_fit(&hs, &truth, layout.grid, w, h).unwrap();
+        let mis_lf = LightField::new(&misaligned[..], layout).unwrap();
+        let aligned: Vec<f32> = warp_all(&mis_lf, &hs);
+        let oracle: Vec<f32> = warp_all(&mis_lf, &truth);
+        let corrected: Vec<f32> = epi(&aligned, layout, AlignMode::Off)
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| gauge.true_disparity(d, (i % w) as f32, (i / w) as f32))
+            .collect();
+        for (label, est) in [
+            ("original (rectified)", epi(&data, layout, AlignMode::Off)),
+            (
+                "misaligned, not aligned",
+                epi(&misaligned, layout, AlignMode::Off),
+            ),
+            (
+                "misaligned, warped with the true H",
+                epi(&oracle, layout, AlignMode::Off),
+            ),
+            (
+                "misaligned, aligned (raw)",
+                epi(&aligned, layout, AlignMode::Off),
+            ),
+            ("misaligned, aligned (gauge plane removed)", corrected),
+            (
+                "misaligned, --align on through the engine (raw)",
+                epi(&misaligned, layout, AlignMode::On),
+            ),
+        ] {
+            let s = scores(&est, &gt.data, layout);
+            eprintln!(
+                "| {scene} | {label} | {:.2} | {:.2} | {:.2} |",
+                s.badpix_007, s.mse100, s.q25
+            );
+        }
+        eprintln!(
+            "{scene}: gauge plane {:.4} px + ({:.2e}, {:.2e}) px/px, scale {:.5}",
+            gauge.disparity_offset, gauge.disparity_slope.0, gauge.disparity_slope.1, gauge.scale
         );
     }
 }

@@ -1,11 +1,14 @@
 //! The core entry point: runs the stages over a light field into caller-owned maps,
 //! serially, with progress reports that can cancel:
-//! EPI → photometric refinement (when `params.refine.enabled`) → TV.
+//! (alignment, [`run_aligned`] only) → EPI → photometric refinement (when
+//! `params.refine.enabled`) → TV.
 
 use core::ops::ControlFlow;
 
+use crate::align::{self, AlignMode, AlignParams, AlignReport, AlignedViews, WarpSample};
 use crate::epi;
 use crate::error::{checked_product, Error, Result};
+use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample};
 use crate::plan::Plan;
 use crate::refine;
@@ -37,6 +40,15 @@ pub enum Stages {
 /// and [`estimate`] need only `epi::scratch_len`).
 pub fn scratch_len(plan: &Plan) -> usize {
     epi::scratch_len(plan).max(tv::scratch_len(plan))
+}
+
+/// Scratch (elements of `T`) [`run`] needs for `stages`: the EPI kernels alone for
+/// [`Stages::Epi`], the larger of EPI and TV for [`Stages::Full`].
+pub fn stage_scratch_len(plan: &Plan, stages: Stages) -> usize {
+    match stages {
+        Stages::Epi => epi::scratch_len(plan),
+        Stages::Full => scratch_len(plan),
+    }
 }
 
 /// Scratch (`f32` elements) [`run`] needs for the intermediate maps (disparity and
@@ -81,10 +93,7 @@ pub fn run<T: Scalar, S: Sample>(
     history: &mut [f32],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
-    let needed = match stages {
-        Stages::Epi => epi::scratch_len(plan),
-        Stages::Full => scratch_len(plan),
-    };
+    let needed = stage_scratch_len(plan, stages);
     if scratch.len() < needed {
         return Err(Error::ScratchTooSmall {
             needed,
@@ -173,6 +182,211 @@ pub fn estimate<T: Scalar, S: Sample>(
     )
 }
 
+/// Name of the alignment estimate in progress reports.
+pub const STAGE_ALIGN: &str = "align";
+/// Name of the warp into the rectified array in progress reports.
+pub const STAGE_WARP: &str = "warp";
+
+/// Whether `stages` read view `view` (row-major grid index): the EPI stage reads the
+/// centre row and column of the grid, the refinement (when enabled and `stages` is
+/// [`Stages::Full`]) also its `views`; TV reads only the centre view. Only these views
+/// need warping.
+pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
+    let grid = plan.layout().grid;
+    if view >= grid.len() {
+        return false;
+    }
+    let (r0, c0) = grid.center();
+    let (r, c) = (view / grid.cols, view % grid.cols);
+    if r == r0 || c == c0 {
+        return true;
+    }
+    let refine = &plan.params().refine;
+    stages == Stages::Full
+        && refine.enabled
+        && refine
+            .views
+            .contains(r as isize - r0 as isize, c as isize - c0 as isize)
+}
+
+/// The alignment parameters of `plan` for `stages`: [`AlignedViews::Read`] becomes
+/// [`AlignedViews::Cross`] when the stages read no view off the centre row and column,
+/// else [`AlignedViews::All`].
+pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
+    let mut params = plan.params().align;
+    if params.views == AlignedViews::Read {
+        let grid = plan.layout().grid;
+        let (r0, c0) = grid.center();
+        let off_cross = (0..grid.len())
+            .any(|v| v / grid.cols != r0 && v % grid.cols != c0 && reads_view(plan, stages, v));
+        params.views = if off_cross {
+            AlignedViews::All
+        } else {
+            AlignedViews::Cross
+        };
+    }
+    params
+}
+
+/// Elements of the rectified light field buffer of [`align_views`] / [`run_aligned`]:
+/// the plan's layout (same strides as the input).
+pub fn aligned_len(plan: &Plan) -> Result<usize> {
+    plan.layout().validate()
+}
+
+/// Scratch (`f32` elements) the alignment estimate needs.
+pub fn align_scratch_len(plan: &Plan) -> Result<usize> {
+    align::scratch_len(plan.layout(), &plan.params().align)
+}
+
+fn same_layout<S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Result<()> {
+    if lf.layout() == plan.layout() {
+        return Ok(());
+    }
+    Err(Error::InvalidParameter {
+        name: "light field",
+        reason:
+            "has a different layout than the plan: make the plan from this light field's layout",
+    })
+}
+
+/// Caller-owned buffers of the alignment prelude.
+pub struct AlignBuffers<'a, A> {
+    /// One homography per view (row-major grid order), written by the estimate
+    /// (identities when alignment was skipped).
+    pub homographies: &'a mut [Homography],
+    /// [`align_scratch_len`] elements.
+    pub scratch: &'a mut [f32],
+    /// [`aligned_len`] elements (the input's layout): receives the rectified views the
+    /// stages read (see [`reads_view`]); the other views are left as they were.
+    pub aligned: &'a mut [A],
+}
+
+/// The alignment prelude: estimates the homographies of `lf` with `plan`'s
+/// `params.align` and, unless the estimate was skipped (mode off, or auto found the
+/// array rectified or could not align it: see [`AlignReport::warning`]), warps the views
+/// `stages` read into `buffers.aligned`. Returns the report; when it says
+/// `skipped`, `buffers.aligned` is untouched and the stages should read `lf` itself.
+/// Mode on returns [`Error::Alignment`] for textureless or too different views.
+pub fn align_views<S: Sample, A: WarpSample + Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    buffers: &mut AlignBuffers<'_, A>,
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<AlignReport> {
+    same_layout(plan, lf)?;
+    let params = &align_params(plan, stages);
+    if params.mode == AlignMode::Off {
+        buffers.homographies.fill(Homography::IDENTITY);
+        return Ok(AlignReport {
+            skipped: true,
+            ..AlignReport::default()
+        });
+    }
+    let needed = aligned_len(plan)?;
+    if buffers.aligned.len() < needed {
+        return Err(Error::OutputSize {
+            what: "the aligned light field",
+            needed,
+            got: buffers.aligned.len(),
+        });
+    }
+    report(progress, STAGE_ALIGN, 0, 1)?;
+    let result = align::estimate(lf, params, buffers.homographies, buffers.scratch)?;
+    report(progress, STAGE_ALIGN, 1, 1)?;
+    if !result.skipped {
+        warp_views(
+            plan,
+            lf,
+            stages,
+            buffers.homographies,
+            buffers.aligned,
+            progress,
+        )?;
+    }
+    Ok(result)
+}
+
+/// Warps the views `stages` read ([`reads_view`]) of `lf` by `homographies` (rectified →
+/// view pixels, one per view) into `aligned` ([`aligned_len`] elements, the plan's
+/// layout) with `params.align.interpolation`; the other views of `aligned` are left as
+/// they were.
+pub fn warp_views<S: Sample, A: WarpSample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    homographies: &[Homography],
+    aligned: &mut [A],
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<()> {
+    same_layout(plan, lf)?;
+    let needed = aligned_len(plan)?;
+    if aligned.len() < needed {
+        return Err(Error::OutputSize {
+            what: "the aligned light field",
+            needed,
+            got: aligned.len(),
+        });
+    }
+    let layout = *plan.layout();
+    let views = layout.grid.len();
+    let row_len = layout.width * layout.channels;
+    for view in 0..views {
+        report(progress, STAGE_WARP, view, views)?;
+        if !reads_view(plan, stages, view) {
+            continue;
+        }
+        for y in 0..layout.height {
+            let start = view * layout.view_stride + y * layout.row_stride;
+            let out = aligned
+                .get_mut(start..start + row_len)
+                .ok_or(Error::SizeOverflow {
+                    what: "the aligned light field",
+                })?;
+            align::warp_rows_with(
+                lf,
+                homographies,
+                view,
+                y..y + 1,
+                plan.params().align.interpolation,
+                out,
+            )?;
+        }
+    }
+    report(progress, STAGE_WARP, views, views)
+}
+
+/// [`run`] after the alignment prelude ([`align_views`]): the stages read the rectified
+/// views in `buffers.aligned` when the array was aligned, `lf` itself when alignment was
+/// skipped (so mode off, and auto on a rectified array, give exactly `run`'s output).
+#[allow(clippy::too_many_arguments)]
+pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    buffers: &mut AlignBuffers<'_, A>,
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+    maps: &mut [f32],
+    history: &mut [f32],
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<AlignReport> {
+    let result = align_views(plan, lf, stages, buffers, progress)?;
+    if result.skipped {
+        run(
+            plan, lf, stages, disparity, confidence, scratch, maps, history, progress,
+        )?;
+    } else {
+        let aligned = LightField::new(&*buffers.aligned, *plan.layout())?;
+        run(
+            plan, &aligned, stages, disparity, confidence, scratch, maps, history, progress,
+        )?;
+    }
+    Ok(result)
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -180,10 +394,11 @@ mod tests {
     use std::vec::Vec;
 
     use super::*;
+    use crate::align::{testscene, AlignParams};
     use crate::epi::test_scenes::strips;
     use crate::lightfield::Grid;
     use crate::plan::Params;
-    use crate::refine::RefineParams;
+    use crate::refine::{RefineParams, ViewSet};
 
     #[test]
     fn full_pipeline_runs_every_stage_and_can_be_cancelled() {
@@ -256,5 +471,168 @@ mod tests {
             ),
             Err(Error::Cancelled)
         );
+    }
+
+    /// EPI disparity of `data` through `run_aligned` with `mode`, and the report.
+    fn epi_aligned(
+        data: &[u8],
+        layout: crate::Layout,
+        mode: AlignMode,
+    ) -> (Result<AlignReport>, Vec<f32>) {
+        let params = Params {
+            align: AlignParams {
+                mode,
+                ..AlignParams::default()
+            },
+            ..Params::default()
+        };
+        let plan = Plan::new(layout, params).unwrap();
+        let lf = LightField::new(data, layout).unwrap();
+        let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
+        let mut align_scratch = vec![0.0f32; align_scratch_len(&plan).unwrap()];
+        let mut aligned = vec![0u8; aligned_len(&plan).unwrap()];
+        let mut buffers = AlignBuffers {
+            homographies: &mut hs,
+            scratch: &mut align_scratch,
+            aligned: &mut aligned,
+        };
+        let mut d = vec![0.0; plan.pixels()];
+        let mut c = vec![0.0; plan.pixels()];
+        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        let r = run_aligned(
+            &plan,
+            &lf,
+            Stages::Epi,
+            &mut buffers,
+            &mut d,
+            &mut c,
+            &mut scratch,
+            &mut [],
+            &mut [],
+            &mut |_| ControlFlow::Continue(()),
+        );
+        (r, d)
+    }
+
+    fn epi_plain(data: &[u8], layout: crate::Layout) -> Vec<f32> {
+        let plan = Plan::new(layout, Params::default()).unwrap();
+        let lf = LightField::new(data, layout).unwrap();
+        let mut d = vec![0.0; plan.pixels()];
+        let mut c = vec![0.0; plan.pixels()];
+        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        estimate(&plan, &lf, &mut d, &mut c, &mut scratch, &mut |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        d
+    }
+
+    fn median_abs_diff(a: &[f32], b: &[f32], width: usize, border: usize) -> f32 {
+        let height = a.len() / width;
+        let mut diffs: Vec<f32> = (border..height - border)
+            .flat_map(|y| (border..width - border).map(move |x| y * width + x))
+            .map(|i| (a[i] - b[i]).abs())
+            .collect();
+        diffs.sort_by(f32::total_cmp);
+        diffs[diffs.len() / 2]
+    }
+
+    #[test]
+    fn off_and_auto_on_a_rectified_array_are_bit_identical_to_run() {
+        let (data, layout, _) = testscene::render(Grid::new(5, 5), 96, 96, None, 2);
+        let plain = epi_plain(&data, layout);
+        for mode in [AlignMode::Off, AlignMode::Auto] {
+            let (report, d) = epi_aligned(&data, layout, mode);
+            let report = report.unwrap();
+            assert!(report.skipped && report.warning.is_none(), "{report:?}");
+            assert!(
+                d.iter()
+                    .zip(&plain)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{mode:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn aligning_a_misaligned_array_brings_its_disparity_back() {
+        let grid = Grid::new(5, 5);
+        let (ideal, layout, _) = testscene::render(grid, 128, 128, None, 3);
+        let (bent, _, _) = testscene::render(grid, 128, 128, Some((1.0, 2.0, 0.005, 0.0)), 3);
+        let truth = epi_plain(&ideal, layout);
+        let unaligned = median_abs_diff(&epi_plain(&bent, layout), &truth, 128, 16);
+        for mode in [AlignMode::On, AlignMode::Auto] {
+            let (report, d) = epi_aligned(&bent, layout, mode);
+            let report = report.unwrap();
+            assert!(!report.skipped, "{report:?}");
+            let aligned = median_abs_diff(&d, &truth, 128, 16);
+            std::eprintln!("{mode:?}: median abs diff aligned {aligned} unaligned {unaligned}");
+            assert!(
+                aligned < 0.1 && aligned < 0.25 * unaligned,
+                "{mode:?}: aligned {aligned} unaligned {unaligned}"
+            );
+        }
+    }
+
+    #[test]
+    fn textureless_arrays_fail_when_on_and_fall_back_when_auto() {
+        let layout = crate::Layout::packed(Grid::new(3, 3), 64, 64, 1);
+        let flat = vec![128u8; layout.validate().unwrap()];
+        let (r, _) = epi_aligned(&flat, layout, AlignMode::On);
+        assert!(matches!(r, Err(Error::Alignment { view: 4, .. })), "{r:?}");
+        let (r, d) = epi_aligned(&flat, layout, AlignMode::Auto);
+        let r = r.unwrap();
+        assert!(r.skipped && matches!(r.warning, Some(Error::Alignment { .. })));
+        let plain = epi_plain(&flat, layout);
+        assert!(d
+            .iter()
+            .zip(&plain)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
+
+    #[test]
+    fn only_the_views_the_stages_read_are_warped() {
+        let layout = crate::Layout::packed(Grid::new(5, 5), 32, 32, 1);
+        let mut params = Params::default();
+        let plan = Plan::new(layout, params).unwrap();
+        let cross = |plan: &Plan, stages| (0..25).filter(|&v| reads_view(plan, stages, v)).count();
+        assert_eq!(cross(&plan, Stages::Full), 9);
+        assert_eq!(align_params(&plan, Stages::Full).views, AlignedViews::Cross);
+        params.refine = RefineParams {
+            views: ViewSet::CrossDiagonals,
+            ..RefineParams::on()
+        };
+        let plan = Plan::new(layout, params).unwrap();
+        assert_eq!(cross(&plan, Stages::Epi), 9);
+        assert_eq!(cross(&plan, Stages::Full), 17);
+        assert_eq!(align_params(&plan, Stages::Epi).views, AlignedViews::Cross);
+        assert_eq!(align_params(&plan, Stages::Full).views, AlignedViews::All);
+        assert!(!reads_view(&plan, Stages::Full, 25));
+
+        // Unread views keep what the buffer held; a wrong-sized buffer is an error.
+        let data: Vec<u8> = (0..layout.validate().unwrap())
+            .map(|i| (i % 251) as u8)
+            .collect();
+        let lf = LightField::new(&data[..], layout).unwrap();
+        let hs = [Homography::IDENTITY; 25];
+        let mut out = vec![7u8; data.len()];
+        warp_views(&plan, &lf, Stages::Full, &hs, &mut out, &mut |_| {
+            ControlFlow::Continue(())
+        })
+        .unwrap();
+        for v in 0..25 {
+            let range = v * 1024..(v + 1) * 1024;
+            if reads_view(&plan, Stages::Full, v) {
+                assert_eq!(out[range.clone()], data[range]);
+            } else {
+                assert!(out[range].iter().all(|&s| s == 7));
+            }
+        }
+        assert!(matches!(
+            warp_views(&plan, &lf, Stages::Full, &hs, &mut out[1..], &mut |_| {
+                ControlFlow::Continue(())
+            }),
+            Err(Error::OutputSize { .. })
+        ));
     }
 }

@@ -2,6 +2,7 @@
 //! follows. Stages take `&Plan` and report their own scratch needs
 //! (`epi::scratch_len(&plan)`, `tv::scratch_len(&plan)`).
 
+use crate::align::{AlignMode, AlignParams};
 use crate::epi::EpiParams;
 use crate::error::{checked_product, Result};
 use crate::lightfield::Layout;
@@ -9,14 +10,33 @@ use crate::refine::RefineParams;
 use crate::tv::TvParams;
 
 /// Parameters of every stage.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {
+    /// Alignment of an imperfect array before the other stages (used by
+    /// `pipeline::run_aligned`; `pipeline::run` takes the array as rectified). The
+    /// default here is [`AlignMode::Off`]: a library caller opts in (the CLI and the page
+    /// default to [`AlignMode::Auto`]).
+    pub align: AlignParams,
     /// Initial disparity from EPIs.
     pub epi: EpiParams,
     /// Photometric refinement of the EPI disparity over many views.
     pub refine: RefineParams,
     /// Total-variation refinement.
     pub tv: TvParams,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            align: AlignParams {
+                mode: AlignMode::Off,
+                ..AlignParams::default()
+            },
+            epi: EpiParams::default(),
+            refine: RefineParams::default(),
+            tv: TvParams::default(),
+        }
+    }
 }
 
 /// Validated dimensions and parameters of one estimation.
@@ -31,6 +51,7 @@ impl Plan {
     /// Validates the layout and every stage's parameters.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         layout.validate()?;
+        params.align.validate()?;
         params.epi.validate()?;
         params.refine.validate()?;
         params.tv.validate()?;

@@ -22,7 +22,9 @@ test("the EPI stage alone is within its accuracy bound", () => {
   assert.ok(scores.q25 < 1, `Q25 ${scores.q25}`);
   assert.equal(scores.invalidPct, 0);
   for (const c of result.confidence) assert.ok(c >= 0 && c <= 1);
-  assert.deepEqual(result.timings.map((t) => t.stage), lf.stageNames().filter((s) => s.startsWith("epi")));
+  // Alignment (auto by default) checks the array, finds it rectified and skips the warp.
+  assert.deepEqual(result.timings.map((t) => t.stage), ["align", ...lf.stageNames().filter((s) => s.startsWith("epi"))]);
+  assert.equal(result.align.skipped, true);
   for (const t of result.timings) assert.ok(t.ms >= 0);
   assert.equal(result.residuals.length, 0, "no TV stage with stage: \"epi\"");
 });
@@ -40,7 +42,7 @@ test("the full pipeline (EPI → refine → TV) beats the EPI stage alone", () =
   assert.ok(scores.mse100 <= epiScores.mse100, `MSE×100 ${scores.mse100} vs EPI ${epiScores.mse100}`);
   assert.equal(scores.invalidPct, 0);
   for (const c of full.confidence) assert.ok(c >= 0 && c <= 1);
-  assert.deepEqual(full.timings.map((t) => t.stage), lf.stageNames());
+  assert.deepEqual(full.timings.map((t) => t.stage), lf.stageNames().filter((s) => s !== "warp"));
   for (const t of full.timings) assert.ok(t.ms >= 0);
   const r = full.residuals;
   assert.ok(r.length > 1 && r.length <= 300, `${r.length} TV iterations`);
@@ -114,7 +116,8 @@ test("progress reaches the end of every stage, and returning false cancels", () 
     assert.ok(p.done <= p.total);
     last.set(p.stage, p);
   });
-  for (const stage of lf.stageNames()) {
+  // Every stage but the warp: alignment (auto) finds this array rectified.
+  for (const stage of lf.stageNames().filter((s) => s !== "warp")) {
     const p = last.get(stage);
     assert.ok(p, `no report for ${stage}`);
     assert.equal(p.done, p.total, stage);

@@ -2,10 +2,11 @@
 
 use core::ops::ControlFlow;
 
+use lfdepth::align::{self, AlignMode, AlignReport};
 use lfdepth::epi::{self, Direction, Hypotheses};
 use lfdepth::pipeline::{self, Progress, Stages};
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
-use lfdepth::{refine, Layout, LightField, Plan};
+use lfdepth::{refine, Homography, Layout, LightField, Plan};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{self, error, message};
@@ -15,6 +16,8 @@ use crate::params;
 #[wasm_bindgen(js_name = stageNames)]
 pub fn stage_names() -> Vec<String> {
     [
+        pipeline::STAGE_ALIGN,
+        pipeline::STAGE_WARP,
         epi::STAGE_RANGE,
         epi::STAGE_HORIZONTAL,
         epi::STAGE_VERTICAL,
@@ -64,10 +67,16 @@ pub struct EstimateResult {
     confidence: Vec<f32>,
     residuals: Vec<f32>,
     timings: Vec<StageTiming>,
+    align: Option<AlignResult>,
 }
 
 #[wasm_bindgen]
 impl EstimateResult {
+    /// What the alignment did (`undefined` when `params.align` is "off").
+    #[wasm_bindgen(getter)]
+    pub fn align(&self) -> Option<AlignResult> {
+        self.align.clone()
+    }
     /// Centre-view width.
     #[wasm_bindgen(getter)]
     pub fn width(&self) -> usize {
@@ -95,6 +104,53 @@ impl EstimateResult {
         js_sys::Float32Array::from(&self.residuals[..])
     }
     /// Wall time of each stage that ran, in order.
+    #[wasm_bindgen(getter)]
+    pub fn timings(&self) -> Vec<StageTiming> {
+        self.timings.clone()
+    }
+}
+
+/// What [`Estimator::align`] did.
+#[wasm_bindgen]
+#[derive(Clone, Debug)]
+pub struct AlignResult {
+    report: AlignReport,
+    homographies: Vec<Homography>,
+    timings: Vec<StageTiming>,
+}
+
+#[wasm_bindgen]
+impl AlignResult {
+    /// True when the views were left as they are: `align: "off"`, or `"auto"` found the
+    /// array rectified or could not align it (see `warning`).
+    #[wasm_bindgen(getter)]
+    pub fn skipped(&self) -> bool {
+        self.report.skipped
+    }
+    /// `"auto"` only: why alignment failed and the views were used as they are.
+    #[wasm_bindgen(getter)]
+    pub fn warning(&self) -> Option<String> {
+        self.report.warning.map(|e| e.to_string())
+    }
+    /// RMS reprojection error of the tracked corners with identity homographies (px):
+    /// the misalignment as measured.
+    #[wasm_bindgen(getter, js_name = identityRms)]
+    pub fn identity_rms(&self) -> f32 {
+        self.report.identity_rms
+    }
+    /// RMS reprojection error after alignment (px).
+    #[wasm_bindgen(getter)]
+    pub fn rms(&self) -> f32 {
+        self.report.rms
+    }
+    /// Per view (row-major grid order) the 3×3 homography, row-major, mapping rectified
+    /// pixel coordinates to the view's (identities when skipped).
+    #[wasm_bindgen(getter)]
+    pub fn homographies(&self) -> js_sys::Float32Array {
+        let flat: Vec<f32> = self.homographies.iter().flat_map(|h| h.m).collect();
+        js_sys::Float32Array::from(&flat[..])
+    }
+    /// Wall time of the alignment stages that ran.
     #[wasm_bindgen(getter)]
     pub fn timings(&self) -> Vec<StageTiming> {
         self.timings.clone()
@@ -130,6 +186,54 @@ pub struct Estimator {
     layout: Layout,
     plan: Plan,
     stages: Stages,
+    /// Set once the alignment prelude ran: `views` are then the rectified views.
+    aligned: Option<AlignResult>,
+}
+
+impl Estimator {
+    /// The alignment prelude (once): estimates the homographies and, unless skipped,
+    /// replaces the views the stages read by their rectified versions.
+    fn align_views(
+        &mut self,
+        report: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+    ) -> lfdepth::Result<()> {
+        if self.aligned.is_some() || self.plan.params().align.mode == AlignMode::Off {
+            return Ok(());
+        }
+        let mut homographies = vec![Homography::IDENTITY; self.layout.grid.len()];
+        let outcome = {
+            let lf = LightField::new(&self.views, self.layout)?;
+            let mut scratch = vec![0.0f32; pipeline::align_scratch_len(&self.plan)?];
+            stage_report(report, pipeline::STAGE_ALIGN, 0, 1)?;
+            let outcome = align::estimate(
+                &lf,
+                &pipeline::align_params(&self.plan, self.stages),
+                &mut homographies,
+                &mut scratch,
+            )?;
+            stage_report(report, pipeline::STAGE_ALIGN, 1, 1)?;
+            if !outcome.skipped {
+                // Views no stage reads keep their original samples.
+                let mut rectified = self.views.clone();
+                pipeline::warp_views(
+                    &self.plan,
+                    &lf,
+                    self.stages,
+                    &homographies,
+                    &mut rectified,
+                    report,
+                )?;
+                self.views = rectified;
+            }
+            outcome
+        };
+        self.aligned = Some(AlignResult {
+            report: outcome,
+            homographies,
+            timings: Vec::new(),
+        });
+        Ok(())
+    }
 }
 
 impl Estimator {
@@ -165,6 +269,7 @@ impl Estimator {
             layout,
             plan,
             stages,
+            aligned: None,
         })
     }
 
@@ -185,14 +290,13 @@ impl Estimator {
     /// then throws an `Error` "cancelled by the caller"); an exception it throws is
     /// rethrown.
     pub fn estimate(
-        &self,
+        &mut self,
         #[wasm_bindgen(
             js_name = onProgress,
             unchecked_param_type = "(progress: Progress) => boolean | void"
         )]
         on_progress: Option<JsValue>,
     ) -> Result<EstimateResult, JsValue> {
-        let lf = self.light_field()?;
         let pixels = self.plan.pixels();
         let mut disparity = vec![0.0f32; pixels];
         let mut confidence = vec![0.0f32; pixels];
@@ -204,7 +308,9 @@ impl Estimator {
             ),
         };
         let timings = with_progress(on_progress, |report| {
-            let mut scratch = vec![0.0f32; pipeline::scratch_len(&self.plan)];
+            self.align_views(report)?;
+            let lf = LightField::new(&self.views, self.layout)?;
+            let mut scratch = vec![0.0f32; pipeline::stage_scratch_len(&self.plan, self.stages)];
             pipeline::run(
                 &self.plan,
                 &lf,
@@ -224,7 +330,47 @@ impl Estimator {
             confidence,
             residuals: iterations_run(history),
             timings,
+            align: self.aligned.clone(),
         })
+    }
+
+    /// The alignment prelude alone, on this thread (what `estimate()` runs first): with
+    /// `params.align` "on", or "auto" on an array found not rectified, estimates one
+    /// homography per view and replaces the views the stages read by their rectified
+    /// versions (`views`), for `estimate()`, `estimateBand()` and `refineAndRegularize()`
+    /// alike. Runs once; later calls return the same result. "on" throws an `Error` when
+    /// a view cannot be aligned (textureless or too different); "auto" then reports a
+    /// `warning` and keeps the views. `onProgress` as for `estimate`.
+    pub fn align(
+        &mut self,
+        #[wasm_bindgen(
+            js_name = onProgress,
+            unchecked_param_type = "(progress: Progress) => boolean | void"
+        )]
+        on_progress: Option<JsValue>,
+    ) -> Result<AlignResult, JsValue> {
+        let timings = with_progress(on_progress, |report| self.align_views(report))?;
+        Ok(match &self.aligned {
+            Some(result) => AlignResult {
+                timings,
+                ..result.clone()
+            },
+            None => AlignResult {
+                report: AlignReport {
+                    skipped: true,
+                    ..AlignReport::default()
+                },
+                homographies: vec![Homography::IDENTITY; self.layout.grid.len()],
+                timings,
+            },
+        })
+    }
+
+    /// The views the stages read (a copy, packed as given): the rectified ones once
+    /// `align()` aligned them.
+    #[wasm_bindgen(getter)]
+    pub fn views(&self) -> js_sys::Uint8Array {
+        js_sys::Uint8Array::from(&self.views[..])
     }
 
     /// The stages after EPI, serially on this thread: refine (unless `params.refine` is
@@ -310,6 +456,7 @@ impl Estimator {
             confidence: refined_confidence,
             residuals: iterations_run(history),
             timings,
+            align: self.aligned.clone(),
         })
     }
 

@@ -70,6 +70,9 @@ export interface EstimateParams {
   lambda?: number;
   /** Most TV (PPXA) iterations per tile, 1…100000. */
   iterations?: number;
+  /** Align the views by per-view homographies first: "off", "on", or "auto" (the
+   * default: only when the array is found not to be rectified). */
+  align?: "off" | "on" | "auto";
 }
 
 /** A progress report; return `false` from the callback to cancel. */
@@ -101,6 +104,8 @@ export interface SynthSpec {
   photometric?: number;
   seed?: number;
   supersample?: number;
+  /** Misalign the views by small random homographies (as `lfdepth synth --misalign`). */
+  misalign?: boolean;
 }
 
 /** Which pixels `evaluate` scores. */

@@ -1,5 +1,6 @@
 //! JS parameter objects → core `Params` and `Layout`.
 
+use lfdepth::align::AlignMode;
 use lfdepth::epi::{ColorMode, DisparityRange, Fusion};
 use lfdepth::pipeline::Stages;
 use lfdepth::{Grid, Layout, Params};
@@ -8,7 +9,7 @@ use wasm_bindgen::prelude::*;
 use crate::js::{message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 13] = [
+const PARAM_KEYS: [&str; 14] = [
     "range",
     "innerSigma",
     "outerSigma",
@@ -22,6 +23,7 @@ const PARAM_KEYS: [&str; 13] = [
     "refine",
     "lambda",
     "iterations",
+    "align",
 ];
 
 /// The packed layout of views described by a `Shape` object.
@@ -41,6 +43,20 @@ pub fn layout(shape: &JsValue) -> Result<Layout, JsError> {
 pub fn params(object: &JsValue) -> Result<Params, JsError> {
     let f = Fields::new(object, "params", &PARAM_KEYS, true)?;
     let mut params = Params::default();
+    // As the CLI: align only when the array is found not to be rectified.
+    params.align.mode = AlignMode::Auto;
+    if let Some(v) = f.string("align")? {
+        params.align.mode = match v.as_str() {
+            "off" => AlignMode::Off,
+            "on" => AlignMode::On,
+            "auto" => AlignMode::Auto,
+            _ => {
+                return Err(message(&format!(
+                    "params.align `{v}` is unknown: use \"off\", \"on\" or \"auto\""
+                )))
+            }
+        };
+    }
     let epi = &mut params.epi;
     let range = f.get("range");
     if !range.is_undefined() && range.as_string().as_deref() != Some("auto") {

@@ -1,12 +1,12 @@
 //! The core's synthetic light fields with exact ground truth, rendered in the page.
 
-use lfdepth::synth::{self, SceneKind, SynthSpec};
+use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{error, message, Fields};
 
-const SPEC_KEYS: [&str; 12] = [
+const SPEC_KEYS: [&str; 13] = [
     "scene",
     "rows",
     "cols",
@@ -19,7 +19,17 @@ const SPEC_KEYS: [&str; 12] = [
     "photometric",
     "seed",
     "supersample",
+    "misalign",
 ];
+
+/// What `spec.misalign: true` applies (as `lfdepth synth --misalign`): per view a random
+/// homography up to these bounds, what a loosely calibrated rig shows.
+const MISALIGNMENT: Misalignment = Misalignment {
+    max_rotation_deg: 0.5,
+    max_translation_px: 2.0,
+    max_scale: 0.01,
+    max_perspective: 0.002,
+};
 
 /// The names `synthesize` accepts as `spec.scene`.
 #[wasm_bindgen(js_name = sceneNames)]
@@ -66,6 +76,9 @@ fn spec(object: &JsValue) -> Result<SynthSpec, JsError> {
     }
     if let Some(n) = f.count("supersample")? {
         s.supersample = n;
+    }
+    if f.boolean("misalign")? == Some(true) {
+        s.misalign = Some(MISALIGNMENT);
     }
     s.validate().map_err(error)?;
     Ok(s)

@@ -48,6 +48,7 @@ fn estimator_accepts_both_byte_array_types() {
     let params = object(&[("range", Array::of2(&(-2.0).into(), &2.0.into()).into())]);
     let a = Estimator::new(views.into(), shape(32), Some(params.clone())).unwrap();
     let b = Estimator::new(clamped.into(), shape(32), Some(params)).unwrap();
+    let (mut a, mut b) = (a, b);
     let (ra, rb) = (a.estimate(None).unwrap(), b.estimate(None).unwrap());
     assert_eq!(ra.disparity().to_vec(), rb.disparity().to_vec());
     assert_eq!(a.disparity_range().unwrap(), vec![-2.0, 2.0]);

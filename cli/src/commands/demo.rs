@@ -9,7 +9,8 @@ use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::{Grid, LightField, Params};
 
 use super::estimate::write_colour_png;
-use super::synth::{parse_scene, render};
+use super::params::{print_alignment, AlignChoice};
+use super::synth::{default_misalignment, parse_scene, render};
 use super::{create_dir, CliError, Stage};
 use crate::colormap;
 use crate::engine::{self, EstimateOptions};
@@ -38,6 +39,14 @@ pub struct DemoArgs {
     /// Random seed of the scene's texture.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
+    /// Misalign the views by small random homographies (what `lfdepth synth --misalign`
+    /// writes), to see the alignment at work.
+    #[arg(long)]
+    pub misalign: bool,
+    /// Align the views by per-view homographies first: `off`, `on`, or `auto` (only when
+    /// the array is found not to be rectified).
+    #[arg(long, value_enum, default_value_t = AlignChoice::Auto)]
+    pub align: AlignChoice,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -47,14 +56,17 @@ pub struct DemoArgs {
 pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let mut spec = SynthSpec::new(args.scene, Grid::new(9, 9), args.size, args.size);
     spec.seed = args.seed;
+    spec.misalign = args.misalign.then(default_misalignment);
     let start = Instant::now();
     let rendered = render(&spec)?;
     let render_time = start.elapsed();
     let layout = spec.layout();
     let lf = LightField::new(&rendered.views, layout)
         .map_err(|e| CliError::core("building the synthetic light field", e))?;
+    let mut params = Params::default();
+    params.align.mode = args.align.into();
     let options = EstimateOptions {
-        params: Params::default(),
+        params,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
     };
@@ -62,6 +74,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let result = engine::estimate(&lf, &options, &mut |s, d, t| bar.update(s, d, t));
     bar.finish();
     let estimate = result.map_err(|e| CliError::core("estimating the demo scene", e))?;
+    print_alignment(estimate.align.as_ref());
     let (w, h) = (estimate.width, estimate.height);
     let dir = create_dir(&args.out)?;
     let est = Pfm::new(w, h, estimate.disparity.clone())?;

@@ -125,6 +125,7 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     let result = estimate_scene(&scene, &options, &mut |s, d, t| bar.update(s, d, t));
     bar.finish();
     let estimate = result?;
+    super::params::print_alignment(estimate.align.as_ref());
     let (w, h) = (estimate.width, estimate.height);
     pfm::write(
         &args.output,

@@ -258,6 +258,8 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
         let result = estimate_scene(&loaded, &options, &mut |s, d, t| bar.update(s, d, t));
         bar.finish();
         let estimate = result?;
+        eprint!("{name}: ");
+        super::params::print_alignment(estimate.align.as_ref());
         let seconds = start.elapsed().as_secs_f64();
         let gt_path = dir.join(GROUND_TRUTH_FILE);
         let gt = pfm::read(&gt_path)?;

@@ -1,6 +1,7 @@
 //! Estimator parameters from the command line.
 
-use clap::Args;
+use clap::{Args, ValueEnum};
+use lfdepth::align::{AlignMode, AlignReport};
 use lfdepth::epi::DisparityRange;
 use lfdepth::Params;
 
@@ -29,6 +30,53 @@ pub fn parse_range_choice(text: &str) -> Result<RangeChoice, String> {
     }
 }
 
+/// Whether to align the views before estimating (`--align`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum AlignChoice {
+    /// Use the views as they are (the array is rectified).
+    Off,
+    /// Always estimate per-view homographies and warp the views into a rectified array;
+    /// fails when a view cannot be aligned (textureless or too different).
+    On,
+    /// Check cheaply whether the array is rectified and align only if it is not; when
+    /// alignment fails, warn and use the views as they are.
+    #[default]
+    Auto,
+}
+
+impl From<AlignChoice> for AlignMode {
+    fn from(choice: AlignChoice) -> Self {
+        match choice {
+            AlignChoice::Off => AlignMode::Off,
+            AlignChoice::On => AlignMode::On,
+            AlignChoice::Auto => AlignMode::Auto,
+        }
+    }
+}
+
+/// Prints what the alignment did on stderr: auto mode's fallback as a warning, otherwise
+/// one line (nothing when alignment was off).
+pub fn print_alignment(report: Option<&AlignReport>) {
+    let Some(report) = report else {
+        return;
+    };
+    if let Some(warning) = &report.warning {
+        eprintln!("warning: the views were not aligned (--align auto): {warning}");
+    } else if report.skipped {
+        eprintln!(
+            "alignment: skipped, the array is rectified (residual {:.3} px with identity homographies)",
+            report.identity_rms
+        );
+    } else {
+        // Views outside the stages' reach keep the identity and no tracks.
+        let aligned = report.views.iter().filter(|v| v.inliers > 0).count();
+        eprintln!(
+            "alignment: {aligned} views aligned, reprojection RMS {:.3} px ({:.3} px before)",
+            report.rms, report.identity_rms
+        );
+    }
+}
+
 /// Estimator flags shared by `estimate` and `eval --dataset`.
 #[derive(Clone, Debug, Args)]
 pub struct ParamArgs {
@@ -49,6 +97,10 @@ pub struct ParamArgs {
     /// TV refinement: most PPXA iterations per tile (default from the core).
     #[arg(long, value_name = "N")]
     pub tv_iterations: Option<usize>,
+    /// Align the views by per-view homographies first: `off`, `on`, or `auto` (only when
+    /// the array is found not to be rectified).
+    #[arg(long, value_enum, default_value_t = AlignChoice::Auto)]
+    pub align: AlignChoice,
 }
 
 impl Default for ParamArgs {
@@ -58,6 +110,7 @@ impl Default for ParamArgs {
             no_shear: false,
             lambda: None,
             tv_iterations: None,
+            align: AlignChoice::Auto,
         }
     }
 }
@@ -66,6 +119,7 @@ impl ParamArgs {
     /// The parameters these flags ask for; `config` is the scene's parameters.cfg.
     pub fn params(&self, config: Option<&SceneConfig>) -> Result<Params, CliError> {
         let mut params = Params::default();
+        params.align.mode = self.align.into();
         if self.no_shear {
             params.epi = lfdepth::epi::EpiParams::paper();
         }

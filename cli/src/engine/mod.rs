@@ -8,9 +8,11 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
+use lfdepth::align::{self, AlignMode, AlignReport};
 use lfdepth::epi::{self, Direction};
+use lfdepth::pipeline::{self, Stages};
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
-use lfdepth::{refine, LightField, Params, Plan, Sample};
+use lfdepth::{refine, Homography, LightField, Params, Plan, Sample};
 use rayon::prelude::*;
 
 /// How far the pipeline runs.
@@ -49,11 +51,17 @@ pub struct Estimate {
     pub timings: Vec<(&'static str, Duration)>,
     /// TV residual norm per iteration (empty when TV did not run).
     pub residuals: Vec<f32>,
+    /// What the alignment did (`None` when `params.align.mode` is off). A warning in it
+    /// means auto mode could not align and the views were used as they are.
+    pub align: Option<AlignReport>,
 }
 
 /// Lines per parallel band: small enough to balance two threads on small frames, large
 /// enough that per-band overhead (scratch, progress) is negligible.
 pub const BAND_LINES: usize = 16;
+
+/// Rows per parallel band of the warp into the rectified array.
+pub const WARP_BAND_ROWS: usize = 32;
 
 /// Estimates the disparity of the centre view. `progress(stage, done, total)` is called
 /// as work completes.
@@ -89,8 +97,8 @@ pub fn estimate<S: Sample + Sync>(
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
             let result = match &pool {
-                Some(pool) => pool.install(|| run_stages(&plan, lf, options.stage, &tracker)),
-                None => run_stages(&plan, lf, options.stage, &tracker),
+                Some(pool) => pool.install(|| align_then_run(&plan, lf, options.stage, &tracker)),
+                None => align_then_run(&plan, lf, options.stage, &tracker),
             };
             finished.store(true, Ordering::Release);
             result
@@ -136,6 +144,99 @@ impl Tracker<'_> {
     fn add(&self, units: u64) {
         self.done.fetch_add(units, Ordering::Relaxed);
     }
+}
+
+/// The alignment prelude (when `params.align.mode` is not off), then the stages on the
+/// rectified views: homographies by the core estimate, the views the stages read warped
+/// in parallel bands into an `f32` light field of the input's layout.
+fn align_then_run<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stage: StageSelect,
+    tracker: &Tracker<'_>,
+) -> Result<Estimate, lfdepth::Error> {
+    let stages = match stage {
+        StageSelect::Epi => Stages::Epi,
+        StageSelect::Full => Stages::Full,
+    };
+    let params = &pipeline::align_params(plan, stages);
+    if params.mode == AlignMode::Off {
+        return run_stages(plan, lf, stage, tracker);
+    }
+    let start = Instant::now();
+    tracker.start(pipeline::STAGE_ALIGN, 1);
+    let layout = *plan.layout();
+    let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
+    let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
+    let report = align::estimate(lf, params, &mut homographies, &mut scratch)?;
+    drop(scratch);
+    tracker.add(1);
+    let mut timings = vec![(pipeline::STAGE_ALIGN, start.elapsed())];
+    let mut estimate = if report.skipped {
+        run_stages(plan, lf, stage, tracker)?
+    } else {
+        let start = Instant::now();
+        // Zeroed pages that are never written (views no stage reads) cost no memory.
+        let mut aligned = vec![0.0f32; pipeline::aligned_len(plan)?];
+        warp_parallel(plan, lf, stages, &homographies, &mut aligned, tracker)?;
+        timings.push((pipeline::STAGE_WARP, start.elapsed()));
+        let rectified = LightField::new(&aligned[..], layout)?;
+        run_stages(plan, &rectified, stage, tracker)?
+    };
+    timings.append(&mut estimate.timings);
+    estimate.timings = timings;
+    estimate.align = Some(report);
+    Ok(estimate)
+}
+
+/// The views `stages` read, warped in parallel bands of [`WARP_BAND_ROWS`] rows (every
+/// row by the same core code as `pipeline::warp_views`).
+fn warp_parallel<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    homographies: &[Homography],
+    aligned: &mut [f32],
+    tracker: &Tracker<'_>,
+) -> Result<(), lfdepth::Error> {
+    let layout = *plan.layout();
+    let row_len = layout.width * layout.channels;
+    let views = (0..layout.grid.len())
+        .filter(|&v| pipeline::reads_view(plan, stages, v))
+        .count();
+    tracker.start(pipeline::STAGE_WARP, views as u64);
+    aligned
+        .par_chunks_mut(layout.view_stride)
+        .enumerate()
+        .filter(|(view, _)| pipeline::reads_view(plan, stages, *view))
+        .try_for_each(|(view, samples)| {
+            samples
+                .par_chunks_mut(WARP_BAND_ROWS * layout.row_stride)
+                .enumerate()
+                .try_for_each(|(band, samples)| {
+                    let first = band * WARP_BAND_ROWS;
+                    let last = (first + WARP_BAND_ROWS).min(layout.height);
+                    for y in first..last {
+                        let at = (y - first) * layout.row_stride;
+                        let row = samples.get_mut(at..at + row_len).ok_or(
+                            lfdepth::Error::SizeOverflow {
+                                what: "the aligned light field",
+                            },
+                        )?;
+                        align::warp_rows_with(
+                            lf,
+                            homographies,
+                            view,
+                            y..y + 1,
+                            plan.params().align.interpolation,
+                            row,
+                        )?;
+                    }
+                    Ok::<(), lfdepth::Error>(())
+                })?;
+            tracker.add(1);
+            Ok(())
+        })
 }
 
 /// The selected stages, one after another, each in parallel.
@@ -328,6 +429,7 @@ fn estimate_epi<S: Sample + Sync>(
         confidence,
         timings,
         residuals: Vec::new(),
+        align: None,
     };
     Ok((estimate, (hyps.min(), hyps.max())))
 }

@@ -1,6 +1,6 @@
 //! Comparing two sets of rectifying homographies modulo what no image can observe.
 
-use nalgebra::{Matrix4, Vector4};
+use nalgebra::{Matrix6, Vector6};
 
 use crate::geometry::Homography;
 use crate::lightfield::Grid;
@@ -12,17 +12,36 @@ pub struct GaugeFit {
     pub scale: f32,
     /// Translation `t` (pixels).
     pub translation: (f32, f32),
-    /// Disparity offset `δ`: a point of true disparity `d` has disparity `s·d − δ` in the
-    /// estimated rectified array, so `d = (d_est + δ) / s`.
+    /// Disparity offset `δ` at the image centre: a point of true disparity `d` at
+    /// `(x, y)` has disparity `s·d − (δ + βx' + γy')` in the estimated rectified array
+    /// (`x', y'` about the image centre), so `d = (d_est + δ + βx' + γy') / s`.
     pub disparity_offset: f32,
+    /// Disparity slope `(β, γ)` per pixel: the disparity plane no image can tell from
+    /// the scene's own (see [`GaugeFit::true_disparity`]).
+    pub disparity_slope: (f32, f32),
+    /// Image centre the slope is measured from.
+    pub centre: (f32, f32),
     /// RMS distance left after the transform (pixels): the registration error.
     pub rms: f32,
 }
 
+impl GaugeFit {
+    /// The true-array disparity of a disparity `estimated` at pixel `(x, y)` of the
+    /// estimated rectified array: the gauge removed.
+    pub fn true_disparity(&self, estimated: f32, x: f32, y: f32) -> f32 {
+        let (dx, dy) = (x - self.centre.0, y - self.centre.1);
+        let plane =
+            self.disparity_offset + self.disparity_slope.0 * dx + self.disparity_slope.1 * dy;
+        (estimated + plane) / self.scale
+    }
+}
+
 /// RMS distance in pixels between the rectified frames of `estimate` and `truth`
 /// (both rectified → view pixel coordinates, one per view, row-major grid order), after
-/// removing the best gauge transform `x ↦ s·x + t + δ·b_v` (uniform scale, translation,
-/// disparity offset) that no light field can determine. Measured on an 8 × 8 grid of
+/// removing the best gauge transform `x ↦ s·x + t + (δ + βx' + γy')·b_v` (uniform scale,
+/// translation, and a disparity plane: to first order in the disparity, adding a plane
+/// to every disparity is the same as moving each view by its baseline times that plane)
+/// that no light field can determine. Measured on an 8 × 8 grid of
 /// points per view inside `width` × `height`. `None` when a map is singular.
 pub fn gauge_rms(
     estimate: &[Homography],
@@ -41,6 +60,19 @@ pub fn gauge_fit(
     grid: Grid,
     width: usize,
     height: usize,
+) -> Option<GaugeFit> {
+    gauge_fit_where(estimate, truth, grid, width, height, &|_| true)
+}
+
+/// [`gauge_fit`] over the views `include` accepts (row-major grid index), e.g. the
+/// cross when only those were estimated ([`super::AlignedViews::Cross`]).
+pub fn gauge_fit_where(
+    estimate: &[Homography],
+    truth: &[Homography],
+    grid: Grid,
+    width: usize,
+    height: usize,
+    include: &dyn Fn(usize) -> bool,
 ) -> Option<GaugeFit> {
     if estimate.len() != grid.len() || truth.len() != grid.len() {
         return None;
@@ -63,24 +95,29 @@ pub fn gauge_fit(
         })
     };
     let o = (width as f32 * 0.5, height as f32 * 0.5);
-    let mut ata = Matrix4::<f32>::zeros();
-    let mut atb = Vector4::<f32>::zeros();
-    for v in 0..grid.len() {
+    // f64: the columns differ in scale by the image size times the baseline.
+    let mut ata = Matrix6::<f64>::zeros();
+    let mut atb = Vector6::<f64>::zeros();
+    for v in (0..grid.len()).filter(|&v| include(v)) {
         for s in samples(v) {
             let (x, y, ex, ey, b) = s?;
-            let rx = Vector4::new(x - o.0, 1.0, 0.0, b.0);
-            let ry = Vector4::new(y - o.1, 0.0, 1.0, b.1);
+            let (dx, dy) = (f64::from(x - o.0), f64::from(y - o.1));
+            let (bx, by) = (f64::from(b.0), f64::from(b.1));
+            let rx = Vector6::new(dx, 1.0, 0.0, bx, bx * dx, bx * dy);
+            let ry = Vector6::new(dy, 0.0, 1.0, by, by * dx, by * dy);
             ata += rx * rx.transpose() + ry * ry.transpose();
-            atb += rx * (ex - o.0) + ry * (ey - o.1);
+            atb += rx * f64::from(ex - o.0) + ry * f64::from(ey - o.1);
         }
     }
-    let g = ata.lu().solve(&atb)?;
+    let g = ata.lu().solve(&atb)?.map(|v| v as f32);
     let (mut sum, mut count) = (0.0f32, 0usize);
-    for v in 0..grid.len() {
+    for v in (0..grid.len()).filter(|&v| include(v)) {
         for s in samples(v) {
             let (x, y, ex, ey, b) = s?;
-            let px = g[0] * (x - o.0) + g[1] + g[3] * b.0 + o.0;
-            let py = g[0] * (y - o.1) + g[2] + g[3] * b.1 + o.1;
+            let (dx, dy) = (x - o.0, y - o.1);
+            let plane = g[3] + g[4] * dx + g[5] * dy;
+            let px = g[0] * dx + g[1] + plane * b.0 + o.0;
+            let py = g[0] * dy + g[2] + plane * b.1 + o.1;
             sum += (ex - px) * (ex - px) + (ey - py) * (ey - py);
             count += 1;
         }
@@ -88,8 +125,11 @@ pub fn gauge_fit(
     (count > 0).then(|| GaugeFit {
         scale: g[0],
         translation: (g[1], g[2]),
-        // e = s·(X − d·b) + t + g₃·b: the estimated disparity is s·d − g₃.
+        // e = s·(X − d·b) + t + (g₃ + g₄x' + g₅y')·b: the estimated disparity is
+        // s·d − (g₃ + g₄x' + g₅y').
         disparity_offset: g[3],
+        disparity_slope: (g[4], g[5]),
+        centre: o,
         rms: libm::sqrtf(sum / count as f32),
     })
 }

@@ -35,6 +35,8 @@ use crate::lightfield::{Grid, LightField, Sample};
 pub enum ViewSet {
     /// Every view.
     All,
+    /// The centre row and column of the grid.
+    Cross,
     /// The views one and two steps from the centre along the axes and the eight outer
     /// views (corners and edge middles): enough to tell a rectified array from a
     /// misaligned one, cheaply; the nearer views predict the parallax in the outer ones.
@@ -76,9 +78,11 @@ fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
     let centre = grid.index(r0, c0);
     let mut out: FixedVec<usize, MAX_VIEWS> = FixedVec::new();
     match set {
-        ViewSet::All => {
+        ViewSet::All | ViewSet::Cross => {
             for v in 0..grid.len() {
-                if v != centre {
+                let (r, c) = (v / grid.cols, v % grid.cols);
+                let wanted = set == ViewSet::All || r == r0 || c == c0;
+                if v != centre && wanted {
                     let _ = out.push(v);
                 }
             }

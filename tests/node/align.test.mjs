@@ -1,0 +1,69 @@
+// Alignment through the wasm package: `params.align` off/on/auto on a synthetic scene
+// rendered misaligned (`spec.misalign`), the rectified views handed to the band path,
+// and errors for bad values and textureless views.
+import { test } from "node:test";
+import assert from "node:assert/strict";
+import lf from "./pkg.mjs";
+
+const SIZE = 128;
+const shape = { rows: 5, cols: 5, width: SIZE, height: SIZE, channels: 3 };
+const spec = { scene: "mixed", rows: 5, cols: 5, width: SIZE, height: SIZE, seed: 4 };
+const ideal = lf.synthesize(spec);
+const bent = lf.synthesize({ ...spec, misalign: true });
+
+const mse = (views, align) => {
+  const result = new lf.Estimator(views, shape, { stage: "epi", align }).estimate();
+  return { result, scores: lf.evaluate(result.disparity, ideal.groundTruth, SIZE, SIZE) };
+};
+
+test("a misaligned scene aligns and scores close to the rectified one", () => {
+  assert.notDeepEqual(bent.views, ideal.views);
+  assert.deepEqual(bent.groundTruth, ideal.groundTruth);
+  const off = mse(bent.views, "off");
+  const on = mse(bent.views, "on");
+  const auto = mse(bent.views, "auto");
+  const rectified = mse(ideal.views, "auto");
+  console.log(`MSE×100: off ${off.scores.mse100}, on ${on.scores.mse100}, auto ${auto.scores.mse100}, rectified ${rectified.scores.mse100}`);
+  assert.equal(off.result.align, undefined);
+  assert.equal(on.result.align.skipped, false);
+  assert.ok(on.result.align.rms < 0.1 && on.result.align.identityRms > 0.5, `${on.result.align.identityRms} → ${on.result.align.rms}`);
+  assert.equal(on.result.align.homographies.length, 25 * 9);
+  assert.ok(on.result.timings.some((t) => t.stage === "warp"));
+  // Stated bound (as the CLI test): alignment removes almost all of the misalignment's
+  // error; what is left includes the disparity offset no image can observe.
+  assert.ok(off.scores.mse100 > 100, `off ${off.scores.mse100}`);
+  assert.ok(on.scores.mse100 < 2 * rectified.scores.mse100 + 5 && on.scores.mse100 < 0.05 * off.scores.mse100, `on ${on.scores.mse100}`);
+  assert.equal(auto.result.align.skipped, false);
+  assert.deepEqual(auto.result.disparity, on.result.disparity);
+  // Auto leaves the rectified scene alone: bit-identical to off.
+  assert.equal(rectified.result.align.skipped, true);
+  const plain = new lf.Estimator(ideal.views, shape, { stage: "epi", align: "off" }).estimate();
+  assert.deepEqual(rectified.result.disparity, plain.disparity);
+});
+
+test("align() hands the rectified views to the band path, which then matches estimate()", () => {
+  const params = { stage: "epi", align: "on" };
+  const aligner = new lf.Estimator(bent.views, shape, params);
+  const report = aligner.align();
+  assert.equal(report.skipped, false);
+  assert.equal(aligner.align().rms, report.rms, "align() runs once");
+  const rectified = aligner.views;
+  assert.equal(rectified.length, bent.views.length);
+  const serial = new lf.Estimator(bent.views, shape, params).estimate().disparity;
+  const bands = new lf.Estimator(rectified, shape, { stage: "epi", align: "off" });
+  const [min, max] = bands.disparityRange();
+  const part = (direction, lines) => bands.estimateBand(direction, 0, lines, min, max);
+  const h = part("horizontal", SIZE);
+  const v = part("vertical", SIZE);
+  const [disparity] = lf.fuseBands({ stage: "epi" }, SIZE, SIZE, h.disparity, h.confidence, v.disparity, v.confidence);
+  assert.ok(disparity.every((d, i) => Object.is(d, serial[i])));
+});
+
+test("bad align values and textureless views are Errors that say what to change", () => {
+  assert.throws(() => new lf.Estimator(ideal.views, shape, { align: "sometimes" }), /params\.align `sometimes` is unknown: use "off", "on" or "auto"/);
+  const flat = new Uint8Array(ideal.views.length).fill(128);
+  assert.throws(() => new lf.Estimator(flat, shape, { stage: "epi", align: "on" }).estimate(), /alignment of view 12 failed/);
+  const auto = new lf.Estimator(flat, shape, { stage: "epi", align: "auto" }).estimate();
+  assert.equal(auto.align.skipped, true);
+  assert.match(auto.align.warning, /alignment of view 12 failed/);
+});
