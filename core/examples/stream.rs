@@ -57,6 +57,7 @@ fn stream_params(layout: Layout, min: f32, max: f32, halo: usize) -> (Params, St
                 halo,
                 ..TvParams::default()
             },
+            ..Params::default()
         };
         let Ok(plan) = StreamPlan::new(layout, params) else {
             continue;

@@ -19,10 +19,12 @@
 //! and grid, never on the frame width or height (for frames larger than one region).
 //!
 //! The disparity range must be given ([`DisparityRange::Fixed`]): the automatic range
-//! probes the whole frame. The photometric refinement is not streamed.
+//! probes the whole frame. The photometric refinement and the alignment are not streamed
+//! (the views must be rectified).
 
 use core::ops::Range;
 
+use crate::align::AlignMode;
 use crate::epi::{fuse, ColorMode, DisparityRange, Hypotheses, LineEstimator, INTENSITY_SCALE};
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Grid, Layout, Sample, View};
@@ -184,6 +186,12 @@ impl StreamPlan {
             return Err(Error::InvalidParameter {
                 name: "refine.enabled",
                 reason: "must be off for a stream: the photometric refinement is not streamed",
+            });
+        }
+        if params.align.mode != AlignMode::Off {
+            return Err(Error::InvalidParameter {
+                name: "align.mode",
+                reason: "must be Off for a stream: it takes rectified views (alignment is a whole-frame stage)",
             });
         }
         let epi = &params.epi;

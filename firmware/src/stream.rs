@@ -79,6 +79,7 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
             halo: HALO,
             ..TvParams::default()
         },
+        ..Params::default()
     };
     let plan = StreamPlan::new(layout, params)?;
     if plan.max_input_rows() > BAND_ROWS {

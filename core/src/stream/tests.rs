@@ -24,6 +24,7 @@ fn params(tile: usize, halo: usize, min: f32, max: f32) -> Params {
             max_iterations: 60,
             ..TvParams::default()
         },
+        ..Params::default()
     }
 }
 
@@ -191,6 +192,15 @@ fn bad_streams_are_refused_with_errors() {
         StreamPlan::new(layout, refine),
         Err(Error::InvalidParameter {
             name: "refine.enabled",
+            ..
+        })
+    ));
+    let mut align = params(32, 8, -1.0, 1.0);
+    align.align.mode = crate::align::AlignMode::On;
+    assert!(matches!(
+        StreamPlan::new(layout, align),
+        Err(Error::InvalidParameter {
+            name: "align.mode",
             ..
         })
     ));
