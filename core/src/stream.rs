@@ -168,7 +168,9 @@ pub struct StreamPlan {
 
 /// Samples a line needs beyond the outputs it must reproduce exactly: the outer smoothing,
 /// the shear (`views_out` views from the centre at the largest shear, plus one sample of
-/// linear interpolation) and the inner filters.
+/// linear interpolation) and the inner filters (a Gaussian widened by one sample by the
+/// derivative and the Scharr smoothing). The radii follow the EPI kernels; the test
+/// `stream_equals_the_whole_frame_pipeline` fails if the margin falls 2 samples short.
 fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> usize {
     let count = hypotheses.count();
     let shear = libm::fabsf(hypotheses.shear(0))
@@ -179,7 +181,7 @@ fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> us
 
 impl StreamPlan {
     /// Validates `layout` and `params` for streaming: the disparity range must be fixed
-    /// (or the shear off) and the refinement off.
+    /// (or the shear off), the refinement and the alignment off.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
         if params.refine.enabled {
