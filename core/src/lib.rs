@@ -26,6 +26,7 @@ pub mod pipeline;
 pub mod plan;
 pub mod refine;
 pub mod scalar;
+pub mod stream;
 pub mod synth;
 pub mod tv;
 

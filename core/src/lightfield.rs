@@ -329,6 +329,49 @@ pub struct View<'a, S: Sample> {
 }
 
 impl<'a, S: Sample> View<'a, S> {
+    /// A view over caller memory: `height` rows of `width` pixels of `channels` samples,
+    /// `row_stride` elements apart (e.g. the centre view of a band of rows held by a
+    /// stream). Checks the channels, the stride and that `data` holds every row.
+    pub fn new(
+        data: &'a [S],
+        width: usize,
+        height: usize,
+        channels: usize,
+        row_stride: usize,
+    ) -> Result<Self> {
+        if width == 0 || height == 0 {
+            return Err(Error::ViewTooSmall { width, height });
+        }
+        if !matches!(channels, 1 | 3 | 4) {
+            return Err(Error::Channels { channels });
+        }
+        let row_len = checked_product(&[width, channels], "an image row")?;
+        if row_stride < row_len {
+            return Err(Error::Stride {
+                which: "row stride",
+                stride: row_stride,
+                needed: row_len,
+            });
+        }
+        let needed = checked_product(&[height - 1, row_stride], "a view")?
+            .checked_add(row_len)
+            .ok_or(Error::SizeOverflow { what: "a view" })?;
+        if data.len() < needed {
+            return Err(Error::BufferTooSmall {
+                what: "the view buffer",
+                needed,
+                got: data.len(),
+            });
+        }
+        Ok(View {
+            data,
+            width,
+            height,
+            channels,
+            row_stride,
+        })
+    }
+
     fn empty() -> Self {
         View {
             data: &[],
@@ -475,6 +518,26 @@ mod tests {
         assert_eq!(v.get(3, 0, 0), None);
         assert!(lf.epi_horizontal(3, 0).is_err());
         assert!(lf.epi_vertical(0, 16).is_err());
+    }
+
+    #[test]
+    fn views_over_caller_memory_are_checked() {
+        let (data, layout) = coded();
+        let lf = LightField::new(&data[..], layout).unwrap();
+        let start = layout.grid.index(1, 1) * layout.view_stride + 2 * 50 + 3 * 3;
+        let v = View::new(&data[start..], 5, 4, 3, 50).unwrap();
+        assert_eq!(v.pixel(1, 2, 2), lf.pixel(1, 1, 4, 4, 2));
+        assert_eq!(v.pixel(5, 0, 0), None);
+        assert!(matches!(
+            View::new(&data[..10], 5, 4, 3, 50),
+            Err(Error::BufferTooSmall { needed: 165, .. })
+        ));
+        assert!(matches!(
+            View::new(&data[..], 5, 4, 3, 14),
+            Err(Error::Stride { needed: 15, .. })
+        ));
+        assert!(View::new(&data[..], 0, 4, 3, 50).is_err());
+        assert!(View::new(&data[..], 5, 4, 2, 50).is_err());
     }
 
     #[test]

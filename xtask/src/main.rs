@@ -15,6 +15,7 @@
 //! Only std is used: every step is an external command run with `std::process::Command`.
 
 mod bench;
+mod elf;
 mod exec;
 mod fuzz;
 mod install;

@@ -9,6 +9,8 @@
 //! | `clippy-wasm`    | the same for `-p lfdepth-wasm --target wasm32-unknown-unknown` |
 //! | `test-core`      | `cargo test -p lfdepth -- --show-output` (debug: integer overflow panics) |
 //! | `nostd-thumbv7em`, `nostd-thumbv6m` | `cargo build -p lfdepth --release --target …` with `RUSTFLAGS=-D warnings` in `target/nostd` |
+//! | `firmware-thumbv7em`, `firmware-thumbv6m` | `cargo build -p lfdepth-firmware --profile firmware --target …` (the stream in a `no_main` image, f32 / Q16), same flags and directory |
+//! | `firmware-size` | text / data / bss of both firmware images (docs/EMBEDDED.md) |
 //! | `doc`            | `cargo doc -p lfdepth --no-deps` with `RUSTDOCFLAGS=-D warnings` |
 //! | `wasm-build`     | `cargo build -p lfdepth-wasm --target wasm32-unknown-unknown --release` |
 //! | `test-release`   | `cargo test --workspace --release -- --show-output` (the heavy accuracy tests) |
@@ -33,8 +35,8 @@
 //! `LFDEPTH_WASM_PKG` (`web/pkg`) and, for browser tests, `CHROMIUM_PATH` (launch
 //! playwright-core's `chromium.launch({ executablePath: process.env.CHROMIUM_PATH })`).
 //!
-//! `--quick` leaves out `clippy-wasm`, `wasm-build`, `test-release`, `fuzz-check` and the
-//! wasm/JS steps. The first failure stops the run; later steps are reported as skipped.
+//! `--quick` leaves out `clippy-wasm`, the firmware steps, `wasm-build`, `test-release`,
+//! `fuzz-check` and the wasm/JS steps. The first failure stops the run; later steps are reported as skipped.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -123,7 +125,15 @@ pub enum Action {
     NodeTests(Vec<PathBuf>),
     /// `node --test` on these files, with Chromium installed first.
     BrowserTests(Vec<PathBuf>),
+    /// Prints the text / data / bss sizes of these ELF images `(label, path)`.
+    ElfSizes(Vec<(String, PathBuf)>),
 }
+
+/// The firmware images: `(target, label)`.
+const FIRMWARE: [(&str, &str); 2] = [
+    ("thumbv7em-none-eabihf", "thumbv7em-none-eabihf (f32)"),
+    ("thumbv6m-none-eabi", "thumbv6m-none-eabi (Q16.16)"),
+];
 
 /// A step of the plan: run `Ok(action)`, or skip for the `Err` reason.
 #[derive(Clone, Debug, PartialEq)]
@@ -197,6 +207,31 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
     ));
     steps.push(step("nostd-thumbv7em", nostd("thumbv7em-none-eabihf")));
     steps.push(step("nostd-thumbv6m", nostd("thumbv6m-none-eabi")));
+    let firmware = |target: &str| {
+        Action::Run(
+            Cmd::cargo(&["build", "-p", "lfdepth-firmware", "--profile", "firmware"])
+                .args(&["--target", target, "--target-dir", "target/nostd"])
+                .env("RUSTFLAGS", "-D warnings"),
+        )
+    };
+    let images = FIRMWARE
+        .iter()
+        .map(|(target, label)| {
+            let path = PathBuf::from(format!("target/nostd/{target}/firmware/lfdepth-firmware"));
+            (label.to_string(), path)
+        })
+        .collect();
+    for (name, action) in [
+        ("firmware-thumbv7em", firmware(FIRMWARE[0].0)),
+        ("firmware-thumbv6m", firmware(FIRMWARE[1].0)),
+        ("firmware-size", Action::ElfSizes(images)),
+    ] {
+        steps.push(if quick {
+            skip(name, quick_reason)
+        } else {
+            step(name, action)
+        });
+    }
     steps.push(step(
         "doc",
         Action::Run(
@@ -305,6 +340,7 @@ fn execute(root: &Path, action: &Action) -> Outcome {
                 .run(root)
         }
         Action::NodeTests(files) => node_test(root, files).run(root),
+        Action::ElfSizes(images) => crate::elf::report(images, root),
         Action::BrowserTests(files) => {
             let chromium = match install::chromium(root) {
                 Ok(path) => path,
@@ -416,6 +452,9 @@ mod tests {
                 "test-core",
                 "nostd-thumbv7em",
                 "nostd-thumbv6m",
+                "firmware-thumbv7em",
+                "firmware-thumbv6m",
+                "firmware-size",
                 "doc",
                 "wasm-build",
                 "test-release",
@@ -431,7 +470,7 @@ mod tests {
             .filter(|s| s.action.is_ok())
             .map(|s| s.name)
             .collect();
-        assert_eq!(running.len(), 9);
+        assert_eq!(running.len(), 12);
         assert_eq!(
             skipped(&steps, "node-tests").as_deref(),
             Some("no tests/node/*.test.mjs")
@@ -484,6 +523,8 @@ mod tests {
         let steps = plan(&inputs, true);
         for name in [
             "clippy-wasm",
+            "firmware-thumbv7em",
+            "firmware-size",
             "wasm-build",
             "test-release",
             "wasm-pack",
@@ -511,6 +552,35 @@ mod tests {
         assert!(
             text.ends_with("--target thumbv6m-none-eabi --target-dir target/nostd"),
             "{text}"
+        );
+    }
+
+    #[test]
+    fn firmware_images_build_size_optimised_and_deny_warnings() {
+        let steps = plan(&Inputs::default(), false);
+        let Some(Ok(Action::Run(cmd))) = steps
+            .iter()
+            .find(|s| s.name == "firmware-thumbv6m")
+            .map(|s| s.action.clone())
+        else {
+            panic!("firmware-thumbv6m is not a command");
+        };
+        let text = cmd.to_string();
+        assert!(text.starts_with("RUSTFLAGS=-D warnings "), "{text}");
+        assert!(
+            text.contains("-p lfdepth-firmware --profile firmware"),
+            "{text}"
+        );
+        let Some(Ok(Action::ElfSizes(images))) = steps
+            .iter()
+            .find(|s| s.name == "firmware-size")
+            .map(|s| s.action.clone())
+        else {
+            panic!("firmware-size does not report sizes");
+        };
+        assert_eq!(
+            images[1].1,
+            PathBuf::from("target/nostd/thumbv6m-none-eabi/firmware/lfdepth-firmware")
         );
     }
 

@@ -24,7 +24,8 @@ use crate::lightfield::{LightField, Sample};
 use crate::pipeline::Progress;
 use crate::plan::Plan;
 use crate::scalar::Scalar;
-use line::LineEstimator;
+// The stream (crate::stream) runs lines over its own band buffers.
+pub(crate) use line::LineEstimator;
 
 /// Intensities enter the kernels as `sample · INTENSITY_SCALE`: it keeps the tensor of
 /// faint textures well above the Q16.16 resolution without overflowing it.

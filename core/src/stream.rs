@@ -1,0 +1,668 @@
+//! Streaming estimation for firmware: rows of the cross views arrive band by band as from
+//! a sensor, and the disparity of each band leaves before the next arrives, from scratch
+//! whose size does not depend on the frame size.
+//!
+//! The frame is cut into the TV tiles of the plan (`params.tv.tile`, `params.tv.halo`,
+//! see [`crate::tv::tile_rects`]). A *band* is one row of tiles. For each tile the stream
+//! runs the EPI stage on the tile's region (core + halo) only, over EPI lines cropped to
+//! the region plus a margin that covers the shear and the filters, then solves TV on the
+//! region and writes the core; the columns a region shares with the previous tile of the
+//! band are moved rather than estimated again. The crop margin makes every region sample
+//! bit-identical to the whole-frame EPI stage, and the TV regions are the pipeline's own,
+//! so a stream gives exactly what [`crate::pipeline::run`] gives with the same parameters
+//! (refinement off): the test `stream_equals_the_whole_frame_pipeline` checks it.
+//!
+//! Memory: the input band ([`CrossBand`], the 17 cross views of a 9×9 grid, rows
+//! [`StreamPlan::input_rows`]), the output rows, and two scratch slices sized by
+//! [`StreamPlan::scratch_len`] (kernel scalars) and [`StreamPlan::map_scratch_len`]
+//! (`f32` disparity and confidence of one region). Both depend on the tile, halo, margin
+//! and grid, never on the frame width or height (for frames larger than one region).
+//!
+//! The disparity range must be given ([`DisparityRange::Fixed`]): the automatic range
+//! probes the whole frame. The photometric refinement and the alignment are not streamed
+//! (the views must be rectified).
+
+use core::ops::Range;
+
+use crate::align::AlignMode;
+use crate::epi::{fuse, ColorMode, DisparityRange, Hypotheses, LineEstimator, INTENSITY_SCALE};
+use crate::error::{checked_product, Error, Result};
+use crate::lightfield::{Grid, Layout, Sample, View};
+use crate::plan::{Params, Plan};
+use crate::scalar::Scalar;
+use crate::tv::{self, Guide, Maps, Rect, SolveOutput};
+
+/// Largest kernel radius of the EPI filters (`MAX_RADIUS` of the EPI kernels).
+const MAX_KERNEL_RADIUS: usize = 16;
+
+/// Radius of a Gaussian truncated at 3σ, as the EPI kernels build it.
+fn gaussian_radius(sigma: f32) -> usize {
+    if sigma > 0.0 {
+        (libm::ceilf(3.0 * sigma) as usize).min(MAX_KERNEL_RADIUS - 1)
+    } else {
+        0
+    }
+}
+
+/// The rows of one band of the cross views, held by the caller.
+///
+/// Slots: view `(r0, c)` of the centre row is slot `c`; view `(r, c0)` of the centre
+/// column, `r ≠ r0`, is slot `cols + r` for `r < r0` and `cols + r − 1` above (see
+/// [`CrossBand::slot`]): `rows + cols − 1` views. Slot `s` holds image row `y` of
+/// `rows` at `data[s · view_stride + (y − rows.start) · row_stride + x · channels]`.
+#[derive(Clone, Debug)]
+pub struct CrossBand<'a, S: Sample> {
+    data: &'a [S],
+    grid: Grid,
+    width: usize,
+    channels: usize,
+    rows: Range<usize>,
+    row_stride: usize,
+    view_stride: usize,
+}
+
+impl<'a, S: Sample> CrossBand<'a, S> {
+    /// Number of views a band holds for `grid`.
+    pub fn slots(grid: Grid) -> usize {
+        (grid.rows + grid.cols).saturating_sub(1)
+    }
+
+    /// The slot of view `(row, col)`, or `None` when it is not on the cross.
+    pub fn slot(grid: Grid, row: usize, col: usize) -> Option<usize> {
+        let (r0, c0) = grid.center();
+        if row == r0 && col < grid.cols {
+            Some(col)
+        } else if col == c0 && row < grid.rows {
+            Some(grid.cols + if row < r0 { row } else { row - 1 })
+        } else {
+            None
+        }
+    }
+
+    /// A band of image rows `rows` of every cross view of `layout`'s grid, the views of
+    /// `layout.width` pixels of `layout.channels` samples. Checks that `data` holds them.
+    pub fn new(
+        data: &'a [S],
+        layout: &Layout,
+        rows: Range<usize>,
+        row_stride: usize,
+        view_stride: usize,
+    ) -> Result<Self> {
+        layout.validate()?;
+        if rows.start >= rows.end || rows.end > layout.height {
+            return Err(Error::OutOfRange {
+                what: "band end row",
+                index: rows.end,
+                len: layout.height,
+            });
+        }
+        let row_len = checked_product(&[layout.width, layout.channels], "a band row")?;
+        if row_stride < row_len {
+            return Err(Error::Stride {
+                which: "band row stride",
+                stride: row_stride,
+                needed: row_len,
+            });
+        }
+        let view_len = checked_product(&[rows.len() - 1, row_stride], "a band view")?
+            .checked_add(row_len)
+            .ok_or(Error::SizeOverflow {
+                what: "a band view",
+            })?;
+        if view_stride < view_len {
+            return Err(Error::Stride {
+                which: "band view stride",
+                stride: view_stride,
+                needed: view_len,
+            });
+        }
+        let needed = checked_product(&[Self::slots(layout.grid) - 1, view_stride], "a band")?
+            .checked_add(view_len)
+            .ok_or(Error::SizeOverflow { what: "a band" })?;
+        if data.len() < needed {
+            return Err(Error::BufferTooSmall {
+                what: "the band buffer",
+                needed,
+                got: data.len(),
+            });
+        }
+        Ok(CrossBand {
+            data,
+            grid: layout.grid,
+            width: layout.width,
+            channels: layout.channels,
+            rows,
+            row_stride,
+            view_stride,
+        })
+    }
+
+    /// A packed band: rows `width · channels` apart, views `rows.len()` rows apart.
+    pub fn packed(data: &'a [S], layout: &Layout, rows: Range<usize>) -> Result<Self> {
+        let row_stride = checked_product(&[layout.width, layout.channels], "a band row")?;
+        let view_stride = checked_product(&[rows.len(), row_stride], "a band view")?;
+        Self::new(data, layout, rows, row_stride, view_stride)
+    }
+
+    /// The image rows the band holds.
+    pub fn rows(&self) -> Range<usize> {
+        self.rows.clone()
+    }
+
+    /// Where pixel `x` of row `y` of slot `slot` starts in the buffer.
+    fn offset(&self, slot: usize, x: usize, y: usize) -> usize {
+        slot * self.view_stride + (y - self.rows.start) * self.row_stride + x * self.channels
+    }
+}
+
+/// A validated streaming plan: the frame plan, the resolved hypotheses and the crop
+/// margins of the EPI lines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StreamPlan {
+    plan: Plan,
+    hypotheses: Hypotheses,
+    /// Samples beyond a region the horizontal / vertical EPI lines need.
+    margin_h: usize,
+    margin_v: usize,
+}
+
+/// Samples a line needs beyond the outputs it must reproduce exactly: the outer smoothing,
+/// the shear (`views_out` views from the centre at the largest shear, plus one sample of
+/// linear interpolation) and the inner filters (a Gaussian widened by one sample by the
+/// derivative and the Scharr smoothing). The radii follow the EPI kernels; the test
+/// `stream_equals_the_whole_frame_pipeline` fails if the margin falls 2 samples short.
+fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> usize {
+    let count = hypotheses.count();
+    let shear = libm::fabsf(hypotheses.shear(0))
+        .max(libm::fabsf(hypotheses.shear(count.saturating_sub(1))));
+    let shift = libm::ceilf(shear * views_out as f32) as usize + 1;
+    gaussian_radius(params.epi.outer_sigma) + shift + gaussian_radius(params.epi.inner_sigma) + 1
+}
+
+impl StreamPlan {
+    /// Validates `layout` and `params` for streaming: the disparity range must be fixed
+    /// (or the shear off), the refinement and the alignment off.
+    pub fn new(layout: Layout, params: Params) -> Result<Self> {
+        let plan = Plan::new(layout, params)?;
+        if params.refine.enabled {
+            return Err(Error::InvalidParameter {
+                name: "refine.enabled",
+                reason: "must be off for a stream: the photometric refinement is not streamed",
+            });
+        }
+        if params.align.mode != AlignMode::Off {
+            return Err(Error::InvalidParameter {
+                name: "align.mode",
+                reason: "must be Off for a stream: it takes rectified views (alignment is a whole-frame stage)",
+            });
+        }
+        let epi = &params.epi;
+        let hypotheses = match epi.range {
+            DisparityRange::Fixed { min, max } => Hypotheses::new(epi, min, max)?,
+            DisparityRange::Auto if !epi.shear => Hypotheses::new(
+                epi,
+                -crate::epi::MAX_DISPARITY,
+                crate::epi::MAX_DISPARITY,
+            )?,
+            DisparityRange::Auto => {
+                return Err(Error::InvalidParameter {
+                    name: "epi.range",
+                    reason: "must be Fixed for a stream (the automatic range probes the whole frame): give the camera's range",
+                })
+            }
+        };
+        let (r0, c0) = layout.grid.center();
+        let out_h = c0.max(layout.grid.cols - 1 - c0);
+        let out_v = r0.max(layout.grid.rows - 1 - r0);
+        Ok(StreamPlan {
+            plan,
+            hypotheses,
+            margin_h: line_margin(&params, &hypotheses, out_h),
+            margin_v: line_margin(&params, &hypotheses, out_v),
+        })
+    }
+
+    /// The frame plan.
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// The shear hypotheses and output range.
+    pub fn hypotheses(&self) -> &Hypotheses {
+        &self.hypotheses
+    }
+
+    /// Samples the horizontal and vertical EPI lines reach beyond a region.
+    pub fn margins(&self) -> (usize, usize) {
+        (self.margin_h, self.margin_v)
+    }
+
+    /// Number of bands (rows of tiles).
+    pub fn bands(&self) -> usize {
+        tv::tile_count(&self.plan).1
+    }
+
+    /// Image rows of the disparity band `band` writes.
+    pub fn output_rows(&self, band: usize) -> Result<Range<usize>> {
+        let bands = self.bands();
+        if band >= bands {
+            return Err(Error::OutOfRange {
+                what: "band",
+                index: band,
+                len: bands,
+            });
+        }
+        let tile = self.plan.params().tv.tile;
+        let height = self.plan.layout().height;
+        Ok(band * tile..((band + 1) * tile).min(height))
+    }
+
+    /// Image rows of the cross views band `band` reads.
+    pub fn input_rows(&self, band: usize) -> Result<Range<usize>> {
+        let out = self.output_rows(band)?;
+        let reach = self.plan.params().tv.halo + self.margin_v;
+        let height = self.plan.layout().height;
+        Ok(out.start.saturating_sub(reach)..(out.end + reach).min(height))
+    }
+
+    /// Most input rows any band reads.
+    pub fn max_input_rows(&self) -> usize {
+        let tv = &self.plan.params().tv;
+        (tv.tile + 2 * (tv.halo + self.margin_v)).min(self.plan.layout().height)
+    }
+
+    /// Elements of a packed [`CrossBand`] of [`StreamPlan::max_input_rows`] rows.
+    pub fn band_len(&self) -> usize {
+        let layout = self.plan.layout();
+        CrossBand::<u8>::slots(layout.grid)
+            .saturating_mul(self.max_input_rows())
+            .saturating_mul(layout.width)
+            .saturating_mul(layout.channels)
+    }
+
+    /// Largest region (core + halo) side: `(width, height)`.
+    fn region_size(&self) -> (usize, usize) {
+        let tv = &self.plan.params().tv;
+        let layout = self.plan.layout();
+        let side = tv.tile + 2 * tv.halo;
+        (side.min(layout.width), side.min(layout.height))
+    }
+
+    /// Kernel scratch (elements of `T`): one EPI line of a region with its margins, or
+    /// one TV solve of a region, whichever is larger.
+    pub fn scratch_len(&self) -> usize {
+        let layout = self.plan.layout();
+        let (rw, rh) = self.region_size();
+        let channels = match self.plan.params().epi.color {
+            ColorMode::Gray => 1,
+            ColorMode::Tensor => layout.channels.min(3),
+        };
+        let line =
+            |views: usize, n: usize| LineEstimator::<f32>::work_len(views, channels, n) + 2 * n;
+        let n_h = (rw + 2 * self.margin_h).min(layout.width);
+        let n_v = (rh + 2 * self.margin_v).min(layout.height);
+        line(layout.grid.cols, n_h)
+            .max(line(layout.grid.rows, n_v))
+            .max(tv::scratch_len_for(rw, rh))
+    }
+
+    /// Map scratch (`f32` elements): the EPI disparity and confidence of one region.
+    pub fn map_scratch_len(&self) -> usize {
+        let (rw, rh) = self.region_size();
+        2 * rw * rh
+    }
+
+    /// Bytes of both scratch slices with kernel scalars of `bytes_per_scalar` bytes
+    /// (4 for `f32` and `Q16`).
+    pub fn scratch_bytes(&self, bytes_per_scalar: usize) -> usize {
+        self.scratch_len()
+            .saturating_mul(bytes_per_scalar)
+            .saturating_add(self.map_scratch_len().saturating_mul(4))
+    }
+
+    /// Estimates band `band` from `input` (which must hold [`StreamPlan::input_rows`]) into
+    /// `disparity` and `confidence` (exactly `output_rows(band).len() · width` each,
+    /// row-major): EPI on each tile's region, then TV on it. `scratch` needs
+    /// [`StreamPlan::scratch_len`] elements, `maps` [`StreamPlan::map_scratch_len`].
+    pub fn process_band<T: Scalar, S: Sample>(
+        &self,
+        band: usize,
+        input: &CrossBand<'_, S>,
+        disparity: &mut [f32],
+        confidence: &mut [f32],
+        scratch: &mut [T],
+        maps: &mut [f32],
+    ) -> Result<tv::RefineReport> {
+        let layout = *self.plan.layout();
+        if input.grid != layout.grid
+            || input.width != layout.width
+            || input.channels != layout.channels
+        {
+            return Err(Error::InvalidParameter {
+                name: "band",
+                reason: "must have the grid, width and channels of the stream plan's layout",
+            });
+        }
+        let out_rows = self.output_rows(band)?;
+        let need = self.input_rows(band)?;
+        if input.rows.start > need.start || input.rows.end < need.end {
+            return Err(Error::OutOfRange {
+                what: "band row (the band must hold input_rows(band))",
+                index: if input.rows.start > need.start {
+                    need.start
+                } else {
+                    need.end - 1
+                },
+                len: input.rows.end,
+            });
+        }
+        let width = layout.width;
+        let out_len = out_rows.len() * width;
+        if disparity.len() != out_len || confidence.len() != out_len {
+            return Err(Error::OutputSize {
+                what: "the band disparity/confidence",
+                needed: out_len,
+                got: disparity.len().min(confidence.len()),
+            });
+        }
+        for (needed, got) in [
+            (self.scratch_len(), scratch.len()),
+            (self.map_scratch_len(), maps.len()),
+        ] {
+            if got < needed {
+                return Err(Error::ScratchTooSmall { needed, got });
+            }
+        }
+        let (cols, _) = tv::tile_count(&self.plan);
+        // The region maps keep the stride of the widest region, so that the columns a
+        // tile shares with the previous one of the band move left instead of being
+        // estimated again; TV reads them through maps of that width.
+        let (stride, max_height) = self.region_size();
+        let plane = stride * max_height;
+        let short = Error::ScratchTooSmall {
+            needed: 2 * plane,
+            got: maps.len(),
+        };
+        let (map_d, rest) = maps.split_at_mut_checked(plane).ok_or(short)?;
+        let map_c = rest.get_mut(..plane).ok_or(short)?;
+        // Columns past a region's width are never used, but the maps must be finite.
+        map_d.fill(0.0);
+        map_c.fill(0.0);
+        let (r0, c0) = layout.grid.center();
+        let centre = CrossBand::<S>::slot(layout.grid, r0, c0).unwrap_or(0);
+        let mut report = tv::RefineReport::default();
+        let mut previous: Option<Rect> = None;
+        for tx in 0..cols {
+            let (core, region) = tv::tile_rects(&self.plan, band * cols + tx)?;
+            let shared = match previous {
+                Some(p) => shift_left(p, region, stride, map_d, map_c),
+                None => 0,
+            };
+            previous = Some(region);
+            let fresh = shared..region.width;
+            self.epi_rows(input, region, fresh.clone(), stride, map_d, map_c, scratch)?;
+            self.epi_columns(input, region, fresh, stride, map_d, map_c, scratch)?;
+
+            let start = input.offset(centre, region.x, region.y);
+            let guide_data = input.data.get(start..).unwrap_or(&[]);
+            let guide = Guide::View(View::new(
+                guide_data,
+                stride,
+                region.height,
+                layout.channels,
+                input.row_stride,
+            )?);
+            let used = stride * region.height;
+            let (Some(used_d), Some(used_c)) = (map_d.get(..used), map_c.get(..used)) else {
+                return Err(short);
+            };
+            let tv_maps = Maps::new(stride, region.height, used_d, used_c)?;
+            let local_core = Rect {
+                x: core.x - region.x,
+                y: core.y - region.y,
+                width: core.width,
+                height: core.height,
+            };
+            let out_start = (core.y - out_rows.start) * width + core.x;
+            let tile = tv::solve(
+                &tv_maps,
+                &guide,
+                &self.plan.params().tv,
+                Rect {
+                    x: 0,
+                    y: 0,
+                    width: region.width,
+                    height: region.height,
+                },
+                local_core,
+                SolveOutput {
+                    disparity: disparity.get_mut(out_start..).unwrap_or_default(),
+                    stride: width,
+                    history: &mut [],
+                    dual: None,
+                },
+                scratch,
+            )?;
+            report.add(&tile);
+            for y in 0..core.height {
+                let from = (local_core.y + y) * stride + local_core.x;
+                let to = out_start + y * width;
+                let src = map_c.get(from..from + core.width);
+                let dst = confidence.get_mut(to..to + core.width);
+                if let (Some(src), Some(dst)) = (src, dst) {
+                    dst.copy_from_slice(src);
+                }
+            }
+        }
+        Ok(report)
+    }
+
+    /// Horizontal lines: image rows of the region, cropped to its columns ± margin.
+    /// Not inlined, like [`StreamPlan::epi_columns`], so that only one line estimator
+    /// (a few KiB) is on the stack at a time.
+    /// Writes the local columns `fresh` of every region row (`stride` apart in the maps).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn epi_rows<T: Scalar, S: Sample>(
+        &self,
+        input: &CrossBand<'_, S>,
+        region: Rect,
+        fresh: Range<usize>,
+        stride: usize,
+        map_d: &mut [f32],
+        map_c: &mut [f32],
+        scratch: &mut [T],
+    ) -> Result<()> {
+        if fresh.is_empty() {
+            return Ok(());
+        }
+        let layout = self.plan.layout();
+        let params = &self.plan.params().epi;
+        let grid = layout.grid;
+        let (r0, c0) = grid.center();
+        let h = &self.hypotheses;
+        let (lo, hi) = (h.min(), h.max());
+        let ch_n = layout.channels;
+        let color = params.color;
+        let x0 = (region.x + fresh.start).saturating_sub(self.margin_h);
+        let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
+        let n = x1 - x0;
+        let estimator = LineEstimator::<T>::new(params, *h, grid.cols, c0, ch_n);
+        let (d_line, c_line, work) = split_line(scratch, &estimator, grid.cols, n)?;
+        for ly in 0..region.height {
+            let y = region.y + ly;
+            let load = |k: usize, c: usize, out: &mut [T]| {
+                let slot = CrossBand::<S>::slot(grid, r0, k).unwrap_or(0);
+                load_line(input, input.offset(slot, x0, y), ch_n, n, color, c, out)
+            };
+            estimator.estimate(n, load, work, d_line, c_line)?;
+            let first = region.x + fresh.start - x0;
+            let row = ly * stride + fresh.start..ly * stride + fresh.end;
+            let (Some(out_d), Some(out_c), Some(d), Some(c)) = (
+                map_d.get_mut(row.clone()),
+                map_c.get_mut(row),
+                d_line.get(first..),
+                c_line.get(first..),
+            ) else {
+                continue;
+            };
+            for (((o, oc), &v), &w) in out_d.iter_mut().zip(out_c).zip(d).zip(c) {
+                *o = v.to_f32().clamp(lo, hi);
+                *oc = w.to_f32().clamp(0.0, 1.0);
+            }
+        }
+
+        Ok(())
+    }
+
+    /// Vertical lines: image columns of the region, cropped to its rows ± margin,
+    /// fused into the horizontal estimate.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn epi_columns<T: Scalar, S: Sample>(
+        &self,
+        input: &CrossBand<'_, S>,
+        region: Rect,
+        fresh: Range<usize>,
+        stride: usize,
+        map_d: &mut [f32],
+        map_c: &mut [f32],
+        scratch: &mut [T],
+    ) -> Result<()> {
+        if fresh.is_empty() {
+            return Ok(());
+        }
+        let layout = self.plan.layout();
+        let params = &self.plan.params().epi;
+        let grid = layout.grid;
+        let (r0, c0) = grid.center();
+        let h = &self.hypotheses;
+        let (lo, hi) = (h.min(), h.max());
+        let ch_n = layout.channels;
+        let color = params.color;
+        let y0 = region.y.saturating_sub(self.margin_v);
+        let y1 = (region.y + region.height + self.margin_v).min(layout.height);
+        let n = y1 - y0;
+        let estimator = LineEstimator::<T>::new(params, *h, grid.rows, r0, ch_n);
+        let (d_line, c_line, work) = split_line(scratch, &estimator, grid.rows, n)?;
+        let fusion = params.fusion;
+        let step = input.row_stride;
+        for lx in fresh {
+            let x = region.x + lx;
+            let load = |k: usize, c: usize, out: &mut [T]| {
+                let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
+                load_line(input, input.offset(slot, x, y0), step, n, color, c, out)
+            };
+            estimator.estimate(n, load, work, d_line, c_line)?;
+            let first = region.y - y0;
+            let column = first..first + region.height;
+            let (Some(d), Some(c)) = (d_line.get(column.clone()), c_line.get(column)) else {
+                continue;
+            };
+            // Column `lx` of the region maps: every `stride`-th element from `lx`.
+            let column_d = map_d.iter_mut().skip(lx).step_by(stride.max(1));
+            let column_c = map_c.iter_mut().skip(lx).step_by(stride.max(1));
+            for (((od, oc), &dv), &cv) in column_d.zip(column_c).zip(d).zip(c) {
+                let (dv, cv) = (dv.to_f32().clamp(lo, hi), cv.to_f32().clamp(0.0, 1.0));
+                (*od, *oc) = fuse(fusion, *od, *oc, dv, cv);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Moves the columns that `region` shares with `previous` (the tile to its left in the
+/// same band) to the left edge of the maps (`stride` apart); returns how many there are.
+fn shift_left(
+    previous: Rect,
+    region: Rect,
+    stride: usize,
+    map_d: &mut [f32],
+    map_c: &mut [f32],
+) -> usize {
+    if region.y != previous.y || region.height != previous.height || region.x < previous.x {
+        return 0;
+    }
+    let shared = (previous.x + previous.width)
+        .saturating_sub(region.x)
+        .min(region.width);
+    let dx = region.x - previous.x;
+    if shared == 0 || dx + shared > stride {
+        return 0;
+    }
+    for ly in 0..region.height {
+        let from = ly * stride + dx;
+        if from + shared > map_d.len().min(map_c.len()) {
+            return 0;
+        }
+        map_d.copy_within(from..from + shared, ly * stride);
+        map_c.copy_within(from..from + shared, ly * stride);
+    }
+    shared
+}
+
+/// Splits scratch into one line's disparity, confidence and work.
+#[allow(clippy::type_complexity)]
+fn split_line<'s, T: Scalar>(
+    scratch: &'s mut [T],
+    estimator: &LineEstimator<T>,
+    views: usize,
+    n: usize,
+) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
+    let needed = LineEstimator::<T>::work_len(views, estimator.channels(), n) + 2 * n;
+    if scratch.len() < needed {
+        return Err(Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        });
+    }
+    let short = Error::ScratchTooSmall {
+        needed,
+        got: scratch.len(),
+    };
+    let (d, rest) = scratch.split_at_mut_checked(n).ok_or(short)?;
+    let (c, work) = rest.split_at_mut_checked(n).ok_or(short)?;
+    Ok((d, c, work))
+}
+
+/// Loads `n` samples `step` apart from `start` as the EPI stage does: channel `c` (or the
+/// channel mean in gray mode), in unit intensity times [`INTENSITY_SCALE`].
+fn load_line<T: Scalar, S: Sample>(
+    input: &CrossBand<'_, S>,
+    start: usize,
+    step: usize,
+    n: usize,
+    color: ColorMode,
+    c: usize,
+    out: &mut [T],
+) -> Result<()> {
+    let ch_n = input.channels;
+    // Every pixel starts `step ≥ channels ≥ 1` elements after the previous one.
+    let step = step.max(1);
+    let end = start + n.saturating_sub(1) * step + ch_n;
+    let src = input.data.get(start..end).ok_or(Error::BufferTooSmall {
+        what: "the band buffer",
+        needed: end,
+        got: input.data.len(),
+    })?;
+    match color {
+        ColorMode::Tensor => {
+            for (o, px) in out.iter_mut().zip(src.chunks(step)) {
+                let v = px.get(c).map_or(0.0, |s| s.to_unit());
+                *o = T::from_f32(v * INTENSITY_SCALE);
+            }
+        }
+        ColorMode::Gray => {
+            let used = ch_n.min(3);
+            let scale = INTENSITY_SCALE / used as f32;
+            for (o, px) in out.iter_mut().zip(src.chunks(step)) {
+                let sum: f32 = px.iter().take(used).map(|s| s.to_unit()).sum();
+                *o = T::from_f32(sum * scale);
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,35 @@
+//! A firmware-style binary: the lfdepth stream on a small synthetic 9×9 frame, with every
+//! buffer static and sized at compile time — the shape of a microcontroller integration.
+//!
+//! On `thumbv7em-none-eabihf` the kernels compute in `f32`, on `thumbv6m-none-eabi` (no
+//! FPU) in Q16.16 fixed point. On the host the same code runs as an ordinary program that
+//! prints its result, so `cargo run -p lfdepth-firmware` checks it without a board.
+//! See docs/EMBEDDED.md.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+mod sensor;
+mod stream;
+
+#[cfg(target_os = "none")]
+mod device;
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    let mut memory = Box::new(stream::Memory::ZERO);
+    match stream::run(&mut memory) {
+        Ok(summary) => {
+            println!(
+                "{}x{} frame, {} scratch bytes: mean |d - gt| = {:.4} px, checksum {:#010x}",
+                stream::WIDTH,
+                stream::HEIGHT,
+                summary.scratch_bytes,
+                summary.mean_abs_error,
+                summary.checksum
+            );
+        }
+        Err(e) => {
+            eprintln!("stream failed: {e}");
+            std::process::exit(1);
+        }
+    }
+}
