@@ -52,6 +52,7 @@ fn stream_params(layout: Layout, min: f32, max: f32, halo: usize) -> (Params, St
                 ..EpiParams::default()
             },
             refine: RefineParams::off(),
+            median: lfdepth::median::MedianParams::off(),
             tv: TvParams {
                 tile,
                 halo,

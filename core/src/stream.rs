@@ -19,7 +19,7 @@
 //! and grid, never on the frame width or height (for frames larger than one region).
 //!
 //! The disparity range must be given ([`DisparityRange::Fixed`]): the automatic range
-//! probes the whole frame. The photometric refinement and the alignment are not streamed
+//! probes the whole frame. The photometric refinement, the weighted median and the alignment are not streamed
 //! (the views must be rectified).
 
 use core::ops::Range;
@@ -181,13 +181,19 @@ fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> us
 
 impl StreamPlan {
     /// Validates `layout` and `params` for streaming: the disparity range must be fixed
-    /// (or the shear off), the refinement and the alignment off.
+    /// (or the shear off), the refinement, the weighted median and the alignment off.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
         if params.refine.enabled {
             return Err(Error::InvalidParameter {
                 name: "refine.enabled",
                 reason: "must be off for a stream: the photometric refinement is not streamed",
+            });
+        }
+        if params.median.enabled {
+            return Err(Error::InvalidParameter {
+                name: "median.enabled",
+                reason: "must be off for a stream: the weighted median is not streamed",
             });
         }
         if params.align.mode != AlignMode::Off {
@@ -262,13 +268,14 @@ impl StreamPlan {
         let out = self.output_rows(band)?;
         let reach = self.plan.params().tv.halo + self.margin_v;
         let height = self.plan.layout().height;
-        Ok(out.start.saturating_sub(reach)..(out.end + reach).min(height))
+        // Vertical lines start on a multiple of `LINE_ALIGN` (see there).
+        Ok(align_down(out.start.saturating_sub(reach))..(out.end + reach).min(height))
     }
 
     /// Most input rows any band reads.
     pub fn max_input_rows(&self) -> usize {
         let tv = &self.plan.params().tv;
-        (tv.tile + 2 * (tv.halo + self.margin_v)).min(self.plan.layout().height)
+        (tv.tile + 2 * (tv.halo + self.margin_v) + LINE_ALIGN - 1).min(self.plan.layout().height)
     }
 
     /// Elements of a packed [`CrossBand`] of [`StreamPlan::max_input_rows`] rows.
@@ -297,12 +304,14 @@ impl StreamPlan {
             ColorMode::Gray => 1,
             ColorMode::Tensor => layout.channels.min(3),
         };
-        let line =
-            |views: usize, n: usize| LineEstimator::<f32>::work_len(views, channels, n) + 2 * n;
-        let n_h = (rw + 2 * self.margin_h).min(layout.width);
-        let n_v = (rh + 2 * self.margin_v).min(layout.height);
-        line(layout.grid.cols, n_h)
-            .max(line(layout.grid.rows, n_v))
+        let line = |views: usize, centre: usize, n: usize| {
+            LineEstimator::<f32>::work_len(views, centre, channels, n) + 2 * n
+        };
+        let n_h = (rw + 2 * self.margin_h + LINE_ALIGN - 1).min(layout.width);
+        let n_v = (rh + 2 * self.margin_v + LINE_ALIGN - 1).min(layout.height);
+        let (r0, c0) = layout.grid.center();
+        line(layout.grid.cols, c0, n_h)
+            .max(line(layout.grid.rows, r0, n_v))
             .max(tv::scratch_len_for(rw, rh))
     }
 
@@ -484,16 +493,21 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
-        let x0 = (region.x + fresh.start).saturating_sub(self.margin_h);
+        let x0 = align_down((region.x + fresh.start).saturating_sub(self.margin_h));
         let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
         let n = x1 - x0;
         let estimator = LineEstimator::<T>::new(params, *h, grid.cols, c0, ch_n);
-        let (d_line, c_line, work) = split_line(scratch, &estimator, grid.cols, n)?;
+        let planes = estimator.channels();
+        let (d_line, c_line, work) = split_line(scratch, &estimator, n)?;
         for ly in 0..region.height {
             let y = region.y + ly;
-            let load = |k: usize, c: usize, out: &mut [T]| {
+            let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, r0, k).unwrap_or(0);
-                load_line(input, input.offset(slot, x0, y), ch_n, n, color, c, out)
+                let start = input.offset(slot, x0, y);
+                for (c, plane) in out.chunks_mut(n).take(planes).enumerate() {
+                    load_line(input, start, ch_n, n, color, c, plane)?;
+                }
+                Ok(())
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.x + fresh.start - x0;
@@ -540,18 +554,23 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
-        let y0 = region.y.saturating_sub(self.margin_v);
+        let y0 = align_down(region.y.saturating_sub(self.margin_v));
         let y1 = (region.y + region.height + self.margin_v).min(layout.height);
         let n = y1 - y0;
         let estimator = LineEstimator::<T>::new(params, *h, grid.rows, r0, ch_n);
-        let (d_line, c_line, work) = split_line(scratch, &estimator, grid.rows, n)?;
+        let planes = estimator.channels();
+        let (d_line, c_line, work) = split_line(scratch, &estimator, n)?;
         let fusion = params.fusion;
         let step = input.row_stride;
         for lx in fresh {
             let x = region.x + lx;
-            let load = |k: usize, c: usize, out: &mut [T]| {
+            let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
-                load_line(input, input.offset(slot, x, y0), step, n, color, c, out)
+                let start = input.offset(slot, x, y0);
+                for (c, plane) in out.chunks_mut(n).take(planes).enumerate() {
+                    load_line(input, start, step, n, color, c, plane)?;
+                }
+                Ok(())
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.y - y0;
@@ -606,10 +625,9 @@ fn shift_left(
 fn split_line<'s, T: Scalar>(
     scratch: &'s mut [T],
     estimator: &LineEstimator<T>,
-    views: usize,
     n: usize,
 ) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
-    let needed = LineEstimator::<T>::work_len(views, estimator.channels(), n) + 2 * n;
+    let needed = estimator.line_work_len(n) + 2 * n;
     if scratch.len() < needed {
         return Err(Error::ScratchTooSmall {
             needed,
@@ -627,6 +645,15 @@ fn split_line<'s, T: Scalar>(
 
 /// Loads `n` samples `step` apart from `start` as the EPI stage does: channel `c` (or the
 /// channel mean in gray mode), in unit intensity times [`INTENSITY_SCALE`].
+/// Cropped lines start on multiples of this: the EPI stage scores its coarse pass on
+/// every second sample and sums its tensor in blocks of 16, counted from the line's
+/// start, so a crop starting elsewhere would round differently from the whole frame.
+const LINE_ALIGN: usize = 16;
+
+fn align_down(x: usize) -> usize {
+    x / LINE_ALIGN * LINE_ALIGN
+}
+
 fn load_line<T: Scalar, S: Sample>(
     input: &CrossBand<'_, S>,
     start: usize,

@@ -74,6 +74,7 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
             ..EpiParams::default()
         },
         refine: RefineParams::off(),
+        median: lfdepth::median::MedianParams::off(),
         tv: TvParams {
             tile: TILE,
             halo: HALO,

@@ -201,6 +201,11 @@ impl<T: Scalar> LineEstimator<T> {
         }
     }
 
+    /// Colour planes a line carries (1 for gray).
+    pub(crate) fn channels(&self) -> usize {
+        self.channels
+    }
+
     /// Work elements (of `T`) for a line of `n` samples.
     pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
         let planes = Planes::new(views, centre, channels + 1, n);

@@ -11,13 +11,17 @@ use crate::synth::{self, SceneKind, SynthSpec};
 use crate::tv::TvParams;
 use crate::Q16;
 
+/// Stream parameters. The exhaustive search: the coarse-to-fine one groups samples into
+/// runs along the whole line, so a cropped line agrees with the frame's only to ~1e-6 px.
 fn params(tile: usize, halo: usize, min: f32, max: f32) -> Params {
     Params {
         epi: EpiParams {
             range: DisparityRange::Fixed { min, max },
+            search: crate::epi::Search::Exhaustive,
             ..EpiParams::default()
         },
         refine: RefineParams::off(),
+        median: crate::median::MedianParams::off(),
         tv: TvParams {
             tile,
             halo,
@@ -177,12 +181,22 @@ fn bad_streams_are_refused_with_errors() {
     let layout = Layout::packed(Grid::new(9, 9), 64, 64, 3);
     let auto = Params {
         refine: RefineParams::off(),
+        median: crate::median::MedianParams::off(),
         ..Params::default()
     };
     assert!(matches!(
         StreamPlan::new(layout, auto),
         Err(Error::InvalidParameter {
             name: "epi.range",
+            ..
+        })
+    ));
+    let mut median = params(32, 8, -1.0, 1.0);
+    median.median = crate::median::MedianParams::default();
+    assert!(matches!(
+        StreamPlan::new(layout, median),
+        Err(Error::InvalidParameter {
+            name: "median.enabled",
             ..
         })
     ));
