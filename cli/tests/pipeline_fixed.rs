@@ -297,7 +297,7 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_both_hci_scenes() {
         {
             assert!(*share >= 0.99, "{scene}, {what}: {share} within 0.02 px");
         }
-        // With the median: measured 99.998 % / 98.94 % (docs/bench-fixed.md), short of
+        // With the median: measured 99.998 % / 99.016 % (docs/bench-fixed.md), close to
         // the 99 % goal on cotton.
         assert!(
             shares[4] >= 0.985,
