@@ -56,6 +56,7 @@ function params() {
     fusion: $("fusion").value,
     lambda: Number($("tv-lambda").value),
     iterations: Number($("tv-iterations").value),
+    median: $("median").checked,
     align: $("align").value,
   };
   if (manual) p.range = [Number($("range-min").value), Number($("range-max").value)];

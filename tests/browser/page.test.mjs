@@ -186,6 +186,44 @@ test("the align control exists, reaches the workers' requests and aligns a misal
   await page.close();
 });
 
+test("the median control exists, is on by default and reaches the refine + TV worker", async () => {
+  const page = await context.newPage();
+  page.on("pageerror", (e) => consoleErrors.push(e.message));
+  await page.addInitScript(() => {
+    window.__medians = [];
+    const post = Worker.prototype.postMessage;
+    Worker.prototype.postMessage = function (message, ...rest) {
+      if (message?.params && "median" in message.params) window.__medians.push(message.params.median);
+      return post.call(this, message, ...rest);
+    };
+  });
+  await page.goto(`${server.origin}/?scene=occlusion&size=96&grid=5&workers=2`);
+  await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
+  assert.equal(await page.isChecked("#median"), true);
+  const runWith = async (on) => {
+    await page.setChecked("#median", on);
+    await page.evaluate(() => (window.__medians = []));
+    await page.click("#run");
+    await page.waitForFunction(() => document.body.dataset.state === "running");
+    await settled(page);
+    return page.evaluate(() => ({
+      state: document.body.dataset.state,
+      error: document.getElementById("error").textContent,
+      medians: window.__medians,
+      timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
+    }));
+  };
+  const on = await runWith(true);
+  const off = await runWith(false);
+  for (const r of [on, off]) assert.equal(r.state, "done", r.error);
+  assert.ok(on.medians.length > 0 && on.medians.every((m) => m === true), JSON.stringify(on.medians));
+  assert.ok(off.medians.length > 0 && off.medians.every((m) => m === false), JSON.stringify(off.medians));
+  // The worker reports the median as a stage of its own only when it ran.
+  assert.ok(on.timings.some((t) => t.startsWith("median")), on.timings.join("; "));
+  assert.ok(!off.timings.some((t) => t.startsWith("median")), off.timings.join("; "));
+  await page.close();
+});
+
 test("Cancel stops a running estimation and the page stays usable", async () => {
   // One worker on 512² views: long enough (seconds) to cancel in the middle of the bands.
   const page = await open("?scene=slanted&size=512&grid=9&workers=1");

@@ -409,7 +409,7 @@ impl Estimator {
         let mut refined_confidence = confidence.to_vec();
         let mut history = vec![0.0f32; self.plan.params().tv.max_iterations];
         let timings = with_progress(on_progress, |report| {
-            let mut scratch = vec![0.0f32; tv::scratch_len(&self.plan)];
+            let mut scratch = vec![0.0f32; pipeline::scratch_len(&self.plan)];
             let mut maps = vec![0.0f32; pipeline::map_scratch_len(&self.plan)];
             pipeline::regularize(
                 &self.plan,
