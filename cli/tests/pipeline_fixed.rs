@@ -17,7 +17,7 @@ use lfdepth::synth::{self, SceneKind, SynthSpec};
 use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::{Grid, Homography, LightField, Params, Plan, Scalar, Q16};
 use lfdepth_cli::engine::{estimate_with, Estimate, EstimateOptions, Precision, StageSelect};
-use tv_support::{load_hci, read_pfm, scores, shared_data};
+use tv_support::{cpu_seconds, load_hci, read_pfm, scores, shared_data};
 
 fn synthetic(kind: SceneKind, size: usize) -> (Vec<u8>, SynthSpec) {
     let spec = SynthSpec {
@@ -307,24 +307,6 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_both_hci_scenes() {
     }
 }
 
-/// CPU seconds (user + system, all threads) of this process so far, from /proc.
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| {
-        fields
-            .get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    // Fields 14 and 15 of stat (utime, stime), counted after the command name.
-    (ticks(11) + ticks(12)) / 100.0
-}
 
 /// CPU seconds of each serial core stage in `T` on HCI cotton (each stage from the same
 /// `f32` input): EPI, refinement, TV, and the whole `pipeline::run`.

@@ -185,24 +185,6 @@ fn full_pipeline_accuracy_on_both_hci_scenes() {
     }
 }
 
-/// CPU seconds (user + system, all threads) of this process so far, from /proc.
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let fields: Vec<&str> = stat
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| {
-        fields
-            .get(i)
-            .and_then(|v| v.parse::<f64>().ok())
-            .unwrap_or(0.0)
-    };
-    // Fields 14 and 15 of stat (utime, stime), counted after the command name.
-    (ticks(11) + ticks(12)) / 100.0
-}
 
 #[test]
 #[ignore = "timing report: per-stage wall time and CPU time of the engine on cotton"]

@@ -137,3 +137,22 @@ pub fn load_hci(dir: &Path) -> (Vec<u8>, Layout) {
     }
     (data, Layout::packed(Grid::new(9, 9), w, h, 3))
 }
+
+/// CPU seconds (user + system, all threads) of this process so far, from /proc.
+pub fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    // Fields 14 and 15 of stat (utime, stime), counted after the command name.
+    (ticks(11) + ticks(12)) / 100.0
+}
