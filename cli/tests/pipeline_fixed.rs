@@ -307,7 +307,6 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_both_hci_scenes() {
     }
 }
 
-
 /// CPU seconds of each serial core stage in `T` on HCI cotton (each stage from the same
 /// `f32` input): EPI, refinement, TV, and the whole `pipeline::run`.
 fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {

@@ -185,7 +185,6 @@ fn full_pipeline_accuracy_on_both_hci_scenes() {
     }
 }
 
-
 #[test]
 #[ignore = "timing report: per-stage wall time and CPU time of the engine on cotton"]
 fn pipeline_stage_timings() {
