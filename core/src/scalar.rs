@@ -287,7 +287,9 @@ fn isqrt_round(v: u64) -> u64 {
     // Newton's method from an over-estimate converges monotonically to floor(sqrt(v)).
     let mut x = 1u64 << (64 - v.leading_zeros()).div_ceil(2);
     loop {
-        let y = (x + v / x) / 2;
+        // x ≥ floor(sqrt(v)) ≥ 1: the checked division never misses (it keeps the
+        // division-by-zero panic out of the firmware image).
+        let y = (x + v.checked_div(x).unwrap_or(v)) / 2;
         if y >= x {
             break;
         }

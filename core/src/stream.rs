@@ -25,7 +25,9 @@
 use core::ops::Range;
 
 use crate::align::AlignMode;
-use crate::epi::{fuse, ColorMode, DisparityRange, Hypotheses, LineEstimator, INTENSITY_SCALE};
+use crate::epi::{
+    clamp_f32, fuse, ColorMode, DisparityRange, Hypotheses, LineEstimator, INTENSITY_SCALE,
+};
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Grid, Layout, Sample, View};
 use crate::plan::{Params, Plan};
@@ -521,7 +523,7 @@ impl StreamPlan {
                 continue;
             };
             for (((o, oc), &v), &w) in out_d.iter_mut().zip(out_c).zip(d).zip(c) {
-                *o = v.to_f32().clamp(lo, hi);
+                *o = clamp_f32(v.to_f32(), lo, hi);
                 *oc = w.to_f32().clamp(0.0, 1.0);
             }
         }
@@ -582,7 +584,7 @@ impl StreamPlan {
             let column_d = map_d.iter_mut().skip(lx).step_by(stride.max(1));
             let column_c = map_c.iter_mut().skip(lx).step_by(stride.max(1));
             for (((od, oc), &dv), &cv) in column_d.zip(column_c).zip(d).zip(c) {
-                let (dv, cv) = (dv.to_f32().clamp(lo, hi), cv.to_f32().clamp(0.0, 1.0));
+                let (dv, cv) = (clamp_f32(dv.to_f32(), lo, hi), cv.to_f32().clamp(0.0, 1.0));
                 (*od, *oc) = fuse(fusion, *od, *oc, dv, cv);
             }
         }
@@ -614,8 +616,14 @@ fn shift_left(
         if from + shared > map_d.len().min(map_c.len()) {
             return 0;
         }
-        map_d.copy_within(from..from + shared, ly * stride);
-        map_c.copy_within(from..from + shared, ly * stride);
+        // Row `ly` from its start to the shared columns' end: `dx` then `shared` samples.
+        let row = ly * stride..from + shared;
+        if let (Some(d), Some(c)) = (map_d.get_mut(row.clone()), map_c.get_mut(row)) {
+            if dx <= d.len() && dx <= c.len() {
+                d.copy_within(dx.., 0);
+                c.copy_within(dx.., 0);
+            }
+        }
     }
     shared
 }

@@ -23,7 +23,7 @@ const TILE: usize = 36;
 const HALO: usize = 16;
 /// Views of the cross and the most rows a band holds (checked against the plan).
 const SLOTS: usize = 17;
-const BAND_ROWS: usize = 100;
+const BAND_ROWS: usize = 115;
 /// The 256 KiB scratch: kernel scalars and `f32` region maps.
 const KERNEL_ELEMENTS: usize = 56_064;
 const MAP_ELEMENTS: usize = 256 * 1024 / 4 - KERNEL_ELEMENTS;

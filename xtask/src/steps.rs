@@ -11,6 +11,7 @@
 //! | `nostd-thumbv7em`, `nostd-thumbv6m` | `cargo build -p lfdepth --release --target …` with `RUSTFLAGS=-D warnings` in `target/nostd` |
 //! | `firmware-thumbv7em`, `firmware-thumbv6m` | `cargo build -p lfdepth-firmware --profile firmware --target …` (the stream in a `no_main` image, f32 / Q16), same flags and directory |
 //! | `firmware-size` | text / data / bss of both firmware images (docs/EMBEDDED.md) |
+//! | `firmware-panic-free` | both firmware images again with `--features panic-free` (their panic handler calls an undefined symbol, so the link fails if any panic path survives optimisation), same flags and directory |
 //! | `doc`            | `cargo doc -p lfdepth --no-deps` with `RUSTDOCFLAGS=-D warnings` |
 //! | `wasm-build`     | `cargo build -p lfdepth-wasm --target wasm32-unknown-unknown --release` |
 //! | `test-release`   | `cargo test --workspace --release -- --show-output` (the heavy accuracy tests) |
@@ -214,6 +215,15 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
                 .env("RUSTFLAGS", "-D warnings"),
         )
     };
+    // After `firmware-size`: it rebuilds the images in place (the same code but for the
+    // panic handler), both targets in one cargo call.
+    let panic_free = Action::Run(
+        Cmd::cargo(&["build", "-p", "lfdepth-firmware", "--profile", "firmware"])
+            .args(&["--features", "panic-free"])
+            .args(&["--target", FIRMWARE[0].0, "--target", FIRMWARE[1].0])
+            .args(&["--target-dir", "target/nostd"])
+            .env("RUSTFLAGS", "-D warnings"),
+    );
     let images = FIRMWARE
         .iter()
         .map(|(target, label)| {
@@ -225,6 +235,7 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
         ("firmware-thumbv7em", firmware(FIRMWARE[0].0)),
         ("firmware-thumbv6m", firmware(FIRMWARE[1].0)),
         ("firmware-size", Action::ElfSizes(images)),
+        ("firmware-panic-free", panic_free),
     ] {
         steps.push(if quick {
             skip(name, quick_reason)
@@ -455,6 +466,7 @@ mod tests {
                 "firmware-thumbv7em",
                 "firmware-thumbv6m",
                 "firmware-size",
+                "firmware-panic-free",
                 "doc",
                 "wasm-build",
                 "test-release",
@@ -470,7 +482,7 @@ mod tests {
             .filter(|s| s.action.is_ok())
             .map(|s| s.name)
             .collect();
-        assert_eq!(running.len(), 12);
+        assert_eq!(running.len(), 13);
         assert_eq!(
             skipped(&steps, "node-tests").as_deref(),
             Some("no tests/node/*.test.mjs")
@@ -525,6 +537,7 @@ mod tests {
             "clippy-wasm",
             "firmware-thumbv7em",
             "firmware-size",
+            "firmware-panic-free",
             "wasm-build",
             "test-release",
             "wasm-pack",
@@ -582,6 +595,30 @@ mod tests {
             images[1].1,
             PathBuf::from("target/nostd/thumbv6m-none-eabi/firmware/lfdepth-firmware")
         );
+    }
+
+    #[test]
+    fn the_panic_free_link_check_builds_both_images_with_the_feature() {
+        let steps = plan(&Inputs::default(), false);
+        let Some(Ok(Action::Run(cmd))) = steps
+            .iter()
+            .find(|s| s.name == "firmware-panic-free")
+            .map(|s| s.action.clone())
+        else {
+            panic!("firmware-panic-free is not a command");
+        };
+        let text = cmd.to_string();
+        assert!(text.starts_with("RUSTFLAGS=-D warnings "), "{text}");
+        for part in [
+            "-p lfdepth-firmware --profile firmware --features panic-free",
+            "--target thumbv7em-none-eabihf --target thumbv6m-none-eabi",
+            "--target-dir target/nostd",
+        ] {
+            assert!(text.contains(part), "{part}: {text}");
+        }
+        let order = names(&steps);
+        let at = |name| order.iter().position(|&n| n == name);
+        assert!(at("firmware-size") < at("firmware-panic-free"));
     }
 
     #[test]

@@ -33,11 +33,14 @@ impl<T: Scalar> Band<T> {
         active: [bool; GRID_MAX],
         views: usize,
     ) -> Self {
+        let views = views.min(GRID_MAX);
         let significant = |row: &[f32; GRID_MAX], j: usize| {
-            let largest = row[..views]
+            let largest = row
                 .iter()
+                .take(views)
                 .fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
-            row[j] != 0.0 && libm::fabsf(row[j]) >= PRUNE * largest
+            row.get(j)
+                .is_some_and(|&v| v != 0.0 && libm::fabsf(v) >= PRUNE * largest)
         };
         let mut spans = [(0usize, 0usize); GRID_MAX];
         let mut taps = 1;

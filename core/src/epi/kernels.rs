@@ -61,19 +61,23 @@ impl<T: Scalar> Kernel<T> {
     /// Kernel from `2·radius + 1` taps that are mirror-symmetric up to rounding; the upper
     /// half is mirrored from the lower one so that the symmetry is exact.
     fn from_f32(taps: &[f32; MAX_TAPS], radius: usize, symmetry: Symmetry) -> Self {
+        let radius = radius.min(MAX_RADIUS);
         let mut out = [T::ZERO; MAX_TAPS];
         for (o, &t) in out.iter_mut().zip(taps.iter()).take(radius + 1) {
             *o = T::from_f32(t);
         }
-        if symmetry == Symmetry::Odd {
-            out[radius] = T::ZERO;
-        }
-        for j in 1..=radius {
-            let lower = out[radius - j];
-            out[radius + j] = match symmetry {
-                Symmetry::Even => lower,
-                Symmetry::Odd => -lower,
-            };
+        // `radius ≤ MAX_RADIUS`: the centre and the `radius` taps above it exist.
+        let (lower, upper) = out.split_at_mut(radius);
+        if let Some((centre, upper)) = upper.split_first_mut() {
+            if symmetry == Symmetry::Odd {
+                *centre = T::ZERO;
+            }
+            for (u, &l) in upper.iter_mut().zip(lower.iter().rev()) {
+                *u = match symmetry {
+                    Symmetry::Even => l,
+                    Symmetry::Odd => -l,
+                };
+            }
         }
         Kernel {
             taps: out,
@@ -132,7 +136,9 @@ impl<T: Scalar> Kernel<T> {
     pub(crate) fn apply_range(&self, input: &[T], out: &mut [T], range: Range<usize>) {
         let n = input.len().min(out.len());
         let r = self.radius;
-        let taps = &self.taps[..2 * r + 1];
+        let Some(taps) = self.taps.get(..2 * r + 1) else {
+            return; // radius ≤ MAX_RADIUS by construction
+        };
         let (a, b) = (range.start.min(n), range.end.min(n));
         if a >= b {
             return;
@@ -183,8 +189,11 @@ impl<T: Scalar> Kernel<T> {
             };
             // An element loop, not `copy_from_slice`: the length varies, and a library
             // `memmove` call per block cost more than the copy.
-            for (o, &v) in inner[done..t0 + len].iter_mut().zip(&acc[done - t0..len]) {
-                *o = v;
+            if let (Some(dst), Some(src)) = (inner.get_mut(done..t0 + len), acc.get(done - t0..len))
+            {
+                for (o, &v) in dst.iter_mut().zip(src) {
+                    *o = v;
+                }
             }
             done = t0 + len;
         }
@@ -199,27 +208,33 @@ impl<T: Scalar> Kernel<T> {
     /// tap, then each mirrored pair of samples times its shared tap, outermost last.
     #[inline(always)]
     fn interior_block(&self, input: &[T], t0: usize, len: usize, acc: &mut [T; BLOCK]) {
+        // The callers keep every window inside `input` and `radius ≤ MAX_RADIUS`; the
+        // checked accesses only keep panics out of the image (a miss leaves zeros).
         let r = self.radius;
-        let centre = self.taps[r];
+        let len = len.min(BLOCK);
+        let window = |from: usize| input.get(from..).and_then(|s| s.get(..len));
+        let Some((&centre, upper)) = self.taps.get(r..).and_then(|t| t.split_first()) else {
+            return;
+        };
         if self.symmetry == Symmetry::Even {
-            for (a, &v) in acc[..len].iter_mut().zip(&input[t0 + r..t0 + r + len]) {
-                *a = centre * v;
+            if let Some(middle) = window(t0 + r) {
+                for (a, &v) in acc.iter_mut().zip(middle) {
+                    *a = centre * v;
+                }
             }
         }
-        for j in 1..=r {
-            let k = self.taps[r + j];
-            let (below, above) = (
-                &input[t0 + r - j..t0 + r - j + len],
-                &input[t0 + r + j..t0 + r + j + len],
-            );
+        for (j, &k) in (1..=r).zip(upper) {
+            let (Some(below), Some(above)) = (window(t0 + r - j), window(t0 + r + j)) else {
+                continue;
+            };
             match self.symmetry {
                 Symmetry::Even => {
-                    for ((a, &x), &y) in acc[..len].iter_mut().zip(below).zip(above) {
+                    for ((a, &x), &y) in acc.iter_mut().zip(below).zip(above) {
                         *a += k * (x + y);
                     }
                 }
                 Symmetry::Odd => {
-                    for ((a, &x), &y) in acc[..len].iter_mut().zip(below).zip(above) {
+                    for ((a, &x), &y) in acc.iter_mut().zip(below).zip(above) {
                         *a += k * (y - x);
                     }
                 }

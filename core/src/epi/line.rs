@@ -92,7 +92,10 @@ impl<T: Scalar> Guide<'_, T> {
     /// Whether sample `t` needs the hypothesis `shear`.
     #[inline(always)]
     fn needs(&self, t: usize, shear: T) -> bool {
-        (shear - self.estimate[t]).abs() < self.reach[t]
+        match (self.estimate.get(t), self.reach.get(t)) {
+            (Some(&estimate), Some(&reach)) => (shear - estimate).abs() < reach,
+            _ => true,
+        }
     }
 }
 
@@ -250,18 +253,31 @@ impl<T: Scalar> LineEstimator<T> {
         // One plane slot per channel and one for the coarse pass's gray.
         let planes = Planes::new(k_n, self.centre, c_n + 1, n);
         let nb = planes.n_blocks;
-        let (bank, rest) = work.split_at_mut(planes.bank_len());
-        let (jxx, rest) = rest.split_at_mut(nb);
-        let (jxk, rest) = rest.split_at_mut(nb);
-        let (jkk, rest) = rest.split_at_mut(nb);
-        let (raw, rest) = rest.split_at_mut(c_n * n);
-        let (sxx, rest) = rest.split_at_mut(n);
-        let (sxk, rest) = rest.split_at_mut(n);
-        let (skk, rest) = rest.split_at_mut(n);
-        let (score, rest) = rest.split_at_mut(n);
-        let (prev_r, rest) = rest.split_at_mut(n);
-        let (prev_c, rest) = rest.split_at_mut(n);
-        let coarse_work = &mut rest[..5 * n];
+        // `work_len` covers every part; the checked splits only keep panics out.
+        let short = Error::ScratchTooSmall {
+            needed,
+            got: work.len(),
+        };
+        let mut rest = work;
+        let mut take = |len: usize| -> Result<&mut [T]> {
+            let (head, tail) = core::mem::take(&mut rest)
+                .split_at_mut_checked(len)
+                .ok_or(short)?;
+            rest = tail;
+            Ok(head)
+        };
+        let bank = take(planes.bank_len())?;
+        let jxx = take(nb)?;
+        let jxk = take(nb)?;
+        let jkk = take(nb)?;
+        let raw = take(c_n * n)?;
+        let sxx = take(n)?;
+        let sxk = take(n)?;
+        let skk = take(n)?;
+        let score = take(n)?;
+        let prev_r = take(n)?;
+        let prev_c = take(n)?;
+        let coarse_work = take(5 * n)?;
         let mut tensor = Tensor {
             jxx,
             jxk,
@@ -280,21 +296,32 @@ impl<T: Scalar> LineEstimator<T> {
             for (c, raw) in raw.chunks_exact(n).enumerate() {
                 for (kind, kernel) in [(0, &self.derivative), (1, &self.smoothing)] {
                     let at = planes.plane(kind, k, c);
-                    let plane = &mut bank[at..at + planes.len];
-                    let (head, tail) = plane.split_at_mut(planes.lead);
-                    kernel.apply(raw, &mut tail[..n]);
-                    let (first, last) = (tail[0], tail[n - 1]);
+                    let plane = bank.get_mut(at..at + planes.len).ok_or(short)?;
+                    let (head, tail) = plane.split_at_mut_checked(planes.lead).ok_or(short)?;
+                    let (line, pad) = tail.split_at_mut_checked(n).ok_or(short)?;
+                    kernel.apply(raw, line);
+                    let (Some(&first), Some(&last)) = (line.first(), line.last()) else {
+                        return Err(short);
+                    };
                     head.fill(first);
-                    tail[n..].fill(last);
+                    pad.fill(last);
                     if self.half_shifts {
                         // out[t] = ½·in[t − w] + ½·in[t − w − 1]: the shift's interpolation.
                         let to = planes.plane(kind + 2, k, c);
-                        let (stored, shifted) = bank.split_at_mut(to);
-                        let plane = &stored[at..at + planes.len];
-                        let shifted = &mut shifted[..planes.len];
-                        shifted[0] = half * plane[0] + half * plane[0];
-                        for (o, pair) in shifted[1..].iter_mut().zip(plane.windows(2)) {
-                            *o = half * pair[1] + half * pair[0];
+                        let (stored, shifted) = bank.split_at_mut_checked(to).ok_or(short)?;
+                        let plane = stored.get(at..at + planes.len).ok_or(short)?;
+                        let shifted = shifted.get_mut(..planes.len).ok_or(short)?;
+                        let (Some((s0, shifted)), Some(&p0)) =
+                            (shifted.split_first_mut(), plane.first())
+                        else {
+                            return Err(short);
+                        };
+                        *s0 = half * p0 + half * p0;
+                        for (o, (&below, &above)) in shifted
+                            .iter_mut()
+                            .zip(plane.iter().zip(plane.iter().skip(1)))
+                        {
+                            *o = half * above + half * below;
                         }
                     }
                 }
@@ -308,12 +335,13 @@ impl<T: Scalar> LineEstimator<T> {
             for kind in 0..kinds {
                 for k in 0..k_n {
                     let to = planes.plane(kind, k, c_n);
-                    let (stored, gray) = bank.split_at_mut(to);
-                    let gray = &mut gray[..planes.len];
+                    let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
+                    let gray = gray.get_mut(..planes.len).ok_or(short)?;
                     gray.fill(T::ZERO);
                     for c in 0..c_n {
                         let at = planes.plane(kind, k, c);
-                        for (g, &v) in gray.iter_mut().zip(&stored[at..at + planes.len]) {
+                        let plane = stored.get(at..at + planes.len).ok_or(short)?;
+                        for (g, &v) in gray.iter_mut().zip(plane) {
                             *g += v;
                         }
                     }
@@ -322,16 +350,16 @@ impl<T: Scalar> LineEstimator<T> {
                     }
                 }
             }
-            let (estimate, rest) = coarse_work.split_at_mut(n);
-            let (coherence, rest) = rest.split_at_mut(n);
-            let (coarse_score, rest) = rest.split_at_mut(n);
-            let (coarse_prev_r, coarse_prev_c) = rest.split_at_mut(n);
+            let (estimate, rest) = coarse_work.split_at_mut_checked(n).ok_or(short)?;
+            let (coherence, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
+            let (coarse_score, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
+            let (coarse_prev_r, coarse_prev_c) = rest.split_at_mut_checked(n).ok_or(short)?;
             let mut state = State {
                 best_d: estimate,
                 best_c: coherence,
                 score: coarse_score,
                 prev_r: coarse_prev_r,
-                prev_c: &mut coarse_prev_c[..n],
+                prev_c: coarse_prev_c.get_mut(..n).ok_or(short)?,
             };
             self.sweep(
                 &coarse.hypotheses,
@@ -411,7 +439,7 @@ impl<T: Scalar> LineEstimator<T> {
         }
         let h = &self.hypotheses;
         let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
-        for d in disparity[..n].iter_mut() {
+        for d in disparity.iter_mut().take(n) {
             *d = d.clamp(lo, hi);
         }
         Ok(())
@@ -455,7 +483,9 @@ impl<T: Scalar> LineEstimator<T> {
             while t < n {
                 if !needs(t) {
                     // Not tested here: no zero crossing with the next hypothesis.
-                    state.prev_c[t] = degenerate;
+                    if let Some(c) = state.prev_c.get_mut(t) {
+                        *c = degenerate;
+                    }
                     t += 1;
                     continue;
                 }
@@ -472,12 +502,17 @@ impl<T: Scalar> LineEstimator<T> {
                     ..(end + reach).div_ceil(BLOCK).min(planes.n_blocks / BLOCK);
                 self.tensor_blocks(bank, &sources, tensor, blocks);
                 let sums = &mut *tensor;
-                self.outer.apply_range(&sums.jxx[..n], sums.sxx, start..end);
-                self.outer.apply_range(&sums.jxk[..n], sums.sxk, start..end);
-                self.outer.apply_range(&sums.jkk[..n], sums.skk, start..end);
+                let (jxx, jxk, jkk) = (
+                    sums.jxx.get(..n).unwrap_or_default(),
+                    sums.jxk.get(..n).unwrap_or_default(),
+                    sums.jkk.get(..n).unwrap_or_default(),
+                );
+                self.outer.apply_range(jxx, sums.sxx, start..end);
+                self.outer.apply_range(jxk, sums.sxk, start..end);
+                self.outer.apply_range(jkk, sums.skk, start..end);
                 self.score(hyps, i, sums, state, start..end, stride);
                 // The samples the probe passed after the run are not needed either.
-                for c in &mut state.prev_c[end..probe] {
+                for c in state.prev_c.get_mut(end..probe).unwrap_or_default() {
                     *c = degenerate;
                 }
                 t = probe;
@@ -495,6 +530,7 @@ impl<T: Scalar> LineEstimator<T> {
         range: Range<usize>,
         stride: usize,
     ) {
+        let stride = stride.max(1); // 1 or the coarse pass's (positive) stride
         let window = T::from_f32(hyps.window());
         let step = T::from_f32(hyps.step());
         let degenerate = T::from_f32(DEGENERATE);
@@ -515,7 +551,21 @@ impl<T: Scalar> LineEstimator<T> {
             prev_c,
         } = state;
         for t in (range.start.next_multiple_of(stride)..range.end).step_by(stride) {
-            let trace = sxx[t] + skk[t];
+            // Every slice is `n` long and `range.end ≤ n`: the checked accesses never miss
+            // (they replace the bounds checks' panics).
+            let (Some(&xx), Some(&xk), Some(&kk)) = (sxx.get(t), sxk.get(t), skk.get(t)) else {
+                continue;
+            };
+            let (Some(score), Some(best_d), Some(best_c), Some(prev_r), Some(prev_c)) = (
+                score.get_mut(t),
+                best_d.get_mut(t),
+                best_c.get_mut(t),
+                prev_r.get_mut(t),
+                prev_c.get_mut(t),
+            ) else {
+                continue;
+            };
+            let trace = xx + kk;
             // Residual slope and coherence; coherence < 0 marks a degenerate tensor.
             let (r, coherence) = if trace <= tiny_trace {
                 (T::ZERO, degenerate)
@@ -523,8 +573,8 @@ impl<T: Scalar> LineEstimator<T> {
                 // Normalised by the trace so that fixed point never overflows:
                 // a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the
                 // dominant eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
-                let a = (sxx[t] - skk[t]) / trace;
-                let b = two * sxk[t] / trace;
+                let a = (xx - kk) / trace;
+                let b = two * xk / trace;
                 let coherence = (a * a + b * b).sqrt().min(T::ONE);
                 let den = a + coherence;
                 if den <= min_den {
@@ -549,7 +599,7 @@ impl<T: Scalar> LineEstimator<T> {
                 // The residual slope falls linearly through zero between the two
                 // shears that bracket the disparity; its zero crossing cancels the
                 // tensor's slope-proportional bias.
-                let (pr, pc) = (prev_r[t], prev_c[t]);
+                let (pr, pc) = (*prev_r, *prev_c);
                 if inside && pc >= T::ZERO && pr >= T::ZERO && r <= T::ZERO {
                     let gap = pr - r;
                     if gap > min_gap {
@@ -562,16 +612,16 @@ impl<T: Scalar> LineEstimator<T> {
                     }
                 }
             }
-            if cand_score > score[t] {
-                score[t] = cand_score;
-                best_d[t] = cand_d;
-                best_c[t] = coherence.max(T::ZERO);
+            if cand_score > *score {
+                *score = cand_score;
+                *best_d = cand_d;
+                *best_c = coherence.max(T::ZERO);
             }
             if inside {
-                prev_r[t] = r;
-                prev_c[t] = coherence;
+                *prev_r = r;
+                *prev_c = coherence;
             } else {
-                prev_c[t] = degenerate;
+                *prev_c = degenerate;
             }
         }
     }
@@ -596,7 +646,7 @@ impl<T: Scalar> LineEstimator<T> {
             Some(coarse) if slots.start >= self.channels => coarse.half_shifts,
             _ => self.half_shifts,
         };
-        for k in 0..self.views {
+        for k in 0..self.views.min(GRID_MAX) {
             let offset = (k as f32 - self.centre as f32) * shear;
             let floor = libm::floorf(offset);
             let frac = offset - floor;
@@ -620,16 +670,26 @@ impl<T: Scalar> LineEstimator<T> {
                         sources.s[slot][k] = start(kind + 1);
                     }
                     _ => {
-                        let (stored, spare) = bank.split_at_mut(stored_len);
+                        let Some((stored, spare)) = bank.split_at_mut_checked(stored_len) else {
+                            continue;
+                        };
                         for kind in 0..2 {
                             let from = planes.plane(kind, k, c) + planes.lead;
                             let to = planes.fallback(kind, k, c);
-                            let out =
-                                &mut spare[to - stored_len..to - stored_len + planes.n_blocks];
-                            let (line, tail) = out.split_at_mut(planes.n);
-                            shift(&stored[from..from + planes.n], line, offset);
-                            let last = line[planes.n - 1];
-                            tail.fill(last);
+                            let at = to.wrapping_sub(stored_len);
+                            let (Some(out), Some(input)) = (
+                                spare.get_mut(at..at.wrapping_add(planes.n_blocks)),
+                                stored.get(from..from + planes.n),
+                            ) else {
+                                continue;
+                            };
+                            let Some((line, tail)) = out.split_at_mut_checked(planes.n) else {
+                                continue;
+                            };
+                            shift(input, line, offset);
+                            if let Some(&last) = line.last() {
+                                tail.fill(last);
+                            }
                             if kind == 0 {
                                 sources.d[slot][k] = to;
                             } else {
@@ -669,10 +729,10 @@ impl<T: Scalar> LineEstimator<T> {
         blocks: Range<usize>,
     ) {
         let span = blocks.start * BLOCK..blocks.end * BLOCK;
-        let lines = tensor.jxx[span.clone()]
+        let lines = (tensor.jxx.get_mut(span.clone()).unwrap_or_default())
             .chunks_exact_mut(BLOCK)
-            .zip(tensor.jxk[span.clone()].chunks_exact_mut(BLOCK))
-            .zip(tensor.jkk[span].chunks_exact_mut(BLOCK));
+            .zip((tensor.jxk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(BLOCK))
+            .zip((tensor.jkk.get_mut(span).unwrap_or_default()).chunks_exact_mut(BLOCK));
         for (b, ((xx, xk), kk)) in blocks.zip(lines) {
             let [sxx, sxk, skk] = self.tensor_block::<TAPS>(bank, sources, b * BLOCK);
             xx.copy_from_slice(&sxx);
@@ -695,20 +755,32 @@ impl<T: Scalar> LineEstimator<T> {
         let mut kk = [T::ZERO; BLOCK];
         let band = &self.band;
         for (sd, ss) in sources.d.iter().zip(&sources.s).take(sources.slots) {
-            for k in 0..self.views {
-                if !sources.active[k] {
+            let views = band
+                .rows
+                .iter()
+                .zip(&band.smooth)
+                .zip(&band.derivative)
+                .zip(&sources.active)
+                .take(self.views);
+            for (((rows, smooth), derivative), &active) in views {
+                if !active {
                     continue;
                 }
                 let mut gx = [T::ZERO; BLOCK];
                 let mut gk = [T::ZERO; BLOCK];
-                let taps = band.rows[k][..TAPS]
-                    .iter()
-                    .zip(&band.smooth[k][..TAPS])
-                    .zip(&band.derivative[k][..TAPS]);
+                let taps = rows.iter().zip(smooth).zip(derivative).take(TAPS);
                 for ((&j, &a), &b) in taps {
-                    let (at_d, at_s) = (sd[j] + t0, ss[j] + t0);
-                    let d = &bank[at_d..at_d + BLOCK];
-                    let s = &bank[at_s..at_s + BLOCK];
+                    let (Some(&from_d), Some(&from_s)) = (sd.get(j), ss.get(j)) else {
+                        continue;
+                    };
+                    let (Some(d), Some(s)) = (
+                        bank.get(from_d + t0..)
+                            .and_then(|b| b.first_chunk::<BLOCK>()),
+                        bank.get(from_s + t0..)
+                            .and_then(|b| b.first_chunk::<BLOCK>()),
+                    ) else {
+                        continue;
+                    };
                     for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(d.iter().zip(s))
                     {
                         *x += a * p;

@@ -299,12 +299,25 @@ pub fn estimate_band<T: Scalar, S: Sample>(
     Ok(())
 }
 
+/// `x.clamp(lo, hi)` without `f32::clamp`'s panic on `lo > hi` or a NaN bound (equal to it
+/// otherwise, NaN `x` included): keeps the panic out of the firmware image.
+#[inline(always)]
+pub(crate) fn clamp_f32(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
 /// Converts one line to `f32`, clamped to the output range (fixed-point rounding of the
 /// range ends must not step outside it).
 fn write_line<T: Scalar>(h: &Hypotheses, d: &[T], c: &[T], out_d: &mut [f32], out_c: &mut [f32]) {
     let (lo, hi) = (h.min(), h.max());
     for ((o, &v), (oc, &w)) in out_d.iter_mut().zip(d).zip(out_c.iter_mut().zip(c)) {
-        *o = v.to_f32().clamp(lo, hi);
+        *o = clamp_f32(v.to_f32(), lo, hi);
         *oc = w.to_f32().clamp(0.0, 1.0);
     }
 }

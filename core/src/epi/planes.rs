@@ -88,17 +88,28 @@ pub(super) fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
     let whole = floor as isize;
     let lag = if frac == 0.0 { 0 } else { 1 };
     let last = n as isize - 1;
-    let at = |i: isize| input[i.clamp(0, last) as usize];
+    // `max`/`min` rather than `clamp`: the same values here (the bounds are ordered) without
+    // `clamp`'s assertion.
+    let at = |i: isize| {
+        input
+            .get(i.max(0).min(last) as usize)
+            .copied()
+            .unwrap_or(T::ZERO)
+    };
     // Interior: every index in range, t ∈ [whole + lag, last + whole].
-    let lo = (whole + lag as isize).clamp(0, n as isize) as usize;
-    let hi = (last + whole + 1).clamp(lo as isize, n as isize) as usize;
+    let lo = (whole + lag as isize).max(0).min(n as isize) as usize;
+    let hi = (last + whole + 1).max(lo as isize).min(n as isize) as usize;
     if frac == 0.0 {
         for (t, o) in out.iter_mut().enumerate().take(lo) {
             *o = at(t as isize - whole);
         }
         if hi > lo {
             let src = (lo as isize - whole) as usize;
-            out[lo..hi].copy_from_slice(&input[src..src + (hi - lo)]);
+            if let Some(dst) = out.get_mut(lo..hi) {
+                if let Some(from) = input.get(src..).and_then(|i| i.get(..dst.len())) {
+                    dst.copy_from_slice(from);
+                }
+            }
         }
         for (t, o) in out.iter_mut().enumerate().skip(hi) {
             *o = at(t as isize - whole);
@@ -115,10 +126,16 @@ pub(super) fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
     }
     if hi > lo {
         let src = (lo as isize - whole) as usize;
-        let a = &input[src..src + (hi - lo)];
-        let b = &input[src - 1..src - 1 + (hi - lo)];
-        for ((o, &x), &y) in out[lo..hi].iter_mut().zip(a).zip(b) {
-            *o = wa * x + wb * y;
+        // src ≥ 1 (lo ≥ whole + 1): both windows lie inside the input.
+        let below = src.wrapping_sub(1);
+        if let (Some(dst), Some(a), Some(b)) = (
+            out.get_mut(lo..hi),
+            input.get(src..src + (hi - lo)),
+            input.get(below..below.wrapping_add(hi - lo)),
+        ) {
+            for ((o, &x), &y) in dst.iter_mut().zip(a).zip(b) {
+                *o = wa * x + wb * y;
+            }
         }
     }
     for (t, o) in out.iter_mut().enumerate().skip(hi) {

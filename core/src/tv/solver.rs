@@ -23,6 +23,9 @@
 //! structure-of-arrays buffers in short fixed-size groups, so the `f32` instantiation
 //! vectorises without spilling.
 
+use core::ops::Range;
+
+use crate::epi::clamp_f32;
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Sample, View};
 use crate::scalar::Scalar;
@@ -395,8 +398,10 @@ impl<'s, S: Scalar> Graph<'s, S> {
                     ),
                     Guide::View(view) => view_weights(view, gx, gy, params),
                 };
-                self.wh[i] = S::from_f32(if x + 1 < w { eh } else { 0.0 });
-                self.wv[i] = S::from_f32(if y + 1 < h { ev } else { 0.0 });
+                if let (Some(oh), Some(ov)) = (self.wh.get_mut(i), self.wv.get_mut(i)) {
+                    *oh = S::from_f32(if x + 1 < w { eh } else { 0.0 });
+                    *ov = S::from_f32(if y + 1 < h { ev } else { 0.0 });
+                }
             }
         }
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
@@ -415,17 +420,21 @@ impl<'s, S: Scalar> Graph<'s, S> {
                     let f = v.to_f32();
                     f * f
                 };
-                let mut c2 = sq(self.wh[i]) + sq(self.wv[i]);
+                // Every index is a node of the region (`i < w·h`, the buffers' length).
+                let weight = |buf: &[S], j: usize| buf.get(j).copied().map_or(0.0, sq);
+                let mut c2 = weight(self.wh, i) + weight(self.wv, i);
                 if x > 0 {
-                    c2 += sq(self.wh[i - 1]);
+                    c2 += weight(self.wh, i - 1);
                 }
                 if y > 0 {
-                    c2 += sq(self.wv[i - w]);
+                    c2 += weight(self.wv, i - w);
                 }
                 let gk = gamma * lambda * lambda / a;
                 let sig = gk / (1.0 + gk * c2);
-                self.tau[i] = S::from_f32(DUAL_SCALE * a * d / lambda);
-                self.sig[i] = S::from_f32(sig);
+                if let (Some(t), Some(s)) = (self.tau.get_mut(i), self.sig.get_mut(i)) {
+                    *t = S::from_f32(DUAL_SCALE * a * d / lambda);
+                    *s = S::from_f32(sig);
+                }
             }
         }
         self.range = (lo, hi);
@@ -525,12 +534,12 @@ impl<'s, S: Scalar> Graph<'s, S> {
             }
             let r = y * w..(y + 1) * w;
             prox_row(
-                [&wh[r.clone()], &wv[r.clone()]],
+                [part(wh, r.clone()), part(wv, r.clone())],
                 [
-                    &self.own_h[r.clone()],
-                    &self.own_v[r.clone()],
-                    &self.other_h[r.clone()],
-                    &self.other_v[r.clone()],
+                    part(self.own_h, r.clone()),
+                    part(self.own_v, r.clone()),
+                    part(self.other_h, r.clone()),
+                    part(self.other_v, r.clone()),
                 ],
                 s,
                 if below { Some(&*s_below) } else { None },
@@ -544,12 +553,12 @@ impl<'s, S: Scalar> Graph<'s, S> {
             combine(
                 c,
                 [
-                    &mut self.y1h[r.clone()],
-                    &mut self.y1v[r.clone()],
-                    &mut self.own_h[r.clone()],
-                    &mut self.own_v[r.clone()],
-                    &mut self.other_h[r.clone()],
-                    &mut self.other_v[r.clone()],
+                    part_mut(self.y1h, r.clone()),
+                    part_mut(self.y1v, r.clone()),
+                    part_mut(self.own_h, r.clone()),
+                    part_mut(self.own_v, r.clone()),
+                    part_mut(self.other_h, r.clone()),
+                    part_mut(self.other_v, r.clone()),
                 ],
                 [&*p_own_h, &*p_own_v, &*p_other_h, &*p_other_v],
                 [&mut *p1h, &mut *p1v],
@@ -571,7 +580,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
         stride: usize,
     ) {
         let w = self.width;
-        let div = &mut self.rows[..w];
+        let div = self.rows.get_mut(..w).unwrap_or_default();
         for y in 0..core.height {
             let ry = core.y - region.y + y;
             let gy = core.y + y;
@@ -582,10 +591,10 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
                 let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
                 let a = data_weight(conf, params);
-                let u = div[rx].to_f32();
+                let u = div.get(rx).map_or(0.0, |u| u.to_f32());
                 if let Some(o) = out.get_mut(y * stride + x) {
                     let x = d - params.lambda * u / (DUAL_SCALE * a);
-                    *o = x.clamp(self.range.0, self.range.1);
+                    *o = clamp_f32(x, self.range.0, self.range.1);
                 }
             }
         }
@@ -671,11 +680,14 @@ fn combine<S: Scalar>(
     let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
     let [p2h, p2v, p3h, p3v] = prox;
     let [p1h, p1v] = p1;
-    p1h.copy_from_slice(y1h);
-    p1v.copy_from_slice(y1v);
+    copy_row(p1h, y1h);
+    copy_row(p1v, y1v);
     let full = p1h.len() - p1h.len() % LANES;
+    // Both are one row (the checked split of `p1v` never fails).
     let (lanes_h, rest_h) = p1h.split_at_mut(full);
-    let (lanes_v, rest_v) = p1v.split_at_mut(full);
+    let Some((lanes_v, rest_v)) = p1v.split_at_mut_checked(full) else {
+        return;
+    };
     for (h, v) in lanes_h
         .chunks_exact_mut(LANES)
         .zip(lanes_v.chunks_exact_mut(LANES))
@@ -703,12 +715,17 @@ fn combine_component<S: Scalar>(c: &Constants<S>, y: [&mut [S]; 3], p: [&[S]; 3]
     let [p1, p2, p3] = p;
     let n = y1.len();
     let full = n - n % LANES;
+    // One row each, all the same length (the checked splits never fail).
     let (y1, y1r) = y1.split_at_mut(full);
-    let (y2, y2r) = y2.split_at_mut(full);
-    let (y3, y3r) = y3.split_at_mut(full);
-    let (p1, p1r) = p1.split_at(full);
-    let (p2, p2r) = p2.split_at(full);
-    let (p3, p3r) = p3.split_at(full);
+    let (Some((y2, y2r)), Some((y3, y3r)), Some((p1, p1r)), Some((p2, p2r)), Some((p3, p3r))) = (
+        y2.split_at_mut_checked(full),
+        y3.split_at_mut_checked(full),
+        p1.split_at_checked(full),
+        p2.split_at_checked(full),
+        p3.split_at_checked(full),
+    ) else {
+        return;
+    };
     combine_lanes::<S, LANES>(c, [y1, y2, y3], [p1, p2, p3], sums);
     combine_lanes::<S, 1>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], sums);
 }
@@ -816,7 +833,12 @@ fn divergence_row<S: Scalar>(
     out: &mut [S],
 ) {
     let r = y * width..(y + 1) * width;
-    let (whr, wvr, fhr, fvr) = (&wh[r.clone()], &wv[r.clone()], &fh[r.clone()], &fv[r]);
+    let (whr, wvr, fhr, fvr) = (
+        part(wh, r.clone()),
+        part(wv, r.clone()),
+        part(fh, r.clone()),
+        part(fv, r),
+    );
     for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(fhr.iter().zip(fvr)) {
         *o = -(a * c + b * d);
     }
@@ -825,7 +847,7 @@ fn divergence_row<S: Scalar>(
     }
     if y > 0 {
         let p = (y - 1) * width..y * width;
-        for ((o, &b), &d) in out.iter_mut().zip(&wv[p.clone()]).zip(&fv[p]) {
+        for ((o, &b), &d) in out.iter_mut().zip(part(wv, p.clone())).zip(part(fv, p)) {
             *o += b * d;
         }
     }
@@ -847,21 +869,30 @@ fn residual_row<S: Scalar>(
 ) {
     let [own_h, own_v, other_h, other_v] = copies;
     let r = y * width..(y + 1) * width;
-    let (whr, wvr) = (&wh[r.clone()], &wv[r.clone()]);
-    let (oh, ov) = (&own_h[r.clone()], &own_v[r.clone()]);
+    let (whr, wvr) = (part(wh, r.clone()), part(wv, r.clone()));
+    let (oh, ov) = (part(own_h, r.clone()), part(own_v, r.clone()));
     for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(oh.iter().zip(ov)) {
         *o = -(a * c + b * d);
     }
-    for ((o, &a), &c) in out.iter_mut().skip(1).zip(whr).zip(&other_h[r.clone()]) {
+    for ((o, &a), &c) in out
+        .iter_mut()
+        .skip(1)
+        .zip(whr)
+        .zip(part(other_h, r.clone()))
+    {
         *o += a * c;
     }
     if y > 0 {
         let p = (y - 1) * width..y * width;
-        for ((o, &b), &d) in out.iter_mut().zip(&wv[p.clone()]).zip(&other_v[p]) {
+        for ((o, &b), &d) in out
+            .iter_mut()
+            .zip(part(wv, p.clone()))
+            .zip(part(other_v, p))
+        {
             *o += b * d;
         }
     }
-    for ((s, &t), &g) in out.iter_mut().zip(&tau[r.clone()]).zip(&sig[r]) {
+    for ((s, &t), &g) in out.iter_mut().zip(part(tau, r.clone())).zip(part(sig, r)) {
         *s = g * (*s - t);
     }
 }
@@ -907,13 +938,34 @@ fn prox_row<S: Scalar>(
             }
         }
         None => {
-            p_own_v.copy_from_slice(own_v);
-            p_other_v.copy_from_slice(other_v);
+            copy_row(p_own_v, own_v);
+            copy_row(p_other_v, other_v);
         }
     }
 }
 
 /// `out = WᵀF` over the whole graph (the row kernel, row after row).
+/// `buf[range]`, empty where the range is outside `buf`. The solver's rows always lie
+/// inside its buffers (all `width × height`); the checked form keeps panics out.
+#[inline(always)]
+fn part<S>(buf: &[S], range: Range<usize>) -> &[S] {
+    buf.get(range).unwrap_or_default()
+}
+
+/// [`part`], mutable.
+#[inline(always)]
+fn part_mut<S>(buf: &mut [S], range: Range<usize>) -> &mut [S] {
+    buf.get_mut(range).unwrap_or_default()
+}
+
+/// `dst = src` for rows of equal length (a shorter `src` leaves `dst` alone).
+#[inline(always)]
+fn copy_row<S: Copy>(dst: &mut [S], src: &[S]) {
+    if let Some(src) = src.get(..dst.len()) {
+        dst.copy_from_slice(src);
+    }
+}
+
 #[cfg(test)]
 fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
     for (y, row) in out.chunks_exact_mut(width).enumerate() {

@@ -66,7 +66,11 @@ pub fn tile_rects(plan: &Plan, index: usize) -> Result<(Rect, Rect)> {
     }
     let tv = &plan.params().tv;
     let (w, h) = (plan.layout().width, plan.layout().height);
-    let (tx, ty) = (index % cols, index / cols);
+    // `cols > 0` (checked above); the checked forms keep the division's panic out.
+    let (tx, ty) = (
+        index.checked_rem(cols).unwrap_or_default(),
+        index.checked_div(cols).unwrap_or_default(),
+    );
     let x0 = tx * tv.tile;
     let y0 = ty * tv.tile;
     let core = Rect {
