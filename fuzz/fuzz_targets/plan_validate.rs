@@ -7,7 +7,7 @@
 
 use libfuzzer_sys::arbitrary::{self, Arbitrary};
 use libfuzzer_sys::fuzz_target;
-use lfdepth::epi::{self, ColorMode, DisparityRange, Direction, EpiParams, Fusion};
+use lfdepth::epi::{self, ColorMode, DisparityRange, Direction, EpiParams, Fusion, Search};
 use lfdepth::{Grid, Layout, LightField, Params, Plan};
 
 /// A size or index: mostly small (where valid layouts live), sometimes anything.
@@ -57,6 +57,8 @@ struct EpiInput {
     interpolate: bool,
     weighted_fusion: bool,
     gray: bool,
+    /// `None`: the exhaustive search; `Some(margin)`: coarse-to-fine.
+    coarse_margin: Option<Real>,
 }
 
 impl EpiInput {
@@ -84,6 +86,12 @@ impl EpiInput {
                 ColorMode::Gray
             } else {
                 ColorMode::Tensor
+            },
+            search: match self.coarse_margin {
+                None => Search::Exhaustive,
+                Some(margin) => Search::CoarseToFine {
+                    margin: margin.get(),
+                },
             },
         }
     }
