@@ -152,17 +152,20 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       disparity = refined;
       confidence = refinedConfidence;
     }
-    // Each pass filters the whole previous map, cut into row bands.
+    // Each pass filters the whole previous map, cut into row bands: about four per
+    // worker (a band recomputes the slopes of the window rows around it, so bands much
+    // smaller than that cost more than they balance).
+    const medianRows = Math.max(BAND_LINES, Math.ceil(height / (4 * pool.size)));
     const median = () =>
       timed(medianStage, async () => {
-        const rowBands = Math.ceil(height / BAND_LINES);
+        const rowBands = Math.ceil(height / medianRows);
         for (let pass = 0; pass < plan.medianPasses; pass++) {
           const filtered = new Float32Array(width * height);
           await parts(
             { disparity, confidence },
             rowBands,
-            (index) => ({ op: "medianRows", start: index * BAND_LINES, end: Math.min(height, (index + 1) * BAND_LINES) }),
-            (index, reply) => filtered.set(reply.disparity, index * BAND_LINES * width),
+            (index) => ({ op: "medianRows", start: index * medianRows, end: Math.min(height, (index + 1) * medianRows) }),
+            (index, reply) => filtered.set(reply.disparity, index * medianRows * width),
             (fraction) => onProgress(medianStage, (pass + fraction) / plan.medianPasses),
           );
           disparity = filtered;
