@@ -71,7 +71,12 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       if (reply.views) views = reply.views;
     }
     check();
+    // Refine bands: one per worker. The core's refinement is bit-identical for any
+    // banding (each band is computed with a halo that covers the reach of its result),
+    // so this changes only the speed: fewer, larger bands recompute fewer halo rows, and
+    // every worker gets one.
     const loaded = { ...params, align: "off" };
+    loaded.refineBandRows ??= Math.ceil(lightField.shape.height / pool.size);
     await timed("load", () => pool.all({ op: "load", views: views.buffer, shape: lightField.shape, params: loaded }));
     check();
     const { range } = await timed(rangeStage, () => pool.run({ op: "range" }));
