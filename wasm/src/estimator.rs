@@ -379,9 +379,12 @@ impl Estimator {
     }
 
     /// The stages after EPI, serially on this thread: refine (unless `params.refine` is
-    /// false) then TV, from the fused EPI `disparity` and `confidence` (`fuseBands`) and
-    /// the range `[min, max]` they were estimated over (`disparityRange()`). Gives the
-    /// same bits as `estimate()` with the full pipeline. `onProgress` as for `estimate`.
+    /// false), the weighted median (unless `params.median` is false; before or after TV
+    /// as `params.medianBeforeTv` says) and TV, from the fused EPI `disparity` and
+    /// `confidence` (`fuseBands`) and the range `[min, max]` they were estimated over
+    /// (`disparityRange()`). Gives the same bits as `estimate()` with the full pipeline,
+    /// and as the same stages by parts (`refineBand`, `medianRows`, `tvTile`).
+    /// `onProgress` as for `estimate`.
     #[wasm_bindgen(js_name = refineAndRegularize)]
     pub fn refine_and_regularize(
         &self,
