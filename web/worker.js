@@ -52,7 +52,7 @@ const handlers = {
   },
   parts() {
     const e = requireEstimator();
-    const refineRows = Array.from({ length: e.refineBands }, (_, index) => Array.from(e.refineBandRows(index)));
+    const refineRows = Array.from({ length: e.refineBands }, (_, index) => Array.from(e.refineBandRange(index)));
     return {
       refineBands: e.refineBands,
       refineRows,

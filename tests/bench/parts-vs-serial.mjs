@@ -26,7 +26,7 @@ function byParts() {
     e.setMaps(disparity, confidence);
     const rd = new Float32Array(n * n), rc = new Float32Array(n * n);
     for (let i = 0; i < e.refineBands; i++) {
-      const [start] = e.refineBandRows(i);
+      const [start] = e.refineBandRange(i);
       const band = e.refineBand(i, min, max);
       rd.set(band.disparity, start * n);
       rc.set(band.confidence, start * n);

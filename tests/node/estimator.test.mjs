@@ -114,7 +114,7 @@ function byParts(estimator, d, c, min, max, bandLines) {
     const refined = new Float32Array(pixels);
     const refinedConfidence = new Float32Array(pixels);
     for (const index of shuffled(estimator.refineBands)) {
-      const [start] = estimator.refineBandRows(index);
+      const [start] = estimator.refineBandRange(index);
       const band = estimator.refineBand(index, min, max);
       refined.set(band.disparity, start * SIZE);
       refinedConfidence.set(band.confidence, start * SIZE);
@@ -182,7 +182,7 @@ for (const [name, params] of [
 test("stage parts report how the stages are cut and reject bad requests", () => {
   const estimator = new lf.Estimator(scene.views, shape, { refineBandRows: 24, tvTile: 40 });
   assert.equal(estimator.refineBands, Math.ceil(SIZE / 24));
-  assert.deepEqual(Array.from(estimator.refineBandRows(5)), [120, 128]);
+  assert.deepEqual(Array.from(estimator.refineBandRange(5)), [120, 128]);
   assert.equal(estimator.tvTiles, Math.ceil(SIZE / 40) ** 2);
   assert.equal(estimator.medianPasses, 4);
   assert.equal(estimator.medianBeforeTv, true);

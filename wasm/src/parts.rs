@@ -107,8 +107,8 @@ impl Estimator {
     }
 
     /// Image rows `[start, end)` of refine band `index`.
-    #[wasm_bindgen(js_name = refineBandRows)]
-    pub fn refine_band_rows(&self, index: usize) -> Result<Vec<usize>, JsError> {
+    #[wasm_bindgen(js_name = refineBandRange)]
+    pub fn refine_band_range(&self, index: usize) -> Result<Vec<usize>, JsError> {
         let rows = refine::band_rows(&self.plan, index).map_err(error)?;
         Ok(vec![rows.start, rows.end])
     }
