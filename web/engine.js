@@ -9,6 +9,9 @@
 /** Lines per band: small enough to balance the workers and to cancel quickly. */
 export const BAND_LINES = 16;
 
+/** Bytes of views sent to the workers per message. */
+export const LOAD_CHUNK = 8 << 20;
+
 export class Cancelled extends Error {
   constructor() {
     super("cancelled");
@@ -77,7 +80,22 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     // every worker gets one.
     const loaded = { ...params, align: "off" };
     loaded.refineBandRows ??= Math.ceil(lightField.shape.height / pool.size);
-    await timed("load", () => pool.all({ op: "load", views: views.buffer, shape: lightField.shape, params: loaded }));
+    // Every worker gets its own copy of the views, cloned on this thread: chunk by chunk,
+    // yielding between chunks, so the page's thread is never held for more than one
+    // chunk's copy (the workers take the chunks in while the next ones are cloned).
+    await timed("load", async () => {
+      const received = [];
+      for (let offset = 0; offset < views.length; offset += LOAD_CHUNK) {
+        const chunk = views.slice(offset, offset + LOAD_CHUNK);
+        const end = Math.min(views.length, offset + LOAD_CHUNK);
+        received.push(pool.all({ op: "views", length: views.length, offset, chunk }).then(() => onProgress("load", end / views.length)));
+        await Promise.race([aborted, new Promise((resolve) => setTimeout(resolve, 0))]);
+        check();
+      }
+      await Promise.race([aborted, Promise.all(received)]);
+      check();
+      await pool.all({ op: "load", shape: lightField.shape, params: loaded });
+    });
     check();
     const { range } = await timed(rangeStage, () => pool.run({ op: "range" }));
     check();

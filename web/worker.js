@@ -6,15 +6,28 @@
 import { initSync, Estimator, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
 
 let estimator = null;
+/** The views being received in chunks (`views` requests), until `load`. */
+let incoming = null;
 
 const handlers = {
   init({ module }) {
     initSync({ module });
     return {};
   },
-  load({ views, shape, params }) {
+  views({ length, offset, chunk }) {
+    if (offset === 0 || incoming?.length !== length) incoming = new Uint8Array(length);
+    incoming.set(chunk, offset);
+    return {};
+  },
+  load({ shape, params }) {
+    if (!incoming) throw new Error("no views received: send them with `views` requests first");
     estimator?.free();
-    estimator = new Estimator(new Uint8Array(views), shape, params);
+    estimator = null;
+    try {
+      estimator = new Estimator(incoming, shape, params);
+    } finally {
+      incoming = null;
+    }
     return {};
   },
   align({ id, views, shape, params }) {
