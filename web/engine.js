@@ -1,12 +1,16 @@
 // Runs the pipeline over a WorkerPool: the alignment (unless `params.align` is "off")
 // on one worker, whose rectified views every worker then loads; the disparity range on one worker, then the
 // horizontal and vertical EPI bands spread over all of them, then the fusion, then the
-// refine and TV stages serially on one worker (off the page's thread). Bands are
-// independent and fused exactly as the serial core does, so the result is bit-identical
-// to `Estimator.estimate()` whatever the number of workers.
+// refine bands, the weighted-median row bands (pass after pass) and the TV tiles, each
+// stage spread over all of them too. Every part is the core's own band/tile function,
+// put together as the serial core does (TV histories summed in tile order), so the
+// result is bit-identical to `Estimator.estimate()` whatever the number of workers.
 
 /** Lines per band: small enough to balance the workers and to cancel quickly. */
 export const BAND_LINES = 16;
+
+/** Bytes of views sent to the workers per message. */
+export const LOAD_CHUNK = 8 << 20;
 
 export class Cancelled extends Error {
   constructor() {
@@ -29,6 +33,8 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
   // Bands still in flight when cancelled finish in their workers; say nothing of them.
   const onProgress = (stage, fraction) => signal.aborted || report(stage, fraction);
   const [rangeStage, horizontalStage, verticalStage] = stages.filter((s) => s.startsWith("epi"));
+  // The core's names of the later stages (as `stageNames()` lists them).
+  const [refineStage, medianStage, tvStage] = ["refine", "median", "tv"];
   const timings = [];
   const check = () => {
     if (signal.aborted) throw new Cancelled();
@@ -41,8 +47,8 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     onProgress(stage, 1);
     return result;
   };
-  // In-flight work (bands, refine + TV) cannot be interrupted inside its worker: it
-  // finishes there and its reply is ignored; the page returns at once.
+  // In-flight parts cannot be interrupted inside their worker: each finishes there and
+  // its reply is ignored; no further part is dispatched; the page returns at once.
   let abort;
   const aborted = new Promise((_, reject) => (abort = reject));
   aborted.catch(() => {});
@@ -68,8 +74,28 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       if (reply.views) views = reply.views;
     }
     check();
+    // Refine bands: one per worker. The core's refinement is bit-identical for any
+    // banding (each band is computed with a halo that covers the reach of its result),
+    // so this changes only the speed: fewer, larger bands recompute fewer halo rows, and
+    // every worker gets one.
     const loaded = { ...params, align: "off" };
-    await timed("load", () => pool.all({ op: "load", views: views.buffer, shape: lightField.shape, params: loaded }));
+    loaded.refineBandRows ??= Math.ceil(lightField.shape.height / pool.size);
+    // Every worker gets its own copy of the views, cloned on this thread: chunk by chunk,
+    // yielding between chunks, so the page's thread is never held for more than one
+    // chunk's copy (the workers take the chunks in while the next ones are cloned).
+    await timed("load", async () => {
+      const received = [];
+      for (let offset = 0; offset < views.length; offset += LOAD_CHUNK) {
+        const chunk = views.slice(offset, offset + LOAD_CHUNK);
+        const end = Math.min(views.length, offset + LOAD_CHUNK);
+        received.push(pool.all({ op: "views", length: views.length, offset, chunk }).then(() => onProgress("load", end / views.length)));
+        await Promise.race([aborted, new Promise((resolve) => setTimeout(resolve, 0))]);
+        check();
+      }
+      await Promise.race([aborted, Promise.all(received)]);
+      check();
+      await pool.all({ op: "load", shape: lightField.shape, params: loaded });
+    });
     check();
     const { range } = await timed(rangeStage, () => pool.run({ op: "range" }));
     check();
@@ -103,21 +129,98 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       pool.run({ op: "fuse", params, width, height, dh, ch, dv, cv }, [dh.buffer, ch.buffer, dv.buffer, cv.buffer]),
     );
     check();
-    const request = { op: "regularize", disparity: fused.disparity, confidence: fused.confidence, min, max };
-    const regularized = await Promise.race([
-      aborted,
-      pool.run(request, [fused.disparity.buffer, fused.confidence.buffer], ({ stage, done, total }) => {
-        onProgress(stage, total ? done / total : 1);
-      }),
-    ]);
-    // The worker's own stage timings (refine, tv).
-    timings.push(...regularized.timings);
-    // Free the per-worker copies of the views.
+    // The later stages by parts, in the order of the core's `pipeline::regularize`:
+    // refine bands, then each median pass (before TV unless `median.beforeTv` is false),
+    // then TV tiles. Each stage's input maps go to every worker once; its parts then
+    // spread over the pool. Cancel drops the queued parts and ignores the in-flight ones.
+    const plan = await pool.run({ op: "parts" });
+    check();
+    // Sends `maps` to every worker, then parts `0..count` over the pool; `place` puts
+    // each reply in the result, `progress` gets the share of parts done.
+    const parts = async (maps, count, request, place, progress) => {
+      await Promise.race([aborted, pool.all({ op: "maps", ...maps })]);
+      check();
+      let done = 0;
+      const jobs = [];
+      for (let index = 0; index < count; index++) {
+        jobs.push(
+          pool.run(request(index)).then((reply) => {
+            if (signal.aborted) return;
+            place(index, reply);
+            progress(++done / count);
+          }),
+        );
+      }
+      await Promise.race([aborted, Promise.all(jobs)]);
+      check();
+    };
+    let disparity = fused.disparity;
+    let confidence = fused.confidence;
+    if (plan.refineBands > 0) {
+      const refined = new Float32Array(width * height);
+      const refinedConfidence = new Float32Array(width * height);
+      await timed(refineStage, () =>
+        parts(
+          { disparity, confidence },
+          plan.refineBands,
+          (index) => ({ op: "refineBand", index, min, max }),
+          (index, band) => {
+            const offset = plan.refineRows[index][0] * width;
+            refined.set(band.disparity, offset);
+            refinedConfidence.set(band.confidence, offset);
+          },
+          (fraction) => onProgress(refineStage, fraction),
+        ),
+      );
+      disparity = refined;
+      confidence = refinedConfidence;
+    }
+    // Each pass filters the whole previous map, cut into row bands: about four per
+    // worker (a band recomputes the slopes of the window rows around it, so bands much
+    // smaller than that cost more than they balance).
+    const medianRows = Math.max(BAND_LINES, Math.ceil(height / (4 * pool.size)));
+    const median = () =>
+      timed(medianStage, async () => {
+        const rowBands = Math.ceil(height / medianRows);
+        for (let pass = 0; pass < plan.medianPasses; pass++) {
+          const filtered = new Float32Array(width * height);
+          await parts(
+            { disparity, confidence },
+            rowBands,
+            (index) => ({ op: "medianRows", start: index * medianRows, end: Math.min(height, (index + 1) * medianRows) }),
+            (index, reply) => filtered.set(reply.disparity, index * medianRows * width),
+            (fraction) => onProgress(medianStage, (pass + fraction) / plan.medianPasses),
+          );
+          disparity = filtered;
+        }
+      });
+    if (plan.medianPasses > 0 && plan.medianBeforeTv) await median();
+    const regularized = new Float32Array(width * height);
+    const histories = new Float32Array(plan.tvTiles * plan.tvIterations);
+    await timed(tvStage, () =>
+      parts(
+        { disparity, confidence },
+        plan.tvTiles,
+        (index) => ({ op: "tvTile", index }),
+        (index, tile) => {
+          for (let y = 0; y < tile.height; y++) {
+            regularized.set(tile.disparity.subarray(y * tile.width, (y + 1) * tile.width), (tile.y + y) * width + tile.x);
+          }
+          histories.set(tile.history, index * plan.tvIterations);
+        },
+        (fraction) => onProgress(tvStage, fraction),
+      ),
+    );
+    disparity = regularized;
+    const { residuals } = await pool.run({ op: "residuals", histories }, [histories.buffer]);
+    check();
+    if (plan.medianPasses > 0 && !plan.medianBeforeTv) await median();
+    // Free the per-worker copies of the views and maps.
     pool.all({ op: "unload" });
     return {
-      disparity: regularized.disparity,
-      confidence: regularized.confidence,
-      residuals: regularized.residuals,
+      disparity,
+      confidence,
+      residuals,
       range,
       timings,
       align,

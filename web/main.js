@@ -170,7 +170,8 @@ async function run() {
   const controller = new AbortController();
   state.controller = controller;
   const stages = stageNames();
-  // The EPI stages run in the workers, then the fusion, then refine and TV in one worker.
+  // The EPI stages run in the workers, then the fusion, then refine, median and TV, each
+  // spread over the workers.
   // Alignment (on one worker) comes first, then every worker loads the rectified views.
   const alignStages = ["align", "warp"];
   const epiStages = stages.filter((s) => s.startsWith("epi"));

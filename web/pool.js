@@ -1,6 +1,12 @@
 // A pool of module workers sharing one compiled WebAssembly.Module. Requests queue and
-// go to the first idle worker; `all` sends one request to every worker. A worker may send
+// go to an idle worker, or, while many are queued, to a worker with fewer than `DEPTH`
+// in flight (a worker answers one request at a time: the next waits in its message
+// queue, so the worker does not idle while its reply travels back and a new request
+// comes); `all` sends one request to every worker. A worker may send
 // `{ id, progress }` reports before its reply; they go to the request's `onProgress`.
+
+/** Requests in flight per worker. */
+export const DEPTH = 2;
 
 export class WorkerPool {
   /** @param {WebAssembly.Module} module @param {number} size */
@@ -14,7 +20,7 @@ export class WorkerPool {
     this.workers = Array.from({ length: size }, () => {
       const worker = new Worker(new URL("./worker.js", import.meta.url), { type: "module" });
       worker.pending = new Map();
-      worker.busy = false;
+      worker.inFlight = 0;
       worker.onmessage = ({ data }) => {
         const job = worker.pending.get(data.id);
         if (data.progress) {
@@ -62,17 +68,21 @@ export class WorkerPool {
   }
 
   #dispatch() {
-    for (const worker of this.workers) {
-      if (!this.queue.length) return;
-      if (worker.busy) continue;
-      const job = this.queue.shift();
-      worker.busy = true;
-      this.#send(worker, job.request, job.transfer, job.onProgress)
-        .then(job.resolve, job.reject)
-        .finally(() => {
-          worker.busy = false;
-          this.#dispatch();
-        });
+    // Idle workers first; a second request in flight only while the queue holds at least
+    // one request per worker, so a lookahead never leaves another worker without work.
+    for (let depth = 1; depth <= DEPTH; depth++) {
+      for (const worker of this.workers) {
+        if (!this.queue.length || (depth > 1 && this.queue.length < this.workers.length)) return;
+        if (worker.inFlight >= depth) continue;
+        const job = this.queue.shift();
+        worker.inFlight++;
+        this.#send(worker, job.request, job.transfer, job.onProgress)
+          .then(job.resolve, job.reject)
+          .finally(() => {
+            worker.inFlight--;
+            this.#dispatch();
+          });
+      }
     }
   }
 

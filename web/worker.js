@@ -1,19 +1,33 @@
 // A module worker: receives the compiled WebAssembly.Module once, then answers requests
-// (alignment, bands, ranges, synthetic views, fusion, refine + TV) one at a time. Every request
+// (alignment, EPI bands, ranges, synthetic views, fusion, refine bands, median rows,
+// TV tiles) one at a time. Every request
 // carries an `id` and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
 // `{ id, ok: false, message }`; a long request may first send `{ id, progress }` reports.
 import { initSync, Estimator, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
 
 let estimator = null;
+/** The views being received in chunks (`views` requests), until `load`. */
+let incoming = null;
 
 const handlers = {
   init({ module }) {
     initSync({ module });
     return {};
   },
-  load({ views, shape, params }) {
+  views({ length, offset, chunk }) {
+    if (offset === 0 || incoming?.length !== length) incoming = new Uint8Array(length);
+    incoming.set(chunk, offset);
+    return {};
+  },
+  load({ shape, params }) {
+    if (!incoming) throw new Error("no views received: send them with `views` requests first");
     estimator?.free();
-    estimator = new Estimator(new Uint8Array(views), shape, params);
+    estimator = null;
+    try {
+      estimator = new Estimator(incoming, shape, params);
+    } finally {
+      incoming = null;
+    }
     return {};
   },
   align({ id, views, shape, params }) {
@@ -49,22 +63,42 @@ const handlers = {
     const [disparity, confidence] = fuseBands(params, width, height, dh, ch, dv, cv);
     return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
   },
-  regularize({ id, disparity, confidence, min, max }) {
-    const result = requireEstimator().refineAndRegularize(disparity, confidence, min, max, (progress) => {
-      self.postMessage({ id, progress: { stage: progress.stage, done: progress.done, total: progress.total } });
-    });
-    const reply = {
-      disparity: result.disparity,
-      confidence: result.confidence,
-      residuals: result.residuals,
-      timings: result.timings.map((t) => {
-        const timing = { stage: t.stage, ms: t.ms };
-        t.free();
-        return timing;
-      }),
+  parts() {
+    const e = requireEstimator();
+    const refineRows = Array.from({ length: e.refineBands }, (_, index) => Array.from(e.refineBandRange(index)));
+    return {
+      refineBands: e.refineBands,
+      refineRows,
+      medianPasses: e.medianPasses,
+      medianBeforeTv: e.medianBeforeTv,
+      tvTiles: e.tvTiles,
+      tvIterations: e.tvIterations,
     };
-    result.free();
-    return { ...reply, transfer: [reply.disparity.buffer, reply.confidence.buffer, reply.residuals.buffer] };
+  },
+  maps({ disparity, confidence }) {
+    requireEstimator().setMaps(disparity, confidence);
+    return {};
+  },
+  refineBand({ index, min, max }) {
+    const band = requireEstimator().refineBand(index, min, max);
+    const disparity = band.disparity;
+    const confidence = band.confidence;
+    band.free();
+    return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
+  },
+  medianRows({ start, end }) {
+    const disparity = requireEstimator().medianRows(start, end);
+    return { disparity, transfer: [disparity.buffer] };
+  },
+  tvTile({ index }) {
+    const tile = requireEstimator().tvTile(index);
+    const reply = { x: tile.x, y: tile.y, width: tile.width, height: tile.height, disparity: tile.disparity, history: tile.history };
+    tile.free();
+    return { ...reply, transfer: [reply.disparity.buffer, reply.history.buffer] };
+  },
+  residuals({ histories }) {
+    const residuals = requireEstimator().tvResiduals(histories);
+    return { residuals, transfer: [residuals.buffer] };
   },
   view({ spec, row, col }) {
     const view = renderView(spec, row, col);

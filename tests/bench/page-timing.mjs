@@ -1,5 +1,7 @@
 // End-to-end time of the page (generate a synthetic scene in workers, then estimate in
-// workers) in Debian's headless chromium, and the size of the .wasm.
+// workers) in Debian's headless chromium, the longest the page's own thread went without
+// running a 10 ms timer while estimating (how long the page froze at worst), per stage
+// shown in the progress text when the gap ended, and the size of the .wasm.
 //   node tests/bench/page-timing.mjs [size] [grid] [workers]
 import { gzipSync } from "node:zlib";
 import { readFileSync, mkdtempSync, rmSync } from "node:fs";
@@ -21,6 +23,19 @@ const context = await chromium.launchPersistentContext(profile, {
 });
 try {
   const page = await context.newPage();
+  // The longest gap between two ticks of a 10 ms timer while the page estimates.
+  await page.addInitScript(() => {
+    window.__gaps = {};
+    let last = performance.now();
+    setInterval(() => {
+      const now = performance.now();
+      if (document.body?.dataset.state === "running") {
+        const stage = (document.getElementById("progress-text")?.textContent ?? "").split(" — ")[0];
+        window.__gaps[stage] = Math.max(window.__gaps[stage] ?? 0, Math.round(now - last));
+      }
+      last = now;
+    }, 10);
+  });
   const query = `?scene=planes&size=${size}&grid=${grid}${workers ? `&workers=${workers}` : ""}&run`;
   const start = Date.now();
   await page.goto(`${server.origin}/${query}`);
@@ -33,6 +48,8 @@ try {
     estimate_ms: Number(document.getElementById("timings").dataset.totalMs),
     stages: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
     badpix007: Number(document.getElementById("scores").dataset.badpix007),
+    longest_main_thread_gap_ms: Math.max(0, ...Object.values(window.__gaps)),
+    longest_gap_by_stage_ms: window.__gaps,
   }));
   console.log(JSON.stringify({ size: Number(size), grid: Number(grid), load_generate_estimate_ms: wall, ...report,
     wasm_bytes: wasm.length, wasm_gzip_bytes: gzipSync(wasm, { level: 9 }).length }));

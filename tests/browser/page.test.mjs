@@ -99,7 +99,7 @@ test("a synthetic scene runs end to end in workers and is accurate", async () =>
 test("the page's result is bit-identical to the serial estimator, for 1 and 3 workers", async () => {
   const page = await open("");
   await page.waitForFunction(() => document.body.dataset.state === "idle");
-  const digests = await page.evaluate(async () => {
+  const results = await page.evaluate(async () => {
     const lf = await import("./pkg/lfdepth_wasm.js");
     const { WorkerPool } = await import("./pool.js");
     const engine = await import("./engine.js");
@@ -108,19 +108,38 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
     const spec = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
     const scene = lf.synthesize(spec);
     const shape = { rows: 7, cols: 7, width: 80, height: 64, channels: 3 };
-    const serial = new lf.Estimator(scene.views, shape).estimate().disparity;
+    const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
     const out = [];
-    for (const size of [1, 3]) {
-      const pool = await WorkerPool.create(module, size);
-      const r = await engine.estimate(pool, { views: scene.views, shape }, {}, {
-        stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal,
-      });
-      pool.terminate();
-      out.push(r.disparity.every((d, i) => Object.is(d, serial[i])));
+    // Defaults (one refine band and one TV tile at this size), then parameters that cut
+    // refine, median and TV into many parts, with the median before and after TV.
+    for (const params of [{}, { refineBandRows: 24, tvTile: 32 }, { refineBandRows: 20, tvTile: 40, medianBeforeTv: false, iterations: 80 }]) {
+      const serial = new lf.Estimator(scene.views, shape, params).estimate();
+      for (const size of [1, 3]) {
+        const pool = await WorkerPool.create(module, size);
+        const stages = new Set();
+        const r = await engine.estimate(pool, { views: scene.views, shape }, params, {
+          stages: lf.stageNames(), onProgress: (stage) => stages.add(stage), signal: new AbortController().signal,
+        });
+        pool.terminate();
+        out.push({
+          params: JSON.stringify(params),
+          workers: size,
+          disparity: same(r.disparity, serial.disparity),
+          confidence: same(r.confidence, serial.confidence),
+          residuals: same(r.residuals, serial.residuals) && r.residuals.length > 0,
+          stages: ["refine", "median", "tv"].every((s) => stages.has(s)),
+          timings: r.timings.map((t) => t.stage).filter((s) => ["refine", "median", "tv"].includes(s)).join(),
+        });
+      }
     }
     return out;
   });
-  assert.deepEqual(digests, [true, true]);
+  for (const r of results) {
+    assert.ok(r.disparity && r.confidence && r.residuals && r.stages, JSON.stringify(r));
+    const order = JSON.parse(r.params).medianBeforeTv === false ? "refine,tv,median" : "refine,median,tv";
+    assert.equal(r.timings, order, JSON.stringify(r));
+  }
+  assert.equal(results.length, 6);
   await page.close();
 });
 
@@ -186,7 +205,7 @@ test("the align control exists, reaches the workers' requests and aligns a misal
   await page.close();
 });
 
-test("the median control exists, is on by default and reaches the refine + TV worker", async () => {
+test("the median control exists, is on by default and reaches the workers", async () => {
   const page = await context.newPage();
   page.on("pageerror", (e) => consoleErrors.push(e.message));
   await page.addInitScript(() => {
@@ -202,9 +221,12 @@ test("the median control exists, is on by default and reaches the refine + TV wo
   assert.equal(await page.isChecked("#median"), true);
   const runWith = async (on) => {
     await page.setChecked("#median", on);
-    await page.evaluate(() => (window.__medians = []));
+    // A small scene may finish before a poll sees "running": mark the state first.
+    await page.evaluate(() => {
+      window.__medians = [];
+      document.body.dataset.state = "clicked";
+    });
     await page.click("#run");
-    await page.waitForFunction(() => document.body.dataset.state === "running");
     await settled(page);
     return page.evaluate(() => ({
       state: document.body.dataset.state,
@@ -218,7 +240,7 @@ test("the median control exists, is on by default and reaches the refine + TV wo
   for (const r of [on, off]) assert.equal(r.state, "done", r.error);
   assert.ok(on.medians.length > 0 && on.medians.every((m) => m === true), JSON.stringify(on.medians));
   assert.ok(off.medians.length > 0 && off.medians.every((m) => m === false), JSON.stringify(off.medians));
-  // The worker reports the median as a stage of its own only when it ran.
+  // The median is a stage of its own only when it ran.
   assert.ok(on.timings.some((t) => t.startsWith("median")), on.timings.join("; "));
   assert.ok(!off.timings.some((t) => t.startsWith("median")), off.timings.join("; "));
   await page.close();
@@ -240,6 +262,52 @@ test("Cancel stops a running estimation and the page stays usable", async () => 
   assert.equal(await page.evaluate(() => document.body.dataset.state), "done");
   await page.close();
 });
+
+for (const stage of ["refine", "tv"]) {
+  test(`Cancel during ${stage} dispatches no further part and the page stays usable`, async () => {
+    const page = await context.newPage();
+    page.on("pageerror", (e) => consoleErrors.push(e.message));
+    // Record every stage part the page sends its workers.
+    await page.addInitScript(() => {
+      window.__parts = [];
+      const post = Worker.prototype.postMessage;
+      Worker.prototype.postMessage = function (message, ...rest) {
+        if (["refineBand", "medianRows", "tvTile"].includes(message?.op)) window.__parts.push(message.op);
+        return post.call(this, message, ...rest);
+      };
+    });
+    // 512² views over 2 workers: 2 refine bands (one per worker), then 4 median passes of
+    // 8 row bands and 16 TV tiles, so parts are still to come when Cancel comes.
+    await page.goto(`${server.origin}/?scene=slanted&size=512&grid=9&workers=2`);
+    await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
+    await page.click("#run");
+    const ops = { refine: "refineBand", tv: "tvTile" };
+    // Cancel once the stage's first parts are out.
+    await page.waitForFunction((op) => window.__parts.includes(op), ops[stage], { timeout: 120_000, polling: 5 });
+    // Cancel and count the parts sent so far in one turn of the page's event loop.
+    const sent = await page.evaluate(() => {
+      document.getElementById("cancel").click();
+      return window.__parts.length;
+    });
+    await settled(page, 10_000);
+    assert.equal(await page.evaluate(() => document.body.dataset.state), "cancelled");
+    assert.equal(await page.textContent("#progress-text"), "cancelled");
+    // The parts in flight finish in their workers; nothing more is dispatched.
+    await page.waitForTimeout(1500);
+    const after = await page.evaluate(() => window.__parts);
+    assert.equal(after.length, sent, after.join());
+    if (stage === "refine") assert.ok(!after.includes("medianRows") && !after.includes("tvTile"), after.join());
+    else assert.ok(after.filter((op) => op === "tvTile").length < 16, after.join());
+    assert.equal(await page.isDisabled("#run"), false);
+    assert.equal(await page.isDisabled("#cancel"), true);
+    await page.click("#run");
+    await page.waitForFunction(() => document.body.dataset.state === "running");
+    await settled(page);
+    assert.equal(await page.evaluate(() => document.body.dataset.state), "done", await page.textContent("#error"));
+    assert.ok(await page.evaluate(() => window.__parts.length) > sent);
+    await page.close();
+  });
+}
 
 test("dropped HCI-named views with a ground-truth PFM load, estimate and score", async () => {
   const page = await open("");

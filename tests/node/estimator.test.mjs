@@ -102,6 +102,103 @@ test("bands, fused, then refineAndRegularize are bit-identical to the full seria
   assert.throws(() => estimator.refineAndRegularize(d, c, min, max, () => false), /cancelled/);
 });
 
+/** The stages after EPI by parts (refine bands, median row bands pass after pass, TV
+ * tiles in any order) put together as web/engine.js does. */
+function byParts(estimator, d, c, min, max, bandLines) {
+  const pixels = SIZE * SIZE;
+  const shuffled = (n) => Array.from({ length: n }, (_, i) => i).reverse();
+  let disparity = d;
+  let confidence = c;
+  if (estimator.refineBands > 0) {
+    estimator.setMaps(disparity, confidence);
+    const refined = new Float32Array(pixels);
+    const refinedConfidence = new Float32Array(pixels);
+    for (const index of shuffled(estimator.refineBands)) {
+      const [start] = estimator.refineBandRange(index);
+      const band = estimator.refineBand(index, min, max);
+      refined.set(band.disparity, start * SIZE);
+      refinedConfidence.set(band.confidence, start * SIZE);
+    }
+    disparity = refined;
+    confidence = refinedConfidence;
+  }
+  const median = () => {
+    for (let pass = 0; pass < estimator.medianPasses; pass++) {
+      estimator.setMaps(disparity, confidence);
+      const filtered = new Float32Array(pixels);
+      for (let start = 0; start < SIZE; start += bandLines) {
+        filtered.set(estimator.medianRows(start, Math.min(SIZE, start + bandLines)), start * SIZE);
+      }
+      disparity = filtered;
+    }
+  };
+  if (estimator.medianBeforeTv) median();
+  estimator.setMaps(disparity, confidence);
+  const regularized = new Float32Array(pixels);
+  const histories = new Float32Array(estimator.tvTiles * estimator.tvIterations);
+  for (const index of shuffled(estimator.tvTiles)) {
+    const tile = estimator.tvTile(index);
+    for (let y = 0; y < tile.height; y++) {
+      regularized.set(tile.disparity.subarray(y * tile.width, (y + 1) * tile.width), (tile.y + y) * SIZE + tile.x);
+    }
+    histories.set(tile.history, index * estimator.tvIterations);
+  }
+  disparity = regularized;
+  const residuals = estimator.tvResiduals(histories);
+  if (!estimator.medianBeforeTv) median();
+  return { disparity, confidence, residuals };
+}
+
+for (const [name, params] of [
+  ["defaults (one band, one tile)", {}],
+  ["small bands and tiles", { refineBandRows: 24, tvTile: 40 }],
+  ["median after TV", { refineBandRows: 50, tvTile: 48, medianBeforeTv: false, iterations: 60 }],
+  ["no refine, no median", { refine: false, median: false, tvTile: 64 }],
+]) {
+  test(`refine bands, median rows and TV tiles are bit-identical to refineAndRegularize and estimate: ${name}`, () => {
+    const estimator = new lf.Estimator(scene.views, shape, params);
+    const serial = estimator.estimate();
+    const [min, max] = estimator.disparityRange();
+    const maps = {};
+    for (const direction of ["horizontal", "vertical"]) {
+      const band = estimator.estimateBand(direction, 0, estimator.lines(direction), min, max);
+      maps[direction] = [band.disparity, band.confidence];
+    }
+    const [d, c] = lf.fuseBands(params, SIZE, SIZE, ...maps.horizontal, ...maps.vertical);
+    const whole = estimator.refineAndRegularize(d, c, min, max);
+    const bytes = (a) => new Uint8Array(a.buffer, a.byteOffset, a.byteLength);
+    for (const bandLines of [16, 7]) {
+      const parts = byParts(estimator, d, c, min, max, bandLines);
+      assert.deepEqual(bytes(parts.disparity), bytes(whole.disparity), `disparity, median bands of ${bandLines}`);
+      assert.deepEqual(bytes(parts.confidence), bytes(whole.confidence));
+      assert.deepEqual(bytes(parts.residuals), bytes(whole.residuals));
+      assert.deepEqual(bytes(parts.disparity), bytes(serial.disparity));
+      assert.deepEqual(bytes(parts.residuals), bytes(serial.residuals));
+    }
+    assert.ok(whole.residuals.length > 0, "TV ran");
+  });
+}
+
+test("stage parts report how the stages are cut and reject bad requests", () => {
+  const estimator = new lf.Estimator(scene.views, shape, { refineBandRows: 24, tvTile: 40 });
+  assert.equal(estimator.refineBands, Math.ceil(SIZE / 24));
+  assert.deepEqual(Array.from(estimator.refineBandRange(5)), [120, 128]);
+  assert.equal(estimator.tvTiles, Math.ceil(SIZE / 40) ** 2);
+  assert.equal(estimator.medianPasses, 4);
+  assert.equal(estimator.medianBeforeTv, true);
+  assert.equal(new lf.Estimator(scene.views, shape, { refine: false, median: false }).refineBands, 0);
+  assert.equal(new lf.Estimator(scene.views, shape, { median: false }).medianPasses, 0);
+  assert.throws(() => estimator.refineBand(0, -1, 1), /no maps set: call setMaps/);
+  const zeros = new Float32Array(SIZE * SIZE);
+  assert.throws(() => estimator.setMaps(zeros.subarray(1), zeros), /disparity has 16383 values/);
+  estimator.setMaps(zeros, zeros);
+  assert.throws(() => estimator.refineBand(6, -1, 1), /refine band/);
+  assert.throws(() => estimator.tvTile(16), /tile/);
+  assert.throws(() => estimator.medianRows(10, 200), /median band end row/);
+  assert.throws(() => estimator.tvResiduals(new Float32Array(3)), /histories has 3 values/);
+  assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /tv.tile/);
+});
+
 test("Uint8ClampedArray views give the same result as Uint8Array", () => {
   const a = new lf.Estimator(scene.views, shape, { range: [-2, 2] }).estimate();
   const clamped = new Uint8ClampedArray(scene.views);

@@ -3,15 +3,18 @@
 //! side on the same scene):
 //!
 //! ```text
-//! cargo run --release -p lfdepth-wasm --example native_timing -- planes 512 9 3
+//! cargo run --release -p lfdepth-wasm --example native_timing -- planes 512 9 3 epi
 //! ```
-//! Arguments: scene, size (px), grid (views per side), repetitions. Prints one JSON line.
+//! Arguments: scene, size (px), grid (views per side), repetitions, stages ("epi": the
+//! EPI stage alone, as `{ stage: "epi" }`; "full": EPI → refine → median → TV, as
+//! `{ align: "off" }`). Prints one JSON line.
 
 use std::ops::ControlFlow;
 use std::time::Instant;
 
+use lfdepth::pipeline::{self, Stages};
 use lfdepth::synth::{self, SceneKind, SynthSpec};
-use lfdepth::{pipeline, Grid, Homography, LightField, Params, Plan};
+use lfdepth::{Grid, Homography, LightField, Params, Plan};
 
 fn main() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -22,6 +25,11 @@ fn main() -> Result<(), String> {
     let repetitions: usize = arg(3, "3")
         .parse()
         .map_err(|_| "repetitions must be a number")?;
+    let stages = match arg(4, "epi").as_str() {
+        "epi" => Stages::Epi,
+        "full" => Stages::Full,
+        _ => return Err("stages must be \"epi\" or \"full\"".into()),
+    };
 
     let mut spec = SynthSpec::new(scene, Grid::new(grid, grid), size, size);
     spec.seed = 1;
@@ -40,10 +48,25 @@ fn main() -> Result<(), String> {
         let start = Instant::now();
         let mut d = vec![0.0f32; plan.pixels()];
         let mut c = vec![0.0f32; plan.pixels()];
-        let mut scratch = vec![0.0f32; pipeline::scratch_len(&plan)];
-        pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut scratch, &mut |_| {
-            ControlFlow::Continue(())
-        })
+        let mut scratch = vec![0.0f32; pipeline::stage_scratch_len(&plan, stages)];
+        let (mut maps, mut history) = match stages {
+            Stages::Epi => (Vec::new(), Vec::new()),
+            Stages::Full => (
+                vec![0.0f32; pipeline::map_scratch_len(&plan)],
+                vec![0.0f32; plan.params().tv.max_iterations],
+            ),
+        };
+        pipeline::run(
+            &plan,
+            &lf,
+            stages,
+            &mut d,
+            &mut c,
+            &mut scratch,
+            &mut maps,
+            &mut history,
+            &mut |_| ControlFlow::Continue(()),
+        )
         .map_err(|e| e.to_string())?;
         best = best.min(start.elapsed().as_secs_f64() * 1e3);
         disparity = d;

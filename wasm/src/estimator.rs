@@ -162,8 +162,8 @@ impl AlignResult {
 /// the transpose of the image layout).
 #[wasm_bindgen]
 pub struct Band {
-    disparity: Vec<f32>,
-    confidence: Vec<f32>,
+    pub(crate) disparity: Vec<f32>,
+    pub(crate) confidence: Vec<f32>,
 }
 
 #[wasm_bindgen]
@@ -185,10 +185,13 @@ impl Band {
 pub struct Estimator {
     views: Vec<u8>,
     layout: Layout,
-    plan: Plan,
+    pub(crate) plan: Plan,
     stages: Stages,
     /// Set once the alignment prelude ran: `views` are then the rectified views.
     aligned: Option<AlignResult>,
+    /// The maps the stage parts (`refineBand`, `medianRows`, `tvTile`) read, set by
+    /// `setMaps`: disparity then confidence, `plan.pixels()` each.
+    pub(crate) maps: Option<(Vec<f32>, Vec<f32>)>,
 }
 
 impl Estimator {
@@ -238,7 +241,7 @@ impl Estimator {
 }
 
 impl Estimator {
-    fn light_field(&self) -> Result<LightField<'_, u8>, JsError> {
+    pub(crate) fn light_field(&self) -> Result<LightField<'_, u8>, JsError> {
         LightField::new(&self.views, self.layout).map_err(error)
     }
 
@@ -271,6 +274,7 @@ impl Estimator {
             plan,
             stages,
             aligned: None,
+            maps: None,
         })
     }
 
@@ -375,9 +379,12 @@ impl Estimator {
     }
 
     /// The stages after EPI, serially on this thread: refine (unless `params.refine` is
-    /// false) then TV, from the fused EPI `disparity` and `confidence` (`fuseBands`) and
-    /// the range `[min, max]` they were estimated over (`disparityRange()`). Gives the
-    /// same bits as `estimate()` with the full pipeline. `onProgress` as for `estimate`.
+    /// false), the weighted median (unless `params.median` is false; before or after TV
+    /// as `params.medianBeforeTv` says) and TV, from the fused EPI `disparity` and
+    /// `confidence` (`fuseBands`) and the range `[min, max]` they were estimated over
+    /// (`disparityRange()`). Gives the same bits as `estimate()` with the full pipeline,
+    /// and as the same stages by parts (`refineBand`, `medianRows`, `tvTile`).
+    /// `onProgress` as for `estimate`.
     #[wasm_bindgen(js_name = refineAndRegularize)]
     pub fn refine_and_regularize(
         &self,
@@ -518,7 +525,7 @@ fn stage_report(
 }
 
 /// The TV history without the iterations no tile ran (as the native engine trims it).
-fn iterations_run(mut history: Vec<f32>) -> Vec<f32> {
+pub(crate) fn iterations_run(mut history: Vec<f32>) -> Vec<f32> {
     while history.last() == Some(&0.0) {
         history.pop();
     }

@@ -5,7 +5,10 @@
 //!   pipeline ([`Estimator::estimate`], with progress and cancel) or single bands
 //!   ([`Estimator::estimate_band`]) so the page can spread them over Web Workers, then
 //!   [`fuse_bands`] combines the two directions exactly as the serial pipeline does, and
-//!   [`Estimator::refine_and_regularize`] runs the refine and TV stages on the result.
+//!   [`Estimator::refine_and_regularize`] runs the refine, median and TV stages on the
+//!   result — or, to spread those over workers too, `parts` runs them by refine band,
+//!   median row band and TV tile ([`Estimator::refine_band`], [`Estimator::median_rows`],
+//!   [`Estimator::tv_tile`]).
 //! * [`synthesize`], [`render_view`], [`render_ground_truth`]: the core's synthetic scenes.
 //! * [`evaluate`]: the HCI benchmark metrics.
 //!
@@ -16,10 +19,12 @@ mod estimator;
 mod js;
 mod metrics;
 mod params;
+mod parts;
 mod synth;
 
 pub use estimator::{fuse_bands, stage_names, Band, EstimateResult, Estimator, StageTiming};
 pub use metrics::{evaluate, Scores};
+pub use parts::TvTile;
 pub use synth::{render_ground_truth, render_view, scene_names, synthesize, SyntheticLightField};
 
 use wasm_bindgen::prelude::*;
@@ -72,6 +77,12 @@ export interface EstimateParams {
   lambda?: number;
   /** Most TV (PPXA) iterations per tile, 1…100000. */
   iterations?: number;
+  /** Image rows per refine band, 1…4096 (default 128): the unit `refineBand` works on. */
+  refineBandRows?: number;
+  /** Run the median between refine and TV (true, the default) or after TV (false). */
+  medianBeforeTv?: boolean;
+  /** Side of a TV tile in pixels, 8…4096 (default 128): the unit `tvTile` works on. */
+  tvTile?: number;
   /** Align the views by per-view homographies first: "off", "on", or "auto" (the
    * default: only when the array is found not to be rectified). */
   align?: "off" | "on" | "auto";

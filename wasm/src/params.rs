@@ -9,7 +9,7 @@ use wasm_bindgen::prelude::*;
 use crate::js::{message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 15] = [
+const PARAM_KEYS: [&str; 18] = [
     "range",
     "innerSigma",
     "outerSigma",
@@ -25,6 +25,9 @@ const PARAM_KEYS: [&str; 15] = [
     "lambda",
     "iterations",
     "align",
+    "refineBandRows",
+    "medianBeforeTv",
+    "tvTile",
 ];
 
 /// The packed layout of views described by a `Shape` object.
@@ -127,6 +130,16 @@ pub fn params(object: &JsValue) -> Result<Params, JsError> {
     float("lambda", &mut params.tv.lambda)?;
     if let Some(v) = f.count("iterations")? {
         params.tv.max_iterations = v;
+    }
+    // How the later stages are cut into parts (the Web Workers' unit of work).
+    if let Some(v) = f.count("refineBandRows")? {
+        params.refine.band_rows = v;
+    }
+    if let Some(v) = f.boolean("medianBeforeTv")? {
+        params.median.before_tv = v;
+    }
+    if let Some(v) = f.count("tvTile")? {
+        params.tv.tile = v;
     }
     Ok(params)
 }

@@ -1,0 +1,259 @@
+//! The stages after EPI by parts, so the page can spread them over Web Workers: refine
+//! bands, weighted-median row bands (one pass at a time), TV tiles. Each part is the
+//! core's own band/tile function; put together in the order the core's serial
+//! `pipeline::regularize` runs them they give its bits, whatever the split.
+
+use lfdepth::tv::{self, Guide, Maps, SolveOutput};
+use lfdepth::{median, refine};
+use wasm_bindgen::prelude::*;
+
+use crate::estimator::{iterations_run, Band, Estimator};
+use crate::js::{error, message};
+
+/// The refined disparity of one TV tile's core, with its residual history.
+#[wasm_bindgen]
+pub struct TvTile {
+    x: usize,
+    y: usize,
+    width: usize,
+    height: usize,
+    disparity: Vec<f32>,
+    history: Vec<f32>,
+}
+
+#[wasm_bindgen]
+impl TvTile {
+    /// Left column of the core in the image.
+    #[wasm_bindgen(getter)]
+    pub fn x(&self) -> usize {
+        self.x
+    }
+    /// Top row of the core in the image.
+    #[wasm_bindgen(getter)]
+    pub fn y(&self) -> usize {
+        self.y
+    }
+    /// Core width.
+    #[wasm_bindgen(getter)]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+    /// Core height.
+    #[wasm_bindgen(getter)]
+    pub fn height(&self) -> usize {
+        self.height
+    }
+    /// Refined disparity of the core, `width · height`, row-major.
+    #[wasm_bindgen(getter)]
+    pub fn disparity(&self) -> js_sys::Float32Array {
+        js_sys::Float32Array::from(&self.disparity[..])
+    }
+    /// The tile's squared dual update per iteration (`tvIterations` values, zero past
+    /// the iterations it ran): pass every tile's, in tile order, to `tvResiduals`.
+    #[wasm_bindgen(getter)]
+    pub fn history(&self) -> js_sys::Float32Array {
+        js_sys::Float32Array::from(&self.history[..])
+    }
+}
+
+impl Estimator {
+    fn stage_maps(&self) -> Result<(&[f32], &[f32]), JsError> {
+        match &self.maps {
+            Some((d, c)) => Ok((d, c)),
+            None => Err(message(
+                "no maps set: call setMaps(disparity, confidence) before a stage part",
+            )),
+        }
+    }
+}
+
+#[wasm_bindgen]
+impl Estimator {
+    /// Sets the maps the stage parts read (copies): the fused EPI maps for
+    /// `refineBand`, the previous pass's disparity for `medianRows`, the disparity and
+    /// confidence TV regularises for `tvTile`. `plan.pixels()` values each.
+    #[wasm_bindgen(js_name = setMaps)]
+    pub fn set_maps(&mut self, disparity: &[f32], confidence: &[f32]) -> Result<(), JsError> {
+        let pixels = self.plan.pixels();
+        for (name, len) in [
+            ("disparity", disparity.len()),
+            ("confidence", confidence.len()),
+        ] {
+            if len != pixels {
+                return Err(message(&format!(
+                    "{name} has {len} values but the view has {pixels} pixels"
+                )));
+            }
+        }
+        self.maps = Some((disparity.to_vec(), confidence.to_vec()));
+        Ok(())
+    }
+
+    /// Frees the maps of `setMaps`.
+    #[wasm_bindgen(js_name = clearMaps)]
+    pub fn clear_maps(&mut self) {
+        self.maps = None;
+    }
+
+    /// Number of refine bands; 0 when `params.refine` is false (the refined maps are
+    /// then the fused EPI maps).
+    #[wasm_bindgen(getter, js_name = refineBands)]
+    pub fn refine_bands(&self) -> usize {
+        if self.plan.params().refine.enabled {
+            refine::band_count(&self.plan)
+        } else {
+            0
+        }
+    }
+
+    /// Image rows `[start, end)` of refine band `index`.
+    #[wasm_bindgen(js_name = refineBandRange)]
+    pub fn refine_band_range(&self, index: usize) -> Result<Vec<usize>, JsError> {
+        let rows = refine::band_rows(&self.plan, index).map_err(error)?;
+        Ok(vec![rows.start, rows.end])
+    }
+
+    /// Refines band `index` of the maps of `setMaps` (the fused EPI maps) for the range
+    /// `[min, max]` they were estimated over: disparity and confidence of the band's
+    /// rows, row-major.
+    #[wasm_bindgen(js_name = refineBand)]
+    pub fn refine_band(&self, index: usize, min: f32, max: f32) -> Result<Band, JsError> {
+        let (input, _) = self.stage_maps()?;
+        let lf = self.light_field()?;
+        let rows = refine::band_rows(&self.plan, index).map_err(error)?;
+        let len = rows.len() * self.plan.layout().width;
+        let mut disparity = vec![0.0f32; len];
+        let mut confidence = vec![0.0f32; len];
+        let mut scratch = vec![0.0f32; refine::scratch_len(&self.plan)];
+        refine::refine_band(
+            &self.plan,
+            &lf,
+            (min, max),
+            input,
+            rows,
+            &mut disparity,
+            &mut confidence,
+            &mut scratch,
+        )
+        .map_err(error)?;
+        Ok(Band {
+            disparity,
+            confidence,
+        })
+    }
+
+    /// Weighted-median passes to run over the whole map, one after the other; 0 when
+    /// `params.median` is false.
+    #[wasm_bindgen(getter, js_name = medianPasses)]
+    pub fn median_passes(&self) -> usize {
+        let median = self.plan.params().median;
+        if median.enabled {
+            median.passes
+        } else {
+            0
+        }
+    }
+
+    /// True when the median passes run between refine and TV, false when after TV.
+    #[wasm_bindgen(getter, js_name = medianBeforeTv)]
+    pub fn median_before_tv(&self) -> bool {
+        self.plan.params().median.before_tv
+    }
+
+    /// One median pass over image rows `start..end` of the disparity of `setMaps` (the
+    /// previous pass's whole map), guided by the centre view: `(end − start) · width`
+    /// values, row-major.
+    #[wasm_bindgen(js_name = medianRows)]
+    pub fn median_rows(&self, start: usize, end: usize) -> Result<Vec<f32>, JsError> {
+        let (input, _) = self.stage_maps()?;
+        let lf = self.light_field()?;
+        let width = self.plan.layout().width;
+        let rows = end
+            .checked_sub(start)
+            .ok_or_else(|| message(&format!("median rows {start}..{end}: start is after end")))?;
+        let mut out = vec![0.0f32; rows.saturating_mul(width)];
+        let mut scratch = vec![0.0f32; median::scratch_len(&self.plan)];
+        median::filter_rows(
+            &self.plan,
+            &lf.center_view(),
+            input,
+            start..end,
+            &mut out,
+            &mut scratch,
+        )
+        .map_err(error)?;
+        Ok(out)
+    }
+
+    /// Number of TV tiles (row-major).
+    #[wasm_bindgen(getter, js_name = tvTiles)]
+    pub fn tv_tiles(&self) -> usize {
+        let (cols, rows) = tv::tile_count(&self.plan);
+        cols.saturating_mul(rows)
+    }
+
+    /// Most TV iterations per tile: the length of each tile's `history`.
+    #[wasm_bindgen(getter, js_name = tvIterations)]
+    pub fn tv_iterations(&self) -> usize {
+        self.plan.params().tv.max_iterations
+    }
+
+    /// Regularises TV tile `index` of the maps of `setMaps` (disparity and confidence)
+    /// guided by the centre view.
+    #[wasm_bindgen(js_name = tvTile)]
+    pub fn tv_tile(&self, index: usize) -> Result<TvTile, JsError> {
+        let (disparity, confidence) = self.stage_maps()?;
+        let lf = self.light_field()?;
+        let layout = self.plan.layout();
+        let maps = Maps::new(layout.width, layout.height, disparity, confidence).map_err(error)?;
+        let (core, _) = tv::tile_rects(&self.plan, index).map_err(error)?;
+        let mut out = vec![0.0f32; core.width * core.height];
+        let mut history = vec![0.0f32; self.tv_iterations()];
+        let mut scratch = vec![0.0f32; tv::scratch_len(&self.plan)];
+        tv::refine_tile(
+            &self.plan,
+            &maps,
+            &Guide::View(lf.center_view()),
+            index,
+            SolveOutput {
+                disparity: &mut out,
+                stride: core.width,
+                history: &mut history,
+                dual: None,
+            },
+            &mut scratch,
+        )
+        .map_err(error)?;
+        Ok(TvTile {
+            x: core.x,
+            y: core.y,
+            width: core.width,
+            height: core.height,
+            disparity: out,
+            history,
+        })
+    }
+
+    /// The TV residual curve from every tile's `history`, concatenated in tile order
+    /// (`tvTiles · tvIterations` values): summed in tile order and normalised as the
+    /// serial pipeline does, without the iterations no tile ran.
+    #[wasm_bindgen(js_name = tvResiduals)]
+    pub fn tv_residuals(&self, histories: &[f32]) -> Result<Vec<f32>, JsError> {
+        let iterations = self.tv_iterations();
+        let tiles = self.tv_tiles();
+        if Some(histories.len()) != tiles.checked_mul(iterations) {
+            return Err(message(&format!(
+                "histories has {} values but {tiles} tiles × {iterations} iterations are needed",
+                histories.len()
+            )));
+        }
+        let mut history = vec![0.0f32; iterations];
+        for tile in histories.chunks_exact(iterations.max(1)) {
+            for (h, t) in history.iter_mut().zip(tile) {
+                *h += t;
+            }
+        }
+        tv::normalise_history(&self.plan, &mut history);
+        Ok(iterations_run(history))
+    }
+}
