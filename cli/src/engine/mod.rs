@@ -296,13 +296,7 @@ fn run_stages<T: Scalar, S: Sample + Sync>(
     }
     let median = plan.params().median;
     if median.enabled && median.before_tv {
-        let start = Instant::now();
-        for _ in 0..median.passes {
-            estimate.disparity = median_parallel(plan, lf, &estimate.disparity, tracker)?;
-        }
-        estimate
-            .timings
-            .push((lfdepth::median::STAGE, start.elapsed()));
+        median_passes(plan, lf, &mut estimate, tracker)?;
     }
     let start = Instant::now();
     let (d, residuals) =
@@ -311,17 +305,28 @@ fn run_stages<T: Scalar, S: Sample + Sync>(
     estimate.residuals = residuals;
     estimate.timings.push((tv::STAGE, start.elapsed()));
     if median.enabled && !median.before_tv {
-        let start = Instant::now();
-        for _ in 0..median.passes {
-            estimate.disparity = median_parallel(plan, lf, &estimate.disparity, tracker)?;
-        }
-        estimate.timings.push((median::STAGE, start.elapsed()));
+        median_passes(plan, lf, &mut estimate, tracker)?;
     }
     Ok(estimate)
 }
 
-/// The weighted median in parallel bands of rows (each pixel depends only on its
-/// window, so the map does not depend on the banding).
+/// Every pass of the weighted median over `estimate.disparity`, timed as one stage.
+fn median_passes<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    estimate: &mut Estimate,
+    tracker: &Tracker<'_>,
+) -> Result<(), lfdepth::Error> {
+    let start = Instant::now();
+    for _ in 0..plan.params().median.passes {
+        estimate.disparity = median_parallel(plan, lf, &estimate.disparity, tracker)?;
+    }
+    estimate.timings.push((median::STAGE, start.elapsed()));
+    Ok(())
+}
+
+/// One pass of the weighted median in parallel bands of rows (each pixel depends only
+/// on its window, so the map does not depend on the banding).
 fn median_parallel<S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
