@@ -66,7 +66,16 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> usize
     let guide = Guide::View(lf.center_view());
     let mut out = vec![0.0f32; w * h];
     let mut history = vec![0.0f32; params.max_iterations];
-    let report = tv::refine(&plan, &maps, &guide, &mut out, &mut history, scratch).unwrap();
+    let report = tv::refine(
+        &plan,
+        &maps,
+        &guide,
+        &mut out,
+        &mut history,
+        scratch,
+        &mut vec![0.0; tv::dual_len(&plan)],
+    )
+    .unwrap();
     report.total_iterations
 }
 

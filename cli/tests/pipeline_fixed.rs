@@ -259,10 +259,11 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
     let maps = Maps::new(w, h, &rf, &cf).unwrap();
     let guide = Guide::View(lf.center_view());
     let (mut tf, mut tq) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let mut duals = vec![0.0f32; tv::dual_len(&plan)];
     let mut s = vec![0.0f32; tv::scratch_len(&plan)];
-    tv::refine(&plan, &maps, &guide, &mut tf, &mut [], &mut s).unwrap();
+    tv::refine(&plan, &maps, &guide, &mut tf, &mut [], &mut s, &mut duals).unwrap();
     let mut s = vec![Q16::ZERO; tv::scratch_len(&plan)];
-    tv::refine(&plan, &maps, &guide, &mut tq, &mut [], &mut s).unwrap();
+    tv::refine(&plan, &maps, &guide, &mut tq, &mut [], &mut s, &mut duals).unwrap();
     let regularised = agreement(&tf, &tq, 0.02);
     eprintln!(
         "  stages from the same f32 input: EPI {:.3} % (max {:.3}), refinement {:.3} % \
@@ -319,6 +320,7 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
     let (mut rd, mut rc) = (vec![0.0f32; n], vec![0.0f32; n]);
     refine::refine(&plan, lf, range, &d, &mut rd, &mut rc, &mut scratch).unwrap();
     let mut work = vec![T::ZERO; pipeline::scratch_len(&plan)];
+    let mut duals = vec![0.0f32; tv::dual_len(&plan)];
     let (mut od, mut oc) = (vec![0.0f32; n], vec![0.0f32; n]);
     let maps = Maps::new(lf.width(), lf.height(), &rd, &rc).unwrap();
     let guide = Guide::View(lf.center_view());
@@ -337,7 +339,16 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
         refine::refine(&plan, lf, range, &d, &mut od, &mut oc, &mut work).unwrap();
     });
     let regularised = time(&mut || {
-        tv::refine(&plan, &maps, &guide, &mut od, &mut [], &mut work).unwrap();
+        tv::refine(
+            &plan,
+            &maps,
+            &guide,
+            &mut od,
+            &mut [],
+            &mut work,
+            &mut duals,
+        )
+        .unwrap();
     });
     let whole = time(&mut || {
         pipeline::run(

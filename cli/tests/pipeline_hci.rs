@@ -86,6 +86,7 @@ fn stages(dir: &Path, params: Params) -> [(Vec<f32>, f64); 3] {
         &mut out,
         &mut [],
         &mut scratch,
+        &mut vec![0.0; tv::dual_len(&plan)],
     )
     .unwrap();
     let tv_s = t.elapsed().as_secs_f64();

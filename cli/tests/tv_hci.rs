@@ -31,6 +31,7 @@ fn params_from_env() -> TvParams {
         relaxation: env_f32("TV_RELAX", d.relaxation),
         tile: env_f32("TV_TILE", d.tile as f32) as usize,
         halo: env_f32("TV_HALO", d.halo as f32) as usize,
+        sweeps: env_f32("TV_SWEEPS", d.sweeps as f32) as usize,
     }
 }
 
@@ -58,7 +59,16 @@ fn run<S: lfdepth::Scalar>(
     let mut history = vec![0.0f32; params.max_iterations];
     let mut scratch = vec![S::ZERO; tv::scratch_len(&plan)];
     let t = Instant::now();
-    let report = tv::refine(&plan, &maps, &guide, &mut out, &mut history, &mut scratch).unwrap();
+    let report = tv::refine(
+        &plan,
+        &maps,
+        &guide,
+        &mut out,
+        &mut history,
+        &mut scratch,
+        &mut vec![0.0; tv::dual_len(&plan)],
+    )
+    .unwrap();
     let secs = t.elapsed().as_secs_f64();
     (out, history, report, secs)
 }

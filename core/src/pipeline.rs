@@ -60,6 +60,7 @@ pub fn stage_scratch_len(plan: &Plan, stages: Stages) -> usize {
 pub fn map_scratch_len(plan: &Plan) -> usize {
     plan.pixels()
         .saturating_mul(2)
+        .saturating_add(tv::dual_len(plan))
         .saturating_add(median::scratch_len(plan))
 }
 
@@ -165,7 +166,8 @@ pub fn regularize<T: Scalar, S: Sample>(
         });
     }
     let (mid_d, rest) = maps.split_at_mut(pixels);
-    let (mid_c, median_scratch) = rest.split_at_mut(pixels);
+    let (mid_c, rest) = rest.split_at_mut(pixels);
+    let (duals, median_scratch) = rest.split_at_mut(tv::dual_len(plan));
     if plan.params().refine.enabled {
         refine::refine_with_progress(plan, lf, range, disparity, mid_d, mid_c, scratch, progress)?;
     } else {
@@ -189,27 +191,43 @@ pub fn regularize<T: Scalar, S: Sample>(
     let guide = Guide::View(lf.center_view());
     let (cols, rows) = tv::tile_count(plan);
     let tiles = checked_product(&[cols, rows], "the TV tiles")?;
+    let sweeps = plan.params().tv.sweeps;
+    let solves = checked_product(&[tiles, sweeps + 1], "the TV tile solves")?;
+    // Outer sweeps carry the dual from one pass over the tiles to the next.
+    let (mut previous, mut next) = duals.split_at_mut(duals.len() / 2);
     history.fill(0.0);
-    for index in 0..tiles {
-        report(progress, tv::STAGE, index, tiles)?;
-        let (core, _) = tv::tile_rects(plan, index)?;
-        let start = core.y * layout.width + core.x;
-        tv::refine_tile(
-            plan,
-            &tv_maps,
-            &guide,
-            index,
-            SolveOutput {
-                disparity: &mut disparity[start..],
-                stride: layout.width,
-                history: &mut *history,
-                dual: None,
-            },
-            scratch,
-        )?;
+    for sweep in 0..=sweeps {
+        let maps = if sweep == 0 {
+            tv_maps
+        } else {
+            tv_maps.with_dual(previous)?
+        };
+        for index in 0..tiles {
+            report(progress, tv::STAGE, sweep * tiles + index, solves)?;
+            let (core, _) = tv::tile_rects(plan, index)?;
+            let start = core.y * layout.width + core.x;
+            tv::refine_tile(
+                plan,
+                &maps,
+                &guide,
+                index,
+                SolveOutput {
+                    disparity: &mut disparity[start..],
+                    stride: layout.width,
+                    history: if sweep == 0 { &mut *history } else { &mut [] },
+                    dual: if sweep < sweeps {
+                        next.get_mut(2 * start..)
+                    } else {
+                        None
+                    },
+                },
+                scratch,
+            )?;
+        }
+        core::mem::swap(&mut previous, &mut next);
     }
     tv::normalise_history(plan, history);
-    report(progress, tv::STAGE, tiles, tiles)?;
+    report(progress, tv::STAGE, solves, solves)?;
     if median.enabled && !median.before_tv {
         for pass in 0..median.passes {
             report(progress, median::STAGE, pass, median.passes)?;

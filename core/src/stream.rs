@@ -198,6 +198,12 @@ impl StreamPlan {
                 reason: "must be off for a stream: the weighted median is not streamed",
             });
         }
+        if params.tv.sweeps != 0 {
+            return Err(Error::InvalidParameter {
+                name: "tv.sweeps",
+                reason: "must be 0 for a stream: outer sweeps need the dual of the whole frame",
+            });
+        }
         if params.align.mode != AlignMode::Off {
             return Err(Error::InvalidParameter {
                 name: "align.mode",

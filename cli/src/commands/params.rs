@@ -97,6 +97,21 @@ pub struct ParamArgs {
     /// TV refinement: most PPXA iterations per tile (default from the core).
     #[arg(long, value_name = "N")]
     pub tv_iterations: Option<usize>,
+    /// TV refinement: stopping tolerance on the relative dual update, 0 to run every
+    /// iteration (default from the core; smaller = closer to the exact minimiser).
+    #[arg(long, value_name = "F")]
+    pub tv_tolerance: Option<f32>,
+    /// TV refinement: side of a tile's core in pixels (default from the core).
+    #[arg(long, value_name = "N")]
+    pub tv_tile: Option<usize>,
+    /// TV refinement: pixels of context around each tile (default from the core).
+    #[arg(long, value_name = "N")]
+    pub tv_halo: Option<usize>,
+    /// TV refinement: outer sweeps, 0…8: solve every tile again from the previous pass's
+    /// dual with the flows across its border held at the neighbours' values, so tiles
+    /// agree where they meet (default from the core).
+    #[arg(long, value_name = "N")]
+    pub tv_sweeps: Option<usize>,
     /// Edge-snapping weighted median guided by the centre view (between the refinement
     /// and TV): window radius in pixels, 1…7, or 0 to switch it off (default from the
     /// core).
@@ -137,6 +152,10 @@ impl Default for ParamArgs {
             no_shear: false,
             lambda: None,
             tv_iterations: None,
+            tv_tolerance: None,
+            tv_tile: None,
+            tv_halo: None,
+            tv_sweeps: None,
             median: None,
             median_sigma: None,
             median_passes: None,
@@ -162,6 +181,18 @@ impl ParamArgs {
         }
         if let Some(n) = self.tv_iterations {
             params.tv.max_iterations = n;
+        }
+        if let Some(t) = self.tv_tolerance {
+            params.tv.tolerance = t;
+        }
+        if let Some(n) = self.tv_tile {
+            params.tv.tile = n;
+        }
+        if let Some(n) = self.tv_halo {
+            params.tv.halo = n;
+        }
+        if let Some(n) = self.tv_sweeps {
+            params.tv.sweeps = n;
         }
         match self.median {
             Some(0) => params.median.enabled = false,

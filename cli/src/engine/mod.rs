@@ -383,6 +383,8 @@ fn refine_parallel<T: Scalar, S: Sample + Sync>(
 
 /// The TV stage: tiles in parallel into their own buffers, stitched in tile order, their
 /// residual histories summed in tile order (so the sums do not depend on the threads).
+/// Each outer sweep ([`lfdepth::tv::TvParams::sweeps`]) solves every tile again from the
+/// dual the previous pass stitched together.
 fn tv_parallel<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -394,46 +396,63 @@ fn tv_parallel<T: Scalar, S: Sample + Sync>(
     let maps = Maps::new(width, height, disparity, confidence)?;
     let guide = Guide::View(lf.center_view());
     let iterations = plan.params().tv.max_iterations;
+    let sweeps = plan.params().tv.sweeps;
     let (cols, rows) = tv::tile_count(plan);
-    tracker.start(tv::STAGE, (cols * rows) as u64);
-    let tiles: Vec<(Vec<f32>, Vec<f32>)> = (0..cols * rows)
-        .into_par_iter()
-        .map_init(
-            || vec![T::ZERO; tv::scratch_len(plan)],
-            |scratch, index| {
-                let (core, _) = tv::tile_rects(plan, index)?;
-                let mut out = vec![0.0f32; core.width * core.height];
-                let mut history = vec![0.0f32; iterations];
-                tv::refine_tile(
-                    plan,
-                    &maps,
-                    &guide,
-                    index,
-                    SolveOutput {
-                        disparity: &mut out,
-                        stride: core.width,
-                        history: &mut history,
-                        dual: None,
-                    },
-                    scratch,
-                )?;
-                tracker.add(1);
-                Ok((out, history))
-            },
-        )
-        .collect::<Result<_, lfdepth::Error>>()?;
+    tracker.start(tv::STAGE, ((cols * rows) * (sweeps + 1)) as u64);
     let mut out = vec![0.0f32; width * height];
     let mut history = vec![0.0f32; iterations];
-    for (index, (core_out, tile_history)) in tiles.iter().enumerate() {
-        let (core, _) = tv::tile_rects(plan, index)?;
-        for y in 0..core.height {
-            let dst = (core.y + y) * width + core.x;
-            out[dst..dst + core.width]
-                .copy_from_slice(&core_out[y * core.width..(y + 1) * core.width]);
+    let mut previous = Vec::new();
+    for sweep in 0..=sweeps {
+        let keep_dual = sweep < sweeps;
+        let maps = if sweep == 0 {
+            maps
+        } else {
+            maps.with_dual(&previous)?
+        };
+        let tiles: Vec<(Vec<f32>, Vec<f32>, Vec<f32>)> = (0..cols * rows)
+            .into_par_iter()
+            .map_init(
+                || vec![T::ZERO; tv::scratch_len(plan)],
+                |scratch, index| {
+                    let (core, _) = tv::tile_rects(plan, index)?;
+                    let mut out = vec![0.0f32; core.width * core.height];
+                    let mut history = vec![0.0f32; if sweep == 0 { iterations } else { 0 }];
+                    let mut dual = vec![0.0f32; if keep_dual { 2 * out.len() } else { 0 }];
+                    tv::refine_tile(
+                        plan,
+                        &maps,
+                        &guide,
+                        index,
+                        SolveOutput {
+                            disparity: &mut out,
+                            stride: core.width,
+                            history: &mut history,
+                            dual: keep_dual.then_some(&mut dual[..]),
+                        },
+                        scratch,
+                    )?;
+                    tracker.add(1);
+                    Ok((out, history, dual))
+                },
+            )
+            .collect::<Result<_, lfdepth::Error>>()?;
+        let mut next = vec![0.0f32; if keep_dual { 2 * width * height } else { 0 }];
+        for (index, (core_out, tile_history, core_dual)) in tiles.iter().enumerate() {
+            let (core, _) = tv::tile_rects(plan, index)?;
+            for y in 0..core.height {
+                let dst = (core.y + y) * width + core.x;
+                let src = y * core.width..(y + 1) * core.width;
+                out[dst..dst + core.width].copy_from_slice(&core_out[src.clone()]);
+                if keep_dual {
+                    next[2 * dst..2 * (dst + core.width)]
+                        .copy_from_slice(&core_dual[2 * src.start..2 * src.end]);
+                }
+            }
+            for (h, t) in history.iter_mut().zip(tile_history) {
+                *h += t;
+            }
         }
-        for (h, t) in history.iter_mut().zip(tile_history) {
-            *h += t;
-        }
+        previous = next;
     }
     tv::normalise_history(plan, &mut history);
     // Iterations no tile ran are not part of the curve.

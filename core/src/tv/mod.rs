@@ -42,6 +42,19 @@
 //! pixels on every side (clipped at the image border) and only the core written back.
 //! A tile's result depends only on the inputs inside its core + halo, so tiles can be
 //! solved in any order or in parallel with bit-identical results.
+//!
+//! # Outer sweeps
+//! A tile sees a free border (its cut edges carry no flow), which the halo only pushes
+//! away from the core: on HCI cotton, run close to convergence, tiles of 128 + 16 still
+//! differ from the untiled solve by up to 0.026 px. [`TvParams::sweeps`] solves every tile
+//! again from the dual of the previous pass over the whole map ([`Maps::with_dual`]),
+//! holding the flows of the edges that cross the tile's region (and those of its last
+//! column and row, so that no node's coupled ℓ2 pair is split) at that dual's values: they
+//! enter each border node's target as a constant. The untiled optimum is a fixed point of
+//! this (test), and two sweeps bring cotton within 0.003 px. Each pass reads only the
+//! previous pass's dual, so tiles stay independent within a pass and the result is
+//! bit-identical for any order or thread count. The sweeps need two duals of the whole
+//! map ([`dual_len`]), so the firmware stream runs without them.
 
 /// Progress stage name.
 pub const STAGE: &str = "tv";
@@ -54,5 +67,6 @@ mod weights;
 pub use params::{TvNorm, TvParams};
 pub use solver::{scratch_len_for, solve, Guide, Maps, Rect, SolveOutput, SolveReport};
 pub use tiles::{
-    normalise_history, refine, refine_tile, scratch_len, tile_count, tile_rects, RefineReport,
+    dual_len, normalise_history, refine, refine_tile, scratch_len, tile_count, tile_rects,
+    RefineReport,
 };

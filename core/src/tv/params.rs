@@ -43,6 +43,12 @@ pub struct TvParams {
     pub tile: usize,
     /// Pixels of context around each core.
     pub halo: usize,
+    /// Outer sweeps after the first pass over the tiles (0…8): each solves every tile
+    /// again, starting from the previous pass's dual and holding the flows across its
+    /// region's border at the neighbours' values, so the tiles agree where they meet.
+    /// They need [`crate::tv::dual_len`] floats of caller memory; zero keeps tiles fully
+    /// independent (streaming, firmware).
+    pub sweeps: usize,
 }
 
 impl Default for TvParams {
@@ -61,6 +67,7 @@ impl Default for TvParams {
             relaxation: 1.9,
             tile: 128,
             halo: 16,
+            sweeps: 0,
         }
     }
 }
@@ -146,6 +153,12 @@ impl TvParams {
             return Err(Error::InvalidParameter {
                 name: "tv.halo",
                 reason: "must be at most 256 pixels",
+            });
+        }
+        if self.sweeps > 8 {
+            return Err(Error::InvalidParameter {
+                name: "tv.sweeps",
+                reason: "must be at most 8 outer sweeps",
             });
         }
         Ok(())

@@ -54,6 +54,9 @@ pub struct Maps<'a> {
     height: usize,
     disparity: &'a [f32],
     confidence: &'a [f32],
+    /// The dual `(F_h, F_v)` per pixel of a previous sweep over the whole map (see
+    /// [`Maps::with_dual`]).
+    dual: Option<&'a [f32]>,
 }
 
 impl<'a> Maps<'a> {
@@ -85,6 +88,32 @@ impl<'a> Maps<'a> {
             height,
             disparity,
             confidence,
+            dual: None,
+        })
+    }
+
+    /// Adds the dual `(F_h, F_v)` per pixel (`2 × width × height`, row-major, as
+    /// [`SolveOutput::dual`] writes it) of a previous sweep over the whole map. A solve
+    /// then starts from it and holds the flows on the edges that cross its region's border
+    /// fixed at its values (an outer sweep that exchanges halos, see [`super::tiles`]):
+    /// a tile no longer sees a free border, so tiled results approach the untiled one.
+    pub fn with_dual(self, dual: &'a [f32]) -> Result<Self> {
+        let needed = 2 * self.width * self.height;
+        if dual.len() != needed {
+            return Err(Error::OutputSize {
+                what: "the previous sweep's dual",
+                needed,
+                got: dual.len(),
+            });
+        }
+        if dual.iter().any(|v| !v.is_finite()) {
+            return Err(Error::NonFinite {
+                what: "the previous sweep's dual",
+            });
+        }
+        Ok(Maps {
+            dual: Some(dual),
+            ..self
         })
     }
     /// Width in pixels.
@@ -158,7 +187,9 @@ pub struct SolveOutput<'o> {
     /// region is ADDED to `history[n]` (nothing after the solve stopped), so tiles can
     /// accumulate into one history in tile order. Entries past its length are not recorded.
     pub history: &'o mut [f32],
-    /// When given (2 × region pixels), the final dual variable, `(F_h, F_v)` per node.
+    /// When given, the final dual variable of the core, `(F_h, F_v)` of core pixel
+    /// `(x, y)` at `dual[2 · (y · stride + x)]` (same layout as `disparity`, two values
+    /// per pixel), for [`Maps::with_dual`] of the next sweep.
     pub dual: Option<&'o mut [f32]>,
 }
 
@@ -225,12 +256,11 @@ pub fn solve<S: Scalar, P: Sample>(
             got: out.disparity.len(),
         });
     }
-    let n = region.pixels();
     if let Some(dual) = &out.dual {
-        if dual.len() != 2 * n {
-            return Err(Error::OutputSize {
+        if dual.len() < 2 * out_needed {
+            return Err(Error::BufferTooSmall {
                 what: "the dual output",
-                needed: 2 * n,
+                needed: 2 * out_needed,
                 got: dual.len(),
             });
         }
@@ -247,12 +277,9 @@ pub fn solve<S: Scalar, P: Sample>(
     let mut graph = Graph::split(&mut scratch[..needed], region.width, region.height);
     graph.setup(maps, guide, params, region);
     let report = graph.iterate(params, out.history);
-    graph.write_primal(maps, params, region, core, out.disparity, out.stride);
+    graph.write_primal(maps, guide, params, region, core, out.disparity, out.stride);
     if let Some(dual) = out.dual {
-        for (i, pair) in dual.chunks_exact_mut(2).enumerate() {
-            pair[0] = graph.fh[i].to_f32() / DUAL_SCALE;
-            pair[1] = graph.fv[i].to_f32() / DUAL_SCALE;
-        }
+        graph.write_dual(region, core, dual, out.stride);
     }
     Ok(report)
 }
@@ -373,7 +400,8 @@ impl<'s, S: Scalar> Graph<'s, S> {
         }
     }
 
-    /// Edge weights, node constants, and the warm start `F = 0` (i.e. `x = D`).
+    /// Edge weights, node constants, and the start: `F = 0` (i.e. `x = D`), or the
+    /// previous sweep's dual when the maps carry one.
     fn setup<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -387,20 +415,19 @@ impl<'s, S: Scalar> Graph<'s, S> {
             for x in 0..w {
                 let gx = region.x + x;
                 let i = y * w + x;
-                let gi = gy * maps.width + gx;
-                let (eh, ev) = match guide {
-                    Guide::Weights {
-                        horizontal,
-                        vertical,
-                    } => (
-                        horizontal.get(gi).copied().unwrap_or(0.0),
-                        vertical.get(gi).copied().unwrap_or(0.0),
-                    ),
-                    Guide::View(view) => view_weights(view, gx, gy, params),
+                let (eh, ev) = edge_weights(maps, guide, params, gx, gy);
+                // Without a previous dual the region's border edges are cut; with one,
+                // every edge owned by a node of the last column or row is held fixed
+                // (see `external_flow`), and is therefore not a variable here.
+                let (free_h, free_v) = if maps.dual.is_some() {
+                    let inner = !fixed_pair(maps, region, x, y);
+                    (inner && x + 1 < w, inner && y + 1 < h)
+                } else {
+                    (x + 1 < w, y + 1 < h)
                 };
                 if let (Some(oh), Some(ov)) = (self.wh.get_mut(i), self.wv.get_mut(i)) {
-                    *oh = S::from_f32(if x + 1 < w { eh } else { 0.0 });
-                    *ov = S::from_f32(if y + 1 < h { ev } else { 0.0 });
+                    *oh = S::from_f32(if free_h { eh } else { 0.0 });
+                    *ov = S::from_f32(if free_v { ev } else { 0.0 });
                 }
             }
         }
@@ -431,13 +458,20 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 }
                 let gk = gamma * lambda * lambda / a;
                 let sig = gk / (1.0 + gk * c2);
+                // The fixed flows across the region's border enter `(WᵀF)_i` as a
+                // constant, i.e. they shift the node's target.
+                let outside = external_flow(maps, guide, params, region, x, y);
                 if let (Some(t), Some(s)) = (self.tau.get_mut(i), self.sig.get_mut(i)) {
-                    *t = S::from_f32(DUAL_SCALE * a * d / lambda);
+                    *t = S::from_f32(DUAL_SCALE * (a * d / lambda - outside));
                     *s = S::from_f32(sig);
                 }
             }
         }
         self.range = (lo, hi);
+        if let Some(dual) = maps.dual {
+            self.warm_start(maps, region, dual);
+            return;
+        }
         for buf in [
             &mut *self.y1h,
             &mut *self.y1v,
@@ -569,10 +603,65 @@ impl<'s, S: Scalar> Graph<'s, S> {
         (sums.change.iter().sum(), sums.norm.iter().sum())
     }
 
+    /// Every PPXA copy and `F` set to the previous sweep's dual (scaled), so that
+    /// `F = ½y₁ + ¼y₂ + ¼y₃` holds from the start. Flows of edges that leave the region
+    /// stay zero inside it: they are held fixed through the targets instead.
+    fn warm_start(&mut self, maps: &Maps<'_>, region: Rect, dual: &[f32]) {
+        let (w, h) = (self.width, self.height);
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let gi = (region.y + y) * maps.width + region.x + x;
+                let pair = dual.get(2 * gi..2 * gi + 2).unwrap_or(&[0.0, 0.0]);
+                // Pairs of the last column and row are fixed (zero weight here).
+                let inner = !fixed_pair(maps, region, x, y);
+                let (fh, fv) = if inner {
+                    (pair[0], pair[1])
+                } else {
+                    (0.0, 0.0)
+                };
+                let (fh, fv) = (S::from_f32(DUAL_SCALE * fh), S::from_f32(DUAL_SCALE * fv));
+                for (buf, v) in [
+                    (&mut *self.y1h, fh),
+                    (&mut *self.own_h, fh),
+                    (&mut *self.other_h, fh),
+                    (&mut *self.fh, fh),
+                    (&mut *self.y1v, fv),
+                    (&mut *self.own_v, fv),
+                    (&mut *self.other_v, fv),
+                    (&mut *self.fv, fv),
+                ] {
+                    if let Some(b) = buf.get_mut(i) {
+                        *b = v;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The dual of the core, unscaled, `(F_h, F_v)` per pixel at `2 · (y · stride + x)`.
+    fn write_dual(&self, region: Rect, core: Rect, dual: &mut [f32], stride: usize) {
+        for y in 0..core.height {
+            for x in 0..core.width {
+                let i = (core.y - region.y + y) * self.width + core.x - region.x + x;
+                let (fh, fv) = (
+                    self.fh.get(i).map_or(0.0, |v| v.to_f32()),
+                    self.fv.get(i).map_or(0.0, |v| v.to_f32()),
+                );
+                if let Some(pair) = dual.get_mut(2 * (y * stride + x)..2 * (y * stride + x) + 2) {
+                    pair[0] = fh / DUAL_SCALE;
+                    pair[1] = fv / DUAL_SCALE;
+                }
+            }
+        }
+    }
+
     /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`.
-    fn write_primal(
+    #[allow(clippy::too_many_arguments)]
+    fn write_primal<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
+        guide: &Guide<'_, P>,
         params: &TvParams,
         region: Rect,
         core: Rect,
@@ -591,14 +680,94 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
                 let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
                 let a = data_weight(conf, params);
-                let u = div.get(rx).map_or(0.0, |u| u.to_f32());
+                let u = div.get(rx).map_or(0.0, |u| u.to_f32()) / DUAL_SCALE
+                    + external_flow(maps, guide, params, region, rx, ry);
                 if let Some(o) = out.get_mut(y * stride + x) {
-                    let x = d - params.lambda * u / (DUAL_SCALE * a);
+                    let x = d - params.lambda * u / a;
                     *o = clamp_f32(x, self.range.0, self.range.1);
                 }
             }
         }
     }
+}
+
+/// The weights of the edges `(gx, gy) → (gx + 1, gy)` and `→ (gx, gy + 1)` of the whole
+/// map (zero where they leave it).
+fn edge_weights<P: Sample>(
+    maps: &Maps<'_>,
+    guide: &Guide<'_, P>,
+    params: &TvParams,
+    gx: usize,
+    gy: usize,
+) -> (f32, f32) {
+    let (eh, ev) = match guide {
+        Guide::Weights {
+            horizontal,
+            vertical,
+        } => {
+            let gi = gy * maps.width + gx;
+            (
+                horizontal.get(gi).copied().unwrap_or(0.0),
+                vertical.get(gi).copied().unwrap_or(0.0),
+            )
+        }
+        Guide::View(view) => view_weights(view, gx, gy, params),
+    };
+    (
+        if gx + 1 < maps.width { eh } else { 0.0 },
+        if gy + 1 < maps.height { ev } else { 0.0 },
+    )
+}
+
+/// Whether the pair `(F_h, F_v)` of region node `(x, y)` is held fixed by an outer sweep:
+/// the node lies in the region's last column or row, and that is not the map's (a node on
+/// the map's border has no edge to the outside, so its pair stays free).
+fn fixed_pair(maps: &Maps<'_>, region: Rect, x: usize, y: usize) -> bool {
+    let (gx, gy) = (region.x + x, region.y + y);
+    (x + 1 == region.width && gx + 1 < maps.width)
+        || (y + 1 == region.height && gy + 1 < maps.height)
+}
+
+/// `(WᵀF)_i` of the edges of region node `(x, y)` that the solve holds fixed at the
+/// previous sweep's flows ([`Maps::with_dual`]); zero without one. Fixed are the edges
+/// owned by a node outside the region and every edge owned by a node of the region's last
+/// column or row: those nodes' pairs `(F_h, F_v)` then lie wholly outside the problem, so
+/// the coupled (ℓ2) constraint of a pair is never split between a fixed and a free edge.
+/// The incidence convention is the solver's: a node's own forward edges count `−w F`, its
+/// left and upper neighbours' `+w F`.
+fn external_flow<P: Sample>(
+    maps: &Maps<'_>,
+    guide: &Guide<'_, P>,
+    params: &TvParams,
+    region: Rect,
+    x: usize,
+    y: usize,
+) -> f32 {
+    let Some(dual) = maps.dual else {
+        return 0.0;
+    };
+    let (gx, gy) = (region.x + x, region.y + y);
+    let flow = |px: usize, py: usize, component: usize| {
+        dual.get(2 * (py * maps.width + px) + component)
+            .copied()
+            .unwrap_or(0.0)
+    };
+    let (last_x, last_y) = (
+        x + 1 == region.width && gx + 1 < maps.width,
+        y + 1 == region.height && gy + 1 < maps.height,
+    );
+    let mut e = 0.0;
+    if last_x || last_y {
+        let (eh, ev) = edge_weights(maps, guide, params, gx, gy);
+        e -= eh * flow(gx, gy, 0) + ev * flow(gx, gy, 1);
+    }
+    if gx > 0 && (x == 0 || last_y) {
+        e += edge_weights(maps, guide, params, gx - 1, gy).0 * flow(gx - 1, gy, 0);
+    }
+    if gy > 0 && (y == 0 || last_x) {
+        e += edge_weights(maps, guide, params, gx, gy - 1).1 * flow(gx, gy - 1, 1);
+    }
+    e
 }
 
 /// `a_i = m_i v_i + ℸ`: `v_i = confidence^power` where the confidence reaches the
@@ -1136,6 +1305,105 @@ mod tests {
             inv_radius: S::from_f32(1.0 / radius),
             norm,
         }
+    }
+
+    /// A region solved with the optimal dual of the whole map on its border flows (and as
+    /// its start) returns the whole map's solution on its core: the outer sweeps' fixed
+    /// point is the untiled optimum.
+    #[test]
+    fn a_region_with_the_optimal_border_flows_reproduces_the_whole_solution() {
+        for norm in [TvNorm::L2, TvNorm::L1] {
+            region_with_optimal_border_flows(norm);
+        }
+    }
+
+    fn region_with_optimal_border_flows(norm: TvNorm) {
+        let (w, h) = (24usize, 20usize);
+        let mut state = 12345u32;
+        let mut rand = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let d: Vec<f32> = (0..w * h)
+            .map(|i| if i % w < 11 { 1.0 } else { -0.5 } + 0.6 * rand())
+            .collect();
+        let c: Vec<f32> = (0..w * h).map(|_| rand()).collect();
+        let wh: Vec<f32> = (0..w * h).map(|_| 0.2 + rand()).collect();
+        let wv: Vec<f32> = (0..w * h).map(|_| 0.2 + rand()).collect();
+        let guide: Guide<'_, u8> = Guide::Weights {
+            horizontal: &wh,
+            vertical: &wv,
+        };
+        let maps = Maps::new(w, h, &d, &c).unwrap();
+        let params = TvParams {
+            lambda: 0.5,
+            norm,
+            max_iterations: 8_000,
+            tolerance: 0.0,
+            ..TvParams::default()
+        };
+        let full = Rect {
+            x: 0,
+            y: 0,
+            width: w,
+            height: h,
+        };
+        let mut whole = vec![0.0f32; w * h];
+        let mut dual = vec![0.0f32; 2 * w * h];
+        let mut scratch = vec![0.0f32; scratch_len_for(w, h)];
+        let out = SolveOutput {
+            disparity: &mut whole,
+            stride: w,
+            history: &mut [],
+            dual: Some(&mut dual),
+        };
+        solve(&maps, &guide, &params, full, full, out, &mut scratch).unwrap();
+
+        let region = Rect {
+            x: 5,
+            y: 4,
+            width: 12,
+            height: 10,
+        };
+        let core = Rect {
+            x: 8,
+            y: 7,
+            width: 6,
+            height: 4,
+        };
+        let solve_region = |maps: &Maps<'_>, scratch: &mut [f32]| {
+            let mut part = vec![0.0f32; core.pixels()];
+            let out = SolveOutput {
+                disparity: &mut part,
+                stride: core.width,
+                history: &mut [],
+                dual: None,
+            };
+            solve(maps, &guide, &params, region, core, out, scratch).unwrap();
+            part
+        };
+        let error = |part: &[f32]| {
+            let mut worst = 0.0f32;
+            for y in 0..core.height {
+                for x in 0..core.width {
+                    let g = (core.y + y) * w + core.x + x;
+                    worst = worst.max((part[y * core.width + x] - whole[g]).abs());
+                }
+            }
+            worst
+        };
+        let free = error(&solve_region(&maps, &mut scratch));
+        assert!(maps.with_dual(&dual[1..]).is_err());
+        let with = maps.with_dual(&dual).unwrap();
+        let fixed = error(&solve_region(&with, &mut scratch));
+        assert!(
+            fixed < 2e-4,
+            "{norm:?}: with the optimal border flows: {fixed} px off"
+        );
+        assert!(
+            free > 10.0 * fixed,
+            "{norm:?}: free border {free} px vs fixed {fixed} px"
+        );
     }
 
     #[test]

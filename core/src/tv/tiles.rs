@@ -11,7 +11,7 @@ use super::solver::{scratch_len_for, solve, Guide, Maps, Rect, SolveOutput, Solv
 /// What a whole refinement did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct RefineReport {
-    /// Tiles solved.
+    /// Tile solves (tiles × passes, with the outer sweeps).
     pub tiles: usize,
     /// Most iterations any tile ran.
     pub max_iterations: usize,
@@ -134,9 +134,20 @@ pub fn normalise_history(plan: &Plan, history: &mut [f32]) {
     }
 }
 
+/// Floats of caller memory [`refine`] needs for the outer sweeps
+/// ([`super::TvParams::sweeps`]): two duals of the whole map, or nothing without sweeps.
+pub fn dual_len(plan: &Plan) -> usize {
+    if plan.params().tv.sweeps == 0 {
+        0
+    } else {
+        plan.pixels().saturating_mul(4)
+    }
+}
+
 /// Refines the whole map, tile after tile: `out` (`width × height`) gets the refined
-/// disparity, `history[n]` the RMS dual update at iteration `n` (see
-/// [`normalise_history`]; pass an empty slice to skip it).
+/// disparity, `history[n]` the RMS dual update at iteration `n` of the first pass (see
+/// [`normalise_history`]; pass an empty slice to skip it). `duals` ([`dual_len`] floats)
+/// carries the dual from one outer sweep to the next.
 pub fn refine<S: Scalar, P: Sample>(
     plan: &Plan,
     maps: &Maps<'_>,
@@ -144,6 +155,7 @@ pub fn refine<S: Scalar, P: Sample>(
     out: &mut [f32],
     history: &mut [f32],
     scratch: &mut [S],
+    duals: &mut [f32],
 ) -> Result<RefineReport> {
     check_maps(plan, maps)?;
     if out.len() != plan.pixels() {
@@ -160,27 +172,49 @@ pub fn refine<S: Scalar, P: Sample>(
             got: scratch.len(),
         });
     }
+    let needed = dual_len(plan);
+    if duals.len() < needed {
+        return Err(Error::BufferTooSmall {
+            what: "the outer sweeps' duals",
+            needed,
+            got: duals.len(),
+        });
+    }
     history.fill(0.0);
     let width = plan.layout().width;
+    let sweeps = plan.params().tv.sweeps;
+    let (mut previous, mut next) = duals[..needed].split_at_mut(needed / 2);
     let (cols, rows) = tile_count(plan);
     let mut report = RefineReport::default();
-    for index in 0..cols * rows {
-        let (core, _) = tile_rects(plan, index)?;
-        let start = core.y * width + core.x;
-        let tile = refine_tile(
-            plan,
-            maps,
-            guide,
-            index,
-            SolveOutput {
-                disparity: &mut out[start..],
-                stride: width,
-                history: &mut *history,
-                dual: None,
-            },
-            scratch,
-        )?;
-        report.add(&tile);
+    for sweep in 0..=sweeps {
+        let maps = if sweep == 0 {
+            *maps
+        } else {
+            maps.with_dual(previous)?
+        };
+        for index in 0..cols * rows {
+            let (core, _) = tile_rects(plan, index)?;
+            let start = core.y * width + core.x;
+            let tile = refine_tile(
+                plan,
+                &maps,
+                guide,
+                index,
+                SolveOutput {
+                    disparity: &mut out[start..],
+                    stride: width,
+                    history: if sweep == 0 { &mut *history } else { &mut [] },
+                    dual: if sweep < sweeps {
+                        next.get_mut(2 * start..)
+                    } else {
+                        None
+                    },
+                },
+                scratch,
+            )?;
+            report.add(&tile);
+        }
+        core::mem::swap(&mut previous, &mut next);
     }
     normalise_history(plan, history);
     Ok(report)
