@@ -95,7 +95,7 @@ impl<'a> Maps<'a> {
     /// Adds the dual `(F_h, F_v)` per pixel (`2 × width × height`, row-major, as
     /// [`SolveOutput::dual`] writes it) of a previous sweep over the whole map. A solve
     /// then starts from it and holds the flows on the edges that cross its region's border
-    /// fixed at its values (an outer sweep that exchanges halos, see [`super::tiles`]):
+    /// fixed at its values (an outer sweep that exchanges halos, see [`TvParams::sweeps`]):
     /// a tile no longer sees a free border, so tiled results approach the untiled one.
     pub fn with_dual(self, dual: &'a [f32]) -> Result<Self> {
         let needed = 2 * self.width * self.height;
