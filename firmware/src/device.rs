@@ -5,9 +5,13 @@
 use core::panic::PanicInfo;
 use core::ptr::{addr_of, addr_of_mut};
 
-use crate::stream::{self, Memory};
+#[cfg(feature = "whole-frame")]
+use crate::frame::{run, Memory};
+#[cfg(not(feature = "whole-frame"))]
+use crate::stream::{run, Memory};
 
-/// Every buffer of the stream, in `.bss`.
+/// Every buffer of the run (the stream's, or the whole frame's with `whole-frame`), in
+/// `.bss`.
 static mut MEMORY: Memory = Memory::ZERO;
 
 /// Where a debugger finds the result: the checksum, or `u32::MAX` after an error.
@@ -46,7 +50,7 @@ pub extern "C" fn lfdepth_reset() -> ! {
     }
     // SAFETY: the only reference ever taken to MEMORY; no interrupts or threads exist.
     let memory = unsafe { &mut *addr_of_mut!(MEMORY) };
-    let result = match stream::run(memory) {
+    let result = match run(memory) {
         Ok(summary) => summary.checksum,
         Err(_) => u32::MAX,
     };

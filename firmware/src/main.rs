@@ -7,6 +7,7 @@
 //! See docs/EMBEDDED.md.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
+mod frame;
 mod sensor;
 mod stream;
 
@@ -15,6 +16,21 @@ mod device;
 
 #[cfg(not(target_os = "none"))]
 fn main() {
+    let mut memory = Box::new(frame::Memory::ZERO);
+    match frame::run(&mut memory) {
+        Ok(summary) => println!(
+            "whole frame {}x{}, {} scratch bytes: mean |d - gt| = {:.4} px, checksum {:#010x}",
+            frame::WIDTH,
+            frame::HEIGHT,
+            summary.scratch_bytes,
+            summary.mean_abs_error,
+            summary.checksum
+        ),
+        Err(e) => {
+            eprintln!("whole-frame pipeline failed: {e}");
+            std::process::exit(1);
+        }
+    }
     let mut memory = Box::new(stream::Memory::ZERO);
     match stream::run(&mut memory) {
         Ok(summary) => {

@@ -1,6 +1,9 @@
 //! The stream over the synthetic sensor, in fixed memory: a sliding band of the 17 cross
 //! views, the 256 KiB scratch split into kernel scalars and region maps, and one band of
 //! output rows.
+// A device image runs either this or the whole frame (feature `whole-frame`); the host
+// runs both. `Kernel` and `Summary` serve both.
+#![cfg_attr(all(target_os = "none", feature = "whole-frame"), allow(dead_code))]
 
 use lfdepth::epi::{ColorMode, DisparityRange, EpiParams};
 use lfdepth::refine::RefineParams;

@@ -8,7 +8,7 @@ target=${1:?usage: $0 TARGET}
 root=$(pwd)
 CARGO_PROFILE_FIRMWARE_DEBUG=line-tables-only CARGO_PROFILE_FIRMWARE_STRIP=none \
     RUSTFLAGS="-D warnings" cargo build -q -p lfdepth-firmware --profile firmware \
-    --target "$target" --target-dir target/nostd-lines || exit 1
+    --target "$target" --target-dir target/nostd-lines ${FEATURES:+--features "$FEATURES"} || exit 1
 image=target/nostd-lines/$target/firmware/lfdepth-firmware
 panics=$(llvm-nm "$image" | grep -E "panic|slice_.*_fail|len_mismatch_fail" \
     | awk '{print $1}' | sed 's/^0*//' | paste -sd'|')

@@ -1,0 +1,110 @@
+//! The whole-frame pipeline (`pipeline::run_aligned`: alignment prelude → EPI → refine →
+//! weighted median → TV) on a small synthetic frame held in fixed memory. The stream is
+//! the firmware's way to process a large frame in bounded memory; this entry exists so
+//! that the panic-free link check (`--features panic-free,whole-frame`) also covers every
+//! whole-frame public entry point, with the default parameters (every stage on).
+// A device image runs either this or the stream (feature `whole-frame`); the host runs both.
+#![cfg_attr(
+    all(target_os = "none", not(feature = "whole-frame")),
+    allow(dead_code)
+)]
+
+use core::ops::ControlFlow;
+
+use lfdepth::geometry::Homography;
+use lfdepth::pipeline::{self, AlignBuffers, Stages};
+use lfdepth::{Error, Grid, Layout, LightField, Params, Plan, Result, Scalar};
+
+use crate::sensor;
+use crate::stream::{Kernel, Summary};
+
+pub const WIDTH: usize = 32;
+pub const HEIGHT: usize = 32;
+const GRID: Grid = Grid::new(9, 9);
+const VIEWS: usize = 81 * WIDTH * HEIGHT;
+const KERNEL_ELEMENTS: usize = 48 * 1024;
+const MAP_ELEMENTS: usize = 4 * 1024;
+const ALIGN_ELEMENTS: usize = 128 * 1024;
+const HISTORY: usize = 300;
+
+/// Every buffer of a whole-frame run.
+pub struct Memory {
+    views: [u8; VIEWS],
+    aligned: [u8; VIEWS],
+    homographies: [Homography; 81],
+    align: [f32; ALIGN_ELEMENTS],
+    kernel: [Kernel; KERNEL_ELEMENTS],
+    maps: [f32; MAP_ELEMENTS],
+    history: [f32; HISTORY],
+    disparity: [f32; WIDTH * HEIGHT],
+    confidence: [f32; WIDTH * HEIGHT],
+}
+
+impl Memory {
+    pub const ZERO: Memory = Memory {
+        views: [0; VIEWS],
+        aligned: [0; VIEWS],
+        // All zeros (the estimate writes every one) keeps the whole struct in `.bss`.
+        homographies: [Homography { m: [0.0; 9] }; 81],
+        align: [0.0; ALIGN_ELEMENTS],
+        kernel: [<Kernel as Scalar>::ZERO; KERNEL_ELEMENTS],
+        maps: [0.0; MAP_ELEMENTS],
+        history: [0.0; HISTORY],
+        disparity: [0.0; WIDTH * HEIGHT],
+        confidence: [0.0; WIDTH * HEIGHT],
+    };
+}
+
+fn slice<T>(buffer: &mut [T], needed: usize) -> Result<&mut [T]> {
+    let got = buffer.len();
+    buffer
+        .get_mut(..needed)
+        .ok_or(Error::ScratchTooSmall { needed, got })
+}
+
+/// Renders the sensor's frame into `memory` and runs the default pipeline on it.
+pub fn run(memory: &mut Memory) -> Result<Summary> {
+    let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
+    let plan = Plan::new(layout, Params::default())?;
+    let (r0, c0) = GRID.center();
+    for (v, view) in memory.views.chunks_exact_mut(WIDTH * HEIGHT).enumerate() {
+        let (r, c) = (v / GRID.cols, v % GRID.cols);
+        let (du, dv) = (c as f32 - c0 as f32, r as f32 - r0 as f32);
+        for (y, row) in view.chunks_exact_mut(WIDTH).enumerate() {
+            sensor::row(du, dv, y, WIDTH, HEIGHT, row);
+        }
+    }
+    let lf = LightField::new(&memory.views, layout)?;
+    let mut buffers = AlignBuffers {
+        homographies: &mut memory.homographies,
+        scratch: slice(&mut memory.align, pipeline::align_scratch_len(&plan)?)?,
+        aligned: slice(&mut memory.aligned, pipeline::aligned_len(&plan)?)?,
+    };
+    let scratch = slice(&mut memory.kernel, pipeline::scratch_len(&plan))?;
+    let maps = slice(&mut memory.maps, pipeline::map_scratch_len(&plan))?;
+    pipeline::run_aligned(
+        &plan,
+        &lf,
+        Stages::Full,
+        &mut buffers,
+        &mut memory.disparity,
+        &mut memory.confidence,
+        scratch,
+        maps,
+        &mut memory.history,
+        &mut |_| ControlFlow::Continue(()),
+    )?;
+    let mut checksum = 0u32;
+    let mut error = 0.0f32;
+    for (i, &d) in memory.disparity.iter().enumerate() {
+        checksum = checksum.wrapping_add(d.to_bits());
+        error += libm::fabsf(d - sensor::disparity(i % WIDTH, i / WIDTH, WIDTH, HEIGHT));
+    }
+    Ok(Summary {
+        scratch_bytes: pipeline::scratch_len(&plan) * core::mem::size_of::<Kernel>()
+            + pipeline::map_scratch_len(&plan) * 4
+            + pipeline::align_scratch_len(&plan)? * 4,
+        checksum,
+        mean_abs_error: error / (WIDTH * HEIGHT) as f32,
+    })
+}
