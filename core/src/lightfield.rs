@@ -248,7 +248,7 @@ impl<'a, S: Sample> LightField<'a, S> {
         // In bounds: validate() proved the last view ends inside `data`.
         let start = self.layout.grid.index(row, col) * self.layout.view_stride;
         Ok(View {
-            data: &self.data[start..],
+            data: self.data.get(start..).unwrap_or_default(),
             width: self.layout.width,
             height: self.layout.height,
             channels: self.layout.channels,

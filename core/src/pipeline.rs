@@ -277,7 +277,12 @@ pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
         return false;
     }
     let (r0, c0) = grid.center();
-    let (r, c) = (view / grid.cols, view % grid.cols);
+    // `grid.cols > 0` here (`view < grid.len()`); the checked forms keep the division's
+    // panic path out of the image.
+    let (r, c) = (
+        view.checked_div(grid.cols).unwrap_or_default(),
+        view.checked_rem(grid.cols).unwrap_or_default(),
+    );
     if r == r0 || c == c0 {
         return true;
     }
@@ -297,8 +302,11 @@ pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
     if params.views == AlignedViews::Read {
         let grid = plan.layout().grid;
         let (r0, c0) = grid.center();
-        let off_cross = (0..grid.len())
-            .any(|v| v / grid.cols != r0 && v % grid.cols != c0 && reads_view(plan, stages, v));
+        let off_cross = (0..grid.len()).any(|v| {
+            v.checked_div(grid.cols) != Some(r0)
+                && v.checked_rem(grid.cols) != Some(c0)
+                && reads_view(plan, stages, v)
+        });
         params.views = if off_cross {
             AlignedViews::All
         } else {
@@ -420,7 +428,7 @@ pub fn warp_views<S: Sample, A: WarpSample>(
         for y in 0..layout.height {
             let start = view * layout.view_stride + y * layout.row_stride;
             let out = aligned
-                .get_mut(start..start + row_len)
+                .get_mut(start..start.saturating_add(row_len))
                 .ok_or(Error::SizeOverflow {
                     what: "the aligned light field",
                 })?;
