@@ -233,6 +233,74 @@ pub struct AlignReport {
     pub iterations: usize,
 }
 
+/// One view's share of a tracking batch: the view and its row of the track table
+/// (`(x, y)` per corner of the centre view, NaN where not found). The views of a batch
+/// are independent of each other, so a [`ViewMap`] may track them in any order or
+/// concurrently.
+#[derive(Debug)]
+pub struct ViewTask<'a> {
+    view: usize,
+    obs: &'a mut [f32],
+    outcome: Result<usize>,
+}
+
+impl<'a> ViewTask<'a> {
+    pub(crate) fn new(view: usize, obs: &'a mut [f32]) -> Self {
+        ViewTask {
+            view,
+            obs,
+            outcome: Ok(0),
+        }
+    }
+
+    /// The view (row-major grid index) this task tracks.
+    pub fn view(&self) -> usize {
+        self.view
+    }
+
+    pub(crate) fn get(&self, i: usize) -> Option<(f32, f32)> {
+        let (x, y) = (*self.obs.get(2 * i)?, *self.obs.get(2 * i + 1)?);
+        x.is_finite().then_some((x, y))
+    }
+
+    pub(crate) fn set(&mut self, i: usize, q: Option<(f32, f32)>) {
+        let (x, y) = q.unwrap_or((f32::NAN, f32::NAN));
+        if let Some(slot) = self.obs.get_mut(2 * i..2 * i + 2) {
+            slot[0] = x;
+            slot[1] = y;
+        }
+    }
+}
+
+/// Runs the per-view tracking jobs of [`estimate_with`]: `job(task, scratch)` once per
+/// task. Each job writes only its own task and reads shared, unchanging data, so the
+/// estimate is the same (bit for bit) however an implementation orders or spreads the
+/// jobs. [`Serial`] runs them one after another; the CLI maps them over threads.
+pub trait ViewMap {
+    /// Calls `job` once for every task of `tasks`. `scratch` is the estimate's own
+    /// scratch for one job (an image pyramid); an implementation that runs jobs
+    /// concurrently gives each running job a buffer of its own of the same length
+    /// (the contents on entry do not matter).
+    fn map<F>(&mut self, tasks: &mut [ViewTask<'_>], scratch: &mut [f32], job: &F)
+    where
+        F: Fn(&mut ViewTask<'_>, &mut [f32]) + Sync;
+}
+
+/// The [`ViewMap`] of [`estimate`]: one job after another, in the estimate's scratch.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Serial;
+
+impl ViewMap for Serial {
+    fn map<F>(&mut self, tasks: &mut [ViewTask<'_>], scratch: &mut [f32], job: &F)
+    where
+        F: Fn(&mut ViewTask<'_>, &mut [f32]) + Sync,
+    {
+        for task in tasks {
+            job(task, scratch);
+        }
+    }
+}
+
 /// Scratch [`estimate`] needs for `layout`, in `f32` elements: two image pyramids (centre
 /// and current view) and the track table. It grows with the view size, not with the
 /// number of bands the caller warps.
@@ -260,6 +328,21 @@ pub fn estimate<S: Sample>(
     params: &AlignParams,
     homographies: &mut [Homography],
     scratch: &mut [f32],
+) -> Result<AlignReport> {
+    estimate_with(lf, params, homographies, scratch, &mut Serial)
+}
+
+/// [`estimate`] with the per-view tracking (corner matching into each view, the bulk of
+/// the work) run through `map`, e.g. over threads. The result is identical to
+/// [`estimate`]'s for any [`ViewMap`]: views are tracked in batches that depend only on
+/// earlier batches (the first pass ring by ring around the centre, the second pass all
+/// at once), and the alternating least squares between the passes is serial.
+pub fn estimate_with<S: Sample, M: ViewMap>(
+    lf: &LightField<'_, S>,
+    params: &AlignParams,
+    homographies: &mut [Homography],
+    scratch: &mut [f32],
+    map: &mut M,
 ) -> Result<AlignReport> {
     params.validate()?;
     let layout = *lf.layout();
@@ -289,9 +372,16 @@ pub fn estimate<S: Sample>(
             report.skipped = true;
             Ok(report)
         }
-        AlignMode::On => solve::run(lf, params, set, homographies, scratch),
+        AlignMode::On => solve::run(lf, params, set, homographies, scratch, map),
         AlignMode::Auto => {
-            let probe = solve::run(lf, params, solve::ViewSet::Probe, homographies, scratch);
+            let probe = solve::run(
+                lf,
+                params,
+                solve::ViewSet::Probe,
+                homographies,
+                scratch,
+                map,
+            );
             homographies.fill(Homography::IDENTITY);
             let probe = match probe {
                 Ok(r) => r,
@@ -308,7 +398,7 @@ pub fn estimate<S: Sample>(
                 report.rms = probe.identity_rms;
                 return Ok(report);
             }
-            match solve::run(lf, params, set, homographies, scratch) {
+            match solve::run(lf, params, set, homographies, scratch, map) {
                 Ok(r) => Ok(r),
                 Err(e) => {
                     homographies.fill(Homography::IDENTITY);

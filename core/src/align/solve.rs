@@ -25,7 +25,10 @@ use super::corners::{self, Corner};
 use super::model::{self, Mat, Rng};
 use super::pyramid::Pyramid;
 use super::track::{self, Pair};
-use super::{AlignModel, AlignParams, AlignReport, Reference, ViewReport, MAX_FEATURES, MAX_VIEWS};
+use super::{
+    AlignModel, AlignParams, AlignReport, Reference, ViewMap, ViewReport, ViewTask, MAX_FEATURES,
+    MAX_VIEWS,
+};
 use crate::error::{checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{Grid, LightField, Sample};
@@ -277,12 +280,16 @@ impl State<'_> {
 }
 
 /// Estimates the homographies of the views in `set` (others stay identities) and reports.
-pub fn run<S: Sample>(
+/// The tracking of each view (the bulk of the work) runs through `map`, a batch of
+/// mutually independent views at a time; its result does not depend on how `map` runs
+/// them.
+pub fn run<S: Sample, M: ViewMap>(
     lf: &LightField<'_, S>,
     params: &AlignParams,
     set: ViewSet,
     homographies: &mut [Homography],
     scratch: &mut [f32],
+    map: &mut M,
 ) -> Result<AlignReport> {
     let grid = lf.grid();
     let (width, height) = (lf.width(), lf.height());
@@ -296,6 +303,7 @@ pub fn run<S: Sample>(
     let weight = &mut rest[..cells];
 
     pyramid.build(&lf.center_view(), centre_pyr);
+    let centre_pyr = &*centre_pyr;
     // Detect at the coarsest level that still gives each corner a cell of ≥ 4×4 pixels.
     let mut level = 0;
     while level + 1 < pyramid.levels.min(3)
@@ -336,44 +344,62 @@ pub fn run<S: Sample>(
     }
     state.tracked[centre] = true;
 
-    // First pass, nearest views first: the disparity seen so far predicts the next view.
+    // First pass, ring after ring of views around the centre (Chebyshev distance): the
+    // disparity measured in the inner rings predicts each corner's position in the next
+    // ring; the views of one ring are independent of each other.
     let order = view_order(grid, set);
     let mut d_num = [0.0f32; MAX_FEATURES];
     let mut d_den = [0.0f32; MAX_FEATURES];
-    for &v in &order {
-        let view = lf.view(v / grid.cols, v % grid.cols)?;
-        pyramid.build(&view, view_pyr);
-        let pair = Pair {
-            pyramid: &pyramid,
-            center: centre_pyr,
-            view: view_pyr,
-        };
+    let ring = |v: usize| {
         let b = baseline(grid, v);
-        let mut found = 0;
+        libm::fabsf(b.0).max(libm::fabsf(b.1)) as usize
+    };
+    let rings = order.iter().map(|&v| ring(v)).max().unwrap_or(0);
+    for k in 1..=rings {
+        let mut predicted = [0.0f32; MAX_FEATURES];
         for i in 0..n {
-            let c = state.corners[i];
-            let d = if d_den[i] > 0.0 {
-                d_num[i] / d_den[i]
-            } else {
-                0.0
-            };
-            let guess = (c.x - d * b.0, c.y - d * b.1);
-            let q = track::track(&pair, (c.x, c.y), guess, track::IDENTITY, usize::MAX);
-            if let Some(q) = q {
-                // q − p ≈ −d · b (misalignment is noise here).
-                d_num[i] -= b.0 * (q.0 - c.x) + b.1 * (q.1 - c.y);
-                d_den[i] += b.0 * b.0 + b.1 * b.1;
-                found += 1;
+            if d_den[i] > 0.0 {
+                predicted[i] = d_num[i] / d_den[i];
             }
-            state.set_ob(v, i, q);
         }
-        if found < params.min_inliers {
-            return Err(Error::Alignment {
-                view: v,
-                reason: "too few corners of the centre view were found in this view: it is textureless or too different from the centre view",
-            });
+        let corners = &state.corners;
+        let mut tasks: FixedVec<ViewTask<'_>, MAX_VIEWS> = FixedVec::new();
+        for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
+            if ring(v) == k && order.contains(&v) {
+                let _ = tasks.push(ViewTask::new(v, chunk));
+            }
         }
-        state.tracked[v] = true;
+        let job = |task: &mut ViewTask<'_>, view_pyr: &mut [f32]| {
+            task.outcome = track_first(
+                lf, &pyramid, centre_pyr, view_pyr, corners, &predicted, task,
+            );
+        };
+        map.map(&mut tasks, view_pyr, &job);
+        for task in &tasks {
+            let v = task.view;
+            let found = task.outcome?;
+            if found < params.min_inliers {
+                return Err(Error::Alignment {
+                    view: v,
+                    reason: "too few corners of the centre view were found in this view: it is textureless or too different from the centre view",
+                });
+            }
+        }
+        drop(tasks);
+        for v in (0..grid.len()).filter(|&v| ring(v) == k && order.contains(&v)) {
+            let b = baseline(grid, v);
+            for i in 0..n {
+                let q = state.ob(v, i);
+                if let Some(q) = q {
+                    // q − p ≈ −d · b (misalignment is noise here).
+                    let c = state.corners[i];
+                    d_num[i] -= b.0 * (q.0 - c.x) + b.1 * (q.1 - c.y);
+                    d_den[i] += b.0 * b.0 + b.1 * b.1;
+                }
+                state.set_ob(v, i, q);
+            }
+            state.tracked[v] = true;
+        }
     }
     let first = alternate(&mut state, params, homographies, width, height)?;
     if first.identity_rms <= params.rectified_rms {
@@ -382,43 +408,152 @@ pub fn run<S: Sample>(
     }
 
     // Second pass: predicted positions and template shapes from the first estimate, so
-    // that rotation and scale between views no longer bias the matches.
-    let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
-    let to_rect = homographies[centre]
+    // that rotation and scale between views no longer bias the matches. Every view is
+    // independent of the others now.
+    let Some(to_rect) = homographies[centre]
         .inverse()
-        .map(|h| model::from_homography(&h));
+        .map(|h| model::from_homography(&h))
+    else {
+        return alternate(&mut state, params, homographies, width, height);
+    };
+    {
+        let points = Points {
+            x: &state.x,
+            y: &state.y,
+            d: &state.d,
+            solved: &state.solved,
+        };
+        let corners = &state.corners;
+        let hs = &*homographies;
+        let mut tasks: FixedVec<ViewTask<'_>, MAX_VIEWS> = FixedVec::new();
+        for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
+            if order.contains(&v) {
+                let _ = tasks.push(ViewTask::new(v, chunk));
+            }
+        }
+        let job = |task: &mut ViewTask<'_>, view_pyr: &mut [f32]| {
+            task.outcome = track_second(
+                lf, &pyramid, centre_pyr, view_pyr, corners, &points, &to_rect, hs, task,
+            );
+        };
+        map.map(&mut tasks, view_pyr, &job);
+        for task in &tasks {
+            task.outcome?;
+        }
+    }
     for &v in &order {
-        let (Some(m_c), Some(h_v)) = (to_rect, Some(model::from_homography(&homographies[v])))
-        else {
-            break;
-        };
-        let centre_to_view = h_v * m_c;
-        let shape = jacobian(&centre_to_view, o).unwrap_or(track::IDENTITY);
-        let view = lf.view(v / grid.cols, v % grid.cols)?;
-        // The second pass matches at full resolution only.
-        pyramid.build_base(&view, view_pyr);
-        let pair = Pair {
-            pyramid: &pyramid,
-            center: centre_pyr,
-            view: view_pyr,
-        };
-        let b = baseline(grid, v);
         for i in 0..n {
-            let c = state.corners[i];
-            let predicted = if state.solved[i] {
-                model::apply(
-                    &h_v,
-                    state.x[i] - state.d[i] * b.0,
-                    state.y[i] - state.d[i] * b.1,
-                )
-            } else {
-                state.ob(v, i)
-            };
-            let q = predicted.and_then(|g| track::track(&pair, (c.x, c.y), g, shape, 0));
+            let q = state.ob(v, i);
             state.set_ob(v, i, q);
         }
     }
     alternate(&mut state, params, homographies, width, height)
+}
+
+/// The per-corner unknowns the second pass predicts from.
+struct Points<'p> {
+    x: &'p [f32; MAX_FEATURES],
+    y: &'p [f32; MAX_FEATURES],
+    d: &'p [f32; MAX_FEATURES],
+    solved: &'p [bool; MAX_FEATURES],
+}
+
+/// First-pass tracking of the corners into `task`'s view: the search starts where the
+/// `predicted` disparity puts each corner. Returns the number of corners found.
+fn track_first<S: Sample>(
+    lf: &LightField<'_, S>,
+    pyramid: &Pyramid,
+    centre_pyr: &[f32],
+    view_pyr: &mut [f32],
+    corners: &[Corner],
+    predicted: &[f32; MAX_FEATURES],
+    task: &mut ViewTask<'_>,
+) -> Result<usize> {
+    let grid = lf.grid();
+    let v = task.view;
+    let got = view_pyr.len();
+    let view_pyr = view_pyr
+        .get_mut(..pyramid.len)
+        .ok_or(Error::ScratchTooSmall {
+            needed: pyramid.len,
+            got,
+        })?;
+    let view = lf.view(v / grid.cols, v % grid.cols)?;
+    pyramid.build(&view, view_pyr);
+    let pair = Pair {
+        pyramid,
+        center: centre_pyr,
+        view: view_pyr,
+    };
+    let b = baseline(grid, v);
+    let mut found = 0;
+    for (i, c) in corners.iter().enumerate() {
+        let d = predicted[i];
+        let guess = (c.x - d * b.0, c.y - d * b.1);
+        let q = track::track(&pair, (c.x, c.y), guess, track::IDENTITY, usize::MAX);
+        found += usize::from(q.is_some());
+        task.set(i, q);
+    }
+    Ok(found)
+}
+
+/// Second-pass tracking into `task`'s view: positions and template shapes predicted by
+/// the first estimate (`hs`, rectified → view; `to_rect`, centre view → rectified).
+#[allow(clippy::too_many_arguments)]
+fn track_second<S: Sample>(
+    lf: &LightField<'_, S>,
+    pyramid: &Pyramid,
+    centre_pyr: &[f32],
+    view_pyr: &mut [f32],
+    corners: &[Corner],
+    points: &Points<'_>,
+    to_rect: &Mat,
+    hs: &[Homography],
+    task: &mut ViewTask<'_>,
+) -> Result<usize> {
+    let grid = lf.grid();
+    let (width, height) = (lf.width(), lf.height());
+    let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
+    let v = task.view;
+    let got = view_pyr.len();
+    let view_pyr = view_pyr
+        .get_mut(..pyramid.len)
+        .ok_or(Error::ScratchTooSmall {
+            needed: pyramid.len,
+            got,
+        })?;
+    let h_v = model::from_homography(hs.get(v).ok_or(Error::OutOfRange {
+        what: "view",
+        index: v,
+        len: hs.len(),
+    })?);
+    let centre_to_view = h_v * to_rect;
+    let shape = jacobian(&centre_to_view, o).unwrap_or(track::IDENTITY);
+    let view = lf.view(v / grid.cols, v % grid.cols)?;
+    // The second pass matches at full resolution only.
+    pyramid.build_base(&view, view_pyr);
+    let pair = Pair {
+        pyramid,
+        center: centre_pyr,
+        view: view_pyr,
+    };
+    let b = baseline(grid, v);
+    let mut found = 0;
+    for (i, c) in corners.iter().enumerate() {
+        let predicted = if points.solved[i] {
+            model::apply(
+                &h_v,
+                points.x[i] - points.d[i] * b.0,
+                points.y[i] - points.d[i] * b.1,
+            )
+        } else {
+            task.get(i)
+        };
+        let q = predicted.and_then(|g| track::track(&pair, (c.x, c.y), g, shape, 0));
+        found += usize::from(q.is_some());
+        task.set(i, q);
+    }
+    Ok(found)
 }
 
 /// Row-major 2 × 2 Jacobian of `m` at `p`.
