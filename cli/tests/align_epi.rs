@@ -136,26 +136,55 @@ fn aligned_arrays_score_like_rectified_ones() {
             let raw = epi(&warp_all(&lf, &est, params.interpolation), &spec);
             let include = |v: usize| views == AlignedViews::All || v / cols == r0 || v % cols == c0;
             let gauge = gauge_fit_where(&est, &truth, spec.grid, n, n, &include).unwrap();
-            let corrected: Vec<f32> = raw
-                .iter()
-                .enumerate()
-                .map(|(i, &d)| gauge.true_disparity(d, (i % n) as f32, (i / n) as f32))
+            let remove_gauge = |raw: &[f32]| -> Vec<f32> {
+                raw.iter()
+                    .enumerate()
+                    .map(|(i, &d)| gauge.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                    .collect()
+            };
+            let corrected = remove_gauge(&raw);
+            // The true homographies moved into the estimate's gauge: what a perfect
+            // estimate with the same (unobservable) disparity plane would score.
+            let b = |v: usize| ((v % cols) as f32 - c0 as f32, (v / cols) as f32 - r0 as f32);
+            let in_gauge: Vec<Homography> = (0..truth.len())
+                .map(|v| {
+                    if include(v) {
+                        truth[v].compose(&gauge_map(&gauge, b(v)).inverse().unwrap())
+                    } else {
+                        Homography::IDENTITY
+                    }
+                })
                 .collect();
+            let ideal_estimate =
+                remove_gauge(&epi(&warp_all(&lf, &in_gauge, params.interpolation), &spec));
             let (raw_score, score) = (badpix(&raw, &gt, n), badpix(&corrected, &gt, n));
+            let ideal_score = badpix(&ideal_estimate, &gt, n);
             eprintln!(
-                "{name} {n}x{n} {model:?}/{frame:?}/{views:?}: BadPix0.07 aligned {raw_score:.2} raw, {score:.2} ({:+.0} % vs rectified) after the unobservable disparity plane {:.4} px + ({:.2e}, {:.2e}) px/px, scale {:.5} (track RMS {rms:.4})",
+                "{name} {n}x{n} {model:?}/{frame:?}/{views:?}: BadPix0.07 aligned {raw_score:.2} raw, {score:.2} ({:+.1} % vs rectified; true H in the same gauge {ideal_score:.2}, {:+.1} %) after the unobservable disparity plane {:.4} px + ({:.2e}, {:.2e}) px/px, scale {:.5} (track RMS {rms:.4}, registration {:.3} px)",
                 100.0 * (score / reference - 1.0),
+                100.0 * (ideal_score / reference - 1.0),
                 gauge.disparity_offset,
                 gauge.disparity_slope.0,
                 gauge.disparity_slope.1,
                 gauge.scale,
+                gauge.rms,
             );
-            // The goal is 10 % relative; measured +7 … +19 % (see docs/bench-align.md).
-            // Guard against regressions. The plane-patch model is reported, not asserted:
-            // it is the worse of the two on these scenes (patches straddle surfaces).
             assert!(
-                model == AlignModel::PlanePatches
-                    || (score <= 1.3 * reference && score < 0.1 * unaligned),
+                score < 0.1 * unaligned,
+                "{name} {model:?}/{frame:?}/{views:?}: {score} vs unaligned {unaligned}"
+            );
+            // What the estimated homographies themselves cost, beyond the true ones in the
+            // same gauge (measured ≤ 1.5 % with the per-view model).
+            assert!(
+                model == AlignModel::PlanePatches || score <= 1.03 * ideal_score,
+                "{name} {model:?}/{frame:?}/{views:?}: {score} vs {ideal_score} with the true homographies"
+            );
+            // The goal, 10 % relative BadPix0.07, is met on `mixed` (every variant of the
+            // per-view model). On `planes` the warp and the EPI stage's sensitivity to
+            // the unobservable disparity offset alone cost 4–15 % (docs/bench-align.md).
+            let bound = if scene == SceneKind::Mixed { 1.10 } else { 1.2 };
+            assert!(
+                model == AlignModel::PlanePatches || score <= bound * reference,
                 "{name} {model:?}/{frame:?}/{views:?}: {score} vs {reference}"
             );
         }
@@ -412,6 +441,36 @@ fn causes() {
     }
 }
 
+/// BadPix0.07 (15 px border) split into pixels within 3 px of a ground-truth depth step
+/// (> 0.3 px between neighbours) and the rest: (near steps, elsewhere).
+fn badpix_split(est: &[f32], gt: &[f32], n: usize) -> (f64, f64) {
+    let step = |i: usize, j: usize| (gt[i] - gt[j]).abs() > 0.3;
+    let mut near = vec![false; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let i = y * n + x;
+            if (x + 1 < n && step(i, i + 1)) || (y + 1 < n && step(i, i + n)) {
+                for yy in y.saturating_sub(3)..(y + 4).min(n) {
+                    for xx in x.saturating_sub(3)..(x + 4).min(n) {
+                        near[yy * n + xx] = true;
+                    }
+                }
+            }
+        }
+    }
+    let (mut bad, mut count) = ([0usize; 2], [0usize; 2]);
+    for y in BORDER..n - BORDER {
+        for x in BORDER..n - BORDER {
+            let i = y * n + x;
+            let k = usize::from(!near[i]);
+            count[k] += 1;
+            bad[k] += usize::from((est[i] - gt[i]).abs() > 0.07);
+        }
+    }
+    let pct = |k: usize| 100.0 * bad[k] as f64 / count[k].max(1) as f64;
+    (pct(0), pct(1))
+}
+
 /// Every view of `lf` warped by `hs` with a Lanczos-3 kernel (6 × 6 taps, weights
 /// normalised, coordinates clamped): a reference for what a sharper kernel than
 /// Catmull–Rom would give.
@@ -472,7 +531,8 @@ fn resampling() {
         let name = scene.name();
         let rect = epi(&ideal, &spec);
         let (r15, r40) = (badpix(&rect, &gt, n), badpix_border(&rect, &gt, n, 40));
-        eprintln!("{name}: rectified {r15:.2} (border 40: {r40:.2})");
+        let (re, ri) = badpix_split(&rect, &gt, n);
+        eprintln!("{name}: rectified {r15:.2} (border 40: {r40:.2}; near depth steps {re:.2}, elsewhere {ri:.2})");
         let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
         let cases = [
             (
@@ -487,10 +547,13 @@ fn resampling() {
         ];
         for (label, d) in cases {
             let (a, b) = (badpix(&d, &gt, n), badpix_border(&d, &gt, n, 40));
+            let (e, i) = badpix_split(&d, &gt, n);
             eprintln!(
-                "{name} true H {label}: {a:.2} ({:+.1} %), border 40: {b:.2} ({:+.1} %)",
+                "{name} true H {label}: {a:.2} ({:+.1} %), border 40: {b:.2} ({:+.1} %); near depth steps {e:.2} ({:+.1} %), elsewhere {i:.2} ({:+.1} %)",
                 100.0 * (a / r15 - 1.0),
-                100.0 * (b / r40 - 1.0)
+                100.0 * (b / r40 - 1.0),
+                100.0 * (e / re - 1.0),
+                100.0 * (i / ri - 1.0)
             );
         }
         let (r0, c0) = spec.grid.center();
@@ -522,6 +585,48 @@ fn resampling() {
             eprintln!(
                 "{name} true H + gauge {label}, Catmull-Rom: {a:.2} ({:+.1} %)",
                 100.0 * (a / r15 - 1.0)
+            );
+        }
+    }
+}
+
+/// How far the alternation runs (a measurement, run by hand): registration to the true
+/// frame (modulo the gauge) and BadPix after the gauge, for the stopping rule's target
+/// and round limit.
+/// `cargo test --release -p lfdepth-cli --test align_epi convergence -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn convergence() {
+    let n = SIZE;
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let reference = badpix(&epi(&ideal, &spec), &gt, n);
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        for (target_rms, max_iterations) in [(0.02, 30), (0.0, 30), (0.0, 200)] {
+            let params = AlignParams {
+                mode: AlignMode::On,
+                views: AlignedViews::All,
+                target_rms,
+                max_iterations,
+                ..AlignParams::default()
+            };
+            let mut est = vec![Homography::IDENTITY; lf.grid().len()];
+            let mut scratch = vec![0.0f32; align::scratch_len(lf.layout(), &params).unwrap()];
+            let report = align::estimate(&lf, &params, &mut est, &mut scratch).unwrap();
+            let g = gauge_fit_where(&est, &truth, spec.grid, n, n, &|_| true).unwrap();
+            let d: Vec<f32> = epi(&warp_all(&lf, &est, Interpolation::Bilinear), &spec)
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| g.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                .collect();
+            let s = badpix(&d, &gt, n);
+            eprintln!(
+                "{name} target {target_rms} max {max_iterations}: {} rounds, track RMS {:.4}, registration {:.3} px, BadPix {s:.2} ({:+.1} %)",
+                report.iterations,
+                report.rms,
+                g.rms,
+                100.0 * (s / reference - 1.0)
             );
         }
     }
