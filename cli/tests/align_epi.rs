@@ -631,3 +631,40 @@ fn convergence() {
         }
     }
 }
+
+/// The plane-patch model's estimate on the 384² scenes (a measurement, run by hand).
+/// `cargo test --release -p lfdepth-cli --test align_epi plane_patches_report -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn plane_patches_report() {
+    let n = SIZE;
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, _, misaligned, _, truth) = scenes(scene, n);
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        for model in [AlignModel::PerView, AlignModel::PlanePatches] {
+            let params = AlignParams {
+                mode: AlignMode::On,
+                model,
+                views: AlignedViews::All,
+                ..AlignParams::default()
+            };
+            let mut est = vec![Homography::IDENTITY; lf.grid().len()];
+            let mut scratch = vec![0.0f32; align::scratch_len(lf.layout(), &params).unwrap()];
+            let r = align::estimate(&lf, &params, &mut est, &mut scratch).unwrap();
+            let reproj =
+                align::reprojection_rms(&est, &truth, spec.grid, n, n, &[-1.5, 0.0, 1.5]).unwrap();
+            let min = r
+                .views
+                .iter()
+                .filter(|v| v.inliers > 0)
+                .map(|v| v.inliers)
+                .min();
+            eprintln!(
+                "{} {model:?}: track RMS {:.4}, {} rounds, reprojection {reproj:.4} px, min inliers {min:?}",
+                scene.name(),
+                r.rms,
+                r.iterations
+            );
+        }
+    }
+}
