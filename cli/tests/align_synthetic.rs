@@ -211,3 +211,56 @@ fn the_parallel_estimate_is_bit_identical_for_any_thread_count() {
         }
     }
 }
+
+/// How much of the estimate is per-view tracking (what `ParallelViews` spreads over
+/// threads) and how much is the serial alternation: on-CPU time of this thread inside
+/// and outside the view maps (a measurement for docs/bench-align.md, run by hand).
+/// `cargo test --release -p lfdepth-cli --test align_synthetic parallel_share -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn parallel_share() {
+    fn thread_cpu() -> std::time::Duration {
+        let s = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap();
+        std::time::Duration::from_nanos(s.split_whitespace().next().unwrap().parse().unwrap())
+    }
+    /// The serial map, timing the jobs.
+    struct Timed(std::time::Duration);
+    impl align::ViewMap for Timed {
+        fn map<F>(&mut self, tasks: &mut [align::ViewTask<'_>], scratch: &mut [f32], job: &F)
+        where
+            F: Fn(&mut align::ViewTask<'_>, &mut [f32]) + Sync,
+        {
+            let start = thread_cpu();
+            align::Serial.map(tasks, scratch, job);
+            self.0 += thread_cpu() - start;
+        }
+    }
+    let (data, spec, _) = render(SceneKind::Mixed, 512, true, 1);
+    let layout = spec.layout();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    for views in [AlignedViews::Cross, AlignedViews::All] {
+        let params = AlignParams {
+            mode: AlignMode::On,
+            views,
+            ..AlignParams::default()
+        };
+        let mut hs = vec![Homography::IDENTITY; 81];
+        let mut scratch = vec![0.0f32; align::scratch_len(&layout, &params).unwrap()];
+        let mut timed = Timed(std::time::Duration::ZERO);
+        let start = thread_cpu();
+        for _ in 0..5 {
+            align::estimate_with(&lf, &params, &mut hs, &mut scratch, &mut timed).unwrap();
+        }
+        let total = thread_cpu() - start;
+        let share = timed.0.as_secs_f64() / total.as_secs_f64();
+        eprintln!(
+            "{views:?}: on-CPU {:.1} ms per estimate, of which per-view tracking {:.1} ms ({:.0} %); Amdahl bound on 2 / 4 / 8 threads: {:.2}× / {:.2}× / {:.2}×",
+            total.as_secs_f64() * 200.0,
+            timed.0.as_secs_f64() * 200.0,
+            100.0 * share,
+            1.0 / (1.0 - share + share / 2.0),
+            1.0 / (1.0 - share + share / 4.0),
+            1.0 / (1.0 - share + share / 8.0),
+        );
+    }
+}
