@@ -233,15 +233,17 @@ pub struct AlignReport {
     pub iterations: usize,
 }
 
-/// One view's share of a tracking batch: the view and its row of the track table
-/// (`(x, y)` per corner of the centre view, NaN where not found). The views of a batch
-/// are independent of each other, so a [`ViewMap`] may track them in any order or
-/// concurrently.
+/// One view's share of a batch of per-view work — tracking the centre view's corners
+/// into it (its row of the track table: `(x, y)` per corner, NaN where not found) or
+/// fitting its homography to its tracks. The views of a batch are independent of each
+/// other, so a [`ViewMap`] may run them in any order or concurrently.
 #[derive(Debug)]
 pub struct ViewTask<'a> {
     view: usize,
     obs: &'a mut [f32],
-    outcome: Result<usize>,
+    pub(crate) outcome: Result<usize>,
+    /// The view's homography, for the jobs that fit one.
+    pub(crate) homography: Option<Homography>,
 }
 
 impl<'a> ViewTask<'a> {
@@ -250,6 +252,7 @@ impl<'a> ViewTask<'a> {
             view,
             obs,
             outcome: Ok(0),
+            homography: None,
         }
     }
 
@@ -272,15 +275,15 @@ impl<'a> ViewTask<'a> {
     }
 }
 
-/// Runs the per-view tracking jobs of [`estimate_with`]: `job(task, scratch)` once per
-/// task. Each job writes only its own task and reads shared, unchanging data, so the
+/// Runs the per-view jobs of [`estimate_with`] (tracking, and the per-view homography
+/// fits with their RANSAC start): `job(task, scratch)` once per task. Each job writes only its own task and reads shared, unchanging data, so the
 /// estimate is the same (bit for bit) however an implementation orders or spreads the
 /// jobs. [`Serial`] runs them one after another; the CLI maps them over threads.
 pub trait ViewMap {
     /// Calls `job` once for every task of `tasks`. `scratch` is the estimate's own
-    /// scratch for one job (an image pyramid); an implementation that runs jobs
-    /// concurrently gives each running job a buffer of its own of the same length
-    /// (the contents on entry do not matter).
+    /// scratch for one job (an image pyramid for tracking, empty for the fits); an
+    /// implementation that runs jobs concurrently gives each running job a buffer of its
+    /// own of the same length (the contents on entry do not matter).
     fn map<F>(&mut self, tasks: &mut [ViewTask<'_>], scratch: &mut [f32], job: &F)
     where
         F: Fn(&mut ViewTask<'_>, &mut [f32]) + Sync;
@@ -336,7 +339,9 @@ pub fn estimate<S: Sample>(
 /// the work) run through `map`, e.g. over threads. The result is identical to
 /// [`estimate`]'s for any [`ViewMap`]: views are tracked in batches that depend only on
 /// earlier batches (the first pass ring by ring around the centre, the second pass all
-/// at once), and the alternating least squares between the passes is serial.
+/// at once); in the alternating least squares the view step (each view's homography
+/// from its own tracks, RANSAC seeded per view) runs through `map` too, while the point
+/// step, the gauge and the common-distortion fit, which couple the views, are serial.
 pub fn estimate_with<S: Sample, M: ViewMap>(
     lf: &LightField<'_, S>,
     params: &AlignParams,

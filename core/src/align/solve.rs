@@ -401,7 +401,7 @@ pub fn run<S: Sample, M: ViewMap>(
             state.tracked[v] = true;
         }
     }
-    let first = alternate(&mut state, params, homographies, width, height)?;
+    let first = alternate(&mut state, params, homographies, width, height, map)?;
     if first.identity_rms <= params.rectified_rms {
         // Nothing to undo: the second pass would only re-measure the same positions.
         return Ok(first);
@@ -414,7 +414,7 @@ pub fn run<S: Sample, M: ViewMap>(
         .inverse()
         .map(|h| model::from_homography(&h))
     else {
-        return alternate(&mut state, params, homographies, width, height);
+        return alternate(&mut state, params, homographies, width, height, map);
     };
     {
         let points = Points {
@@ -447,7 +447,7 @@ pub fn run<S: Sample, M: ViewMap>(
             state.set_ob(v, i, q);
         }
     }
-    alternate(&mut state, params, homographies, width, height)
+    alternate(&mut state, params, homographies, width, height, map)
 }
 
 /// The per-corner unknowns the second pass predicts from.
@@ -853,12 +853,13 @@ fn classify(state: &mut State<'_>, maps: &[Homography], threshold: f32) {
     }
 }
 
-fn alternate(
+fn alternate<M: ViewMap>(
     state: &mut State<'_>,
     params: &AlignParams,
     maps: &mut [Homography],
     width: usize,
     height: usize,
+    map: &mut M,
 ) -> Result<AlignReport> {
     let grid = state.grid;
     let n = state.corners.len();
@@ -866,36 +867,45 @@ fn alternate(
         features: n,
         ..AlignReport::default()
     };
-    let mut rng = Rng::new(params.seed);
     maps.fill(Homography::IDENTITY);
     state.solve_points(maps);
     let mut previous = f32::INFINITY;
     let mut threshold = FIRST_THRESHOLD;
     for round in 0..params.max_iterations {
-        // Views step.
-        for v in 0..grid.len() {
-            if !state.tracked[v] {
-                continue;
-            }
-            let b = baseline(grid, v);
+        // Views step: one homography per view from its own tracks, independent of the
+        // other views (RANSAC seeded per view), so `map` may spread it.
+        {
             let st = &*state;
-            let pair = |i: usize| {
-                if !(st.solved[i] && st.inlier(v, i)) {
-                    return None;
-                }
-                let q = st.ob(v, i)?;
-                Some((q.0, q.1, st.x[i] - st.d[i] * b.0, st.y[i] - st.d[i] * b.1))
+            let mut tasks: FixedVec<ViewTask<'_>, MAX_VIEWS> = FixedVec::new();
+            for v in (0..grid.len()).filter(|&v| st.tracked[v]) {
+                let _ = tasks.push(ViewTask::new(v, &mut []));
+            }
+            let job = |task: &mut ViewTask<'_>, _: &mut [f32]| {
+                let v = task.view();
+                let b = baseline(grid, v);
+                let pair = |i: usize| {
+                    if !(st.solved[i] && st.inlier(v, i)) {
+                        return None;
+                    }
+                    let q = st.ob(v, i)?;
+                    Some((q.0, q.1, st.x[i] - st.d[i] * b.0, st.y[i] - st.d[i] * b.1))
+                };
+                let fitted = if round == 0 {
+                    let mut rng = Rng::new(params.seed.wrapping_add(v as u64));
+                    model::ransac(n, &pair, threshold, RANSAC_ROUNDS, &mut rng).map(|r| r.0)
+                } else {
+                    model::fit((0..n).filter_map(pair))
+                };
+                task.homography = fitted.and_then(|m| model::to_homography(&m));
             };
-            let fitted = if round == 0 {
-                model::ransac(n, &pair, threshold, RANSAC_ROUNDS, &mut rng).map(|r| r.0)
-            } else {
-                model::fit((0..n).filter_map(pair))
-            };
-            let m = fitted.and_then(|m| model::to_homography(&m)).ok_or(Error::Alignment {
-                view: v,
-                reason: "no homography fits the matches of this view: it is too different from the centre view",
-            })?;
-            maps[v] = m;
+            map.map(&mut tasks, &mut [], &job);
+            for task in &tasks {
+                let v = task.view();
+                maps[v] = task.homography.ok_or(Error::Alignment {
+                    view: v,
+                    reason: "no homography fits the matches of this view: it is too different from the centre view",
+                })?;
+            }
         }
         fix_gauge(state, maps, width, height, params.reference).ok_or(Error::Alignment {
             view: grid.index(grid.center().0, grid.center().1),
