@@ -32,7 +32,8 @@
 //!
 //! # Entry points
 //! [`scratch_len`] and [`estimate`] fill one homography per view (row-major grid order,
-//! the convention of `synth::render`); [`warp_rows`] / [`warp_rows_with`] /
+//! the convention of `synth::render`); [`estimate_with`] does the same with the per-view
+//! work run through a [`ViewMap`] (the CLI spreads it over threads, same result); [`warp_rows`] / [`warp_rows_with`] /
 //! [`warp_band`] write rectified views into caller buffers, a band of rows at a time.
 //! `pipeline::align_views` / `pipeline::run_aligned` run both before the other stages,
 //! on the views those stages read.
