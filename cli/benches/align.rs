@@ -1,7 +1,8 @@
 //! Criterion benchmarks of the align stage on a 9×9×512×512 RGB synthetic array
 //! (`lfdepth::synth`, scene `mixed`) with per-view misalignment (2°, 3 px, 1 %,
 //! perspective 0.002), single thread: `estimate` (auto on the rectified array, on with
-//! each model and corner count) and the warp of the views the stages read.
+//! each model and corner count), the CLI's parallel estimate (wall time, 1 and 2
+//! threads) and the warp of the views the stages read.
 //!
 //! The times are the thread's on-CPU time (Linux `schedstat`), not wall time: the
 //! development machine is shared and overloaded, and wall time there says little about
@@ -16,6 +17,7 @@ use lfdepth::align::{self, AlignMode, AlignModel, AlignParams, AlignedViews, Int
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, LightField, Params, Plan};
+use lfdepth_cli::engine::ParallelViews;
 
 /// Time this thread has spent on a CPU (`None` without Linux `schedstat`).
 fn thread_cpu() -> Option<Duration> {
@@ -118,7 +120,36 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // The CLI's estimate: per-view tracking over a rayon pool (wall time: the work is
+    // spread over threads; on a shared machine it shows the scaling only roughly).
     let lf = LightField::new(&misaligned[..], layout).unwrap();
+    for (views, label) in [(AlignedViews::All, "all"), (AlignedViews::Cross, "cross")] {
+        for threads in [1, 2] {
+            let params = AlignParams { views, ..on };
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut hs = vec![Homography::IDENTITY; 81];
+            let mut scratch = vec![0.0f32; align::scratch_len(&layout, &params).unwrap()];
+            let name =
+                format!("estimate_on_per_view_{label}_parallel_views_{threads}_threads_wall");
+            group.bench_function(&name, |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        align::estimate_with(
+                            &lf,
+                            &params,
+                            &mut hs,
+                            &mut scratch,
+                            &mut ParallelViews,
+                        )
+                        .unwrap()
+                    })
+                })
+            });
+        }
+    }
     for (name, interpolation) in [
         (
             "warp_cross_17_views_f32_catmull_rom",

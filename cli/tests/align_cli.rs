@@ -39,8 +39,13 @@ fn synth(dir: &Path, misalign: bool) {
 /// EPI disparity of `scene` with `--align mode`, scored against its ground truth:
 /// (MSE×100, what the command printed on stderr).
 fn mse_with(scene: &Path, mode: &str) -> (f64, String) {
-    let est = scene.with_extension(format!("{mode}.pfm"));
-    let (_, stderr) = ok(&lfdepth(&[
+    mse_with_args(scene, mode, &[]).0
+}
+
+/// [`mse_with`] with `extra` flags: ((MSE×100, stderr), the estimate's PFM bytes).
+fn mse_with_args(scene: &Path, mode: &str, extra: &[&str]) -> ((f64, String), Vec<u8>) {
+    let est = scene.with_extension(format!("{mode}{}.pfm", extra.join("").replace('-', "")));
+    let mut args = vec![
         "estimate",
         scene.to_str().unwrap(),
         "-o",
@@ -50,7 +55,9 @@ fn mse_with(scene: &Path, mode: &str) -> (f64, String) {
         "--align",
         mode,
         "--quiet",
-    ]));
+    ];
+    args.extend_from_slice(extra);
+    let (_, stderr) = ok(&lfdepth(&args));
     let gt = scene.join("gt_disp_lowres.pfm");
     let (json, _) = ok(&lfdepth(&[
         "eval",
@@ -60,7 +67,10 @@ fn mse_with(scene: &Path, mode: &str) -> (f64, String) {
         "--json",
     ]));
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
-    (v["mse100"].as_f64().unwrap(), stderr)
+    (
+        (v["mse100"].as_f64().unwrap(), stderr),
+        std::fs::read(&est).unwrap(),
+    )
 }
 
 #[test]
@@ -138,4 +148,53 @@ fn textureless_views_fail_when_on_and_warn_when_auto() {
         "{stderr}"
     );
     assert!(est.is_file());
+}
+
+#[test]
+fn align_views_interp_and_threads_flags() {
+    let dir = common::temp();
+    let bent = dir.path().join("bent");
+    synth(&bent, true);
+    let ((cross, stderr), cross_pfm) = mse_with_args(&bent, "on", &["--threads", "1"]);
+    assert!(stderr.contains("alignment: 9 views aligned"), "{stderr}");
+    // The estimate maps its per-view tracking over the threads: same bytes for any count.
+    let ((_, _), threaded) = mse_with_args(&bent, "on", &["--threads", "3"]);
+    assert!(threaded == cross_pfm, "--threads 3 changed the disparity");
+    let ((explicit, _), explicit_pfm) = mse_with_args(&bent, "on", &["--align-views", "cross"]);
+    assert!(
+        explicit_pfm == cross_pfm,
+        "--align-views cross is the EPI stage's default"
+    );
+    // Every view estimated: 25 homographies, the cross still the only views warped.
+    let ((all, stderr), all_pfm) = mse_with_args(&bent, "on", &["--align-views", "all"]);
+    assert!(stderr.contains("alignment: 25 views aligned"), "{stderr}");
+    assert!(all_pfm != cross_pfm);
+    // Catmull–Rom resamples differently, and no worse than within noise.
+    let ((cubic, _), cubic_pfm) = mse_with_args(&bent, "on", &["--align-interp", "catmull-rom"]);
+    assert!(cubic_pfm != cross_pfm, "--align-interp had no effect");
+    eprintln!(
+        "MSE×100: cross {cross:.2} (explicit {explicit:.2}), all views {all:.2}, Catmull–Rom {cubic:.2}"
+    );
+    for mse in [all, cubic] {
+        assert!(mse < 1.5 * cross + 2.0, "{mse} vs {cross}");
+    }
+    // Bad values are usage errors that list the choices.
+    for (flag, value, choices) in [
+        ("--align-interp", "cubic", "bilinear, catmull-rom"),
+        ("--align-views", "some", "read, cross, all"),
+    ] {
+        for command in [
+            &["estimate", "in", "-o", "x.pfm", flag, value][..],
+            &["demo", flag, value][..],
+            &["eval", "--dataset", "d", flag, value][..],
+        ] {
+            let out = lfdepth(command);
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{stderr}");
+            assert!(
+                stderr.contains(flag) && stderr.contains(choices),
+                "{stderr}"
+            );
+        }
+    }
 }

@@ -136,26 +136,55 @@ fn aligned_arrays_score_like_rectified_ones() {
             let raw = epi(&warp_all(&lf, &est, params.interpolation), &spec);
             let include = |v: usize| views == AlignedViews::All || v / cols == r0 || v % cols == c0;
             let gauge = gauge_fit_where(&est, &truth, spec.grid, n, n, &include).unwrap();
-            let corrected: Vec<f32> = raw
-                .iter()
-                .enumerate()
-                .map(|(i, &d)| gauge.true_disparity(d, (i % n) as f32, (i / n) as f32))
+            let remove_gauge = |raw: &[f32]| -> Vec<f32> {
+                raw.iter()
+                    .enumerate()
+                    .map(|(i, &d)| gauge.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                    .collect()
+            };
+            let corrected = remove_gauge(&raw);
+            // The true homographies moved into the estimate's gauge: what a perfect
+            // estimate with the same (unobservable) disparity plane would score.
+            let b = |v: usize| ((v % cols) as f32 - c0 as f32, (v / cols) as f32 - r0 as f32);
+            let in_gauge: Vec<Homography> = (0..truth.len())
+                .map(|v| {
+                    if include(v) {
+                        truth[v].compose(&gauge_map(&gauge, b(v)).inverse().unwrap())
+                    } else {
+                        Homography::IDENTITY
+                    }
+                })
                 .collect();
+            let ideal_estimate =
+                remove_gauge(&epi(&warp_all(&lf, &in_gauge, params.interpolation), &spec));
             let (raw_score, score) = (badpix(&raw, &gt, n), badpix(&corrected, &gt, n));
+            let ideal_score = badpix(&ideal_estimate, &gt, n);
             eprintln!(
-                "{name} {n}x{n} {model:?}/{frame:?}/{views:?}: BadPix0.07 aligned {raw_score:.2} raw, {score:.2} ({:+.0} % vs rectified) after the unobservable disparity plane {:.4} px + ({:.2e}, {:.2e}) px/px, scale {:.5} (track RMS {rms:.4})",
+                "{name} {n}x{n} {model:?}/{frame:?}/{views:?}: BadPix0.07 aligned {raw_score:.2} raw, {score:.2} ({:+.1} % vs rectified; true H in the same gauge {ideal_score:.2}, {:+.1} %) after the unobservable disparity plane {:.4} px + ({:.2e}, {:.2e}) px/px, scale {:.5} (track RMS {rms:.4}, registration {:.3} px)",
                 100.0 * (score / reference - 1.0),
+                100.0 * (ideal_score / reference - 1.0),
                 gauge.disparity_offset,
                 gauge.disparity_slope.0,
                 gauge.disparity_slope.1,
                 gauge.scale,
+                gauge.rms,
             );
-            // The goal is 10 % relative; measured +7 … +19 % (see docs/bench-align.md).
-            // Guard against regressions. The plane-patch model is reported, not asserted:
-            // it is the worse of the two on these scenes (patches straddle surfaces).
             assert!(
-                model == AlignModel::PlanePatches
-                    || (score <= 1.3 * reference && score < 0.1 * unaligned),
+                score < 0.1 * unaligned,
+                "{name} {model:?}/{frame:?}/{views:?}: {score} vs unaligned {unaligned}"
+            );
+            // What the estimated homographies themselves cost, beyond the true ones in the
+            // same gauge (measured ≤ 1.5 % with the per-view model).
+            assert!(
+                model == AlignModel::PlanePatches || score <= 1.03 * ideal_score,
+                "{name} {model:?}/{frame:?}/{views:?}: {score} vs {ideal_score} with the true homographies"
+            );
+            // The goal, 10 % relative BadPix0.07, is met on `mixed` (every variant of the
+            // per-view model). On `planes` the warp and the EPI stage's sensitivity to
+            // the unobservable disparity offset alone cost 4–15 % (docs/bench-align.md).
+            let bound = if scene == SceneKind::Mixed { 1.10 } else { 1.2 };
+            assert!(
+                model == AlignModel::PlanePatches || score <= bound * reference,
                 "{name} {model:?}/{frame:?}/{views:?}: {score} vs {reference}"
             );
         }
@@ -295,4 +324,347 @@ fn solve3(m: &[[f64; 4]; 3]) -> [f64; 3] {
         det(a(Some(1))) / d,
         det(a(Some(2))) / d,
     ]
+}
+
+/// The gauge transform `G_v` of `gauge` for the view with baseline `b`: true rectified →
+/// estimated rectified coordinates (an affine map).
+fn gauge_map(g: &align::GaugeFit, b: (f32, f32)) -> Homography {
+    let (ox, oy) = g.centre;
+    let (s, (g1, g2), g3, (g4, g5)) = (
+        g.scale,
+        g.translation,
+        g.disparity_offset,
+        g.disparity_slope,
+    );
+    let (m0, m1, m3, m4) = (s + g4 * b.0, g5 * b.0, g4 * b.1, s + g5 * b.1);
+    Homography {
+        m: [
+            m0,
+            m1,
+            g1 + g3 * b.0 + ox - m0 * ox - m1 * oy,
+            m3,
+            m4,
+            g2 + g3 * b.1 + oy - m3 * ox - m4 * oy,
+            0.0,
+            0.0,
+            1.0,
+        ],
+    }
+}
+
+/// `d` (on the estimated rectified grid) read at the true centre-view pixels and with
+/// the gauge removed: where the map lands once registered to the centre camera.
+fn registered(
+    d: &[f32],
+    n: usize,
+    est_c: &Homography,
+    true_c: &Homography,
+    g: &align::GaugeFit,
+) -> Vec<f32> {
+    let inv = est_c.inverse().unwrap();
+    (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32, (i / n) as f32);
+            let q = true_c.apply(x, y).unwrap();
+            let e = inv.apply(q.0, q.1).unwrap();
+            let (ex, ey) = (
+                e.0.clamp(0.0, (n - 1) as f32),
+                e.1.clamp(0.0, (n - 1) as f32),
+            );
+            let (ix, iy) = ((ex + 0.5) as usize, (ey + 0.5) as usize);
+            let v = d[iy.min(n - 1) * n + ix.min(n - 1)];
+            g.true_disparity(v, e.0, e.1)
+        })
+        .collect()
+}
+
+/// What the estimated homographies cost, one cause at a time (a measurement, run by hand):
+/// the estimate scored in its own frame and registered to the centre camera, and the true
+/// homographies moved by the estimate's own gauge (no per-view error).
+/// `cargo test --release -p lfdepth-cli --test align_epi causes -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn causes() {
+    let n = SIZE;
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let reference = badpix(&epi(&ideal, &spec), &gt, n);
+        eprintln!("{name}: rectified {reference:.2}");
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        let (r0, c0) = spec.grid.center();
+        let centre = spec.grid.index(r0, c0);
+        let cols = spec.grid.cols;
+        let b = |v: usize| ((v % cols) as f32 - c0 as f32, (v / cols) as f32 - r0 as f32);
+        for how in [Interpolation::Bilinear, Interpolation::CatmullRom] {
+            let s = badpix(&epi(&warp_all(&lf, &truth, how), &spec), &gt, n);
+            eprintln!(
+                "{name} {how:?} true H: {s:.2} ({:+.1} %)",
+                100.0 * (s / reference - 1.0)
+            );
+        }
+        for frame in [Reference::Estimated, Reference::CentreView] {
+            let params = AlignParams {
+                mode: AlignMode::On,
+                reference: frame,
+                views: AlignedViews::All,
+                ..AlignParams::default()
+            };
+            let (est, _) = estimate(&lf, params);
+            let g = gauge_fit_where(&est, &truth, spec.grid, n, n, &|_| true).unwrap();
+            let hybrid: Vec<Homography> = (0..truth.len())
+                .map(|v| truth[v].compose(&gauge_map(&g, b(v)).inverse().unwrap()))
+                .collect();
+            for how in [Interpolation::Bilinear, Interpolation::CatmullRom] {
+                for (label, hs) in [
+                    ("estimated", &est),
+                    ("truth in the estimate's gauge", &hybrid),
+                ] {
+                    let raw = epi(&warp_all(&lf, hs, how), &spec);
+                    let own: Vec<f32> = raw
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &d)| g.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                        .collect();
+                    let reg = registered(&raw, n, &hs[centre], &truth[centre], &g);
+                    let (a, r) = (badpix(&own, &gt, n), badpix(&reg, &gt, n));
+                    eprintln!(
+                        "{name} {frame:?} {how:?} {label}: own frame {a:.2} ({:+.1} %), registered {r:.2} ({:+.1} %); gauge s {:.5} t ({:.3}, {:.3}) plane {:.4} ({:.2e}, {:.2e}) registration rms {:.3}",
+                        100.0 * (a / reference - 1.0),
+                        100.0 * (r / reference - 1.0),
+                        g.scale, g.translation.0, g.translation.1, g.disparity_offset,
+                        g.disparity_slope.0, g.disparity_slope.1, g.rms
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// BadPix0.07 (15 px border) split into pixels within 3 px of a ground-truth depth step
+/// (> 0.3 px between neighbours) and the rest: (near steps, elsewhere).
+fn badpix_split(est: &[f32], gt: &[f32], n: usize) -> (f64, f64) {
+    let step = |i: usize, j: usize| (gt[i] - gt[j]).abs() > 0.3;
+    let mut near = vec![false; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let i = y * n + x;
+            if (x + 1 < n && step(i, i + 1)) || (y + 1 < n && step(i, i + n)) {
+                for yy in y.saturating_sub(3)..(y + 4).min(n) {
+                    for xx in x.saturating_sub(3)..(x + 4).min(n) {
+                        near[yy * n + xx] = true;
+                    }
+                }
+            }
+        }
+    }
+    let (mut bad, mut count) = ([0usize; 2], [0usize; 2]);
+    for y in BORDER..n - BORDER {
+        for x in BORDER..n - BORDER {
+            let i = y * n + x;
+            let k = usize::from(!near[i]);
+            count[k] += 1;
+            bad[k] += usize::from((est[i] - gt[i]).abs() > 0.07);
+        }
+    }
+    let pct = |k: usize| 100.0 * bad[k] as f64 / count[k].max(1) as f64;
+    (pct(0), pct(1))
+}
+
+/// Every view of `lf` warped by `hs` with a Lanczos-3 kernel (6 × 6 taps, weights
+/// normalised, coordinates clamped): a reference for what a sharper kernel than
+/// Catmull–Rom would give.
+fn warp_lanczos(lf: &LightField<'_, u8>, hs: &[Homography]) -> Vec<f32> {
+    let l = lf.layout();
+    let (w, h, ch) = (l.width, l.height, l.channels);
+    let kernel = |t: f32| {
+        if t.abs() < 1e-6 {
+            1.0
+        } else if t.abs() >= 3.0 {
+            0.0
+        } else {
+            let p = std::f32::consts::PI * t;
+            3.0 * p.sin() * (p / 3.0).sin() / (p * p)
+        }
+    };
+    let mut out = vec![0.0f32; l.validate().unwrap()];
+    for (v, chunk) in out.chunks_exact_mut(w * h * ch).enumerate() {
+        let (r, c) = (v / l.grid.cols, v % l.grid.cols);
+        for y in 0..h {
+            for x in 0..w {
+                let (u, vv) = hs[v].apply(x as f32, y as f32).unwrap();
+                let (x0, y0) = (u.floor() as i64, vv.floor() as i64);
+                let mut acc = [0.0f32; 4];
+                let mut wsum = 0.0f32;
+                for j in -2..=3 {
+                    let wy = kernel(vv - (y0 + j) as f32);
+                    let sy = (y0 + j).clamp(0, h as i64 - 1) as usize;
+                    for i in -2..=3 {
+                        let wk = wy * kernel(u - (x0 + i) as f32);
+                        let sx = (x0 + i).clamp(0, w as i64 - 1) as usize;
+                        for (k, a) in acc.iter_mut().enumerate().take(ch) {
+                            *a += wk * lf.pixel(r, c, sx, sy, k).unwrap() as f32 / 255.0;
+                        }
+                        wsum += wk;
+                    }
+                }
+                let at = (y * w + x) * ch;
+                for (o, a) in chunk[at..at + ch].iter_mut().zip(acc) {
+                    *o = a / wsum;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Resampling and a pure gauge transform, with the true homographies (a measurement, run
+/// by hand): bilinear, Catmull–Rom and Lanczos-3, scored with a 15 and a 40 px border;
+/// the true homographies moved by a disparity offset or slope alone.
+/// `cargo test --release -p lfdepth-cli --test align_epi resampling -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn resampling() {
+    let n = SIZE;
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let rect = epi(&ideal, &spec);
+        let (r15, r40) = (badpix(&rect, &gt, n), badpix_border(&rect, &gt, n, 40));
+        let (re, ri) = badpix_split(&rect, &gt, n);
+        eprintln!("{name}: rectified {r15:.2} (border 40: {r40:.2}; near depth steps {re:.2}, elsewhere {ri:.2})");
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        let cases = [
+            (
+                "bilinear",
+                epi(&warp_all(&lf, &truth, Interpolation::Bilinear), &spec),
+            ),
+            (
+                "catmull-rom",
+                epi(&warp_all(&lf, &truth, Interpolation::CatmullRom), &spec),
+            ),
+            ("lanczos-3", epi(&warp_lanczos(&lf, &truth), &spec)),
+        ];
+        for (label, d) in cases {
+            let (a, b) = (badpix(&d, &gt, n), badpix_border(&d, &gt, n, 40));
+            let (e, i) = badpix_split(&d, &gt, n);
+            eprintln!(
+                "{name} true H {label}: {a:.2} ({:+.1} %), border 40: {b:.2} ({:+.1} %); near depth steps {e:.2} ({:+.1} %), elsewhere {i:.2} ({:+.1} %)",
+                100.0 * (a / r15 - 1.0),
+                100.0 * (b / r40 - 1.0),
+                100.0 * (e / re - 1.0),
+                100.0 * (i / ri - 1.0)
+            );
+        }
+        let (r0, c0) = spec.grid.center();
+        let cols = spec.grid.cols;
+        let b = |v: usize| ((v % cols) as f32 - c0 as f32, (v / cols) as f32 - r0 as f32);
+        for (label, offset, slope) in [
+            ("offset 0.05", 0.05f32, (0.0f32, 0.0f32)),
+            ("offset -0.05", -0.05, (0.0, 0.0)),
+            ("offset 0.25", 0.25, (0.0, 0.0)),
+            ("slope (2.7e-4, 1.5e-4)", 0.0, (2.7e-4, 1.5e-4)),
+        ] {
+            let g = align::GaugeFit {
+                scale: 1.0,
+                translation: (0.0, 0.0),
+                disparity_offset: offset,
+                disparity_slope: slope,
+                centre: (n as f32 * 0.5, n as f32 * 0.5),
+                rms: 0.0,
+            };
+            let moved: Vec<Homography> = (0..truth.len())
+                .map(|v| truth[v].compose(&gauge_map(&g, b(v)).inverse().unwrap()))
+                .collect();
+            let d: Vec<f32> = epi(&warp_all(&lf, &moved, Interpolation::CatmullRom), &spec)
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| g.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                .collect();
+            let a = badpix(&d, &gt, n);
+            eprintln!(
+                "{name} true H + gauge {label}, Catmull-Rom: {a:.2} ({:+.1} %)",
+                100.0 * (a / r15 - 1.0)
+            );
+        }
+    }
+}
+
+/// How far the alternation runs (a measurement, run by hand): registration to the true
+/// frame (modulo the gauge) and BadPix after the gauge, for the stopping rule's target
+/// and round limit.
+/// `cargo test --release -p lfdepth-cli --test align_epi convergence -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn convergence() {
+    let n = SIZE;
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let reference = badpix(&epi(&ideal, &spec), &gt, n);
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        for (target_rms, max_iterations) in [(0.02, 30), (0.0, 30), (0.0, 200)] {
+            let params = AlignParams {
+                mode: AlignMode::On,
+                views: AlignedViews::All,
+                target_rms,
+                max_iterations,
+                ..AlignParams::default()
+            };
+            let mut est = vec![Homography::IDENTITY; lf.grid().len()];
+            let mut scratch = vec![0.0f32; align::scratch_len(lf.layout(), &params).unwrap()];
+            let report = align::estimate(&lf, &params, &mut est, &mut scratch).unwrap();
+            let g = gauge_fit_where(&est, &truth, spec.grid, n, n, &|_| true).unwrap();
+            let d: Vec<f32> = epi(&warp_all(&lf, &est, Interpolation::Bilinear), &spec)
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| g.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                .collect();
+            let s = badpix(&d, &gt, n);
+            eprintln!(
+                "{name} target {target_rms} max {max_iterations}: {} rounds, track RMS {:.4}, registration {:.3} px, BadPix {s:.2} ({:+.1} %)",
+                report.iterations,
+                report.rms,
+                g.rms,
+                100.0 * (s / reference - 1.0)
+            );
+        }
+    }
+}
+
+/// The plane-patch model's estimate on the 384² scenes (a measurement, run by hand).
+/// `cargo test --release -p lfdepth-cli --test align_epi plane_patches_report -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn plane_patches_report() {
+    let n = SIZE;
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, _, misaligned, _, truth) = scenes(scene, n);
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        for model in [AlignModel::PerView, AlignModel::PlanePatches] {
+            let params = AlignParams {
+                mode: AlignMode::On,
+                model,
+                views: AlignedViews::All,
+                ..AlignParams::default()
+            };
+            let mut est = vec![Homography::IDENTITY; lf.grid().len()];
+            let mut scratch = vec![0.0f32; align::scratch_len(lf.layout(), &params).unwrap()];
+            let r = align::estimate(&lf, &params, &mut est, &mut scratch).unwrap();
+            let reproj =
+                align::reprojection_rms(&est, &truth, spec.grid, n, n, &[-1.5, 0.0, 1.5]).unwrap();
+            let min = r
+                .views
+                .iter()
+                .filter(|v| v.inliers > 0)
+                .map(|v| v.inliers)
+                .min();
+            eprintln!(
+                "{} {model:?}: track RMS {:.4}, {} rounds, reprojection {reproj:.4} px, min inliers {min:?}",
+                scene.name(),
+                r.rms,
+                r.iterations
+            );
+        }
+    }
 }

@@ -7,10 +7,11 @@
 
 use lfdepth::align::{
     self, gauge_rms, reprojection_rms, warp_rows_with, AlignMode, AlignModel, AlignParams,
-    AlignReport, Interpolation,
+    AlignReport, AlignedViews, Interpolation,
 };
 use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, LightField};
+use lfdepth_cli::engine::ParallelViews;
 
 const MISALIGN: Misalignment = Misalignment {
     max_rotation_deg: 2.0,
@@ -153,4 +154,113 @@ fn warping_with_the_true_homographies_restores_the_ideal_views() {
     // interpolates them again. Measured 1.73 (bilinear) at 512².
     assert!(before > 4.0, "{before}");
     assert!(after.iter().all(|&a| a < 2.5), "{after:?}");
+}
+
+/// The CLI engine's parallel estimate (per-view tracking over rayon's threads) gives the
+/// same homographies, bit for bit, as the serial core estimate, for any thread count.
+#[test]
+fn the_parallel_estimate_is_bit_identical_for_any_thread_count() {
+    let n = if cfg!(debug_assertions) { 96 } else { 256 };
+    let (data, spec, _) = render(SceneKind::Mixed, n, true, 5);
+    let layout = spec.layout();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    // Debug builds: the largest batches only (every view), two pool sizes.
+    let (view_sets, modes, pools): (&[AlignedViews], &[AlignMode], &[usize]) =
+        if cfg!(debug_assertions) {
+            (&[AlignedViews::All], &[AlignMode::On], &[1, 3])
+        } else {
+            (
+                &[AlignedViews::Cross, AlignedViews::All],
+                &[AlignMode::On, AlignMode::Auto],
+                &[1, 2, 4],
+            )
+        };
+    for &views in view_sets {
+        for &mode in modes {
+            let params = AlignParams {
+                mode,
+                views,
+                ..AlignParams::default()
+            };
+            let (serial_report, serial) = estimate(&data, &spec, &params);
+            assert!(!serial_report.skipped, "{serial_report:?}");
+            for &threads in pools {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
+                let mut scratch = vec![0.0f32; align::scratch_len(&layout, &params).unwrap()];
+                let report = pool
+                    .install(|| {
+                        align::estimate_with(
+                            &lf,
+                            &params,
+                            &mut hs,
+                            &mut scratch,
+                            &mut ParallelViews,
+                        )
+                    })
+                    .unwrap();
+                assert_eq!(
+                    report, serial_report,
+                    "{views:?} {mode:?} {threads} threads"
+                );
+                assert!(hs == serial, "{views:?} {mode:?} {threads} threads");
+            }
+        }
+    }
+}
+
+/// How much of the estimate is per-view tracking (what `ParallelViews` spreads over
+/// threads) and how much is the serial alternation: on-CPU time of this thread inside
+/// and outside the view maps (a measurement for docs/bench-align.md, run by hand).
+/// `cargo test --release -p lfdepth-cli --test align_synthetic parallel_share -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn parallel_share() {
+    fn thread_cpu() -> std::time::Duration {
+        let s = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap();
+        std::time::Duration::from_nanos(s.split_whitespace().next().unwrap().parse().unwrap())
+    }
+    /// The serial map, timing the jobs.
+    struct Timed(std::time::Duration);
+    impl align::ViewMap for Timed {
+        fn map<F>(&mut self, tasks: &mut [align::ViewTask<'_>], scratch: &mut [f32], job: &F)
+        where
+            F: Fn(&mut align::ViewTask<'_>, &mut [f32]) + Sync,
+        {
+            let start = thread_cpu();
+            align::Serial.map(tasks, scratch, job);
+            self.0 += thread_cpu() - start;
+        }
+    }
+    let (data, spec, _) = render(SceneKind::Mixed, 512, true, 1);
+    let layout = spec.layout();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    for views in [AlignedViews::Cross, AlignedViews::All] {
+        let params = AlignParams {
+            mode: AlignMode::On,
+            views,
+            ..AlignParams::default()
+        };
+        let mut hs = vec![Homography::IDENTITY; 81];
+        let mut scratch = vec![0.0f32; align::scratch_len(&layout, &params).unwrap()];
+        let mut timed = Timed(std::time::Duration::ZERO);
+        let start = thread_cpu();
+        for _ in 0..5 {
+            align::estimate_with(&lf, &params, &mut hs, &mut scratch, &mut timed).unwrap();
+        }
+        let total = thread_cpu() - start;
+        let share = timed.0.as_secs_f64() / total.as_secs_f64();
+        eprintln!(
+            "{views:?}: on-CPU {:.1} ms per estimate, of which per-view tracking {:.1} ms ({:.0} %); Amdahl bound on 2 / 4 / 8 threads: {:.2}× / {:.2}× / {:.2}×",
+            total.as_secs_f64() * 200.0,
+            timed.0.as_secs_f64() * 200.0,
+            100.0 * share,
+            1.0 / (1.0 - share + share / 2.0),
+            1.0 / (1.0 - share + share / 4.0),
+            1.0 / (1.0 - share + share / 8.0),
+        );
+    }
 }

@@ -14,7 +14,9 @@ mod sealed {
 }
 
 /// A stored sample type: 8-bit (`u8`, 0…255) or floating point (`f32`, nominally 0…1).
-pub trait Sample: sealed::Sealed + Copy + Default + PartialEq + core::fmt::Debug + 'static {
+pub trait Sample:
+    sealed::Sealed + Copy + Default + PartialEq + core::fmt::Debug + Send + Sync + 'static
+{
     /// The sample as intensity in nominal `[0, 1]`.
     fn to_unit(self) -> f32;
     /// Whether every value of the type is finite (true for `u8`).

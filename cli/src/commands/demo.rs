@@ -9,7 +9,7 @@ use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::{Grid, LightField, Params};
 
 use super::estimate::write_colour_png;
-use super::params::{print_alignment, AlignChoice};
+use super::params::{print_alignment, AlignChoice, AlignInterp, AlignViewsChoice};
 use super::synth::{default_misalignment, parse_scene, render};
 use super::{create_dir, CliError, ScalarArg, Stage};
 use crate::colormap;
@@ -50,6 +50,12 @@ pub struct DemoArgs {
     /// the array is found not to be rectified).
     #[arg(long, value_enum, default_value_t = AlignChoice::Auto)]
     pub align: AlignChoice,
+    /// Alignment: how the views are resampled, `bilinear` or `catmull-rom` (sharper).
+    #[arg(long, value_enum, value_name = "KERNEL", default_value_t = AlignInterp::Bilinear)]
+    pub align_interp: AlignInterp,
+    /// Alignment: which views get a homography, `read`, `cross` or `all`.
+    #[arg(long, value_enum, value_name = "VIEWS", default_value_t = AlignViewsChoice::Read)]
+    pub align_views: AlignViewsChoice,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -68,6 +74,8 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::core("building the synthetic light field", e))?;
     let mut params = Params::default();
     params.align.mode = args.align.into();
+    params.align.interpolation = args.align_interp.into();
+    params.align.views = args.align_views.into();
     let options = EstimateOptions {
         params,
         stage: args.stage.into(),

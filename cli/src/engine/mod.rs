@@ -205,7 +205,13 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     let layout = *plan.layout();
     let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
     let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
-    let report = align::estimate(lf, params, &mut homographies, &mut scratch)?;
+    let report = align::estimate_with(
+        lf,
+        params,
+        &mut homographies,
+        &mut scratch,
+        &mut ParallelViews,
+    )?;
     drop(scratch);
     tracker.add(1);
     let mut timings = vec![(pipeline::STAGE_ALIGN, start.elapsed())];
@@ -224,6 +230,28 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     estimate.timings = timings;
     estimate.align = Some(report);
     Ok(estimate)
+}
+
+/// The alignment estimate's per-view tracking over rayon's threads, each running job
+/// with a pyramid buffer of its own (the core makes the result independent of how the
+/// jobs are spread).
+pub struct ParallelViews;
+
+impl align::ViewMap for ParallelViews {
+    fn map<F>(&mut self, tasks: &mut [align::ViewTask<'_>], scratch: &mut [f32], job: &F)
+    where
+        F: Fn(&mut align::ViewTask<'_>, &mut [f32]) + Sync,
+    {
+        if rayon::current_num_threads() <= 1 || tasks.len() <= 1 {
+            align::Serial.map(tasks, scratch, job);
+            return;
+        }
+        let len = scratch.len();
+        tasks
+            .par_iter_mut()
+            .with_max_len(1)
+            .for_each_init(|| vec![0.0f32; len], |buffer, task| job(task, buffer));
+    }
 }
 
 /// The views `stages` read, warped in parallel bands of [`WARP_BAND_ROWS`] rows (every

@@ -32,7 +32,8 @@
 //!
 //! # Entry points
 //! [`scratch_len`] and [`estimate`] fill one homography per view (row-major grid order,
-//! the convention of `synth::render`); [`warp_rows`] / [`warp_rows_with`] /
+//! the convention of `synth::render`); [`estimate_with`] does the same with the per-view
+//! work run through a [`ViewMap`] (the CLI spreads it over threads, same result); [`warp_rows`] / [`warp_rows_with`] /
 //! [`warp_band`] write rectified views into caller buffers, a band of rows at a time.
 //! `pipeline::align_views` / `pipeline::run_aligned` run both before the other stages,
 //! on the views those stages read.
@@ -233,6 +234,77 @@ pub struct AlignReport {
     pub iterations: usize,
 }
 
+/// One view's share of a batch of per-view work — tracking the centre view's corners
+/// into it (its row of the track table: `(x, y)` per corner, NaN where not found) or
+/// fitting its homography to its tracks. The views of a batch are independent of each
+/// other, so a [`ViewMap`] may run them in any order or concurrently.
+#[derive(Debug)]
+pub struct ViewTask<'a> {
+    view: usize,
+    obs: &'a mut [f32],
+    pub(crate) outcome: Result<usize>,
+    /// The view's homography, for the jobs that fit one.
+    pub(crate) homography: Option<Homography>,
+}
+
+impl<'a> ViewTask<'a> {
+    pub(crate) fn new(view: usize, obs: &'a mut [f32]) -> Self {
+        ViewTask {
+            view,
+            obs,
+            outcome: Ok(0),
+            homography: None,
+        }
+    }
+
+    /// The view (row-major grid index) this task tracks.
+    pub fn view(&self) -> usize {
+        self.view
+    }
+
+    pub(crate) fn get(&self, i: usize) -> Option<(f32, f32)> {
+        let (x, y) = (*self.obs.get(2 * i)?, *self.obs.get(2 * i + 1)?);
+        x.is_finite().then_some((x, y))
+    }
+
+    pub(crate) fn set(&mut self, i: usize, q: Option<(f32, f32)>) {
+        let (x, y) = q.unwrap_or((f32::NAN, f32::NAN));
+        if let Some(slot) = self.obs.get_mut(2 * i..2 * i + 2) {
+            slot[0] = x;
+            slot[1] = y;
+        }
+    }
+}
+
+/// Runs the per-view jobs of [`estimate_with`] (tracking, and the per-view homography
+/// fits with their RANSAC start): `job(task, scratch)` once per task. Each job writes only its own task and reads shared, unchanging data, so the
+/// estimate is the same (bit for bit) however an implementation orders or spreads the
+/// jobs. [`Serial`] runs them one after another; the CLI maps them over threads.
+pub trait ViewMap {
+    /// Calls `job` once for every task of `tasks`. `scratch` is the estimate's own
+    /// scratch for one job (an image pyramid for tracking, empty for the fits); an
+    /// implementation that runs jobs concurrently gives each running job a buffer of its
+    /// own of the same length (the contents on entry do not matter).
+    fn map<F>(&mut self, tasks: &mut [ViewTask<'_>], scratch: &mut [f32], job: &F)
+    where
+        F: Fn(&mut ViewTask<'_>, &mut [f32]) + Sync;
+}
+
+/// The [`ViewMap`] of [`estimate`]: one job after another, in the estimate's scratch.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Serial;
+
+impl ViewMap for Serial {
+    fn map<F>(&mut self, tasks: &mut [ViewTask<'_>], scratch: &mut [f32], job: &F)
+    where
+        F: Fn(&mut ViewTask<'_>, &mut [f32]) + Sync,
+    {
+        for task in tasks {
+            job(task, scratch);
+        }
+    }
+}
+
 /// Scratch [`estimate`] needs for `layout`, in `f32` elements: two image pyramids (centre
 /// and current view) and the track table. It grows with the view size, not with the
 /// number of bands the caller warps.
@@ -260,6 +332,23 @@ pub fn estimate<S: Sample>(
     params: &AlignParams,
     homographies: &mut [Homography],
     scratch: &mut [f32],
+) -> Result<AlignReport> {
+    estimate_with(lf, params, homographies, scratch, &mut Serial)
+}
+
+/// [`estimate`] with the per-view tracking (corner matching into each view, the bulk of
+/// the work) run through `map`, e.g. over threads. The result is identical to
+/// [`estimate`]'s for any [`ViewMap`]: views are tracked in batches that depend only on
+/// earlier batches (the first pass ring by ring around the centre, the second pass all
+/// at once); in the alternating least squares the view step (each view's homography
+/// from its own tracks, RANSAC seeded per view) runs through `map` too, while the point
+/// step, the gauge and the common-distortion fit, which couple the views, are serial.
+pub fn estimate_with<S: Sample, M: ViewMap>(
+    lf: &LightField<'_, S>,
+    params: &AlignParams,
+    homographies: &mut [Homography],
+    scratch: &mut [f32],
+    map: &mut M,
 ) -> Result<AlignReport> {
     params.validate()?;
     let layout = *lf.layout();
@@ -289,9 +378,16 @@ pub fn estimate<S: Sample>(
             report.skipped = true;
             Ok(report)
         }
-        AlignMode::On => solve::run(lf, params, set, homographies, scratch),
+        AlignMode::On => solve::run(lf, params, set, homographies, scratch, map),
         AlignMode::Auto => {
-            let probe = solve::run(lf, params, solve::ViewSet::Probe, homographies, scratch);
+            let probe = solve::run(
+                lf,
+                params,
+                solve::ViewSet::Probe,
+                homographies,
+                scratch,
+                map,
+            );
             homographies.fill(Homography::IDENTITY);
             let probe = match probe {
                 Ok(r) => r,
@@ -308,7 +404,7 @@ pub fn estimate<S: Sample>(
                 report.rms = probe.identity_rms;
                 return Ok(report);
             }
-            match solve::run(lf, params, set, homographies, scratch) {
+            match solve::run(lf, params, set, homographies, scratch, map) {
                 Ok(r) => Ok(r),
                 Err(e) => {
                     homographies.fill(Homography::IDENTITY);
