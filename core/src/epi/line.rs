@@ -50,6 +50,8 @@ const DEGENERATE: f32 = -3.0;
 /// accumulated over every channel and view before they are stored (8: 123–124 ms,
 /// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/bench-epi.md).
 pub(super) const BLOCK: usize = 16;
+/// Samples the tensor kernel keeps in registers at a time (a divisor of `BLOCK`).
+const LANES: usize = 16;
 /// The coarse pass tests every `COARSE_STEPS`-th shear step (at most 2 px apart, the
 /// largest step the residual window still covers): 2 and 3 steps gave the same HCI
 /// scores as 4 (docs/bench-epi.md).
@@ -204,11 +206,6 @@ impl<T: Scalar> LineEstimator<T> {
         }
     }
 
-    /// Colour planes a line carries (1 for gray).
-    pub(crate) fn channels(&self) -> usize {
-        self.channels
-    }
-
     /// Work elements (of `T`) for a line of `n` samples.
     pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
         let planes = Planes::new(views, centre, channels + 1, n);
@@ -328,121 +325,124 @@ impl<T: Scalar> LineEstimator<T> {
             }
         }
 
-        if let Some(coarse) = &self.coarse {
-            // The coarse pass reads the mean of the channels' planes (filters are linear).
-            let kinds = if coarse.half_shifts { 4 } else { 2 };
-            let scale = T::from_f32(1.0 / c_n as f32);
-            for kind in 0..kinds {
-                for k in 0..k_n {
-                    let to = planes.plane(kind, k, c_n);
-                    let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
-                    let gray = gray.get_mut(..planes.len).ok_or(short)?;
-                    gray.fill(T::ZERO);
-                    for c in 0..c_n {
-                        let at = planes.plane(kind, k, c);
-                        let plane = stored.get(at..at + planes.len).ok_or(short)?;
-                        for (g, &v) in gray.iter_mut().zip(plane) {
-                            *g += v;
-                        }
-                    }
-                    for g in gray.iter_mut() {
-                        *g *= scale;
-                    }
-                }
+        let guide = match &self.coarse {
+            Some(coarse) => {
+                Some(self.coarse_guide(coarse, &planes, bank, &mut tensor, coarse_work)?)
             }
-            let (estimate, rest) = coarse_work.split_at_mut_checked(n).ok_or(short)?;
-            let (coherence, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
-            let (coarse_score, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
-            let (coarse_prev_r, coarse_prev_c) = rest.split_at_mut_checked(n).ok_or(short)?;
-            let mut state = State {
-                best_d: estimate,
-                best_c: coherence,
-                score: coarse_score,
-                prev_r: coarse_prev_r,
-                prev_c: coarse_prev_c.get_mut(..n).ok_or(short)?,
-            };
-            self.sweep(
-                &coarse.hypotheses,
-                c_n..c_n + 1,
-                &planes,
-                bank,
-                &mut tensor,
-                &mut state,
-                None,
-                COARSE_STRIDE,
-            );
-            // Samples between the scored ones take their left neighbour's estimate.
-            for pair in state.best_d.chunks_exact_mut(COARSE_STRIDE) {
-                let first = pair[0];
-                pair.fill(first);
-            }
-            for pair in state.score.chunks_exact_mut(COARSE_STRIDE) {
-                let first = pair[0];
-                pair.fill(first);
-            }
-            // Estimates clamped to the fine shears (each sample then needs at least the
-            // nearest one), reach per sample.
-            let h = &self.hypotheses;
-            let (first, last) = (
-                T::from_f32(h.shear(0)),
-                T::from_f32(h.shear(h.count().saturating_sub(1))),
-            );
-            let single = T::from_f32(SINGLE);
-            for ((d, reach), &score) in state
-                .best_d
-                .iter_mut()
-                .zip(state.best_c.iter_mut())
-                .zip(state.score.iter())
-            {
-                *d = d.clamp(first, last);
-                *reach = if score < single { T::MAX } else { coarse.reach };
-            }
-            let guide = Guide {
-                estimate: state.best_d,
-                reach: state.best_c,
-            };
-            let mut state = State {
-                best_d: &mut disparity[..n],
-                best_c: &mut confidence[..n],
-                score,
-                prev_r,
-                prev_c,
-            };
-            self.sweep(
-                &self.hypotheses,
-                0..c_n,
-                &planes,
-                bank,
-                &mut tensor,
-                &mut state,
-                Some(guide),
-                1,
-            );
-        } else {
-            let mut state = State {
-                best_d: &mut disparity[..n],
-                best_c: &mut confidence[..n],
-                score,
-                prev_r,
-                prev_c,
-            };
-            self.sweep(
-                &self.hypotheses,
-                0..c_n,
-                &planes,
-                bank,
-                &mut tensor,
-                &mut state,
-                None,
-                1,
-            );
-        }
+            None => None,
+        };
+        let mut state = State {
+            best_d: &mut disparity[..n],
+            best_c: &mut confidence[..n],
+            score,
+            prev_r,
+            prev_c,
+        };
+        self.sweep(
+            &self.hypotheses,
+            0..c_n,
+            &planes,
+            bank,
+            &mut tensor,
+            &mut state,
+            guide,
+            1,
+        );
         let h = &self.hypotheses;
         let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
         for d in disparity.iter_mut().take(n) {
             *d = d.clamp(lo, hi);
         }
         Ok(())
+    }
+
+    /// The coarse pass: the gray mean of the channels' planes (the filters are linear)
+    /// swept over the coarse hypotheses, every `COARSE_STRIDE`-th sample scored; returns
+    /// which fine hypotheses each sample needs, held in `coarse_work` (5 lines).
+    fn coarse_guide<'w>(
+        &self,
+        coarse: &Coarse<T>,
+        planes: &Planes,
+        bank: &mut [T],
+        tensor: &mut Tensor<'_, T>,
+        coarse_work: &'w mut [T],
+    ) -> Result<Guide<'w, T>> {
+        let (n, c_n) = (planes.n, self.channels);
+        let short = Error::ScratchTooSmall {
+            needed: 5 * n,
+            got: coarse_work.len(),
+        };
+        let kinds = if coarse.half_shifts { 4 } else { 2 };
+        let scale = T::from_f32(1.0 / c_n as f32);
+        for kind in 0..kinds {
+            for k in 0..self.views {
+                let to = planes.plane(kind, k, c_n);
+                let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
+                let gray = gray.get_mut(..planes.len).ok_or(short)?;
+                gray.fill(T::ZERO);
+                for c in 0..c_n {
+                    let at = planes.plane(kind, k, c);
+                    let plane = stored.get(at..at + planes.len).ok_or(short)?;
+                    for (g, &v) in gray.iter_mut().zip(plane) {
+                        *g += v;
+                    }
+                }
+                for g in gray.iter_mut() {
+                    *g *= scale;
+                }
+            }
+        }
+        let (estimate, rest) = coarse_work.split_at_mut_checked(n).ok_or(short)?;
+        let (reach, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
+        let (score, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
+        let (prev_r, prev_c) = rest.split_at_mut_checked(n).ok_or(short)?;
+        let mut state = State {
+            best_d: estimate,
+            best_c: reach,
+            score,
+            prev_r,
+            prev_c: prev_c.get_mut(..n).ok_or(short)?,
+        };
+        self.sweep(
+            &coarse.hypotheses,
+            c_n..c_n + 1,
+            planes,
+            bank,
+            tensor,
+            &mut state,
+            None,
+            COARSE_STRIDE,
+        );
+        // Samples between the scored ones take their left neighbour's estimate.
+        for pair in state.best_d.chunks_exact_mut(COARSE_STRIDE) {
+            let first = pair[0];
+            pair.fill(first);
+        }
+        for pair in state.score.chunks_exact_mut(COARSE_STRIDE) {
+            let first = pair[0];
+            pair.fill(first);
+        }
+        // Estimates clamped to the fine shears (each sample then needs at least the
+        // nearest one), reach per sample (the coherence's slot is reused).
+        let h = &self.hypotheses;
+        let (first, last) = (
+            T::from_f32(h.shear(0)),
+            T::from_f32(h.shear(h.count().saturating_sub(1))),
+        );
+        let single = T::from_f32(SINGLE);
+        for ((d, reach), &score) in state
+            .best_d
+            .iter_mut()
+            .zip(state.best_c.iter_mut())
+            .zip(state.score.iter())
+        {
+            *d = d.clamp(first, last);
+            *reach = if score < single { T::MAX } else { coarse.reach };
+        }
+        Ok(Guide {
+            estimate: state.best_d,
+            reach: state.best_c,
+        })
     }
 
     /// Tests the hypotheses `hyps` on the channel planes `slots`, keeping each sample's
@@ -730,58 +730,74 @@ impl<T: Scalar> LineEstimator<T> {
     ) {
         let span = blocks.start * BLOCK..blocks.end * BLOCK;
         let lines = (tensor.jxx.get_mut(span.clone()).unwrap_or_default())
-            .chunks_exact_mut(BLOCK)
-            .zip((tensor.jxk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(BLOCK))
-            .zip((tensor.jkk.get_mut(span).unwrap_or_default()).chunks_exact_mut(BLOCK));
-        for (b, ((xx, xk), kk)) in blocks.zip(lines) {
-            let [sxx, sxk, skk] = self.tensor_block::<TAPS>(bank, sources, b * BLOCK);
+            .chunks_exact_mut(LANES)
+            .zip((tensor.jxk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(LANES))
+            .zip((tensor.jkk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(LANES));
+        for (t0, ((xx, xk), kk)) in span.step_by(LANES).zip(lines) {
+            let [sxx, sxk, skk] = self.tensor_lanes::<TAPS>(bank, sources, t0);
             xx.copy_from_slice(&sxx);
             xk.copy_from_slice(&sxk);
             kk.copy_from_slice(&skk);
         }
     }
 
-    /// The tensor of samples `t0..t0 + BLOCK`: per channel and view, both gradients across
-    /// the views' band, then their products, all in registers.
+    /// The tensor of samples `t0..t0 + LANES`: the samples of every view's planes are
+    /// looked up once, then per channel and view both gradients across the view's band
+    /// and their products, all in registers.
     #[inline(always)]
-    fn tensor_block<const TAPS: usize>(
+    fn tensor_lanes<const TAPS: usize>(
         &self,
         bank: &[T],
         sources: &Sources,
         t0: usize,
-    ) -> [[T; BLOCK]; 3] {
-        let mut xx = [T::ZERO; BLOCK];
-        let mut xk = [T::ZERO; BLOCK];
-        let mut kk = [T::ZERO; BLOCK];
+    ) -> [[T; LANES]; 3] {
+        let zero = [T::ZERO; LANES];
+        let mut xx = [T::ZERO; LANES];
+        let mut xk = [T::ZERO; LANES];
+        let mut kk = [T::ZERO; LANES];
         let band = &self.band;
+        let views = self.views.min(GRID_MAX);
+        let last = views.saturating_sub(1);
+        let at = |from: usize| {
+            bank.get(from + t0..)
+                .and_then(|b| b.first_chunk::<LANES>())
+                .unwrap_or(&zero)
+        };
         for (sd, ss) in sources.d.iter().zip(&sources.s).take(sources.slots) {
+            // Views past the last read the last one (with zero weight), as the band's
+            // clamped rows do.
+            let mut d = [&zero; GRID_MAX];
+            let mut s = [&zero; GRID_MAX];
+            for (k, (dk, sk)) in d.iter_mut().zip(s.iter_mut()).enumerate() {
+                let j = k.min(last);
+                if let (Some(&from_d), Some(&from_s)) = (sd.get(j), ss.get(j)) {
+                    (*dk, *sk) = (at(from_d), at(from_s));
+                }
+            }
             let views = band
-                .rows
+                .start
                 .iter()
                 .zip(&band.smooth)
                 .zip(&band.derivative)
                 .zip(&sources.active)
-                .take(self.views);
-            for (((rows, smooth), derivative), &active) in views {
+                .take(views);
+            for (((&start, smooth), derivative), &active) in views {
+                // `start + TAPS ≤ GRID_MAX` (Band::new); a miss would skip the view.
+                let (Some(dw), Some(sw), Some(smooth), Some(derivative)) = (
+                    d.get(start..).and_then(|w| w.first_chunk::<TAPS>()),
+                    s.get(start..).and_then(|w| w.first_chunk::<TAPS>()),
+                    smooth.first_chunk::<TAPS>(),
+                    derivative.first_chunk::<TAPS>(),
+                ) else {
+                    continue;
+                };
                 if !active {
                     continue;
                 }
-                let mut gx = [T::ZERO; BLOCK];
-                let mut gk = [T::ZERO; BLOCK];
-                let taps = rows.iter().zip(smooth).zip(derivative).take(TAPS);
-                for ((&j, &a), &b) in taps {
-                    let (Some(&from_d), Some(&from_s)) = (sd.get(j), ss.get(j)) else {
-                        continue;
-                    };
-                    let (Some(d), Some(s)) = (
-                        bank.get(from_d + t0..)
-                            .and_then(|b| b.first_chunk::<BLOCK>()),
-                        bank.get(from_s + t0..)
-                            .and_then(|b| b.first_chunk::<BLOCK>()),
-                    ) else {
-                        continue;
-                    };
-                    for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(d.iter().zip(s))
+                let mut gx = [T::ZERO; LANES];
+                let mut gk = [T::ZERO; LANES];
+                for (((&p, &q), &a), &b) in dw.iter().zip(sw).zip(smooth).zip(derivative) {
+                    for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(p.iter().zip(q))
                     {
                         *x += a * p;
                         *y += b * q;
