@@ -4,7 +4,7 @@
 
 use super::band::Band;
 use super::hypotheses::Hypotheses;
-use super::kernels::{centre_weights, truncated_gaussian, Kernel};
+use super::kernels::{apply_pair, centre_weights, truncated_gaussian, Kernel};
 use super::planes::{shift, Planes, Sources};
 use super::{ColorMode, EpiParams, Search};
 use crate::error::{Error, Result};
@@ -24,20 +24,26 @@ pub(crate) struct LineEstimator<T: Scalar> {
     channels: usize,
     hypotheses: Hypotheses,
     interpolate: bool,
-    /// Whether some hypothesis shifts a view by a half-integer (the half-shifted planes
-    /// are then filled).
+    /// Whether some hypothesis shifts a view by a half-integer.
     half_shifts: bool,
+    /// The views some hypothesis (fine, or coarse when its gray planes read them) shifts
+    /// by a half-integer: only their half-shifted planes are filled.
+    half_views: [bool; GRID_MAX],
     coarse: Option<Coarse<T>>,
+}
+
+/// Whether some hypothesis of `hyps` shifts view `k` (of the centre `centre`) by a
+/// half-integer (the test [`LineEstimator::sources`] makes).
+fn half_shift(hyps: &Hypotheses, k: usize, centre: usize) -> bool {
+    (0..hyps.count()).any(|i| {
+        let offset = (k as f32 - centre as f32) * hyps.shear(i);
+        offset - libm::floorf(offset) == 0.5
+    })
 }
 
 /// Whether some hypothesis of `hyps` shifts one of `views` views by a half-integer.
 fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
-    (0..hyps.count()).any(|i| {
-        (0..views).any(|k| {
-            let offset = (k as f32 - centre as f32) * hyps.shear(i);
-            offset - libm::floorf(offset) == 0.5
-        })
-    })
+    (0..views).any(|k| half_shift(hyps, k, centre))
 }
 
 /// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
@@ -171,6 +177,32 @@ impl<T: Scalar> LineEstimator<T> {
             }
         }
         let half_shifts = shifts_by_halves(&hypotheses, views, centre);
+        let coarse = match params.search {
+            Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
+                let step = hypotheses.step();
+                Hypotheses::sheared(
+                    hypotheses.min(),
+                    hypotheses.max(),
+                    (COARSE_STEPS * step).min(2.0),
+                    1.0,
+                )
+                .ok()
+                .map(|coarse| Coarse {
+                    hypotheses: coarse,
+                    reach: T::from_f32((1.0 + margin) * step),
+                    half_shifts: half_shifts && shifts_by_halves(&coarse, views, centre),
+                })
+            }
+            _ => None,
+        };
+        let mut half_views = [false; GRID_MAX];
+        for (k, half) in half_views.iter_mut().enumerate().take(views) {
+            *half = half_shifts
+                && (half_shift(&hypotheses, k, centre)
+                    || coarse
+                        .as_ref()
+                        .is_some_and(|c| c.half_shifts && half_shift(&c.hypotheses, k, centre)));
+        }
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
@@ -185,24 +217,8 @@ impl<T: Scalar> LineEstimator<T> {
             hypotheses,
             interpolate: params.interpolate,
             half_shifts,
-            coarse: match params.search {
-                Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
-                    let step = hypotheses.step();
-                    Hypotheses::sheared(
-                        hypotheses.min(),
-                        hypotheses.max(),
-                        (COARSE_STEPS * step).min(2.0),
-                        1.0,
-                    )
-                    .ok()
-                    .map(|coarse| Coarse {
-                        hypotheses: coarse,
-                        reach: T::from_f32((1.0 + margin) * step),
-                        half_shifts: half_shifts && shifts_by_halves(&coarse, views, centre),
-                    })
-                }
-                _ => None,
-            },
+            half_views,
+            coarse,
         }
     }
 
@@ -291,35 +307,43 @@ impl<T: Scalar> LineEstimator<T> {
         for k in 0..k_n {
             load(k, raw)?;
             for (c, raw) in raw.chunks_exact(n).enumerate() {
-                for (kind, kernel) in [(0, &self.derivative), (1, &self.smoothing)] {
-                    let at = planes.plane(kind, k, c);
-                    let plane = bank.get_mut(at..at + planes.len).ok_or(short)?;
-                    let (head, tail) = plane.split_at_mut_checked(planes.lead).ok_or(short)?;
-                    let (line, pad) = tail.split_at_mut_checked(n).ok_or(short)?;
-                    kernel.apply(raw, line);
+                // Kind 0 (derivative) lies before kind 1 (smoothing) in the bank.
+                let (at_d, at_s) = (planes.plane(0, k, c), planes.plane(1, k, c));
+                let (below, above) = bank.split_at_mut_checked(at_s).ok_or(short)?;
+                let derivative = below.get_mut(at_d..at_d + planes.len).ok_or(short)?;
+                let smoothing = above.get_mut(..planes.len).ok_or(short)?;
+                let (d_head, d_tail) = derivative.split_at_mut_checked(planes.lead).ok_or(short)?;
+                let (s_head, s_tail) = smoothing.split_at_mut_checked(planes.lead).ok_or(short)?;
+                let (d_line, d_pad) = d_tail.split_at_mut_checked(n).ok_or(short)?;
+                let (s_line, s_pad) = s_tail.split_at_mut_checked(n).ok_or(short)?;
+                apply_pair(&self.derivative, &self.smoothing, raw, d_line, s_line);
+                for (head, line, pad) in [(d_head, d_line, d_pad), (s_head, s_line, s_pad)] {
                     let (Some(&first), Some(&last)) = (line.first(), line.last()) else {
                         return Err(short);
                     };
                     head.fill(first);
                     pad.fill(last);
-                    if self.half_shifts {
-                        // out[t] = ½·in[t − w] + ½·in[t − w − 1]: the shift's interpolation.
-                        let to = planes.plane(kind + 2, k, c);
-                        let (stored, shifted) = bank.split_at_mut_checked(to).ok_or(short)?;
-                        let plane = stored.get(at..at + planes.len).ok_or(short)?;
-                        let shifted = shifted.get_mut(..planes.len).ok_or(short)?;
-                        let (Some((s0, shifted)), Some(&p0)) =
-                            (shifted.split_first_mut(), plane.first())
-                        else {
-                            return Err(short);
-                        };
-                        *s0 = half * p0 + half * p0;
-                        for (o, (&below, &above)) in shifted
-                            .iter_mut()
-                            .zip(plane.iter().zip(plane.iter().skip(1)))
-                        {
-                            *o = half * above + half * below;
-                        }
+                }
+                if !self.half_views.get(k).copied().unwrap_or(true) {
+                    continue;
+                }
+                for (kind, at) in [(0, at_d), (1, at_s)] {
+                    // out[t] = ½·in[t − w] + ½·in[t − w − 1]: the shift's interpolation.
+                    let to = planes.plane(kind + 2, k, c);
+                    let (stored, shifted) = bank.split_at_mut_checked(to).ok_or(short)?;
+                    let plane = stored.get(at..at + planes.len).ok_or(short)?;
+                    let shifted = shifted.get_mut(..planes.len).ok_or(short)?;
+                    let (Some((s0, shifted)), Some(&p0)) =
+                        (shifted.split_first_mut(), plane.first())
+                    else {
+                        return Err(short);
+                    };
+                    *s0 = half * p0 + half * p0;
+                    for (o, (&below, &above)) in shifted
+                        .iter_mut()
+                        .zip(plane.iter().zip(plane.iter().skip(1)))
+                    {
+                        *o = half * above + half * below;
                     }
                 }
             }
@@ -376,6 +400,9 @@ impl<T: Scalar> LineEstimator<T> {
         let scale = T::from_f32(1.0 / c_n as f32);
         for kind in 0..kinds {
             for k in 0..self.views {
+                if kind >= 2 && !self.half_views.get(k).copied().unwrap_or(true) {
+                    continue;
+                }
                 let to = planes.plane(kind, k, c_n);
                 let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
                 let gray = gray.get_mut(..planes.len).ok_or(short)?;
