@@ -307,7 +307,8 @@ impl StreamPlan {
             ColorMode::Tensor => layout.channels.min(3),
         };
         let line = |views: usize, centre: usize, n: usize| {
-            LineEstimator::<f32>::work_len(views, centre, channels, n) + 2 * n
+            LineEstimator::<f32>::work_len(&self.plan.params().epi, views, centre, channels, n)
+                + 2 * n
         };
         let n_h = (rw + 2 * self.margin_h + LINE_ALIGN - 1).min(layout.width);
         let n_v = (rh + 2 * self.margin_v + LINE_ALIGN - 1).min(layout.height);

@@ -271,7 +271,20 @@ pub(crate) fn apply_pair<T: Scalar>(
         }
         let at = r + t0;
         let skip = done - t0;
-        if let (Some(o), Some(e)) = (
+        if skip == 0 {
+            // Whole blocks as fixed-size stores (a slice copy became a `memcpy` call).
+            if let (Some(o), Some(e)) = (
+                out_odd
+                    .get_mut(at..)
+                    .and_then(|o| o.first_chunk_mut::<PAIR_BLOCK>()),
+                out_even
+                    .get_mut(at..)
+                    .and_then(|e| e.first_chunk_mut::<PAIR_BLOCK>()),
+            ) {
+                *o = acc_odd;
+                *e = acc_even;
+            }
+        } else if let (Some(o), Some(e)) = (
             out_odd.get_mut(at + skip..at + PAIR_BLOCK),
             out_even.get_mut(at + skip..at + PAIR_BLOCK),
         ) {

@@ -29,6 +29,9 @@ pub(crate) struct LineEstimator<T: Scalar> {
     /// The views some hypothesis (fine, or coarse when its gray planes read them) shifts
     /// by a half-integer: only their half-shifted planes are filled.
     half_views: [bool; GRID_MAX],
+    /// Whether some hypothesis reads a view at an offset the stored planes do not hold
+    /// (the fallback planes then exist).
+    fallback: bool,
     coarse: Option<Coarse<T>>,
 }
 
@@ -39,6 +42,49 @@ fn half_shift(hyps: &Hypotheses, k: usize, centre: usize) -> bool {
         let offset = (k as f32 - centre as f32) * hyps.shear(i);
         offset - libm::floorf(offset) == 0.5
     })
+}
+
+/// Whether some hypothesis of `hyps` reads one of `views` views where the stored planes
+/// (`half_ready`: with the half-shifted ones) do not reach (the test
+/// [`LineEstimator::sources`] makes).
+fn off_planes(
+    hyps: &Hypotheses,
+    views: usize,
+    centre: usize,
+    half_ready: bool,
+    reach: usize,
+) -> bool {
+    (0..hyps.count()).any(|i| {
+        (0..views).any(|k| {
+            let offset = (k as f32 - centre as f32) * hyps.shear(i);
+            let floor = libm::floorf(offset);
+            let frac = offset - floor;
+            let stored = frac == 0.0 || (frac == 0.5 && half_ready);
+            !stored || (floor as isize).unsigned_abs() > reach
+        })
+    })
+}
+
+/// The half-shifted views and whether fallback planes are needed, for any hypotheses
+/// `params` can make: shears are multiples of `shear_step`, so with `2·shear_step` an
+/// integer every offset is a multiple of half a sample (odd ones only at odd distances
+/// from the centre, and only when `2·shear_step` is odd), within the stored reach
+/// (|shear| ≤ MAX_DISPARITY + 1). The coarse pass's shears (steps of 2 px then) and the
+/// range probe's are integers. Any other step may need every kind of plane.
+fn planes_bound(params: &EpiParams, views: usize, centre: usize) -> ([bool; GRID_MAX], bool) {
+    let mut half = [false; GRID_MAX];
+    if !params.shear {
+        // One hypothesis at shear 0 (the range probe's are integers).
+        return (half, false);
+    }
+    let twice = 2.0 * params.shear_step;
+    let halves = libm::roundf(twice);
+    let dyadic = twice == halves;
+    let odd = dyadic && (halves as i64) % 2 == 1;
+    for (k, h) in half.iter_mut().enumerate().take(views) {
+        *h = !dyadic || (odd && k.abs_diff(centre) % 2 == 1);
+    }
+    (half, !dyadic)
 }
 
 /// Whether some hypothesis of `hyps` shifts one of `views` views by a half-integer.
@@ -203,6 +249,11 @@ impl<T: Scalar> LineEstimator<T> {
                         .as_ref()
                         .is_some_and(|c| c.half_shifts && half_shift(&c.hypotheses, k, centre)));
         }
+        let reach = Planes::reach_for(centre.max(views.saturating_sub(1).saturating_sub(centre)));
+        let fallback = off_planes(&hypotheses, views, centre, half_shifts, reach)
+            || coarse
+                .as_ref()
+                .is_some_and(|c| off_planes(&c.hypotheses, views, centre, c.half_shifts, reach));
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
@@ -218,19 +269,47 @@ impl<T: Scalar> LineEstimator<T> {
             interpolate: params.interpolate,
             half_shifts,
             half_views,
+            fallback,
             coarse,
         }
     }
 
     /// Work elements (of `T`) for a line of `n` samples.
-    pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
-        let planes = Planes::new(views, centre, channels + 1, n);
+    /// Enough for every estimator `params` can make (any range of its hypotheses, the
+    /// coarse pass's and the range probe's integer shears).
+    pub(crate) fn work_len(
+        params: &EpiParams,
+        views: usize,
+        centre: usize,
+        channels: usize,
+        n: usize,
+    ) -> usize {
+        let (half, fallback) = planes_bound(params, views, centre);
+        Self::work_len_for(views, centre, channels, n, &half, fallback)
+    }
+
+    fn work_len_for(
+        views: usize,
+        centre: usize,
+        channels: usize,
+        n: usize,
+        half: &[bool; GRID_MAX],
+        fallback: bool,
+    ) -> usize {
+        let planes = Planes::new(views, centre, channels + 1, n, half, fallback);
         planes.bank_len() + 3 * planes.n_blocks + (12 + channels) * n
     }
 
     /// Work elements (of `T`) this estimator needs for a line of `n` samples.
     pub(crate) fn line_work_len(&self, n: usize) -> usize {
-        Self::work_len(self.views, self.centre, self.channels, n)
+        Self::work_len_for(
+            self.views,
+            self.centre,
+            self.channels,
+            n,
+            &self.half_views,
+            self.fallback,
+        )
     }
 
     /// Estimates one line of `n` samples. `load(view, out)` fills `out` (`channels` planes
@@ -246,7 +325,7 @@ impl<T: Scalar> LineEstimator<T> {
         confidence: &mut [T],
     ) -> Result<()> {
         let (k_n, c_n) = (self.views, self.channels);
-        let needed = Self::work_len(k_n, self.centre, c_n, n);
+        let needed = self.line_work_len(n);
         if work.len() < needed {
             return Err(Error::ScratchTooSmall {
                 needed,
@@ -264,7 +343,14 @@ impl<T: Scalar> LineEstimator<T> {
             return Ok(());
         }
         // One plane slot per channel and one for the coarse pass's gray.
-        let planes = Planes::new(k_n, self.centre, c_n + 1, n);
+        let planes = Planes::new(
+            k_n,
+            self.centre,
+            c_n + 1,
+            n,
+            &self.half_views,
+            self.fallback,
+        );
         let nb = planes.n_blocks;
         // `work_len` covers every part; the checked splits only keep panics out.
         let short = Error::ScratchTooSmall {
@@ -795,10 +881,17 @@ impl<T: Scalar> LineEstimator<T> {
             // clamped rows do.
             let mut d = [&zero; GRID_MAX];
             let mut s = [&zero; GRID_MAX];
-            for (k, (dk, sk)) in d.iter_mut().zip(s.iter_mut()).enumerate() {
-                let j = k.min(last);
-                if let (Some(&from_d), Some(&from_s)) = (sd.get(j), ss.get(j)) {
-                    (*dk, *sk) = (at(from_d), at(from_s));
+            for ((dk, sk), (&from_d, &from_s)) in d
+                .iter_mut()
+                .zip(s.iter_mut())
+                .zip(sd.iter().zip(ss))
+                .take(views)
+            {
+                (*dk, *sk) = (at(from_d), at(from_s));
+            }
+            if let (Some(&d_last), Some(&s_last)) = (d.get(last), s.get(last)) {
+                for (dk, sk) in d.iter_mut().zip(s.iter_mut()).skip(views) {
+                    (*dk, *sk) = (d_last, s_last);
                 }
             }
             let views = band

@@ -233,7 +233,8 @@ fn used_channels(plan: &Plan) -> usize {
 pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
     let (views, centre) = direction.views(plan);
     let n = direction.line_len(plan);
-    LineEstimator::<f32>::work_len(views, centre, used_channels(plan), n) + 2 * n
+    LineEstimator::<f32>::work_len(&plan.params().epi, views, centre, used_channels(plan), n)
+        + 2 * n
 }
 
 /// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`].
