@@ -914,9 +914,19 @@ impl<T: Scalar> LineEstimator<T> {
                 if !active {
                     continue;
                 }
+                let mut taps = dw.iter().zip(sw).zip(smooth).zip(derivative);
+                let Some((((&p, &q), &a), &b)) = taps.next() else {
+                    continue;
+                };
+                // The first tap sets the gradients (the same values as adding it to zero,
+                // up to the sign of a zero, which the squares and products below ignore).
                 let mut gx = [T::ZERO; LANES];
                 let mut gk = [T::ZERO; LANES];
-                for (((&p, &q), &a), &b) in dw.iter().zip(sw).zip(smooth).zip(derivative) {
+                for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(p.iter().zip(q)) {
+                    *x = a * p;
+                    *y = b * q;
+                }
+                for (((&p, &q), &a), &b) in taps {
                     for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(p.iter().zip(q))
                     {
                         *x += a * p;
