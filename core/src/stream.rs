@@ -26,7 +26,7 @@ use core::ops::Range;
 
 use crate::align::AlignMode;
 use crate::epi::{
-    clamp_f32, fuse, ColorMode, DisparityRange, Hypotheses, LineEstimator, INTENSITY_SCALE,
+    clamp_f32, fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator,
 };
 use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Grid, Layout, Sample, View};
@@ -313,7 +313,8 @@ impl StreamPlan {
             ColorMode::Tensor => layout.channels.min(3),
         };
         let line = |views: usize, centre: usize, n: usize| {
-            LineEstimator::<f32>::work_len(views, centre, channels, n) + 2 * n
+            LineEstimator::<f32>::work_len(&self.plan.params().epi, views, centre, channels, n)
+                + 2 * n
         };
         let n_h = (rw + 2 * self.margin_h + LINE_ALIGN - 1).min(layout.width);
         let n_v = (rh + 2 * self.margin_v + LINE_ALIGN - 1).min(layout.height);
@@ -505,17 +506,13 @@ impl StreamPlan {
         let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
         let n = x1 - x0;
         let estimator = LineEstimator::<T>::new(params, *h, grid.cols, c0, ch_n);
-        let planes = estimator.channels();
         let (d_line, c_line, work) = split_line(scratch, &estimator, n)?;
         for ly in 0..region.height {
             let y = region.y + ly;
             let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, r0, k).unwrap_or(0);
                 let start = input.offset(slot, x0, y);
-                for (c, plane) in out.chunks_mut(n).take(planes).enumerate() {
-                    load_line(input, start, ch_n, n, color, c, plane)?;
-                }
-                Ok(())
+                load_line(input.data, BAND_BUFFER, start, ch_n, ch_n, n, color, out)
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.x + fresh.start - x0;
@@ -566,7 +563,6 @@ impl StreamPlan {
         let y1 = (region.y + region.height + self.margin_v).min(layout.height);
         let n = y1 - y0;
         let estimator = LineEstimator::<T>::new(params, *h, grid.rows, r0, ch_n);
-        let planes = estimator.channels();
         let (d_line, c_line, work) = split_line(scratch, &estimator, n)?;
         let fusion = params.fusion;
         let step = input.row_stride;
@@ -575,10 +571,7 @@ impl StreamPlan {
             let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
                 let start = input.offset(slot, x, y0);
-                for (c, plane) in out.chunks_mut(n).take(planes).enumerate() {
-                    load_line(input, start, step, n, color, c, plane)?;
-                }
-                Ok(())
+                load_line(input.data, BAND_BUFFER, start, step, ch_n, n, color, out)
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.y - y0;
@@ -657,52 +650,16 @@ fn split_line<'s, T: Scalar>(
     Ok((d, c, work))
 }
 
-/// Loads `n` samples `step` apart from `start` as the EPI stage does: channel `c` (or the
-/// channel mean in gray mode), in unit intensity times [`INTENSITY_SCALE`].
 /// Cropped lines start on multiples of this: the EPI stage scores its coarse pass on
 /// every second sample and sums its tensor in blocks of 16, counted from the line's
 /// start, so a crop starting elsewhere would round differently from the whole frame.
 const LINE_ALIGN: usize = 16;
 
+/// Names the band buffer in the loader's error.
+const BAND_BUFFER: &str = "the band buffer";
+
 fn align_down(x: usize) -> usize {
     x / LINE_ALIGN * LINE_ALIGN
-}
-
-fn load_line<T: Scalar, S: Sample>(
-    input: &CrossBand<'_, S>,
-    start: usize,
-    step: usize,
-    n: usize,
-    color: ColorMode,
-    c: usize,
-    out: &mut [T],
-) -> Result<()> {
-    let ch_n = input.channels;
-    // Every pixel starts `step ≥ channels ≥ 1` elements after the previous one.
-    let step = step.max(1);
-    let end = start + n.saturating_sub(1) * step + ch_n;
-    let src = input.data.get(start..end).ok_or(Error::BufferTooSmall {
-        what: "the band buffer",
-        needed: end,
-        got: input.data.len(),
-    })?;
-    match color {
-        ColorMode::Tensor => {
-            for (o, px) in out.iter_mut().zip(src.chunks(step)) {
-                let v = px.get(c).map_or(0.0, |s| s.to_unit());
-                *o = T::from_f32(v * INTENSITY_SCALE);
-            }
-        }
-        ColorMode::Gray => {
-            let used = ch_n.min(3);
-            let scale = INTENSITY_SCALE / used as f32;
-            for (o, px) in out.iter_mut().zip(src.chunks(step)) {
-                let sum: f32 = px.iter().take(used).map(|s| s.to_unit()).sum();
-                *o = T::from_f32(sum * scale);
-            }
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

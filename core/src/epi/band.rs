@@ -11,13 +11,14 @@ use crate::scalar::Scalar;
 const PRUNE: f32 = 1e-3;
 
 /// The across-view gradients of every view as bands of `taps` consecutive views: view `k`
-/// reads views `rows[k][..taps]` with weights `smooth[k]` (smoothing across views, for the
+/// reads views `start[k] + m` (`m < taps`, clamped to the last view) with weights `smooth[k]` (smoothing across views, for the
 /// along-line gradient) and `derivative[k]` (derivative across views), both scaled by the
 /// square root of view k's outer weight so that the tensor terms are plain products.
 /// Entries below `PRUNE` of their row's largest are zero.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Band<T: Scalar> {
-    pub(super) rows: [[usize; GRID_MAX]; GRID_MAX],
+    /// First view of each view's band.
+    pub(super) start: [usize; GRID_MAX],
     pub(super) smooth: [[T; GRID_MAX]; GRID_MAX],
     pub(super) derivative: [[T; GRID_MAX]; GRID_MAX],
     /// Views with a non-zero outer weight.
@@ -52,7 +53,7 @@ impl<T: Scalar> Band<T> {
             taps = taps.max(last.max(first) - first + 1);
         }
         let mut band = Band {
-            rows: [[0; GRID_MAX]; GRID_MAX],
+            start: [0; GRID_MAX],
             smooth: [[T::ZERO; GRID_MAX]; GRID_MAX],
             derivative: [[T::ZERO; GRID_MAX]; GRID_MAX],
             active,
@@ -62,9 +63,9 @@ impl<T: Scalar> Band<T> {
         for (k, &(first, last)) in spans.iter().enumerate().take(views) {
             // The window starts early enough to stay inside the views where it can.
             let start = first.min(views.saturating_sub(Self::width_for(taps)));
+            band.start[k] = start;
             for m in 0..GRID_MAX {
                 let j = (start + m).min(last_view);
-                band.rows[k][m] = j;
                 if start + m == j && (first..=last).contains(&j) {
                     if significant(&smooth[k], j) {
                         band.smooth[k][m] = T::from_f32(smooth[k][j]);

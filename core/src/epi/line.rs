@@ -4,7 +4,7 @@
 
 use super::band::Band;
 use super::hypotheses::Hypotheses;
-use super::kernels::{centre_weights, truncated_gaussian, Kernel};
+use super::kernels::{apply_pair, centre_weights, truncated_gaussian, Kernel};
 use super::planes::{shift, Planes, Sources};
 use super::{ColorMode, EpiParams, Search};
 use crate::error::{Error, Result};
@@ -24,20 +24,72 @@ pub(crate) struct LineEstimator<T: Scalar> {
     channels: usize,
     hypotheses: Hypotheses,
     interpolate: bool,
-    /// Whether some hypothesis shifts a view by a half-integer (the half-shifted planes
-    /// are then filled).
+    /// Whether some hypothesis shifts a view by a half-integer.
     half_shifts: bool,
+    /// The views some hypothesis (fine, or coarse when its gray planes read them) shifts
+    /// by a half-integer: only their half-shifted planes are filled.
+    half_views: [bool; GRID_MAX],
+    /// Whether some hypothesis reads a view at an offset the stored planes do not hold
+    /// (the fallback planes then exist).
+    fallback: bool,
     coarse: Option<Coarse<T>>,
+}
+
+/// Whether some hypothesis of `hyps` shifts view `k` (of the centre `centre`) by a
+/// half-integer (the test [`LineEstimator::sources`] makes).
+fn half_shift(hyps: &Hypotheses, k: usize, centre: usize) -> bool {
+    (0..hyps.count()).any(|i| {
+        let offset = (k as f32 - centre as f32) * hyps.shear(i);
+        offset - libm::floorf(offset) == 0.5
+    })
+}
+
+/// Whether some hypothesis of `hyps` reads one of `views` views where the stored planes
+/// (`half_ready`: with the half-shifted ones) do not reach (the test
+/// [`LineEstimator::sources`] makes).
+fn off_planes(
+    hyps: &Hypotheses,
+    views: usize,
+    centre: usize,
+    half_ready: bool,
+    reach: usize,
+) -> bool {
+    (0..hyps.count()).any(|i| {
+        (0..views).any(|k| {
+            let offset = (k as f32 - centre as f32) * hyps.shear(i);
+            let floor = libm::floorf(offset);
+            let frac = offset - floor;
+            let stored = frac == 0.0 || (frac == 0.5 && half_ready);
+            !stored || (floor as isize).unsigned_abs() > reach
+        })
+    })
+}
+
+/// The half-shifted views and whether fallback planes are needed, for any hypotheses
+/// `params` can make: shears are multiples of `shear_step`, so with `2·shear_step` an
+/// integer every offset is a multiple of half a sample (odd ones only at odd distances
+/// from the centre, and only when `2·shear_step` is odd), within the stored reach
+/// (|shear| ≤ MAX_DISPARITY + 1). The coarse pass's shears (steps of 2 px then) and the
+/// range probe's are integers. Any other step may need every kind of plane.
+fn planes_bound(params: &EpiParams, views: usize, centre: usize) -> ([bool; GRID_MAX], bool) {
+    let mut half = [false; GRID_MAX];
+    if !params.shear {
+        // One hypothesis at shear 0 (the range probe's are integers).
+        return (half, false);
+    }
+    let twice = 2.0 * params.shear_step;
+    let halves = libm::roundf(twice);
+    let dyadic = twice == halves;
+    let odd = dyadic && (halves as i64) % 2 == 1;
+    for (k, h) in half.iter_mut().enumerate().take(views) {
+        *h = !dyadic || (odd && k.abs_diff(centre) % 2 == 1);
+    }
+    (half, !dyadic)
 }
 
 /// Whether some hypothesis of `hyps` shifts one of `views` views by a half-integer.
 fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
-    (0..hyps.count()).any(|i| {
-        (0..views).any(|k| {
-            let offset = (k as f32 - centre as f32) * hyps.shear(i);
-            offset - libm::floorf(offset) == 0.5
-        })
-    })
+    (0..views).any(|k| half_shift(hyps, k, centre))
 }
 
 /// Ranking offsets below a zero crossing's score (in [0, 1]): a single hypothesis
@@ -50,6 +102,8 @@ const DEGENERATE: f32 = -3.0;
 /// accumulated over every channel and view before they are stored (8: 123–124 ms,
 /// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/bench-epi.md).
 pub(super) const BLOCK: usize = 16;
+/// Samples the tensor kernel keeps in registers at a time (a divisor of `BLOCK`).
+const LANES: usize = 16;
 /// The coarse pass tests every `COARSE_STEPS`-th shear step (at most 2 px apart, the
 /// largest step the residual window still covers): 2 and 3 steps gave the same HCI
 /// scores as 4 (docs/bench-epi.md).
@@ -169,6 +223,37 @@ impl<T: Scalar> LineEstimator<T> {
             }
         }
         let half_shifts = shifts_by_halves(&hypotheses, views, centre);
+        let coarse = match params.search {
+            Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
+                let step = hypotheses.step();
+                Hypotheses::sheared(
+                    hypotheses.min(),
+                    hypotheses.max(),
+                    (COARSE_STEPS * step).min(2.0),
+                    1.0,
+                )
+                .ok()
+                .map(|coarse| Coarse {
+                    hypotheses: coarse,
+                    reach: T::from_f32((1.0 + margin) * step),
+                    half_shifts: half_shifts && shifts_by_halves(&coarse, views, centre),
+                })
+            }
+            _ => None,
+        };
+        let mut half_views = [false; GRID_MAX];
+        for (k, half) in half_views.iter_mut().enumerate().take(views) {
+            *half = half_shifts
+                && (half_shift(&hypotheses, k, centre)
+                    || coarse
+                        .as_ref()
+                        .is_some_and(|c| c.half_shifts && half_shift(&c.hypotheses, k, centre)));
+        }
+        let reach = Planes::reach_for(centre.max(views.saturating_sub(1).saturating_sub(centre)));
+        let fallback = off_planes(&hypotheses, views, centre, half_shifts, reach)
+            || coarse
+                .as_ref()
+                .is_some_and(|c| off_planes(&c.hypotheses, views, centre, c.half_shifts, reach));
         LineEstimator {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
@@ -183,41 +268,48 @@ impl<T: Scalar> LineEstimator<T> {
             hypotheses,
             interpolate: params.interpolate,
             half_shifts,
-            coarse: match params.search {
-                Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
-                    let step = hypotheses.step();
-                    Hypotheses::sheared(
-                        hypotheses.min(),
-                        hypotheses.max(),
-                        (COARSE_STEPS * step).min(2.0),
-                        1.0,
-                    )
-                    .ok()
-                    .map(|coarse| Coarse {
-                        hypotheses: coarse,
-                        reach: T::from_f32((1.0 + margin) * step),
-                        half_shifts: half_shifts && shifts_by_halves(&coarse, views, centre),
-                    })
-                }
-                _ => None,
-            },
+            half_views,
+            fallback,
+            coarse,
         }
     }
 
-    /// Colour planes a line carries (1 for gray).
-    pub(crate) fn channels(&self) -> usize {
-        self.channels
+    /// Work elements (of `T`) for a line of `n` samples.
+    /// Enough for every estimator `params` can make (any range of its hypotheses, the
+    /// coarse pass's and the range probe's integer shears).
+    pub(crate) fn work_len(
+        params: &EpiParams,
+        views: usize,
+        centre: usize,
+        channels: usize,
+        n: usize,
+    ) -> usize {
+        let (half, fallback) = planes_bound(params, views, centre);
+        Self::work_len_for(views, centre, channels, n, &half, fallback)
     }
 
-    /// Work elements (of `T`) for a line of `n` samples.
-    pub(crate) fn work_len(views: usize, centre: usize, channels: usize, n: usize) -> usize {
-        let planes = Planes::new(views, centre, channels + 1, n);
+    fn work_len_for(
+        views: usize,
+        centre: usize,
+        channels: usize,
+        n: usize,
+        half: &[bool; GRID_MAX],
+        fallback: bool,
+    ) -> usize {
+        let planes = Planes::new(views, centre, channels + 1, n, half, fallback);
         planes.bank_len() + 3 * planes.n_blocks + (12 + channels) * n
     }
 
     /// Work elements (of `T`) this estimator needs for a line of `n` samples.
     pub(crate) fn line_work_len(&self, n: usize) -> usize {
-        Self::work_len(self.views, self.centre, self.channels, n)
+        Self::work_len_for(
+            self.views,
+            self.centre,
+            self.channels,
+            n,
+            &self.half_views,
+            self.fallback,
+        )
     }
 
     /// Estimates one line of `n` samples. `load(view, out)` fills `out` (`channels` planes
@@ -233,7 +325,7 @@ impl<T: Scalar> LineEstimator<T> {
         confidence: &mut [T],
     ) -> Result<()> {
         let (k_n, c_n) = (self.views, self.channels);
-        let needed = Self::work_len(k_n, self.centre, c_n, n);
+        let needed = self.line_work_len(n);
         if work.len() < needed {
             return Err(Error::ScratchTooSmall {
                 needed,
@@ -251,7 +343,14 @@ impl<T: Scalar> LineEstimator<T> {
             return Ok(());
         }
         // One plane slot per channel and one for the coarse pass's gray.
-        let planes = Planes::new(k_n, self.centre, c_n + 1, n);
+        let planes = Planes::new(
+            k_n,
+            self.centre,
+            c_n + 1,
+            n,
+            &self.half_views,
+            self.fallback,
+        );
         let nb = planes.n_blocks;
         // `work_len` covers every part; the checked splits only keep panics out.
         let short = Error::ScratchTooSmall {
@@ -294,155 +393,169 @@ impl<T: Scalar> LineEstimator<T> {
         for k in 0..k_n {
             load(k, raw)?;
             for (c, raw) in raw.chunks_exact(n).enumerate() {
-                for (kind, kernel) in [(0, &self.derivative), (1, &self.smoothing)] {
-                    let at = planes.plane(kind, k, c);
-                    let plane = bank.get_mut(at..at + planes.len).ok_or(short)?;
-                    let (head, tail) = plane.split_at_mut_checked(planes.lead).ok_or(short)?;
-                    let (line, pad) = tail.split_at_mut_checked(n).ok_or(short)?;
-                    kernel.apply(raw, line);
+                // Kind 0 (derivative) lies before kind 1 (smoothing) in the bank.
+                let (at_d, at_s) = (planes.plane(0, k, c), planes.plane(1, k, c));
+                let (below, above) = bank.split_at_mut_checked(at_s).ok_or(short)?;
+                let derivative = below.get_mut(at_d..at_d + planes.len).ok_or(short)?;
+                let smoothing = above.get_mut(..planes.len).ok_or(short)?;
+                let (d_head, d_tail) = derivative.split_at_mut_checked(planes.lead).ok_or(short)?;
+                let (s_head, s_tail) = smoothing.split_at_mut_checked(planes.lead).ok_or(short)?;
+                let (d_line, d_pad) = d_tail.split_at_mut_checked(n).ok_or(short)?;
+                let (s_line, s_pad) = s_tail.split_at_mut_checked(n).ok_or(short)?;
+                apply_pair(&self.derivative, &self.smoothing, raw, d_line, s_line);
+                for (head, line, pad) in [(d_head, d_line, d_pad), (s_head, s_line, s_pad)] {
                     let (Some(&first), Some(&last)) = (line.first(), line.last()) else {
                         return Err(short);
                     };
                     head.fill(first);
                     pad.fill(last);
-                    if self.half_shifts {
-                        // out[t] = ½·in[t − w] + ½·in[t − w − 1]: the shift's interpolation.
-                        let to = planes.plane(kind + 2, k, c);
-                        let (stored, shifted) = bank.split_at_mut_checked(to).ok_or(short)?;
-                        let plane = stored.get(at..at + planes.len).ok_or(short)?;
-                        let shifted = shifted.get_mut(..planes.len).ok_or(short)?;
-                        let (Some((s0, shifted)), Some(&p0)) =
-                            (shifted.split_first_mut(), plane.first())
-                        else {
-                            return Err(short);
-                        };
-                        *s0 = half * p0 + half * p0;
-                        for (o, (&below, &above)) in shifted
-                            .iter_mut()
-                            .zip(plane.iter().zip(plane.iter().skip(1)))
-                        {
-                            *o = half * above + half * below;
-                        }
+                }
+                if !self.half_views.get(k).copied().unwrap_or(true) {
+                    continue;
+                }
+                for (kind, at) in [(0, at_d), (1, at_s)] {
+                    // out[t] = ½·in[t − w] + ½·in[t − w − 1]: the shift's interpolation.
+                    let to = planes.plane(kind + 2, k, c);
+                    let (stored, shifted) = bank.split_at_mut_checked(to).ok_or(short)?;
+                    let plane = stored.get(at..at + planes.len).ok_or(short)?;
+                    let shifted = shifted.get_mut(..planes.len).ok_or(short)?;
+                    let (Some((s0, shifted)), Some(&p0)) =
+                        (shifted.split_first_mut(), plane.first())
+                    else {
+                        return Err(short);
+                    };
+                    *s0 = half * p0 + half * p0;
+                    for (o, (&below, &above)) in shifted
+                        .iter_mut()
+                        .zip(plane.iter().zip(plane.iter().skip(1)))
+                    {
+                        *o = half * above + half * below;
                     }
                 }
             }
         }
 
-        if let Some(coarse) = &self.coarse {
-            // The coarse pass reads the mean of the channels' planes (filters are linear).
-            let kinds = if coarse.half_shifts { 4 } else { 2 };
-            let scale = T::from_f32(1.0 / c_n as f32);
-            for kind in 0..kinds {
-                for k in 0..k_n {
-                    let to = planes.plane(kind, k, c_n);
-                    let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
-                    let gray = gray.get_mut(..planes.len).ok_or(short)?;
-                    gray.fill(T::ZERO);
-                    for c in 0..c_n {
-                        let at = planes.plane(kind, k, c);
-                        let plane = stored.get(at..at + planes.len).ok_or(short)?;
-                        for (g, &v) in gray.iter_mut().zip(plane) {
-                            *g += v;
-                        }
-                    }
-                    for g in gray.iter_mut() {
-                        *g *= scale;
-                    }
-                }
+        let guide = match &self.coarse {
+            Some(coarse) => {
+                Some(self.coarse_guide(coarse, &planes, bank, &mut tensor, coarse_work)?)
             }
-            let (estimate, rest) = coarse_work.split_at_mut_checked(n).ok_or(short)?;
-            let (coherence, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
-            let (coarse_score, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
-            let (coarse_prev_r, coarse_prev_c) = rest.split_at_mut_checked(n).ok_or(short)?;
-            let mut state = State {
-                best_d: estimate,
-                best_c: coherence,
-                score: coarse_score,
-                prev_r: coarse_prev_r,
-                prev_c: coarse_prev_c.get_mut(..n).ok_or(short)?,
-            };
-            self.sweep(
-                &coarse.hypotheses,
-                c_n..c_n + 1,
-                &planes,
-                bank,
-                &mut tensor,
-                &mut state,
-                None,
-                COARSE_STRIDE,
-            );
-            // Samples between the scored ones take their left neighbour's estimate.
-            for pair in state.best_d.chunks_exact_mut(COARSE_STRIDE) {
-                let first = pair[0];
-                pair.fill(first);
-            }
-            for pair in state.score.chunks_exact_mut(COARSE_STRIDE) {
-                let first = pair[0];
-                pair.fill(first);
-            }
-            // Estimates clamped to the fine shears (each sample then needs at least the
-            // nearest one), reach per sample.
-            let h = &self.hypotheses;
-            let (first, last) = (
-                T::from_f32(h.shear(0)),
-                T::from_f32(h.shear(h.count().saturating_sub(1))),
-            );
-            let single = T::from_f32(SINGLE);
-            for ((d, reach), &score) in state
-                .best_d
-                .iter_mut()
-                .zip(state.best_c.iter_mut())
-                .zip(state.score.iter())
-            {
-                *d = d.clamp(first, last);
-                *reach = if score < single { T::MAX } else { coarse.reach };
-            }
-            let guide = Guide {
-                estimate: state.best_d,
-                reach: state.best_c,
-            };
-            let mut state = State {
-                best_d: &mut disparity[..n],
-                best_c: &mut confidence[..n],
-                score,
-                prev_r,
-                prev_c,
-            };
-            self.sweep(
-                &self.hypotheses,
-                0..c_n,
-                &planes,
-                bank,
-                &mut tensor,
-                &mut state,
-                Some(guide),
-                1,
-            );
-        } else {
-            let mut state = State {
-                best_d: &mut disparity[..n],
-                best_c: &mut confidence[..n],
-                score,
-                prev_r,
-                prev_c,
-            };
-            self.sweep(
-                &self.hypotheses,
-                0..c_n,
-                &planes,
-                bank,
-                &mut tensor,
-                &mut state,
-                None,
-                1,
-            );
-        }
+            None => None,
+        };
+        let mut state = State {
+            best_d: &mut disparity[..n],
+            best_c: &mut confidence[..n],
+            score,
+            prev_r,
+            prev_c,
+        };
+        self.sweep(
+            &self.hypotheses,
+            0..c_n,
+            &planes,
+            bank,
+            &mut tensor,
+            &mut state,
+            guide,
+            1,
+        );
         let h = &self.hypotheses;
         let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
         for d in disparity.iter_mut().take(n) {
             *d = d.clamp(lo, hi);
         }
         Ok(())
+    }
+
+    /// The coarse pass: the gray mean of the channels' planes (the filters are linear)
+    /// swept over the coarse hypotheses, every `COARSE_STRIDE`-th sample scored; returns
+    /// which fine hypotheses each sample needs, held in `coarse_work` (5 lines).
+    fn coarse_guide<'w>(
+        &self,
+        coarse: &Coarse<T>,
+        planes: &Planes,
+        bank: &mut [T],
+        tensor: &mut Tensor<'_, T>,
+        coarse_work: &'w mut [T],
+    ) -> Result<Guide<'w, T>> {
+        let (n, c_n) = (planes.n, self.channels);
+        let short = Error::ScratchTooSmall {
+            needed: 5 * n,
+            got: coarse_work.len(),
+        };
+        let kinds = if coarse.half_shifts { 4 } else { 2 };
+        let scale = T::from_f32(1.0 / c_n as f32);
+        for kind in 0..kinds {
+            for k in 0..self.views {
+                if kind >= 2 && !self.half_views.get(k).copied().unwrap_or(true) {
+                    continue;
+                }
+                let to = planes.plane(kind, k, c_n);
+                let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
+                let gray = gray.get_mut(..planes.len).ok_or(short)?;
+                gray.fill(T::ZERO);
+                for c in 0..c_n {
+                    let at = planes.plane(kind, k, c);
+                    let plane = stored.get(at..at + planes.len).ok_or(short)?;
+                    for (g, &v) in gray.iter_mut().zip(plane) {
+                        *g += v;
+                    }
+                }
+                for g in gray.iter_mut() {
+                    *g *= scale;
+                }
+            }
+        }
+        let (estimate, rest) = coarse_work.split_at_mut_checked(n).ok_or(short)?;
+        let (reach, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
+        let (score, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
+        let (prev_r, prev_c) = rest.split_at_mut_checked(n).ok_or(short)?;
+        let mut state = State {
+            best_d: estimate,
+            best_c: reach,
+            score,
+            prev_r,
+            prev_c: prev_c.get_mut(..n).ok_or(short)?,
+        };
+        self.sweep(
+            &coarse.hypotheses,
+            c_n..c_n + 1,
+            planes,
+            bank,
+            tensor,
+            &mut state,
+            None,
+            COARSE_STRIDE,
+        );
+        // Samples between the scored ones take their left neighbour's estimate.
+        for pair in state.best_d.chunks_exact_mut(COARSE_STRIDE) {
+            let first = pair[0];
+            pair.fill(first);
+        }
+        for pair in state.score.chunks_exact_mut(COARSE_STRIDE) {
+            let first = pair[0];
+            pair.fill(first);
+        }
+        // Estimates clamped to the fine shears (each sample then needs at least the
+        // nearest one), reach per sample (the coherence's slot is reused).
+        let h = &self.hypotheses;
+        let (first, last) = (
+            T::from_f32(h.shear(0)),
+            T::from_f32(h.shear(h.count().saturating_sub(1))),
+        );
+        let single = T::from_f32(SINGLE);
+        for ((d, reach), &score) in state
+            .best_d
+            .iter_mut()
+            .zip(state.best_c.iter_mut())
+            .zip(state.score.iter())
+        {
+            *d = d.clamp(first, last);
+            *reach = if score < single { T::MAX } else { coarse.reach };
+        }
+        Ok(Guide {
+            estimate: state.best_d,
+            reach: state.best_c,
+        })
     }
 
     /// Tests the hypotheses `hyps` on the channel planes `slots`, keeping each sample's
@@ -730,58 +843,91 @@ impl<T: Scalar> LineEstimator<T> {
     ) {
         let span = blocks.start * BLOCK..blocks.end * BLOCK;
         let lines = (tensor.jxx.get_mut(span.clone()).unwrap_or_default())
-            .chunks_exact_mut(BLOCK)
-            .zip((tensor.jxk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(BLOCK))
-            .zip((tensor.jkk.get_mut(span).unwrap_or_default()).chunks_exact_mut(BLOCK));
-        for (b, ((xx, xk), kk)) in blocks.zip(lines) {
-            let [sxx, sxk, skk] = self.tensor_block::<TAPS>(bank, sources, b * BLOCK);
+            .chunks_exact_mut(LANES)
+            .zip((tensor.jxk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(LANES))
+            .zip((tensor.jkk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(LANES));
+        for (t0, ((xx, xk), kk)) in span.step_by(LANES).zip(lines) {
+            let [sxx, sxk, skk] = self.tensor_lanes::<TAPS>(bank, sources, t0);
             xx.copy_from_slice(&sxx);
             xk.copy_from_slice(&sxk);
             kk.copy_from_slice(&skk);
         }
     }
 
-    /// The tensor of samples `t0..t0 + BLOCK`: per channel and view, both gradients across
-    /// the views' band, then their products, all in registers.
+    /// The tensor of samples `t0..t0 + LANES`: the samples of every view's planes are
+    /// looked up once, then per channel and view both gradients across the view's band
+    /// and their products, all in registers.
     #[inline(always)]
-    fn tensor_block<const TAPS: usize>(
+    fn tensor_lanes<const TAPS: usize>(
         &self,
         bank: &[T],
         sources: &Sources,
         t0: usize,
-    ) -> [[T; BLOCK]; 3] {
-        let mut xx = [T::ZERO; BLOCK];
-        let mut xk = [T::ZERO; BLOCK];
-        let mut kk = [T::ZERO; BLOCK];
+    ) -> [[T; LANES]; 3] {
+        let zero = [T::ZERO; LANES];
+        let mut xx = [T::ZERO; LANES];
+        let mut xk = [T::ZERO; LANES];
+        let mut kk = [T::ZERO; LANES];
         let band = &self.band;
+        let views = self.views.min(GRID_MAX);
+        let last = views.saturating_sub(1);
+        let at = |from: usize| {
+            bank.get(from + t0..)
+                .and_then(|b| b.first_chunk::<LANES>())
+                .unwrap_or(&zero)
+        };
         for (sd, ss) in sources.d.iter().zip(&sources.s).take(sources.slots) {
+            // Views past the last read the last one (with zero weight), as the band's
+            // clamped rows do.
+            let mut d = [&zero; GRID_MAX];
+            let mut s = [&zero; GRID_MAX];
+            for ((dk, sk), (&from_d, &from_s)) in d
+                .iter_mut()
+                .zip(s.iter_mut())
+                .zip(sd.iter().zip(ss))
+                .take(views)
+            {
+                (*dk, *sk) = (at(from_d), at(from_s));
+            }
+            if let (Some(&d_last), Some(&s_last)) = (d.get(last), s.get(last)) {
+                for (dk, sk) in d.iter_mut().zip(s.iter_mut()).skip(views) {
+                    (*dk, *sk) = (d_last, s_last);
+                }
+            }
             let views = band
-                .rows
+                .start
                 .iter()
                 .zip(&band.smooth)
                 .zip(&band.derivative)
                 .zip(&sources.active)
-                .take(self.views);
-            for (((rows, smooth), derivative), &active) in views {
+                .take(views);
+            for (((&start, smooth), derivative), &active) in views {
+                // `start + TAPS ≤ GRID_MAX` (Band::new); a miss would skip the view.
+                let (Some(dw), Some(sw), Some(smooth), Some(derivative)) = (
+                    d.get(start..).and_then(|w| w.first_chunk::<TAPS>()),
+                    s.get(start..).and_then(|w| w.first_chunk::<TAPS>()),
+                    smooth.first_chunk::<TAPS>(),
+                    derivative.first_chunk::<TAPS>(),
+                ) else {
+                    continue;
+                };
                 if !active {
                     continue;
                 }
-                let mut gx = [T::ZERO; BLOCK];
-                let mut gk = [T::ZERO; BLOCK];
-                let taps = rows.iter().zip(smooth).zip(derivative).take(TAPS);
-                for ((&j, &a), &b) in taps {
-                    let (Some(&from_d), Some(&from_s)) = (sd.get(j), ss.get(j)) else {
-                        continue;
-                    };
-                    let (Some(d), Some(s)) = (
-                        bank.get(from_d + t0..)
-                            .and_then(|b| b.first_chunk::<BLOCK>()),
-                        bank.get(from_s + t0..)
-                            .and_then(|b| b.first_chunk::<BLOCK>()),
-                    ) else {
-                        continue;
-                    };
-                    for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(d.iter().zip(s))
+                let mut taps = dw.iter().zip(sw).zip(smooth).zip(derivative);
+                let Some((((&p, &q), &a), &b)) = taps.next() else {
+                    continue;
+                };
+                // The first tap sets the gradients (the same values as adding it to zero,
+                // up to the sign of a zero, which the squares and products below ignore).
+                let mut gx = [T::ZERO; LANES];
+                let mut gk = [T::ZERO; LANES];
+                for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(p.iter().zip(q)) {
+                    *x = a * p;
+                    *y = b * q;
+                }
+                for (((&p, &q), &a), &b) in taps {
+                    for ((x, y), (&p, &q)) in gx.iter_mut().zip(gk.iter_mut()).zip(p.iter().zip(q))
                     {
                         *x += a * p;
                         *y += b * q;

@@ -233,7 +233,8 @@ fn used_channels(plan: &Plan) -> usize {
 pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
     let (views, centre) = direction.views(plan);
     let n = direction.line_len(plan);
-    LineEstimator::<f32>::work_len(views, centre, used_channels(plan), n) + 2 * n
+    LineEstimator::<f32>::work_len(&plan.params().epi, views, centre, used_channels(plan), n)
+        + 2 * n
 }
 
 /// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`].
@@ -421,61 +422,97 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             }
         };
         let n = self.n;
-        let used = ch_n.min(3);
         // All channels of a view in one pass over its pixels (a vertical line strides
         // through the image: one pass instead of one per channel).
         let load = |k: usize, out: &mut [T]| -> Result<()> {
             let (start, step) = locate(k);
-            let end = start + (n - 1) * step + ch_n;
-            let src = data.get(start..end).ok_or(Error::BufferTooSmall {
-                what: "the light-field buffer",
-                needed: end,
-                got: data.len(),
-            })?;
-            match color {
-                ColorMode::Tensor => {
-                    let scale = INTENSITY_SCALE;
-                    let (first, rest) = out.split_at_mut(n.min(out.len()));
-                    let (second, third) = rest.split_at_mut(n.min(rest.len()));
-                    let pixels = src.chunks(step).take(n);
-                    match used {
-                        3 => {
-                            for (((o0, o1), o2), px) in first
-                                .iter_mut()
-                                .zip(second.iter_mut())
-                                .zip(third.iter_mut())
-                                .zip(pixels)
-                            {
-                                if let [r, g, b, ..] = *px {
-                                    *o0 = T::from_f32(r.to_unit() * scale);
-                                    *o1 = T::from_f32(g.to_unit() * scale);
-                                    *o2 = T::from_f32(b.to_unit() * scale);
-                                }
-                            }
-                        }
-                        _ => {
-                            for (t, px) in pixels.enumerate() {
-                                for (c, &v) in px.iter().take(used).enumerate() {
-                                    if let Some(o) = out.get_mut(c * n + t) {
-                                        *o = T::from_f32(v.to_unit() * scale);
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
-                ColorMode::Gray => {
-                    let scale = INTENSITY_SCALE / used as f32;
-                    for (o, px) in out.iter_mut().zip(src.chunks(step)) {
-                        let sum: f32 = px[..used].iter().map(|s| s.to_unit()).sum();
-                        *o = T::from_f32(sum * scale);
-                    }
-                }
-            }
-            Ok(())
+            load_line(
+                data,
+                "the light-field buffer",
+                start,
+                step,
+                ch_n,
+                n,
+                color,
+                out,
+            )
         };
         self.estimator.estimate(n, load, work, d, c)
     }
+}
+
+/// Loads one EPI line of `n` pixels as the line estimator reads it: pixel `t` starts at
+/// `data[start + t·step]` and holds `channels` samples. [`ColorMode::Tensor`] writes the
+/// first (at most 3) channels as planes of `n` one after the other, [`ColorMode::Gray`]
+/// their mean as one plane; intensities scaled by [`INTENSITY_SCALE`]. Shared by the
+/// band estimator and the stream (`crate::stream`), whose results must agree bit for bit.
+/// `what` names `data` in the error when the line runs past its end.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn load_line<T: Scalar, S: Sample>(
+    data: &[S],
+    what: &'static str,
+    start: usize,
+    step: usize,
+    channels: usize,
+    n: usize,
+    color: ColorMode,
+    out: &mut [T],
+) -> Result<()> {
+    // Every pixel starts `step ≥ channels ≥ 1` elements after the previous one.
+    let step = step.max(1);
+    let end = n
+        .saturating_sub(1)
+        .checked_mul(step)
+        .and_then(|span| span.checked_add(start))
+        .and_then(|last| last.checked_add(channels))
+        .unwrap_or(usize::MAX);
+    let src = data.get(start..end).ok_or(Error::BufferTooSmall {
+        what,
+        needed: end,
+        got: data.len(),
+    })?;
+    let pixels = src.chunks(step).take(n);
+    let used = channels.min(3);
+    match color {
+        ColorMode::Tensor => {
+            let scale = INTENSITY_SCALE;
+            let (first, rest) = out.split_at_mut(n.min(out.len()));
+            let (second, third) = rest.split_at_mut(n.min(rest.len()));
+            match used {
+                3 => {
+                    for (((o0, o1), o2), px) in first
+                        .iter_mut()
+                        .zip(second.iter_mut())
+                        .zip(third.iter_mut())
+                        .zip(pixels)
+                    {
+                        if let [r, g, b, ..] = *px {
+                            *o0 = T::from_f32(r.to_unit() * scale);
+                            *o1 = T::from_f32(g.to_unit() * scale);
+                            *o2 = T::from_f32(b.to_unit() * scale);
+                        }
+                    }
+                }
+                _ => {
+                    for (t, px) in pixels.enumerate() {
+                        for (c, &v) in px.iter().take(used).enumerate() {
+                            if let Some(o) = out.get_mut(c * n + t) {
+                                *o = T::from_f32(v.to_unit() * scale);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        ColorMode::Gray => {
+            let scale = INTENSITY_SCALE / used as f32;
+            for (o, px) in out.iter_mut().zip(pixels) {
+                let sum: f32 = px.iter().take(used).map(|s| s.to_unit()).sum();
+                *o = T::from_f32(sum * scale);
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Resolves the hypotheses of `plan`: the fixed range, or [`estimate_range`] for `Auto`.

@@ -18,10 +18,12 @@ pub(super) struct Sources {
     pub(super) active: [bool; GRID_MAX],
 }
 
-/// Layout of the stored planes of one line. Every view and channel has four planes of
-/// `len` samples — derivative, smoothing, and both shifted by half a sample — holding
-/// samples `−lead ≤ u < n_blocks + reach` (edge-replicated outside the line), then one
-/// fallback plane pair per view and channel for shifts of any other fraction.
+/// Layout of the stored planes of one line. Every view and channel has two planes of
+/// `len` samples — derivative and smoothing — holding samples `−lead ≤ u < n_blocks +
+/// reach` (edge-replicated outside the line); the views some hypothesis shifts by half a
+/// sample also have both shifted by half a sample; when some hypothesis shifts by another
+/// fraction (or further than `reach`), one fallback plane pair per view and channel
+/// follows, interpolated per hypothesis.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Planes {
     pub(super) n: usize,
@@ -33,15 +35,40 @@ pub(super) struct Planes {
     pub(super) len: usize,
     views: usize,
     channels: usize,
+    /// Per view, its index among the views with half-shifted planes (`NO_HALF`: none).
+    half_slot: [usize; GRID_MAX],
+    halves: usize,
+    fallback: bool,
 }
 
+/// `half_slot` of a view without half-shifted planes.
+const NO_HALF: usize = usize::MAX;
+/// Start returned for a plane the layout does not hold: past any bank, and far enough
+/// from `usize::MAX` that the offsets added to it never overflow.
+const ABSENT: usize = usize::MAX / 4;
+
 impl Planes {
-    pub(super) fn new(views: usize, centre: usize, channels: usize, n: usize) -> Self {
+    /// `half[k]`: view `k` has half-shifted planes; `fallback`: the fallback planes exist.
+    pub(super) fn new(
+        views: usize,
+        centre: usize,
+        channels: usize,
+        n: usize,
+        half: &[bool; GRID_MAX],
+        fallback: bool,
+    ) -> Self {
         let far = centre.max(views.saturating_sub(1).saturating_sub(centre));
-        // Shears never exceed MAX_DISPARITY + 1 (multiples of a step ≤ 2 nearest the range).
-        let reach = libm::ceilf(far as f32 * (MAX_DISPARITY + 1.0)) as usize + 1;
+        let reach = Self::reach_for(far);
         let n_blocks = n.div_ceil(BLOCK) * BLOCK;
         let lead = reach + 1;
+        let mut half_slot = [NO_HALF; GRID_MAX];
+        let mut halves = 0;
+        for (slot, &h) in half_slot.iter_mut().zip(half).take(views) {
+            if h {
+                *slot = halves;
+                halves += 1;
+            }
+        }
         Planes {
             n,
             n_blocks,
@@ -50,27 +77,54 @@ impl Planes {
             len: lead + n_blocks + reach,
             views,
             channels,
+            half_slot,
+            halves,
+            fallback,
         }
     }
 
+    /// Largest whole shift stored for views at most `far` from the centre: shears never
+    /// exceed MAX_DISPARITY + 1 (multiples of a step ≤ 2 nearest the range).
+    pub(super) fn reach_for(far: usize) -> usize {
+        libm::ceilf(far as f32 * (MAX_DISPARITY + 1.0)) as usize + 1
+    }
+
     /// Start of plane `kind` (0 derivative, 1 smoothing, 2 and 3 the same shifted by half a
-    /// sample) of view `k`, channel `c`.
+    /// sample) of view `k`, channel `c`; [`ABSENT`] for a half-shifted plane the view
+    /// does not have.
     pub(super) fn plane(&self, kind: usize, k: usize, c: usize) -> usize {
-        ((kind * self.views + k) * self.channels + c) * self.len
+        if kind < 2 {
+            return ((kind * self.views + k) * self.channels + c) * self.len;
+        }
+        match self.half_slot.get(k) {
+            Some(&slot) if slot != NO_HALF => {
+                let whole = 2 * self.views * self.channels;
+                (whole + ((kind - 2) * self.halves + slot) * self.channels + c) * self.len
+            }
+            _ => ABSENT,
+        }
     }
 
     /// Start of the fallback plane `kind` (0 derivative, 1 smoothing) of view `k`,
-    /// channel `c`.
+    /// channel `c` ([`ABSENT`] without fallback planes).
     pub(super) fn fallback(&self, kind: usize, k: usize, c: usize) -> usize {
+        if !self.fallback {
+            return ABSENT;
+        }
         self.stored_len() + ((kind * self.views + k) * self.channels + c) * self.n_blocks
     }
 
     pub(super) fn stored_len(&self) -> usize {
-        4 * self.views * self.channels * self.len
+        2 * (self.views + self.halves) * self.channels * self.len
     }
 
     pub(super) fn bank_len(&self) -> usize {
-        self.stored_len() + 2 * self.views * self.channels * self.n_blocks
+        let fallback = if self.fallback {
+            2 * self.views * self.channels * self.n_blocks
+        } else {
+            0
+        };
+        self.stored_len() + fallback
     }
 }
 

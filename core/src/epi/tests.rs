@@ -333,3 +333,73 @@ fn coarse_to_fine_search_finds_the_exhaustive_estimate() {
         }
     }
 }
+
+#[test]
+fn the_scratch_bound_covers_every_estimator_the_parameters_make() {
+    let searches = [
+        Search::Exhaustive,
+        Search::CoarseToFine { margin: 0.0 },
+        Search::CoarseToFine { margin: 1.0 },
+    ];
+    let ranges = [
+        (-8.0f32, 8.0f32),
+        (-4.0, 4.0),
+        (-1.5, 1.5),
+        (-0.3, 2.7),
+        (2.25, 3.75),
+        (-7.9, -6.1),
+        (0.0, 0.0),
+    ];
+    for step in [0.1f32, 0.25, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0] {
+        for shear in [true, false] {
+            for search in searches {
+                let params = EpiParams {
+                    shear_step: step,
+                    shear,
+                    search,
+                    ..EpiParams::default()
+                };
+                for (views, centre) in [(9, 4), (7, 3), (5, 2), (3, 1), (4, 2), (17, 8)] {
+                    let n = 100;
+                    let bound = LineEstimator::<f32>::work_len(&params, views, centre, 3, n);
+                    // The range probe's integer shears, and every range the step allows.
+                    let probe = Hypotheses::sheared(-4.0, 4.0, 1.0, 1.0).unwrap();
+                    let hyps = ranges
+                        .iter()
+                        .filter_map(|&(min, max)| Hypotheses::new(&params, min, max).ok())
+                        .chain([probe]);
+                    for h in hyps {
+                        let e = LineEstimator::<f32>::new(&params, h, views, centre, 3);
+                        assert!(
+                            e.line_work_len(n) <= bound,
+                            "step {step} shear {shear} {search:?} views {views}: {h:?} needs {} > {bound}",
+                            e.line_work_len(n)
+                        );
+                    }
+                }
+            }
+        }
+    }
+    // Half-sample steps need neither fallback planes nor half-shifted planes of the views
+    // at even distances from the centre: a third less than a step of 0.3.
+    let layout = Layout::packed(Grid::new(9, 9), 512, 512, 3);
+    let default = scratch_len(&plan_for(layout, EpiParams::default()));
+    let any_step = scratch_len(&plan_for(
+        layout,
+        EpiParams {
+            shear_step: 0.3,
+            ..EpiParams::default()
+        },
+    ));
+    let large = scratch_len(&plan_for(
+        Layout::packed(Grid::new(9, 9), 4096, 4096, 3),
+        EpiParams::default(),
+    ));
+    std::eprintln!(
+        "EPI scratch, 9x9 RGB: 512x512 {} B (step 0.3: {} B), 4096x4096 {} B",
+        4 * default,
+        4 * any_step,
+        4 * large
+    );
+    assert!(3 * default < 2 * any_step, "{default} vs {any_step}");
+}
