@@ -24,8 +24,8 @@ use core::ops::Range;
 
 mod gate;
 mod pixel;
+mod ring;
 mod select;
-mod slopes;
 mod weights;
 
 use crate::error::{Error, Result};
@@ -34,7 +34,7 @@ use crate::plan::Plan;
 
 use gate::StepCounts;
 use pixel::Window;
-use slopes::{SlopeRing, SLOPE_ROWS};
+use ring::RowRing;
 use weights::Weights;
 
 /// Progress stage name.
@@ -148,10 +148,12 @@ fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(
     Ok((w, h))
 }
 
-/// Scratch (`f32` elements) of [`filter_rows`] and [`filter`]: the steps of one row plus
-/// the slopes (x and y) of every window row, `(1 + 2 · SLOPE_ROWS) · width`.
+/// Scratch (`f32` elements) of [`filter_rows`] and [`filter`]: per column the count of
+/// window rows with a step, plus every window row's values and slopes, padded by 22
+/// columns: `width + 45 · (width + 22)`.
 pub fn scratch_len(plan: &Plan) -> usize {
-    plan.layout().width.saturating_mul(1 + 2 * SLOPE_ROWS)
+    let width = plan.layout().width;
+    width.saturating_add(ring::ring_len(width))
 }
 
 /// Filters the image rows `rows` of `input` (row-major, `plan.pixels()`) into `out`
@@ -195,24 +197,24 @@ pub fn filter_rows<S: Sample>(
     let r = p.radius;
     let gated = p.gate > 0.0;
     let mut steps = StepCounts::new(counts);
-    let mut ring = SlopeRing::new(slopes, width);
+    let mut ring = RowRing::new(slopes, width);
+    let offsets = pixel::lane_offsets(r);
     for (o, y) in out.chunks_exact_mut(width).zip(rows) {
         let ys = y.saturating_sub(r)..(y + r + 1).min(height);
         let last = ys.end - 1;
         if gated {
             steps.slide_to(input, width, p.gate, ys.start..last);
         }
-        if p.planar {
-            for yy in ys.clone() {
-                ring.load(input, height, yy, p.gate);
-            }
+        for yy in ys.clone() {
+            ring.load(input, guide, yy, p.gate, p.planar);
         }
         let window = Window {
             input,
             width,
             height,
             guide,
-            slopes: &ring,
+            rows: &ring,
+            offsets,
             weights: &weights,
             params: p,
         };

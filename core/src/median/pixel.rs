@@ -12,14 +12,25 @@
 
 use core::ops::Range;
 
+use super::ring::{Lanes, RowRing, LANES};
 use super::select::weighted_median;
-use super::slopes::SlopeRing;
 use super::weights::Weights;
 use super::{MedianParams, MAX_RADIUS, MAX_TAPS};
 use crate::lightfield::{Sample, View};
 
 /// Most columns (and rows) of a window.
 const SPAN: usize = 2 * MAX_RADIUS + 1;
+/// Columns below which `x as f32 − xx as f32` is exact: 2²⁴ less the widest reach.
+const EXACT_COLUMNS: usize = (1 << 24) - 2 * LANES;
+
+/// The offsets `r − k` of the lanes of a window of radius `r` (see [`Window::offsets`]).
+pub(super) fn lane_offsets(radius: usize) -> [f32; LANES] {
+    let mut offsets = [0.0f32; LANES];
+    for (k, d) in offsets.iter_mut().enumerate() {
+        *d = radius as f32 - k as f32;
+    }
+    offsets
+}
 
 /// What every pixel of one call shares.
 pub(super) struct Window<'a, 'g, S: Sample> {
@@ -27,7 +38,9 @@ pub(super) struct Window<'a, 'g, S: Sample> {
     pub(super) width: usize,
     pub(super) height: usize,
     pub(super) guide: &'a View<'g, S>,
-    pub(super) slopes: &'a SlopeRing<'a>,
+    pub(super) rows: &'a RowRing<'a>,
+    /// `r − k` for lane k: a pixel's offsets to its window columns.
+    pub(super) offsets: [f32; LANES],
     pub(super) weights: &'a Weights,
     pub(super) params: MedianParams,
 }
@@ -69,35 +82,50 @@ impl<S: Sample> Window<'_, '_, S> {
         Some(self.weights.get(d2))
     }
 
+    /// The weight of the lanes `bits` of a window row whose squared colour distances
+    /// to the pixel are `d2`.
+    #[inline(always)]
+    fn weigh(&self, mut bits: u16, d2: &[u32; LANES]) -> u64 {
+        let mut sum = 0u64;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            sum += u64::from(self.weights.get(d2.get(k).copied().unwrap_or(u32::MAX)));
+        }
+        sum
+    }
+
     /// `false` when the pixel `(x, y)` of finite value `own` certainly keeps it: the
     /// votes outside `own ± snap` weigh less than half of the window on either side.
     /// `true` when [`Self::select`] must decide.
     pub(super) fn may_change(&self, x: usize, y: usize, own: f32) -> bool {
-        let (ys, xs) = self.rows_and_columns(x, y);
-        let n = xs.len().min(SPAN);
+        let (ys, _) = self.rows_and_columns(x, y);
+        let r = self.params.radius;
         let (lo, hi) = (own - self.params.snap, own + self.params.snap);
-        let mut dxs = [0.0f32; SPAN];
-        for (k, d) in dxs[..n].iter_mut().enumerate() {
-            *d = x as f32 - (xs.start + k) as f32;
+        // Lane k is column x − r + k: its offset x − (x − r + k), computed as the
+        // selection computes it (exact, hence `r − k`, below 2²⁴).
+        let mut dxs = self.offsets;
+        if x >= EXACT_COLUMNS {
+            for (k, d) in dxs.iter_mut().enumerate() {
+                *d = x as f32 - (x + k).wrapping_sub(r) as f32;
+            }
         }
-        // Per window row, bit k for column xs.start + k.
+        let lanes_in_window = (1u32 << (2 * r + 1)) - 1;
+        // Per window row, bit k for column x − r + k.
         let mut below = [0u16; SPAN];
         let mut above = [0u16; SPAN];
         let mut inside = [0u16; SPAN];
         let mut outside = 0u16;
         for (i, yy) in ys.clone().enumerate().take(SPAN) {
-            let start = yy * self.width;
-            let Some(values) = self.input.get(start + xs.start..start + xs.end) else {
+            let Some(lanes) = self.rows.lanes(yy, x, r) else {
                 continue;
             };
-            let (b, a, f) = if self.params.planar {
-                let Some((gx, gy)) = self.slopes.row(yy, xs.clone()) else {
-                    continue;
-                };
-                classify_planar(values, gx, gy, &dxs[..n], y as f32 - yy as f32, lo, hi)
-            } else {
-                classify_flat(values, lo, hi)
-            };
+            let (b, a, f) = classify(&lanes, &dxs, y as f32 - yy as f32, lo, hi);
+            let (b, a, f) = (
+                (b & lanes_in_window) as u16,
+                (a & lanes_in_window) as u16,
+                (f & lanes_in_window) as u16,
+            );
             below[i] = b;
             above[i] = a;
             inside[i] = f & !(b | a);
@@ -106,24 +134,18 @@ impl<S: Sample> Window<'_, '_, S> {
         if outside == 0 {
             return false;
         }
-        let centre = self.colour(x, y);
+        let centre = self.rows.colour_at(y, x);
         let (mut weight_below, mut weight_above) = (0u64, 0u64);
         for (i, yy) in ys.clone().enumerate().take(SPAN) {
-            let mut bits = below[i] | above[i];
-            if bits == 0 {
+            if below[i] | above[i] == 0 {
                 continue;
             }
-            let colours = self.guide.row(yy).unwrap_or(&[]);
-            while bits != 0 {
-                let k = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let w = u64::from(self.weight(colours, xs.start + k, &centre).unwrap_or(0));
-                if below[i] >> k & 1 != 0 {
-                    weight_below += w;
-                } else {
-                    weight_above += w;
-                }
-            }
+            let Some(lanes) = self.rows.lanes(yy, x, r) else {
+                continue;
+            };
+            let d2 = distances(&lanes, &centre);
+            weight_below += self.weigh(below[i], &d2);
+            weight_above += self.weigh(above[i], &d2);
         }
         // With I the inside weight and T = I + B + A the total, the selection moves the
         // pixel iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both
@@ -146,17 +168,13 @@ impl<S: Sample> Window<'_, '_, S> {
             let Some(i) = i else {
                 continue;
             };
-            let mut bits = inside[i];
-            if bits == 0 {
+            if inside[i] == 0 {
                 continue;
             }
-            let colours = self.guide.row(ys.start + i).unwrap_or(&[]);
-            while bits != 0 {
-                let k = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                weight_inside +=
-                    u64::from(self.weight(colours, xs.start + k, &centre).unwrap_or(0));
-            }
+            let Some(lanes) = self.rows.lanes(ys.start + i, x, r) else {
+                continue;
+            };
+            weight_inside += self.weigh(inside[i], &distances(&lanes, &centre));
             if kept(weight_inside) {
                 return false;
             }
@@ -191,7 +209,7 @@ impl<S: Sample> Window<'_, '_, S> {
                     continue;
                 }
                 let v = if p.planar {
-                    let (gx, gy) = self.slopes.at(yy, xx);
+                    let (gx, gy) = self.rows.slope_at(yy, xx);
                     v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
                 } else {
                     v
@@ -220,39 +238,38 @@ impl<S: Sample> Window<'_, '_, S> {
     }
 }
 
-/// Bit masks of a window row's planar votes below `lo`, above `hi`, and of its finite
-/// values (votes from non-finite values are in neither of the first two).
+/// Bit masks of a window row's votes below `lo`, above `hi`, and of its finite values
+/// (votes from non-finite values are in neither of the first two). Fixed-size lanes:
+/// vector compares and mask extraction.
 #[inline(always)]
-fn classify_planar(
-    values: &[f32],
-    gx: &[f32],
-    gy: &[f32],
-    dxs: &[f32],
-    dy: f32,
-    lo: f32,
-    hi: f32,
-) -> (u16, u16, u16) {
-    let (mut below, mut above, mut finite) = (0u16, 0u16, 0u16);
-    for (k, (((&v, &gx), &gy), &dx)) in values.iter().zip(gx).zip(gy).zip(dxs).enumerate() {
+#[allow(clippy::needless_range_loop)] // one index over six fixed-size arrays vectorises
+fn classify(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32, lo: f32, hi: f32) -> (u32, u32, u32) {
+    let (mut below, mut above, mut finite) = (0u32, 0u32, 0u32);
+    for k in 0..LANES {
+        let v = lanes.values[k];
         // The same expression as the selection's, so the classes agree bit for bit.
-        let vote = v + gx * dx + gy * dy;
-        let ok = v.is_finite();
-        finite |= u16::from(ok) << k;
-        below |= u16::from(ok && vote < lo) << k;
-        above |= u16::from(ok && vote > hi) << k;
+        let vote = v + lanes.gx[k] * dxs[k] + lanes.gy[k] * dy;
+        let ok = v.abs() < f32::INFINITY;
+        finite |= u32::from(ok) << k;
+        below |= u32::from(ok & (vote < lo)) << k;
+        above |= u32::from(ok & (vote > hi)) << k;
     }
     (below, above, finite)
 }
 
-/// [`classify_planar`] for flat votes (each neighbour votes its own value).
+/// Squared colour distances of a window row's lanes to the colour `centre`, equal to the
+/// integer sum of squared level differences: in `f32` the levels, their differences,
+/// squares and sum (at most 3 · 255²) are whole numbers below 2²³, so every step is
+/// exact, and adding 2²³ puts the sum in the low mantissa bits (no float-to-integer
+/// conversion, whose saturation costs compares in every lane).
 #[inline(always)]
-fn classify_flat(values: &[f32], lo: f32, hi: f32) -> (u16, u16, u16) {
-    let (mut below, mut above, mut finite) = (0u16, 0u16, 0u16);
-    for (k, &v) in values.iter().enumerate() {
-        let ok = v.is_finite();
-        finite |= u16::from(ok) << k;
-        below |= u16::from(ok && v < lo) << k;
-        above |= u16::from(ok && v > hi) << k;
+fn distances(lanes: &Lanes<'_>, centre: &[f32; 3]) -> [u32; LANES] {
+    const TWO_23: f32 = 8_388_608.0;
+    let mut d2 = [0u32; LANES];
+    let [c0, c1, c2] = lanes.colours;
+    for k in 0..LANES {
+        let (a, b, c) = (c0[k] - centre[0], c1[k] - centre[1], c2[k] - centre[2]);
+        d2[k] = (a * a + b * b + c * c + TWO_23).to_bits() & 0x007F_FFFF;
     }
-    (below, above, finite)
+    d2
 }
