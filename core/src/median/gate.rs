@@ -1,15 +1,19 @@
-//! The step gate: which windows hold a step between adjacent pixels larger than the gate.
+//! Which windows hold something: a step above the gate (the pixel is filtered at all),
+//! or a value that changed since the previous pass (the pixel must be filtered again).
 //!
-//! A window holds such a step exactly when one of its columns does, counting for each of
-//! its rows the step to the right neighbour (also when that lies right of the window) and
-//! the step to the lower neighbour when that row is in the window too. Per column, the
-//! rows whose right or lower step exceeds the gate are counted over a sliding range of
-//! rows (one row enters and one leaves per output row), so the test costs O(1) per pixel
-//! instead of a scan of the window. Non-finite values make no step (NaN compares false).
+//! Both are "some pixel of the window's rows and columns has a flag". Per column the
+//! flagged rows are counted over a sliding range of rows (one row enters and one leaves
+//! per output row), and along an output row the last flagged column is carried, so the
+//! test costs O(1) per pixel instead of a scan of the window.
+//!
+//! A window holds a step larger than the gate exactly when one of its columns does,
+//! counting for each of its rows the step to the right neighbour (also when that lies
+//! right of the window) and the step to the lower neighbour when that row is in the
+//! window too. Non-finite values make no step (NaN compares false).
 
 use core::ops::Range;
 
-/// Whether the step from `(x, y)` to its right neighbour exceeds `gate`.
+/// Whether the step from column `x` of `row` to its right neighbour exceeds `gate`.
 #[inline(always)]
 pub(super) fn right_step(row: &[f32], x: usize, gate: f32) -> bool {
     match (row.get(x), row.get(x + 1)) {
@@ -18,53 +22,87 @@ pub(super) fn right_step(row: &[f32], x: usize, gate: f32) -> bool {
     }
 }
 
-/// Per column, how many rows of `rows` have a right or lower step above the gate.
-pub(super) struct StepCounts<'a> {
+/// Whether `(x, yy)` of `map` has a step above `gate` to its right or lower neighbour.
+#[inline(always)]
+pub(super) fn step_right_or_below(
+    map: &[f32],
+    width: usize,
+    x: usize,
+    yy: usize,
+    gate: f32,
+) -> bool {
+    let start = yy * width;
+    let row = map.get(start..start + width).unwrap_or(&[]);
+    let below = map.get(start + width + x).copied().unwrap_or(f32::NAN);
+    right_step(row, x, gate) || row.get(x).is_some_and(|&v| (below - v).abs() > gate)
+}
+
+/// Per column, how many rows of a sliding range have a flag.
+pub(super) struct ColumnCounts<'a> {
     counts: &'a mut [f32],
     rows: Range<usize>,
 }
 
-impl<'a> StepCounts<'a> {
+impl<'a> ColumnCounts<'a> {
     /// No rows counted yet; `counts` needs one element per column.
     pub(super) fn new(counts: &'a mut [f32]) -> Self {
         counts.fill(0.0);
-        StepCounts { counts, rows: 0..0 }
+        ColumnCounts { counts, rows: 0..0 }
     }
 
     /// Counts the rows `rows` instead of the previous ones (both ends may only grow, as
-    /// they do from one output row to the next).
-    pub(super) fn slide_to(&mut self, map: &[f32], width: usize, gate: f32, rows: Range<usize>) {
+    /// they do from one output row to the next); `flag(x, yy)` says whether column `x`
+    /// of row `yy` counts.
+    pub(super) fn slide_to(&mut self, rows: Range<usize>, flag: impl Fn(usize, usize) -> bool) {
         let old = self.rows.clone();
         // Rows that left: [old.start, min(rows.start, old.end)); rows that entered:
         // [max(rows.start, old.end), rows.end).
         for yy in old.start..rows.start.min(old.end) {
-            self.add_row(map, width, gate, yy, -1.0);
+            for (x, count) in self.counts.iter_mut().enumerate() {
+                if flag(x, yy) {
+                    *count -= 1.0;
+                }
+            }
         }
         for yy in rows.start.max(old.end)..rows.end {
-            self.add_row(map, width, gate, yy, 1.0);
+            for (x, count) in self.counts.iter_mut().enumerate() {
+                if flag(x, yy) {
+                    *count += 1.0;
+                }
+            }
         }
         self.rows = rows;
     }
 
-    fn add_row(&mut self, map: &[f32], width: usize, gate: f32, yy: usize, delta: f32) {
-        let start = yy * width;
-        let (Some(row), Some(below)) = (
-            map.get(start..start + width),
-            map.get(start + width..start + 2 * width),
-        ) else {
-            return;
-        };
-        for (x, ((count, &v), &down)) in self.counts.iter_mut().zip(row).zip(below).enumerate() {
-            let step = right_step(row, x, gate) || (down - v).abs() > gate;
-            if step {
-                *count += delta;
-            }
-        }
-    }
-
-    /// Whether column `x` has a counted row with a step.
+    /// Whether column `x` has a counted row with a flag.
     #[inline(always)]
     pub(super) fn any(&self, x: usize) -> bool {
         self.counts.get(x).is_some_and(|&c| c > 0.0)
+    }
+}
+
+/// The last flagged column met so far along an output row, for windows reaching `reach`
+/// columns either side of the pixel.
+pub(super) struct LastFlagged {
+    column: Option<usize>,
+    reach: usize,
+}
+
+impl LastFlagged {
+    /// Before column 0: the columns left of `reach` enter with `flagged`.
+    pub(super) fn new(reach: usize, width: usize, flagged: impl Fn(usize) -> bool) -> Self {
+        let column = (0..reach.min(width)).filter(|&c| flagged(c)).last();
+        LastFlagged { column, reach }
+    }
+
+    /// Moves to the pixel in column `x` (called for every column in order): column
+    /// `x + reach` enters. Returns whether the window of `x` holds a flagged column.
+    #[inline(always)]
+    pub(super) fn step(&mut self, x: usize, width: usize, flagged: impl Fn(usize) -> bool) -> bool {
+        let c = x + self.reach;
+        if c < width && flagged(c) {
+            self.column = Some(c);
+        }
+        self.column.is_some_and(|c| c + self.reach >= x)
     }
 }

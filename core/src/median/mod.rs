@@ -32,7 +32,7 @@ use crate::error::{Error, Result};
 use crate::lightfield::{Sample, View};
 use crate::plan::Plan;
 
-use gate::StepCounts;
+use gate::{ColumnCounts, LastFlagged};
 use pixel::Window;
 use ring::RowRing;
 use weights::Weights;
@@ -148,12 +148,15 @@ fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(
     Ok((w, h))
 }
 
-/// Scratch (`f32` elements) of [`filter_rows`] and [`filter`]: per column the count of
-/// window rows with a step, plus every window row's values and slopes, padded by 22
-/// columns: `width + 45 · (width + 22)`.
+/// Scratch (`f32` elements) of [`filter_rows`], [`filter_rows_again`] and [`filter`]:
+/// two counts per column (window rows with a step, rows changed since the previous
+/// pass) plus every window row's values, slopes and colour levels, padded by 22 columns:
+/// `2 · width + 90 · (width + 22)`.
 pub fn scratch_len(plan: &Plan) -> usize {
     let width = plan.layout().width;
-    width.saturating_add(ring::ring_len(width))
+    width
+        .saturating_mul(2)
+        .saturating_add(ring::ring_len(width))
 }
 
 /// Filters the image rows `rows` of `input` (row-major, `plan.pixels()`) into `out`
@@ -164,6 +167,43 @@ pub fn filter_rows<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,
     input: &[f32],
+    rows: Range<usize>,
+    out: &mut [f32],
+    scratch: &mut [f32],
+) -> Result<()> {
+    run(plan, guide, input, None, rows, out, scratch)
+}
+
+/// [`filter_rows`] for a pass after the first, `previous` being the previous pass's
+/// input (so that `input` is its output): the same result, faster. A pixel's value
+/// depends only on the input within `radius + 1` pixels of it (the window, and the
+/// neighbours its slopes and steps read), so where that holds the same values as in
+/// `previous`, the previous pass computed this pixel from the same values, and it keeps
+/// its value; after the first pass only pixels near the ones that moved are filtered.
+pub fn filter_rows_again<S: Sample>(
+    plan: &Plan,
+    guide: &View<'_, S>,
+    input: &[f32],
+    previous: &[f32],
+    rows: Range<usize>,
+    out: &mut [f32],
+    scratch: &mut [f32],
+) -> Result<()> {
+    if previous.len() != input.len() {
+        return Err(Error::OutputSize {
+            what: "the median's previous input",
+            needed: input.len(),
+            got: previous.len(),
+        });
+    }
+    run(plan, guide, input, Some(previous), rows, out, scratch)
+}
+
+fn run<S: Sample>(
+    plan: &Plan,
+    guide: &View<'_, S>,
+    input: &[f32],
+    previous: Option<&[f32]>,
     rows: Range<usize>,
     out: &mut [f32],
     scratch: &mut [f32],
@@ -191,54 +231,68 @@ pub fn filter_rows<S: Sample>(
             got: scratch.len(),
         });
     }
-    let (counts, slopes) = scratch[..needed].split_at_mut(width);
+    let (step_counts, rest) = scratch[..needed].split_at_mut(width);
+    let (change_counts, ring) = rest.split_at_mut(width);
     let p = plan.params().median;
     let weights = Weights::new(p.color_sigma);
     let r = p.radius;
     let gated = p.gate > 0.0;
-    let mut steps = StepCounts::new(counts);
-    let mut ring = RowRing::new(slopes, width);
+    let mut steps = ColumnCounts::new(step_counts);
+    let mut changes = ColumnCounts::new(change_counts);
+    let mut ring = RowRing::new(ring, width);
     let offsets = pixel::lane_offsets(r);
+    let has_step = |x: usize, yy: usize| gate::step_right_or_below(input, width, x, yy, p.gate);
     for (o, y) in out.chunks_exact_mut(width).zip(rows) {
+        let row = input.get(y * width..(y + 1) * width).unwrap_or(&[]);
+        o.copy_from_slice(row);
         let ys = y.saturating_sub(r)..(y + r + 1).min(height);
         let last = ys.end - 1;
+        // Rows whose step below lies inside the window, and the last one's right steps.
         if gated {
-            steps.slide_to(input, width, p.gate, ys.start..last);
+            steps.slide_to(ys.start..last, has_step);
         }
-        for yy in ys.clone() {
-            ring.load(input, guide, yy, p.gate, p.planar);
-        }
-        let window = Window {
-            input,
-            width,
-            height,
-            guide,
-            rows: &ring,
-            offsets,
-            weights: &weights,
-            params: p,
-        };
         let last_row = input.get(last * width..(last + 1) * width).unwrap_or(&[]);
         let column_has_step = |c: usize| steps.any(c) || gate::right_step(last_row, c, p.gate);
-        // The rightmost column at or left of the window's right edge with a step.
-        let mut step_column: Option<usize> = None;
-        for c in 0..r.min(width) {
-            if gated && column_has_step(c) {
-                step_column = Some(c);
-            }
+        let mut step_column = LastFlagged::new(r, width, |c| gated && column_has_step(c));
+        // What the pixel's value depends on: radius + 1 around it.
+        let reach = r + 1;
+        if let Some(previous) = previous {
+            let changed = |x: usize, yy: usize| {
+                let i = yy * width + x;
+                input.get(i).map(|v| v.to_bits()) != previous.get(i).map(|v| v.to_bits())
+            };
+            changes.slide_to(
+                y.saturating_sub(reach)..(y + reach + 1).min(height),
+                changed,
+            );
         }
-        let row = input.get(y * width..(y + 1) * width).unwrap_or(&[]);
+        let mut changed_column =
+            LastFlagged::new(reach, width, |c| previous.is_none() || changes.any(c));
+        let mut loaded = false;
         for (x, (o, &own)) in o.iter_mut().zip(row).enumerate() {
-            *o = own;
-            if gated && x + r < width && column_has_step(x + r) {
-                step_column = Some(x + r);
-            }
-            if !own.is_finite() || (gated && step_column.is_none_or(|c| c + r < x)) {
+            let has_step = step_column.step(x, width, |c| gated && column_has_step(c));
+            let changed = changed_column.step(x, width, |c| previous.is_none() || changes.any(c));
+            if !own.is_finite() || (gated && !has_step) || !changed {
                 continue;
             }
-            if window.may_change(x, y, own) {
-                *o = window.select(x, y, own);
+            // The window rows enter the ring when a pixel of this row first needs them.
+            if !loaded {
+                for yy in ys.clone() {
+                    ring.load(input, guide, yy, p.gate, p.planar);
+                }
+                loaded = true;
             }
+            let window = Window {
+                input,
+                width,
+                height,
+                guide,
+                rows: &ring,
+                offsets,
+                weights: &weights,
+                params: p,
+            };
+            *o = window.value(x, y, own);
         }
     }
     Ok(())

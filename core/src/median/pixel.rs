@@ -32,6 +32,13 @@ pub(super) fn lane_offsets(radius: usize) -> [f32; LANES] {
     offsets
 }
 
+/// The lanes (per window row) of the side of `own ± snap` that holds the median, and
+/// the weight of its votes the median needs at or below it.
+struct Side {
+    lanes: [u16; SPAN],
+    target: u64,
+}
+
 /// What every pixel of one call shares.
 pub(super) struct Window<'a, 'g, S: Sample> {
     pub(super) input: &'a [f32],
@@ -95,21 +102,37 @@ impl<S: Sample> Window<'_, '_, S> {
         sum
     }
 
-    /// `false` when the pixel `(x, y)` of finite value `own` certainly keeps it: the
-    /// votes outside `own ± snap` weigh less than half of the window on either side.
-    /// `true` when [`Self::select`] must decide.
-    pub(super) fn may_change(&self, x: usize, y: usize, own: f32) -> bool {
-        let (ys, _) = self.rows_and_columns(x, y);
-        let r = self.params.radius;
-        let (lo, hi) = (own - self.params.snap, own + self.params.snap);
-        // Lane k is column x − r + k: its offset x − (x − r + k), computed as the
-        // selection computes it (exact, hence `r − k`, below 2²⁴).
+    /// The offsets `x − xx` of the lanes of the pixel in column `x`, computed as the
+    /// selection computes them (exact, hence `r − k`, below 2²⁴).
+    fn offsets(&self, x: usize) -> [f32; LANES] {
         let mut dxs = self.offsets;
         if x >= EXACT_COLUMNS {
             for (k, d) in dxs.iter_mut().enumerate() {
-                *d = x as f32 - (x + k).wrapping_sub(r) as f32;
+                *d = x as f32 - (x + k).wrapping_sub(self.params.radius) as f32;
             }
         }
+        dxs
+    }
+
+    /// The value of the pixel `(x, y)` of finite value `own`: [`Self::decide`], then
+    /// the selection on the side that holds the median when it may move.
+    pub(super) fn value(&self, x: usize, y: usize, own: f32) -> f32 {
+        match self.decide(x, y, own) {
+            None => own,
+            Some(side) => self.select_side(x, y, own, &side),
+        }
+    }
+
+    /// `None` when the pixel `(x, y)` of finite value `own` certainly keeps it: the
+    /// votes outside `own ± snap` weigh less than half of the window on either side.
+    /// Else the side of `own ± snap` whose votes weigh at least half: the median lies
+    /// there.
+    fn decide(&self, x: usize, y: usize, own: f32) -> Option<Side> {
+        let (ys, _) = self.rows_and_columns(x, y);
+        let r = self.params.radius;
+        let (lo, hi) = (own - self.params.snap, own + self.params.snap);
+        // Lane k is column x − r + k.
+        let dxs = self.offsets(x);
         let lanes_in_window = (1u32 << (2 * r + 1)) - 1;
         // Per window row, bit k for column x − r + k.
         let mut below = [0u16; SPAN];
@@ -132,7 +155,7 @@ impl<S: Sample> Window<'_, '_, S> {
             outside |= b | a;
         }
         if outside == 0 {
-            return false;
+            return None;
         }
         let centre = self.rows.colour_at(y, x);
         let (mut weight_below, mut weight_above) = (0u64, 0u64);
@@ -176,15 +199,86 @@ impl<S: Sample> Window<'_, '_, S> {
             };
             weight_inside += self.weigh(inside[i], &distances(&lanes, &centre));
             if kept(weight_inside) {
-                return false;
+                return None;
             }
         }
-        true
+        // Every inside vote is weighed now: I is exact. The median is the smallest vote
+        // whose weight of votes at or below it reaches ⌈T/2⌉; below `lo` when B reaches
+        // it, else above `hi`, where the votes below and inside count first.
+        let half = (weight_below + weight_inside + weight_above).div_ceil(2);
+        Some(if weight_below >= half {
+            Side {
+                lanes: below,
+                target: half,
+            }
+        } else {
+            Side {
+                lanes: above,
+                target: half.saturating_sub(weight_below + weight_inside),
+            }
+        })
+    }
+
+    /// The weighted median of the votes of `side` (the side of `own ± snap` that holds
+    /// the window's median) with weights reaching `side.target`: the window's median,
+    /// which the pixel takes when it differs from `own` by more than `snap`.
+    ///
+    /// Equal to the median of the whole window: the median is the smallest vote whose
+    /// weight at or below it reaches half the total, and on the side that holds it the
+    /// votes of the other side and inside count only as the offset already taken from
+    /// the target. Votes are finite (slopes are at most the gate, 16 px, offsets at most
+    /// 7, so no sum overflows), so the order is total, and a non-zero value has one bit
+    /// pattern; a median of ±0, whose sign the selection's pivots decide, is left to
+    /// [`Self::select`], which selects exactly as the whole window does.
+    fn select_side(&self, x: usize, y: usize, own: f32, side: &Side) -> f32 {
+        let (ys, _) = self.rows_and_columns(x, y);
+        let r = self.params.radius;
+        let dxs = self.offsets(x);
+        let centre = self.rows.colour_at(y, x);
+        let mut values = [0.0f32; MAX_TAPS];
+        let mut taps = [0u32; MAX_TAPS];
+        let mut n = 0;
+        for (i, yy) in ys.clone().enumerate().take(SPAN) {
+            let mut bits = side.lanes[i];
+            if bits == 0 {
+                continue;
+            }
+            let Some(lanes) = self.rows.lanes(yy, x, r) else {
+                continue;
+            };
+            let votes = votes(&lanes, &dxs, y as f32 - yy as f32);
+            let d2 = distances(&lanes, &centre);
+            while bits != 0 {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let w = self.weights.get(d2.get(k).copied().unwrap_or(u32::MAX));
+                if let (true, Some(&vote), Some(value), Some(tap)) =
+                    (w > 0, votes.get(k), values.get_mut(n), taps.get_mut(n))
+                {
+                    *value = vote;
+                    *tap = w;
+                    n += 1;
+                }
+            }
+        }
+        if n == 0 || side.target == 0 {
+            return self.select(x, y, own);
+        }
+        let m = weighted_median(&mut values[..n], &mut taps[..n], side.target);
+        if m == 0.0 {
+            return self.select(x, y, own);
+        }
+        if (m - own).abs() > self.params.snap {
+            m
+        } else {
+            own
+        }
     }
 
     /// The value of the pixel `(x, y)` of finite value `own`: the weighted median of its
-    /// window's votes when that differs from `own` by more than `snap`, else `own`.
-    pub(super) fn select(&self, x: usize, y: usize, own: f32) -> f32 {
+    /// window's votes when that differs from `own` by more than `snap`, else `own`
+    /// (every vote weighed and selected, as the stage was first written).
+    fn select(&self, x: usize, y: usize, own: f32) -> f32 {
         let p = &self.params;
         let (ys, xs) = self.rows_and_columns(x, y);
         let centre = self.colour(x, y);
@@ -255,6 +349,17 @@ fn classify(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32, lo: f32, hi: f32) ->
         above |= u32::from(ok & (vote > hi)) << k;
     }
     (below, above, finite)
+}
+
+/// The votes of a window row's lanes: the same expression as the selection's.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index over fixed-size arrays vectorises
+fn votes(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32) -> [f32; LANES] {
+    let mut votes = [0.0f32; LANES];
+    for k in 0..LANES {
+        votes[k] = lanes.values[k] + lanes.gx[k] * dxs[k] + lanes.gy[k] * dy;
+    }
+    votes
 }
 
 /// Squared colour distances of a window row's lanes to the colour `centre`, equal to the

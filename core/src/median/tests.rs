@@ -600,3 +600,76 @@ fn equals_the_reference_with_a_float_guide() {
     }
     assert!(moved > 50, "only {moved} pixels moved");
 }
+
+#[test]
+fn later_passes_skip_unchanged_windows_with_the_same_result() {
+    let mut rng = Rng(0x5DEE_CE66_D1CE_4E5B);
+    let mut skipped_some = 0;
+    for trial in 0..30 {
+        let (w, h) = (side(&mut rng), side(&mut rng));
+        let channels = [1, 3, 4][rng.below(3)];
+        let s = scene(&mut rng, w, h, channels);
+        let plan = plan_for(w, h, random_params(&mut rng));
+        let guide =
+            View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
+        let pixels = w * h;
+        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        let mut previous = s.map[..pixels].to_vec();
+        let mut input = vec![0.0f32; pixels];
+        filter(&plan, &guide, &previous, &mut input, &mut scratch).unwrap();
+        for pass in 1..4 {
+            let mut expected = vec![0.0f32; pixels];
+            filter(&plan, &guide, &input, &mut expected, &mut scratch).unwrap();
+            let mut got = vec![0.0f32; pixels];
+            let mut start = 0;
+            while start < h {
+                let end = (start + 1 + rng.below(h)).min(h);
+                scratch.fill(f32::NAN);
+                filter_rows_again(
+                    &plan,
+                    &guide,
+                    &input,
+                    &previous,
+                    start..end,
+                    &mut got[start * w..end * w],
+                    &mut scratch,
+                )
+                .unwrap();
+                start = end;
+            }
+            for i in 0..pixels {
+                assert_eq!(
+                    got[i].to_bits(),
+                    expected[i].to_bits(),
+                    "trial {trial}, pass {pass}, ({}, {})",
+                    i % w,
+                    i / w
+                );
+            }
+            if input != previous {
+                skipped_some += 1;
+            }
+            previous = core::mem::replace(&mut input, expected);
+        }
+    }
+    assert!(
+        skipped_some > 10,
+        "too few passes where something moved: {skipped_some}"
+    );
+    let plan = plan_for(16, 16, MedianParams::default());
+    let views = [0u8; 256];
+    let guide = View::new(&views, 16, 16, 1, 16).unwrap();
+    let mut out = [0.0f32; 256];
+    assert!(matches!(
+        filter_rows_again(
+            &plan,
+            &guide,
+            &[0.0; 256],
+            &[0.0; 255],
+            0..16,
+            &mut out,
+            &mut vec![0.0; scratch_len(&plan)]
+        ),
+        Err(Error::OutputSize { .. })
+    ));
+}
