@@ -139,7 +139,8 @@ impl<S: Sample> Window<'_, '_, S> {
         let mut above = [0u16; SPAN];
         let mut inside = [0u16; SPAN];
         let mut outside = 0u16;
-        for (i, yy) in ys.clone().enumerate().take(SPAN) {
+        let mut row_lanes: [Option<Lanes<'_>>; SPAN] = [const { None }; SPAN];
+        for ((i, yy), slot) in ys.clone().enumerate().zip(row_lanes.iter_mut()) {
             let Some(lanes) = self.rows.lanes(yy, x, r) else {
                 continue;
             };
@@ -153,22 +154,24 @@ impl<S: Sample> Window<'_, '_, S> {
             above[i] = a;
             inside[i] = f & !(b | a);
             outside |= b | a;
+            *slot = Some(lanes);
         }
         if outside == 0 {
             return None;
         }
         let centre = self.rows.colour_at(y, x);
+        // Squared colour distances of the rows weighed so far (bit i: row i).
+        let mut d2s = [[0u32; LANES]; SPAN];
+        let mut measured = 0u16;
         let (mut weight_below, mut weight_above) = (0u64, 0u64);
-        for (i, yy) in ys.clone().enumerate().take(SPAN) {
-            if below[i] | above[i] == 0 {
-                continue;
-            }
-            let Some(lanes) = self.rows.lanes(yy, x, r) else {
+        for (i, (lanes, d2)) in row_lanes.iter().zip(d2s.iter_mut()).enumerate() {
+            let (Some(lanes), true) = (lanes, below[i] | above[i] != 0) else {
                 continue;
             };
-            let d2 = distances(&lanes, &centre);
-            weight_below += self.weigh(below[i], &d2);
-            weight_above += self.weigh(above[i], &d2);
+            *d2 = distances(lanes, &centre);
+            measured |= 1 << i;
+            weight_below += self.weigh(below[i], d2);
+            weight_above += self.weigh(above[i], d2);
         }
         // With I the inside weight and T = I + B + A the total, the selection moves the
         // pixel iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both
@@ -191,13 +194,18 @@ impl<S: Sample> Window<'_, '_, S> {
             let Some(i) = i else {
                 continue;
             };
-            if inside[i] == 0 {
-                continue;
-            }
-            let Some(lanes) = self.rows.lanes(ys.start + i, x, r) else {
+            let (Some(&bits), Some(Some(lanes)), Some(d2)) =
+                (inside.get(i), row_lanes.get(i), d2s.get_mut(i))
+            else {
                 continue;
             };
-            weight_inside += self.weigh(inside[i], &distances(&lanes, &centre));
+            if bits == 0 {
+                continue;
+            }
+            if measured >> i & 1 == 0 {
+                *d2 = distances(lanes, &centre);
+            }
+            weight_inside += self.weigh(bits, d2);
             if kept(weight_inside) {
                 return None;
             }
