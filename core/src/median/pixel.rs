@@ -13,7 +13,7 @@
 use core::ops::Range;
 
 use super::ring::{Lanes, RowRing, LANES};
-use super::select::weighted_median;
+use super::select::{key, weighted_median, weighted_median_of_keys};
 use super::weights::Weights;
 use super::{MedianParams, MAX_RADIUS, MAX_TAPS};
 use crate::lightfield::{Sample, View};
@@ -243,8 +243,7 @@ impl<S: Sample> Window<'_, '_, S> {
         let r = self.params.radius;
         let dxs = self.offsets(x);
         let centre = self.rows.colour_at(y, x);
-        let mut values = [0.0f32; MAX_TAPS];
-        let mut taps = [0u32; MAX_TAPS];
+        let mut keys = [0u64; MAX_TAPS];
         let mut n = 0;
         for (i, yy) in ys.clone().enumerate().take(SPAN) {
             let mut bits = side.lanes[i];
@@ -260,22 +259,16 @@ impl<S: Sample> Window<'_, '_, S> {
                 let k = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let w = self.weights.get(d2.get(k).copied().unwrap_or(u32::MAX));
-                if let (true, Some(&vote), Some(value), Some(tap)) =
-                    (w > 0, votes.get(k), values.get_mut(n), taps.get_mut(n))
-                {
-                    *value = vote;
-                    *tap = w;
+                if let (true, Some(&vote), Some(slot)) = (w > 0, votes.get(k), keys.get_mut(n)) {
+                    *slot = key(vote, w);
                     n += 1;
                 }
             }
         }
-        if n == 0 || side.target == 0 {
-            return self.select(x, y, own);
-        }
-        let m = weighted_median(&mut values[..n], &mut taps[..n], side.target);
-        if m == 0.0 {
-            return self.select(x, y, own);
-        }
+        let m = match weighted_median_of_keys(&mut keys[..n], side.target) {
+            Some(m) if m != 0.0 && side.target > 0 => m,
+            _ => return self.select(x, y, own),
+        };
         if (m - own).abs() > self.params.snap {
             m
         } else {
