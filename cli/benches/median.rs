@@ -1,7 +1,9 @@
 //! Criterion benchmark of the edge-snapping weighted median (`median/…`): the default
 //! stage (four passes, radius 7, planar votes) on one thread over the disparity it really
 //! filters, the photometric refinement's output, of HCI cotton when `../shared/data` is
-//! present, else of a synthetic 9×9×512×512 Mixed scene. The reported times are the
+//! present, else of a synthetic 9×9×512×512 Mixed scene; passes after the first as the
+//! engine runs them (`filter_rows_again`) and in full (`filter`, as the serial pipeline
+//! and the page do). The reported times are the
 //! benchmark thread's CPU time (`/proc/thread-self/schedstat`), not wall time: the
 //! machine is shared, and waiting for a core is no cost of the median.
 
@@ -113,6 +115,20 @@ fn median_stage(c: &mut Criterion) {
                     .unwrap();
                     std::mem::swap(&mut a, &mut b);
                     std::mem::swap(&mut b, &mut next);
+                }
+            }
+            thread_cpu() - start
+        })
+    });
+    // As the serial core pipeline and the page's workers run it: every pass in full.
+    group.bench_function(format!("{name}_{passes}passes_full_1t"), |bench| {
+        bench.iter_custom(|iters| {
+            let start = thread_cpu();
+            for _ in 0..iters {
+                a.copy_from_slice(&input);
+                for _ in 0..passes {
+                    median::filter(&plan, &guide, &a, &mut b, &mut scratch).unwrap();
+                    std::mem::swap(&mut a, &mut b);
                 }
             }
             thread_cpu() - start
