@@ -15,10 +15,14 @@
 //! fattened band returns to the background's disparity; on a smooth surface the median
 //! of a symmetric window is the pixel's own disparity, so slants are kept.
 //!
-//! Integers only in the inner loop: colours enter as 8-bit levels, the weights come from
-//! a 256-entry table of 16-bit values built once per call, so the stage is exact and
-//! runs alike on a microcontroller without FPU. The result of a pixel depends only on
-//! its window, so bands are independent and the map is bit-identical for any banding.
+//! Exact weights: colours enter as 8-bit levels, their squared distances are whole
+//! numbers (computed in `f32` lanes, where they are exact), the weights come from a
+//! 256-entry table of 16-bit values built once per call, and sums and selection are
+//! integer, so no result depends on the order of operations. A pixel's result depends
+//! only on the input within `radius + 1` pixels, so bands are independent and the map is
+//! bit-identical for any banding. How most pixels are settled without weighing their
+//! whole window: `pixel.rs`; how later passes skip what did not change:
+//! [`filter_rows_again`].
 
 use core::ops::Range;
 

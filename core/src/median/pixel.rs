@@ -1,14 +1,16 @@
-//! One pixel of the median: an exact test that settles most pixels without their
-//! window's selection, and the selection for the rest.
+//! One pixel of the median: an exact test that settles most pixels without weighing
+//! their whole window, and a selection among the votes on the median's side for the rest.
 //!
 //! A pixel takes the median only when the weight of the votes below `own − snap` or
 //! above `own + snap` reaches half of the window's weight. Votes are cheap (a few float
-//! operations on contiguous rows), weights are not (a colour distance and a table look-up
-//! per neighbour), so the test classifies every vote first, weighs the votes outside
-//! the snap band, and weighs votes inside it, nearest rows first, only until they
-//! outweigh the outside: most pixels near a depth edge stop after a few rows. Only when
-//! the test cannot rule a change out does the pixel go through [`Window::select`], which
-//! weighs and selects exactly as a direct implementation would.
+//! operations on a window row's 16 lanes at once), weights are not (a colour distance
+//! and a table look-up per neighbour), so [`Window::decide`] classifies every vote
+//! first, weighs the votes outside the snap band, and weighs votes inside it, nearest
+//! rows first, only until they outweigh the outside: most pixels near a depth edge stop
+//! after a few rows. When a change cannot be ruled out, the median lies on the side that
+//! reaches half, and [`Window::select_side`] selects among that side's votes only. The
+//! direct whole-window selection, [`Window::select`], is kept for the one case where
+//! the two could differ in a bit (a median of ±0).
 
 use core::ops::Range;
 
