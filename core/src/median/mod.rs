@@ -247,7 +247,13 @@ fn run<S: Sample>(
     let offsets = pixel::lane_offsets(r);
     let has_step = |x: usize, yy: usize| gate::step_right_or_below(input, width, x, yy, p.gate);
     for (o, y) in out.chunks_exact_mut(width).zip(rows) {
-        let row = input.get(y * width..(y + 1) * width).unwrap_or(&[]);
+        let row = input
+            .get(y * width..(y + 1) * width)
+            .ok_or(Error::OutOfRange {
+                what: "median input row",
+                index: y,
+                len: height,
+            })?;
         o.copy_from_slice(row);
         let ys = y.saturating_sub(r)..(y + r + 1).min(height);
         let last = ys.end - 1;
