@@ -22,19 +22,52 @@ pub(super) fn right_step(row: &[f32], x: usize, gate: f32) -> bool {
     }
 }
 
-/// Whether `(x, yy)` of `map` has a step above `gate` to its right or lower neighbour.
-#[inline(always)]
-pub(super) fn step_right_or_below(
+/// Adds `delta` to `counts[x]` for every column `x` of row `yy` of `map` with a step
+/// above `gate` to its right or lower neighbour.
+pub(super) fn count_steps(
     map: &[f32],
     width: usize,
-    x: usize,
-    yy: usize,
     gate: f32,
-) -> bool {
+    yy: usize,
+    counts: &mut [f32],
+    delta: f32,
+) {
     let start = yy * width;
-    let row = map.get(start..start + width).unwrap_or(&[]);
-    let below = map.get(start + width + x).copied().unwrap_or(f32::NAN);
-    right_step(row, x, gate) || row.get(x).is_some_and(|&v| (below - v).abs() > gate)
+    let (Some(row), Some(below)) = (
+        map.get(start..start + width),
+        map.get(start + width..start + 2 * width),
+    ) else {
+        return;
+    };
+    for (x, ((count, &v), &down)) in counts.iter_mut().zip(row).zip(below).enumerate() {
+        if right_step(row, x, gate) || (down - v).abs() > gate {
+            *count += delta;
+        }
+    }
+}
+
+/// Adds `delta` to `counts[x]` for every column `x` of row `yy` whose value in `map`
+/// differs (in any bit) from the one in `previous`.
+pub(super) fn count_changes(
+    map: &[f32],
+    previous: &[f32],
+    width: usize,
+    yy: usize,
+    counts: &mut [f32],
+    delta: f32,
+) {
+    let start = yy * width;
+    let (Some(now), Some(before)) = (
+        map.get(start..start + width),
+        previous.get(start..start + width),
+    ) else {
+        return;
+    };
+    for ((count, a), b) in counts.iter_mut().zip(now).zip(before) {
+        if a.to_bits() != b.to_bits() {
+            *count += delta;
+        }
+    }
 }
 
 /// Per column, how many rows of a sliding range have a flag.
@@ -51,25 +84,21 @@ impl<'a> ColumnCounts<'a> {
     }
 
     /// Counts the rows `rows` instead of the previous ones (both ends may only grow, as
-    /// they do from one output row to the next); `flag(x, yy)` says whether column `x`
-    /// of row `yy` counts.
-    pub(super) fn slide_to(&mut self, rows: Range<usize>, flag: impl Fn(usize, usize) -> bool) {
+    /// they do from one output row to the next); `count_row(yy, counts, delta)` adds
+    /// `delta` to the counts of the columns of row `yy` that have a flag.
+    pub(super) fn slide_to(
+        &mut self,
+        rows: Range<usize>,
+        count_row: impl Fn(usize, &mut [f32], f32),
+    ) {
         let old = self.rows.clone();
         // Rows that left: [old.start, min(rows.start, old.end)); rows that entered:
         // [max(rows.start, old.end), rows.end).
         for yy in old.start..rows.start.min(old.end) {
-            for (x, count) in self.counts.iter_mut().enumerate() {
-                if flag(x, yy) {
-                    *count -= 1.0;
-                }
-            }
+            count_row(yy, self.counts, -1.0);
         }
         for yy in rows.start.max(old.end)..rows.end {
-            for (x, count) in self.counts.iter_mut().enumerate() {
-                if flag(x, yy) {
-                    *count += 1.0;
-                }
-            }
+            count_row(yy, self.counts, 1.0);
         }
         self.rows = rows;
     }

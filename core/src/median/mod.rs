@@ -245,7 +245,9 @@ fn run<S: Sample>(
     let mut changes = ColumnCounts::new(change_counts);
     let mut ring = RowRing::new(ring, width);
     let offsets = pixel::lane_offsets(r);
-    let has_step = |x: usize, yy: usize| gate::step_right_or_below(input, width, x, yy, p.gate);
+    let count_steps = |yy: usize, counts: &mut [f32], delta: f32| {
+        gate::count_steps(input, width, p.gate, yy, counts, delta);
+    };
     for (o, y) in out.chunks_exact_mut(width).zip(rows) {
         let row = input
             .get(y * width..(y + 1) * width)
@@ -259,7 +261,7 @@ fn run<S: Sample>(
         let last = ys.end - 1;
         // Rows whose step below lies inside the window, and the last one's right steps.
         if gated {
-            steps.slide_to(ys.start..last, has_step);
+            steps.slide_to(ys.start..last, count_steps);
         }
         let last_row = input.get(last * width..(last + 1) * width).unwrap_or(&[]);
         let column_has_step = |c: usize| steps.any(c) || gate::right_step(last_row, c, p.gate);
@@ -267,13 +269,12 @@ fn run<S: Sample>(
         // What the pixel's value depends on: radius + 1 around it.
         let reach = r + 1;
         if let Some(previous) = previous {
-            let changed = |x: usize, yy: usize| {
-                let i = yy * width + x;
-                input.get(i).map(|v| v.to_bits()) != previous.get(i).map(|v| v.to_bits())
+            let count_changes = |yy: usize, counts: &mut [f32], delta: f32| {
+                gate::count_changes(input, previous, width, yy, counts, delta);
             };
             changes.slide_to(
                 y.saturating_sub(reach)..(y + reach + 1).min(height),
-                changed,
+                count_changes,
             );
         }
         let mut changed_column =
