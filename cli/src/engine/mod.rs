@@ -346,19 +346,25 @@ fn median_passes<S: Sample + Sync>(
     tracker: &Tracker<'_>,
 ) -> Result<(), lfdepth::Error> {
     let start = Instant::now();
+    // Each pass after the first is told the one before's input, so that it filters only
+    // near the pixels that moved.
+    let mut previous: Option<Vec<f32>> = None;
     for _ in 0..plan.params().median.passes {
-        estimate.disparity = median_parallel(plan, lf, &estimate.disparity, tracker)?;
+        let next = median_parallel(plan, lf, &estimate.disparity, previous.as_deref(), tracker)?;
+        previous = Some(std::mem::replace(&mut estimate.disparity, next));
     }
     estimate.timings.push((median::STAGE, start.elapsed()));
     Ok(())
 }
 
 /// One pass of the weighted median in parallel bands of rows (each pixel depends only
-/// on its window, so the map does not depend on the banding).
+/// on its window, so the map does not depend on the banding); `previous` is the previous
+/// pass's input, if any.
 fn median_parallel<S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     disparity: &[f32],
+    previous: Option<&[f32]>,
     tracker: &Tracker<'_>,
 ) -> Result<Vec<f32>, lfdepth::Error> {
     const BAND_ROWS: usize = 16;
@@ -373,7 +379,12 @@ fn median_parallel<S: Sample + Sync>(
             |scratch, (index, band)| {
                 let start = index * BAND_ROWS;
                 let rows = start..(start + BAND_ROWS).min(height);
-                median::filter_rows(plan, &guide, disparity, rows, band, scratch)?;
+                match previous {
+                    Some(previous) => median::filter_rows_again(
+                        plan, &guide, disparity, previous, rows, band, scratch,
+                    )?,
+                    None => median::filter_rows(plan, &guide, disparity, rows, band, scratch)?,
+                }
                 tracker.add(1);
                 Ok::<(), lfdepth::Error>(())
             },

@@ -1,0 +1,141 @@
+//! Criterion benchmark of the edge-snapping weighted median (`median/…`): the default
+//! stage (four passes, radius 7, planar votes) on one thread over the disparity it really
+//! filters, the photometric refinement's output, of HCI cotton when `../shared/data` is
+//! present, else of a synthetic 9×9×512×512 Mixed scene; passes after the first as the
+//! engine runs them (`filter_rows_again`) and in full (`filter`, as the serial pipeline
+//! and the page do). The reported times are the
+//! benchmark thread's CPU time (`/proc/thread-self/schedstat`), not wall time: the
+//! machine is shared, and waiting for a core is no cost of the median.
+
+#[path = "../tests/tv_support.rs"]
+mod tv_support;
+
+use std::ops::ControlFlow;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use lfdepth::median::{self, MedianParams};
+use lfdepth::synth::{self, SceneKind, SynthSpec};
+use lfdepth::{epi, refine, Grid, Homography, Layout, LightField, Params, Plan};
+use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+
+/// The views and layout of the benchmark scene, and its name.
+fn scene() -> (Vec<u8>, Layout, &'static str) {
+    let cotton = std::path::PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/data/hci/training/cotton"
+    ));
+    if cotton.is_dir() {
+        let (views, layout) = tv_support::load_hci(&cotton);
+        return (views, layout, "cotton");
+    }
+    eprintln!("../shared/data not found: benchmarking a synthetic Mixed scene instead");
+    let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), 512, 512);
+    let layout = spec.layout();
+    let mut views = vec![0u8; layout.validate().unwrap()];
+    let mut gt = vec![0.0f32; 512 * 512];
+    let mut homographies = vec![Homography::IDENTITY; 81];
+    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
+    (views, layout, "synthetic")
+}
+
+/// The median's input in the default pipeline: EPI, then the photometric refinement.
+fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
+    let options = EstimateOptions {
+        params: *plan.params(),
+        stage: StageSelect::Epi,
+        threads: None,
+    };
+    let epi_estimate = estimate(lf, &options, &mut |_, _, _| {}).unwrap();
+    let mut scratch = vec![0.0f32; epi::scratch_len(plan)];
+    let hyps = epi::hypotheses(plan, lf, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; refine::scratch_len(plan)];
+    let mut disparity = vec![0.0f32; plan.pixels()];
+    let mut confidence = vec![0.0f32; plan.pixels()];
+    refine::refine_with_progress(
+        plan,
+        lf,
+        (hyps.min(), hyps.max()),
+        &epi_estimate.disparity,
+        &mut disparity,
+        &mut confidence,
+        &mut scratch,
+        &mut |_| ControlFlow::Continue(()),
+    )
+    .unwrap();
+    disparity
+}
+
+/// CPU time of the calling thread.
+fn thread_cpu() -> Duration {
+    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
+    let ns = stat
+        .split_whitespace()
+        .next()
+        .and_then(|v| v.parse::<u64>().ok())
+        .unwrap_or(0);
+    Duration::from_nanos(ns)
+}
+
+fn median_stage(c: &mut Criterion) {
+    let (views, layout, name) = scene();
+    let lf = LightField::new(&views, layout).unwrap();
+    let plan = Plan::new(layout, Params::default()).unwrap();
+    let start = Instant::now();
+    let input = refined(&lf, &plan);
+    eprintln!("median input (EPI + refinement) in {:.1?}", start.elapsed());
+    let passes = MedianParams::default().passes;
+    let guide = lf.center_view();
+    let mut scratch = vec![0.0f32; median::scratch_len(&plan)];
+    let height = layout.height;
+    let (mut a, mut b, mut next) = (input.clone(), input.clone(), input.clone());
+    let mut group = c.benchmark_group("median");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10))
+        .warm_up_time(Duration::from_secs(1));
+    group.bench_function(format!("{name}_{passes}passes_1t"), |bench| {
+        bench.iter_custom(|iters| {
+            let start = thread_cpu();
+            for _ in 0..iters {
+                // As the engine runs it: each pass after the first knows the one before's
+                // input (a), its own input (b) is that pass's output, its output goes to `next`.
+                median::filter(&plan, &guide, &input, &mut b, &mut scratch).unwrap();
+                a.copy_from_slice(&input);
+                for _ in 1..passes {
+                    median::filter_rows_again(
+                        &plan,
+                        &guide,
+                        &b,
+                        &a,
+                        0..height,
+                        &mut next,
+                        &mut scratch,
+                    )
+                    .unwrap();
+                    std::mem::swap(&mut a, &mut b);
+                    std::mem::swap(&mut b, &mut next);
+                }
+            }
+            thread_cpu() - start
+        })
+    });
+    // As the serial core pipeline and the page's workers run it: every pass in full.
+    group.bench_function(format!("{name}_{passes}passes_full_1t"), |bench| {
+        bench.iter_custom(|iters| {
+            let start = thread_cpu();
+            for _ in 0..iters {
+                a.copy_from_slice(&input);
+                for _ in 0..passes {
+                    median::filter(&plan, &guide, &a, &mut b, &mut scratch).unwrap();
+                    std::mem::swap(&mut a, &mut b);
+                }
+            }
+            thread_cpu() - start
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, median_stage);
+criterion_main!(benches);

@@ -1,0 +1,137 @@
+//! Which windows hold something: a step above the gate (the pixel is filtered at all),
+//! or a value that changed since the previous pass (the pixel must be filtered again).
+//!
+//! Both are "some pixel of the window's rows and columns has a flag". Per column the
+//! flagged rows are counted over a sliding range of rows (one row enters and one leaves
+//! per output row), and along an output row the last flagged column is carried, so the
+//! test costs O(1) per pixel instead of a scan of the window.
+//!
+//! A window holds a step larger than the gate exactly when one of its columns does,
+//! counting for each of its rows the step to the right neighbour (also when that lies
+//! right of the window) and the step to the lower neighbour when that row is in the
+//! window too. Non-finite values make no step (NaN compares false).
+
+use core::ops::Range;
+
+/// Whether the step from column `x` of `row` to its right neighbour exceeds `gate`.
+#[inline(always)]
+pub(super) fn right_step(row: &[f32], x: usize, gate: f32) -> bool {
+    match (row.get(x), row.get(x + 1)) {
+        (Some(&v), Some(&right)) => (right - v).abs() > gate,
+        _ => false,
+    }
+}
+
+/// Adds `delta` to `counts[x]` for every column `x` of row `yy` of `map` with a step
+/// above `gate` to its right or lower neighbour.
+pub(super) fn count_steps(
+    map: &[f32],
+    width: usize,
+    gate: f32,
+    yy: usize,
+    counts: &mut [f32],
+    delta: f32,
+) {
+    let start = yy * width;
+    let (Some(row), Some(below)) = (
+        map.get(start..start + width),
+        map.get(start + width..start + 2 * width),
+    ) else {
+        return;
+    };
+    for (x, ((count, &v), &down)) in counts.iter_mut().zip(row).zip(below).enumerate() {
+        if right_step(row, x, gate) || (down - v).abs() > gate {
+            *count += delta;
+        }
+    }
+}
+
+/// Adds `delta` to `counts[x]` for every column `x` of row `yy` whose value in `map`
+/// differs (in any bit) from the one in `previous`.
+pub(super) fn count_changes(
+    map: &[f32],
+    previous: &[f32],
+    width: usize,
+    yy: usize,
+    counts: &mut [f32],
+    delta: f32,
+) {
+    let start = yy * width;
+    let (Some(now), Some(before)) = (
+        map.get(start..start + width),
+        previous.get(start..start + width),
+    ) else {
+        return;
+    };
+    for ((count, a), b) in counts.iter_mut().zip(now).zip(before) {
+        if a.to_bits() != b.to_bits() {
+            *count += delta;
+        }
+    }
+}
+
+/// Per column, how many rows of a sliding range have a flag.
+pub(super) struct ColumnCounts<'a> {
+    counts: &'a mut [f32],
+    rows: Range<usize>,
+}
+
+impl<'a> ColumnCounts<'a> {
+    /// No rows counted yet; `counts` needs one element per column.
+    pub(super) fn new(counts: &'a mut [f32]) -> Self {
+        counts.fill(0.0);
+        ColumnCounts { counts, rows: 0..0 }
+    }
+
+    /// Counts the rows `rows` instead of the previous ones (both ends may only grow, as
+    /// they do from one output row to the next); `count_row(yy, counts, delta)` adds
+    /// `delta` to the counts of the columns of row `yy` that have a flag.
+    pub(super) fn slide_to(
+        &mut self,
+        rows: Range<usize>,
+        count_row: impl Fn(usize, &mut [f32], f32),
+    ) {
+        let old = self.rows.clone();
+        // Rows that left: [old.start, min(rows.start, old.end)); rows that entered:
+        // [max(rows.start, old.end), rows.end).
+        for yy in old.start..rows.start.min(old.end) {
+            count_row(yy, self.counts, -1.0);
+        }
+        for yy in rows.start.max(old.end)..rows.end {
+            count_row(yy, self.counts, 1.0);
+        }
+        self.rows = rows;
+    }
+
+    /// Whether column `x` has a counted row with a flag.
+    #[inline(always)]
+    pub(super) fn any(&self, x: usize) -> bool {
+        self.counts.get(x).is_some_and(|&c| c > 0.0)
+    }
+}
+
+/// The last flagged column met so far along an output row, for windows reaching `reach`
+/// columns either side of the pixel.
+pub(super) struct LastFlagged {
+    column: Option<usize>,
+    reach: usize,
+}
+
+impl LastFlagged {
+    /// Before column 0: the columns left of `reach` enter with `flagged`.
+    pub(super) fn new(reach: usize, width: usize, flagged: impl Fn(usize) -> bool) -> Self {
+        let column = (0..reach.min(width)).filter(|&c| flagged(c)).last();
+        LastFlagged { column, reach }
+    }
+
+    /// Moves to the pixel in column `x` (called for every column in order): column
+    /// `x + reach` enters. Returns whether the window of `x` holds a flagged column.
+    #[inline(always)]
+    pub(super) fn step(&mut self, x: usize, width: usize, flagged: impl Fn(usize) -> bool) -> bool {
+        let c = x + self.reach;
+        if c < width && flagged(c) {
+            self.column = Some(c);
+        }
+        self.column.is_some_and(|c| c + self.reach >= x)
+    }
+}

@@ -1,0 +1,383 @@
+//! One pixel of the median: an exact test that settles most pixels without weighing
+//! their whole window, and a selection among the votes on the median's side for the rest.
+//!
+//! A pixel takes the median only when the weight of the votes below `own − snap` or
+//! above `own + snap` reaches half of the window's weight. Votes are cheap (a few float
+//! operations on a window row's 16 lanes at once), weights are not (a colour distance
+//! and a table look-up per neighbour), so [`Window::decide`] classifies every vote
+//! first, weighs the votes outside the snap band, and weighs votes inside it, nearest
+//! rows first, only until they outweigh the outside: most pixels near a depth edge stop
+//! after a few rows. When a change cannot be ruled out, the median lies on the side that
+//! reaches half, and [`Window::select_side`] selects among that side's votes only. The
+//! direct whole-window selection, [`Window::select`], is kept for the one case where
+//! the two could differ in a bit (a median of ±0).
+
+use core::ops::Range;
+
+use super::ring::{Lanes, RowRing, LANES};
+use super::select::{key, weighted_median, weighted_median_of_keys};
+use super::weights::Weights;
+use super::{MedianParams, MAX_RADIUS, MAX_TAPS};
+use crate::lightfield::{Sample, View};
+
+/// Most columns (and rows) of a window.
+const SPAN: usize = 2 * MAX_RADIUS + 1;
+/// Columns below which `x as f32 − xx as f32` is exact: 2²⁴ less the widest reach.
+const EXACT_COLUMNS: usize = (1 << 24) - 2 * LANES;
+
+/// The offsets `r − k` of the lanes of a window of radius `r` (see [`Window::offsets`]).
+pub(super) fn lane_offsets(radius: usize) -> [f32; LANES] {
+    let mut offsets = [0.0f32; LANES];
+    for (k, d) in offsets.iter_mut().enumerate() {
+        *d = radius as f32 - k as f32;
+    }
+    offsets
+}
+
+/// The lanes (per window row) of the side of `own ± snap` that holds the median, and
+/// the weight of its votes the median needs at or below it.
+struct Side {
+    lanes: [u16; SPAN],
+    target: u64,
+}
+
+/// What every pixel of one call shares.
+pub(super) struct Window<'a, 'g, S: Sample> {
+    pub(super) input: &'a [f32],
+    pub(super) width: usize,
+    pub(super) height: usize,
+    pub(super) guide: &'a View<'g, S>,
+    pub(super) rows: &'a RowRing<'a>,
+    /// `r − k` for lane k: a pixel's offsets to its window columns.
+    pub(super) offsets: [f32; LANES],
+    pub(super) weights: &'a Weights,
+    pub(super) params: MedianParams,
+}
+
+impl<S: Sample> Window<'_, '_, S> {
+    fn rows_and_columns(&self, x: usize, y: usize) -> (Range<usize>, Range<usize>) {
+        let r = self.params.radius;
+        (
+            y.saturating_sub(r)..(y + r + 1).min(self.height),
+            x.saturating_sub(r)..(x + r + 1).min(self.width),
+        )
+    }
+
+    /// The 8-bit colour of `(x, y)` (the channels beyond the third are ignored).
+    fn colour(&self, x: usize, y: usize) -> [i32; 3] {
+        let channels = self.guide.channels();
+        let row = self.guide.row(y).unwrap_or(&[]);
+        let mut centre = [0i32; 3];
+        for (k, c) in centre.iter_mut().enumerate().take(channels.min(3)) {
+            *c = row
+                .get(x * channels + k)
+                .map_or(0, |s| i32::from(s.level()));
+        }
+        centre
+    }
+
+    /// The weight of neighbour `xx` of the guide row `colours` for a pixel of colour
+    /// `centre`, or `None` outside the row.
+    #[inline(always)]
+    fn weight(&self, colours: &[S], xx: usize, centre: &[i32; 3]) -> Option<u32> {
+        let channels = self.guide.channels();
+        let start = xx * channels;
+        let pixel = colours.get(start..start + channels.min(3))?;
+        let mut d2 = 0u32;
+        for (s, c) in pixel.iter().zip(centre) {
+            let d = i32::from(s.level()) - c;
+            d2 += (d * d) as u32;
+        }
+        Some(self.weights.get(d2))
+    }
+
+    /// The weight of the lanes `bits` of a window row whose squared colour distances
+    /// to the pixel are `d2`.
+    #[inline(always)]
+    fn weigh(&self, mut bits: u16, d2: &[u32; LANES]) -> u64 {
+        let mut sum = 0u64;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            sum += u64::from(self.weights.get(d2.get(k).copied().unwrap_or(u32::MAX)));
+        }
+        sum
+    }
+
+    /// The offsets `x − xx` of the lanes of the pixel in column `x`, computed as the
+    /// selection computes them (exact, hence `r − k`, below 2²⁴).
+    fn offsets(&self, x: usize) -> [f32; LANES] {
+        let mut dxs = self.offsets;
+        if x >= EXACT_COLUMNS {
+            for (k, d) in dxs.iter_mut().enumerate() {
+                *d = x as f32 - (x + k).wrapping_sub(self.params.radius) as f32;
+            }
+        }
+        dxs
+    }
+
+    /// The value of the pixel `(x, y)` of finite value `own`: [`Self::decide`], then
+    /// the selection on the side that holds the median when it may move.
+    pub(super) fn value(&self, x: usize, y: usize, own: f32) -> f32 {
+        match self.decide(x, y, own) {
+            None => own,
+            Some(side) => self.select_side(x, y, own, &side),
+        }
+    }
+
+    /// `None` when the pixel `(x, y)` of finite value `own` certainly keeps it: the
+    /// votes outside `own ± snap` weigh less than half of the window on either side.
+    /// Else the side of `own ± snap` whose votes weigh at least half: the median lies
+    /// there.
+    fn decide(&self, x: usize, y: usize, own: f32) -> Option<Side> {
+        let (ys, _) = self.rows_and_columns(x, y);
+        let r = self.params.radius;
+        let (lo, hi) = (own - self.params.snap, own + self.params.snap);
+        // Lane k is column x − r + k.
+        let dxs = self.offsets(x);
+        let lanes_in_window = (1u32 << (2 * r + 1)) - 1;
+        // Per window row, bit k for column x − r + k.
+        let mut below = [0u16; SPAN];
+        let mut above = [0u16; SPAN];
+        let mut inside = [0u16; SPAN];
+        let mut outside = 0u16;
+        let mut row_lanes: [Option<Lanes<'_>>; SPAN] = [const { None }; SPAN];
+        for ((i, yy), slot) in ys.clone().enumerate().zip(row_lanes.iter_mut()) {
+            let Some(lanes) = self.rows.lanes(yy, x, r) else {
+                continue;
+            };
+            let (b, a, f) = classify(&lanes, &dxs, y as f32 - yy as f32, lo, hi);
+            let (b, a, f) = (
+                (b & lanes_in_window) as u16,
+                (a & lanes_in_window) as u16,
+                (f & lanes_in_window) as u16,
+            );
+            below[i] = b;
+            above[i] = a;
+            inside[i] = f & !(b | a);
+            outside |= b | a;
+            *slot = Some(lanes);
+        }
+        if outside == 0 {
+            return None;
+        }
+        let centre = self.rows.colour_at(y, x);
+        // Squared colour distances of the rows weighed so far (bit i: row i).
+        let mut d2s = [[0u32; LANES]; SPAN];
+        let mut measured = 0u16;
+        let (mut weight_below, mut weight_above) = (0u64, 0u64);
+        for (i, (lanes, d2)) in row_lanes.iter().zip(d2s.iter_mut()).enumerate() {
+            let (Some(lanes), true) = (lanes, below[i] | above[i] != 0) else {
+                continue;
+            };
+            *d2 = distances(lanes, &centre);
+            measured |= 1 << i;
+            weight_below += self.weigh(below[i], d2);
+            weight_above += self.weigh(above[i], d2);
+        }
+        // With I the inside weight and T = I + B + A the total, the selection moves the
+        // pixel iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both
+        // fail for every I at least as large as a partial sum that makes them fail.
+        let kept = |weight_inside: u64| {
+            weight_below < weight_inside + weight_above
+                && weight_above <= weight_inside + weight_below
+        };
+        let rows = ys.len().min(SPAN);
+        let centre_row = y - ys.start;
+        let mut weight_inside = 0u64;
+        // Rows by distance from the pixel's own: their colours are likeliest alike.
+        for step in 0..2 * rows {
+            let distance = step.div_ceil(2);
+            let i = if step % 2 == 1 {
+                centre_row.checked_sub(distance)
+            } else {
+                Some(centre_row + distance).filter(|&i| i < rows)
+            };
+            let Some(i) = i else {
+                continue;
+            };
+            let (Some(&bits), Some(Some(lanes)), Some(d2)) =
+                (inside.get(i), row_lanes.get(i), d2s.get_mut(i))
+            else {
+                continue;
+            };
+            if bits == 0 {
+                continue;
+            }
+            if measured >> i & 1 == 0 {
+                *d2 = distances(lanes, &centre);
+            }
+            weight_inside += self.weigh(bits, d2);
+            if kept(weight_inside) {
+                return None;
+            }
+        }
+        // Every inside vote is weighed now: I is exact. The median is the smallest vote
+        // whose weight of votes at or below it reaches ⌈T/2⌉; below `lo` when B reaches
+        // it, else above `hi`, where the votes below and inside count first.
+        let half = (weight_below + weight_inside + weight_above).div_ceil(2);
+        Some(if weight_below >= half {
+            Side {
+                lanes: below,
+                target: half,
+            }
+        } else {
+            Side {
+                lanes: above,
+                target: half.saturating_sub(weight_below + weight_inside),
+            }
+        })
+    }
+
+    /// The weighted median of the votes of `side` (the side of `own ± snap` that holds
+    /// the window's median) with weights reaching `side.target`: the window's median,
+    /// which the pixel takes when it differs from `own` by more than `snap`.
+    ///
+    /// Equal to the median of the whole window: the median is the smallest vote whose
+    /// weight at or below it reaches half the total, and on the side that holds it the
+    /// votes of the other side and inside count only as the offset already taken from
+    /// the target. Votes are finite (slopes are at most the gate, 16 px, offsets at most
+    /// 7, so no sum overflows), so the order is total, and a non-zero value has one bit
+    /// pattern; a median of ±0, whose sign the selection's pivots decide, is left to
+    /// [`Self::select`], which selects exactly as the whole window does.
+    fn select_side(&self, x: usize, y: usize, own: f32, side: &Side) -> f32 {
+        let (ys, _) = self.rows_and_columns(x, y);
+        let r = self.params.radius;
+        let dxs = self.offsets(x);
+        let centre = self.rows.colour_at(y, x);
+        let mut keys = [0u64; MAX_TAPS];
+        let mut n = 0;
+        for (i, yy) in ys.clone().enumerate().take(SPAN) {
+            let mut bits = side.lanes[i];
+            if bits == 0 {
+                continue;
+            }
+            let Some(lanes) = self.rows.lanes(yy, x, r) else {
+                continue;
+            };
+            let votes = votes(&lanes, &dxs, y as f32 - yy as f32);
+            let d2 = distances(&lanes, &centre);
+            while bits != 0 {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let w = self.weights.get(d2.get(k).copied().unwrap_or(u32::MAX));
+                if let (true, Some(&vote), Some(slot)) = (w > 0, votes.get(k), keys.get_mut(n)) {
+                    *slot = key(vote, w);
+                    n += 1;
+                }
+            }
+        }
+        let m = match weighted_median_of_keys(&mut keys[..n], side.target) {
+            Some(m) if m != 0.0 && side.target > 0 => m,
+            _ => return self.select(x, y, own),
+        };
+        if (m - own).abs() > self.params.snap {
+            m
+        } else {
+            own
+        }
+    }
+
+    /// The value of the pixel `(x, y)` of finite value `own`: the weighted median of its
+    /// window's votes when that differs from `own` by more than `snap`, else `own`
+    /// (every vote weighed and selected, as the stage was first written).
+    fn select(&self, x: usize, y: usize, own: f32) -> f32 {
+        let p = &self.params;
+        let (ys, xs) = self.rows_and_columns(x, y);
+        let centre = self.colour(x, y);
+        let mut values = [0.0f32; MAX_TAPS];
+        let mut taps = [0u32; MAX_TAPS];
+        let mut n = 0;
+        let (mut total, mut below, mut above) = (0u64, 0u64, 0u64);
+        for yy in ys {
+            let start = yy * self.width;
+            let Some(row) = self.input.get(start..start + self.width) else {
+                continue;
+            };
+            let colours = self.guide.row(yy).unwrap_or(&[]);
+            for xx in xs.clone() {
+                let Some(&v) = row.get(xx) else {
+                    continue;
+                };
+                let Some(w) = self.weight(colours, xx, &centre) else {
+                    continue;
+                };
+                if !v.is_finite() || w == 0 || n >= MAX_TAPS {
+                    continue;
+                }
+                let v = if p.planar {
+                    let (gx, gy) = self.rows.slope_at(yy, xx);
+                    v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
+                } else {
+                    v
+                };
+                values[n] = v;
+                taps[n] = w;
+                total += u64::from(w);
+                if v < own - p.snap {
+                    below += u64::from(w);
+                } else if v > own + p.snap {
+                    above += u64::from(w);
+                }
+                n += 1;
+            }
+        }
+        // The median lies within `snap` of the pixel's value (which then stays) unless
+        // the weight beyond `own ± snap` on one side reaches half.
+        let half = total.div_ceil(2);
+        if n > 0 && (below >= half || total - above < half) {
+            let m = weighted_median(&mut values[..n], &mut taps[..n], half);
+            if (m - own).abs() > p.snap {
+                return m;
+            }
+        }
+        own
+    }
+}
+
+/// Bit masks of a window row's votes below `lo`, above `hi`, and of its finite values
+/// (votes from non-finite values are in neither of the first two). Fixed-size lanes:
+/// vector compares and mask extraction.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index over six fixed-size arrays vectorises
+fn classify(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32, lo: f32, hi: f32) -> (u32, u32, u32) {
+    let (mut below, mut above, mut finite) = (0u32, 0u32, 0u32);
+    for k in 0..LANES {
+        let v = lanes.values[k];
+        // The same expression as the selection's, so the classes agree bit for bit.
+        let vote = v + lanes.gx[k] * dxs[k] + lanes.gy[k] * dy;
+        let ok = v.abs() < f32::INFINITY;
+        finite |= u32::from(ok) << k;
+        below |= u32::from(ok & (vote < lo)) << k;
+        above |= u32::from(ok & (vote > hi)) << k;
+    }
+    (below, above, finite)
+}
+
+/// The votes of a window row's lanes: the same expression as the selection's.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index over fixed-size arrays vectorises
+fn votes(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32) -> [f32; LANES] {
+    let mut votes = [0.0f32; LANES];
+    for k in 0..LANES {
+        votes[k] = lanes.values[k] + lanes.gx[k] * dxs[k] + lanes.gy[k] * dy;
+    }
+    votes
+}
+
+/// Squared colour distances of a window row's lanes to the colour `centre`, equal to the
+/// integer sum of squared level differences: in `f32` the levels, their differences,
+/// squares and sum (at most 3 · 255²) are whole numbers below 2²³, so every step is
+/// exact, and adding 2²³ puts the sum in the low mantissa bits (no float-to-integer
+/// conversion, whose saturation costs compares in every lane).
+#[inline(always)]
+fn distances(lanes: &Lanes<'_>, centre: &[f32; 3]) -> [u32; LANES] {
+    const TWO_23: f32 = 8_388_608.0;
+    let mut d2 = [0u32; LANES];
+    let [c0, c1, c2] = lanes.colours;
+    for k in 0..LANES {
+        let (a, b, c) = (c0[k] - centre[0], c1[k] - centre[1], c2[k] - centre[2]);
+        d2[k] = (a * a + b * b + c * c + TWO_23).to_bits() & 0x007F_FFFF;
+    }
+    d2
+}

@@ -1,0 +1,201 @@
+//! The rows of the current window, padded for fixed-width reads: each row's disparities,
+//! its local slopes for planar votes, and the guide's 8-bit colour levels.
+//!
+//! A pixel's window row is read as [`LANES`] consecutive values starting `radius` left
+//! of the pixel, whatever the pixel's column: the padding left and right of the image
+//! holds NaN disparities (no vote) and zero slopes, so the votes of a window row are
+//! one fixed-size computation the compiler turns into vector instructions.
+
+use crate::lightfield::{Sample, View};
+
+/// Rows kept: one per window row.
+pub(super) const RING_ROWS: usize = 2 * super::MAX_RADIUS + 1;
+/// Values read per window row (the widest window, rounded up to a vector multiple).
+pub(super) const LANES: usize = 16;
+/// Padding left of column 0.
+const PAD_LEFT: usize = super::MAX_RADIUS;
+/// Padding right of the last column: a read of [`LANES`] values starting at column
+/// `width − 1 − radius` (radius ≥ 1) ends `LANES − 2` columns beyond the last.
+const PAD_RIGHT: usize = LANES - 1;
+
+/// Elements of one padded row.
+pub(super) fn stride(width: usize) -> usize {
+    width.saturating_add(PAD_LEFT + PAD_RIGHT)
+}
+
+/// Planes per row: values, x and y slopes, three colour channels.
+const PLANES: usize = 6;
+
+/// `f32` elements a ring for rows of `width` needs.
+pub(super) fn ring_len(width: usize) -> usize {
+    stride(width).saturating_mul(PLANES * RING_ROWS)
+}
+
+/// Values, x slopes, y slopes and the guide's colour levels (each plane [`stride`]
+/// long) of image row `yy` in slot `yy % RING_ROWS`, filled when the row first enters a
+/// window: each row once per call. Levels are whole numbers in `f32`, so squared colour
+/// distances computed from them are exact.
+pub(super) struct RowRing<'a> {
+    rows: &'a mut [f32],
+    slot_row: [usize; RING_ROWS],
+    width: usize,
+    stride: usize,
+}
+
+/// One window row of a pixel: [`LANES`] values and slopes from `radius` left of it.
+pub(super) struct Lanes<'a> {
+    pub(super) values: &'a [f32; LANES],
+    pub(super) gx: &'a [f32; LANES],
+    pub(super) gy: &'a [f32; LANES],
+    pub(super) colours: [&'a [f32; LANES]; 3],
+}
+
+impl<'a> RowRing<'a> {
+    /// `rows` needs [`ring_len`] elements.
+    pub(super) fn new(rows: &'a mut [f32], width: usize) -> Self {
+        RowRing {
+            rows,
+            slot_row: [usize::MAX; RING_ROWS],
+            width,
+            stride: stride(width),
+        }
+    }
+
+    /// Makes sure image row `yy` is in the ring; with `planar` its slopes (steps above
+    /// `gate` left out), else zero slopes. Channels of the guide beyond the third are
+    /// ignored, missing ones are zero.
+    pub(super) fn load<S: Sample>(
+        &mut self,
+        map: &[f32],
+        guide: &View<'_, S>,
+        yy: usize,
+        gate: f32,
+        planar: bool,
+    ) {
+        let slot = yy % RING_ROWS;
+        if self.slot_row[slot] == yy {
+            return;
+        }
+        let (width, stride, height) = (self.width, self.stride, guide.height());
+        let Some(rows) = self
+            .rows
+            .get_mut(PLANES * slot * stride..PLANES * (slot + 1) * stride)
+        else {
+            return;
+        };
+        let (values, rest) = rows.split_at_mut(stride);
+        let (sx, rest) = rest.split_at_mut(stride);
+        let (sy, colours) = rest.split_at_mut(stride);
+        let channels = guide.channels();
+        let samples = guide.row(yy).unwrap_or(&[]);
+        for (c, plane) in colours.chunks_exact_mut(stride).enumerate() {
+            plane.fill(0.0);
+            if c >= channels {
+                continue;
+            }
+            for (level, pixel) in plane[PAD_LEFT..PAD_LEFT + width]
+                .iter_mut()
+                .zip(samples.chunks_exact(channels))
+            {
+                *level = pixel.get(c).map_or(0.0, |s| f32::from(s.level()));
+            }
+        }
+        let Some(row) = map.get(yy * width..(yy + 1) * width) else {
+            return;
+        };
+        values[..PAD_LEFT].fill(f32::NAN);
+        values[PAD_LEFT..PAD_LEFT + width].copy_from_slice(row);
+        values[PAD_LEFT + width..].fill(f32::NAN);
+        sx.fill(0.0);
+        sy.fill(0.0);
+        if planar {
+            let columns = PAD_LEFT..PAD_LEFT + width;
+            for (xx, (gx, gy)) in sx[columns.clone()]
+                .iter_mut()
+                .zip(&mut sy[columns])
+                .enumerate()
+            {
+                (*gx, *gy) = slope(map, width, height, xx, yy, gate);
+            }
+        }
+        self.slot_row[slot] = yy;
+    }
+
+    /// Window row `yy` (which must be loaded) of the pixel in column `x`, from column
+    /// `x − radius` on.
+    #[inline(always)]
+    pub(super) fn lanes(&self, yy: usize, x: usize, radius: usize) -> Option<Lanes<'_>> {
+        let start = PLANES * (yy % RING_ROWS) * self.stride + (x + PAD_LEFT).checked_sub(radius)?;
+        let read = |offset: usize| -> Option<&[f32; LANES]> {
+            self.rows
+                .get(start + offset..start + offset + LANES)?
+                .try_into()
+                .ok()
+        };
+        Some(Lanes {
+            values: read(0)?,
+            gx: read(self.stride)?,
+            gy: read(2 * self.stride)?,
+            colours: [
+                read(3 * self.stride)?,
+                read(4 * self.stride)?,
+                read(5 * self.stride)?,
+            ],
+        })
+    }
+
+    /// The x and y slope at column `xx` of image row `yy` (which must be loaded).
+    #[inline(always)]
+    pub(super) fn slope_at(&self, yy: usize, xx: usize) -> (f32, f32) {
+        let at = PLANES * (yy % RING_ROWS) * self.stride + PAD_LEFT + xx;
+        let get = |i: usize| self.rows.get(i).copied().unwrap_or(0.0);
+        (get(at + self.stride), get(at + 2 * self.stride))
+    }
+
+    /// The colour levels at column `xx` of image row `yy` (which must be loaded).
+    #[inline(always)]
+    pub(super) fn colour_at(&self, yy: usize, xx: usize) -> [f32; 3] {
+        let at = PLANES * (yy % RING_ROWS) * self.stride + PAD_LEFT + xx;
+        let get = |i: usize| self.rows.get(i).copied().unwrap_or(0.0);
+        [
+            get(at + 3 * self.stride),
+            get(at + 4 * self.stride),
+            get(at + 5 * self.stride),
+        ]
+    }
+}
+
+/// The map's slope at `(x, y)` by central differences; a side whose step exceeds `gate`
+/// (a depth edge) is left out, and a slope with both sides out is zero.
+#[inline(always)]
+pub(super) fn slope(
+    map: &[f32],
+    width: usize,
+    height: usize,
+    x: usize,
+    y: usize,
+    gate: f32,
+) -> (f32, f32) {
+    let at = |xx: usize, yy: usize| map.get(yy * width + xx).copied().unwrap_or(f32::NAN);
+    let v = at(x, y);
+    let diff = |prev: Option<f32>, next: Option<f32>| -> f32 {
+        let ok = |d: f32| d.is_finite() && d.abs() <= gate.max(1e-6);
+        let back = prev.map(|p| v - p).filter(|&d| ok(d));
+        let fwd = next.map(|n| n - v).filter(|&d| ok(d));
+        match (back, fwd) {
+            (Some(b), Some(f)) => 0.5 * (b + f),
+            (Some(b), None) => b,
+            (None, Some(f)) => f,
+            (None, None) => 0.0,
+        }
+    };
+    let gx = diff(
+        x.checked_sub(1).map(|xx| at(xx, y)),
+        (x + 1 < width).then(|| at(x + 1, y)),
+    );
+    let gy = diff(
+        y.checked_sub(1).map(|yy| at(x, yy)),
+        (y + 1 < height).then(|| at(x, y + 1)),
+    );
+    (gx, gy)
+}

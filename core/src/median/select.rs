@@ -1,0 +1,145 @@
+//! Weighted selection: the smallest value whose weight of values at or below it reaches
+//! half the total.
+
+/// The smallest value `v` whose weight of values `≤ v` reaches `half` (weighted
+/// quickselect with three-way partitions; `values` and `weights` are reordered).
+/// `half` must be at most the total weight and the slices non-empty and equally long.
+pub(super) fn weighted_median(values: &mut [f32], weights: &mut [u32], half: u64) -> f32 {
+    let (mut lo, mut hi) = (0usize, values.len().min(weights.len()));
+    let mut below = 0u64;
+    while hi > lo {
+        let slice = lo..hi;
+        let pivot = median_of_three(
+            values[slice.start],
+            values[slice.start + slice.len() / 2],
+            values[slice.end - 1],
+        );
+        // Dutch-flag partition of [lo, hi): < pivot | == pivot | > pivot.
+        let (mut lt, mut i, mut gt) = (lo, lo, hi);
+        while i < gt {
+            let v = values[i];
+            if v < pivot {
+                values.swap(i, lt);
+                weights.swap(i, lt);
+                lt += 1;
+                i += 1;
+            } else if v > pivot {
+                gt -= 1;
+                values.swap(i, gt);
+                weights.swap(i, gt);
+            } else {
+                i += 1;
+            }
+        }
+        let w_less: u64 = weights[lo..lt].iter().map(|&w| u64::from(w)).sum();
+        let w_equal: u64 = weights[lt..gt].iter().map(|&w| u64::from(w)).sum();
+        if below + w_less >= half {
+            hi = lt;
+        } else if below + w_less + w_equal >= half {
+            return pivot;
+        } else {
+            below += w_less + w_equal;
+            lo = gt;
+        }
+    }
+    // Only reached when `half` exceeds the total weight: the largest value.
+    values.iter().copied().fold(f32::MIN, f32::max)
+}
+
+/// A finite value and its weight as one sort key: the value's bits mapped so that
+/// integer order is the value order (−0 just below +0), the weight below them.
+#[inline(always)]
+pub(super) fn key(value: f32, weight: u32) -> u64 {
+    let bits = value.to_bits();
+    let ordered = if bits >> 31 == 1 {
+        !bits
+    } else {
+        bits | 0x8000_0000
+    };
+    (u64::from(ordered) << 32) | u64::from(weight)
+}
+
+/// The value of [`key`].
+#[inline(always)]
+fn value_of(key: u64) -> f32 {
+    let ordered = (key >> 32) as u32;
+    f32::from_bits(if ordered >> 31 == 1 {
+        ordered & 0x7FFF_FFFF
+    } else {
+        !ordered
+    })
+}
+
+/// [`weighted_median`] of the finite values in `keys` (made by [`key`]; sorted here):
+/// the smallest value whose weight of values `≤` it reaches `target`, `None` when the
+/// total falls short. For the few dozen votes of one side of a window, sorting and one
+/// scan beat the partitions.
+pub(super) fn weighted_median_of_keys(keys: &mut [u64], target: u64) -> Option<f32> {
+    keys.sort_unstable();
+    let mut sum = 0u64;
+    for &k in keys.iter() {
+        sum += k & 0xFFFF_FFFF;
+        if sum >= target {
+            return Some(value_of(k));
+        }
+    }
+    None
+}
+
+#[inline(always)]
+fn median_of_three(a: f32, b: f32, c: f32) -> f32 {
+    a.max(b).min(a.min(b).max(c))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn brute(values: &[f32], weights: &[u32]) -> f32 {
+        let mut pairs: [(f32, u32); 64] = [(0.0, 0); 64];
+        let n = values.len();
+        for i in 0..n {
+            pairs[i] = (values[i], weights[i]);
+        }
+        pairs[..n].sort_by(|a, b| a.0.total_cmp(&b.0));
+        let total: u64 = weights.iter().map(|&w| u64::from(w)).sum();
+        let half = total.div_ceil(2);
+        let mut acc = 0u64;
+        for (v, w) in &pairs[..n] {
+            acc += u64::from(*w);
+            if acc >= half {
+                return *v;
+            }
+        }
+        unreachable!()
+    }
+
+    #[test]
+    fn weighted_median_matches_sorting() {
+        let mut state = 12345u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            state >> 8
+        };
+        for trial in 0..500 {
+            let n = 1 + trial % 40;
+            let mut v = [0.0f32; 64];
+            let mut w = [0u32; 64];
+            for i in 0..n {
+                // Few distinct values, so ties are common.
+                v[i] = (next() % 7) as f32 * 0.25 - 0.5 + [0.0, 1e-30, -3e5][trial % 3];
+                w[i] = 1 + next() % 1000;
+            }
+            let expected = brute(&v[..n], &w[..n]);
+            let total: u64 = w[..n].iter().map(|&x| u64::from(x)).sum();
+            let mut keys = [0u64; 64];
+            for i in 0..n {
+                keys[i] = key(v[i], w[i]);
+            }
+            let sorted = weighted_median_of_keys(&mut keys[..n], total.div_ceil(2));
+            let got = weighted_median(&mut v[..n], &mut w[..n], total.div_ceil(2));
+            assert_eq!(got, expected, "trial {trial}");
+            assert_eq!(sorted, Some(expected), "trial {trial}, by sorting keys");
+        }
+    }
+}
