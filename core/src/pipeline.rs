@@ -61,7 +61,46 @@ pub fn map_scratch_len(plan: &Plan) -> usize {
     plan.pixels()
         .saturating_mul(2)
         .saturating_add(tv::dual_len(plan))
+        .saturating_add(median_map_len(plan))
         .saturating_add(median::scratch_len(plan))
+}
+
+/// The weighted median's copy of the map two passes back (see
+/// [`median::filter_rows_again`]), or nothing when the median is off.
+fn median_map_len(plan: &Plan) -> usize {
+    if plan.params().median.enabled {
+        plan.pixels()
+    } else {
+        0
+    }
+}
+
+/// Every pass of the weighted median: `input` holds the map and receives the result, as
+/// does `output`; `previous` keeps each pass's input for the next, which then filters
+/// only near the pixels that moved (the same bits as a full pass).
+fn median_passes<S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    input: &mut [f32],
+    output: &mut [f32],
+    previous: &mut [f32],
+    scratch: &mut [f32],
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<()> {
+    let passes = plan.params().median.passes;
+    let guide = lf.center_view();
+    let rows = 0..plan.layout().height;
+    for pass in 0..passes {
+        report(progress, median::STAGE, pass, passes)?;
+        if pass == 0 {
+            median::filter(plan, &guide, input, output, scratch)?;
+        } else {
+            median::filter_rows_again(plan, &guide, input, previous, rows.clone(), output, scratch)?;
+        }
+        previous.copy_from_slice(input);
+        input.copy_from_slice(output);
+    }
+    report(progress, median::STAGE, passes, passes)
 }
 
 fn report(
@@ -167,7 +206,8 @@ pub fn regularize<T: Scalar, S: Sample>(
     }
     let (mid_d, rest) = maps.split_at_mut(pixels);
     let (mid_c, rest) = rest.split_at_mut(pixels);
-    let (duals, median_scratch) = rest.split_at_mut(tv::dual_len(plan));
+    let (duals, rest) = rest.split_at_mut(tv::dual_len(plan));
+    let (median_previous, median_scratch) = rest.split_at_mut(median_map_len(plan));
     if plan.params().refine.enabled {
         refine::refine_with_progress(plan, lf, range, disparity, mid_d, mid_c, scratch, progress)?;
     } else {
@@ -177,13 +217,7 @@ pub fn regularize<T: Scalar, S: Sample>(
     confidence.copy_from_slice(mid_c);
     let median = plan.params().median;
     if median.enabled && median.before_tv {
-        // Passes ping-pong through `disparity`, which TV overwrites next.
-        for pass in 0..median.passes {
-            report(progress, median::STAGE, pass, median.passes)?;
-            median::filter(plan, &lf.center_view(), mid_d, disparity, median_scratch)?;
-            mid_d.copy_from_slice(disparity);
-        }
-        report(progress, median::STAGE, median.passes, median.passes)?;
+        median_passes(plan, lf, mid_d, disparity, median_previous, median_scratch, progress)?;
     }
 
     let layout = plan.layout();
@@ -229,12 +263,8 @@ pub fn regularize<T: Scalar, S: Sample>(
     tv::normalise_history(plan, history);
     report(progress, tv::STAGE, solves, solves)?;
     if median.enabled && !median.before_tv {
-        for pass in 0..median.passes {
-            report(progress, median::STAGE, pass, median.passes)?;
-            mid_d.copy_from_slice(disparity);
-            median::filter(plan, &lf.center_view(), mid_d, disparity, median_scratch)?;
-        }
-        report(progress, median::STAGE, median.passes, median.passes)?;
+        mid_d.copy_from_slice(disparity);
+        median_passes(plan, lf, mid_d, disparity, median_previous, median_scratch, progress)?;
     }
     Ok(())
 }
