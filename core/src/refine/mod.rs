@@ -362,27 +362,39 @@ pub fn refine_band<T: Scalar, S: Sample>(
     let wide_limit = T::MAX * T::from_f32(libm::ldexpf(1.0, -WIDE_LIMIT_SHIFT));
     let data = lf.data();
     let k = Constants::<T>::new(&p, plan.layout().channels.min(3), range);
+    // Region rows (relative to `first`) within `reach` rows of the band.
+    let near = |reach: usize| -> Range<usize> {
+        let lo = rows.start.saturating_sub(reach).max(first) - first;
+        let hi = (rows.end + reach).min(last) - first;
+        lo..hi
+    };
     // Propagation: each pixel tries the disparities of its four neighbours at each
     // jump and keeps the one the views agree on best (robust cost of the pixel alone),
     // which pulls wrong regions to their surroundings' disparity.
     // `stats[i · STATS]` caches the cost of pixel i at its current disparity: it is
     // read and written only for pixel i, so the order of pixels does not matter.
-    let cost = |x: usize, y: usize, d: T| -> T {
-        let mut s = [T::ZERO; STATS];
-        views.pixel(data, x, first + y, d, k.robust, &mut s);
-        (0..GROUPS).fold(T::ZERO, |sum, g| sum + s[3 * g + 2])
+    // A round only visits the rows that the later rounds and the iterations can still
+    // carry to the band (it reads its neighbours up to `jump` rows further, which the
+    // round before visited): the rows outside would not change the result.
+    let cost = |x: usize, y: usize, d: T| -> T { views.cost(data, x, first + y, d, k.robust) };
+    let jumps = jumps(plan);
+    let reach_after = |round: usize| -> usize {
+        p.iterations * r
+            + jumps
+                .get(round + 1..)
+                .map_or(0, |j| j.iter().sum::<usize>())
     };
-    if !jumps(plan).is_empty() {
-        for y in 0..region {
+    if !jumps.is_empty() {
+        for y in near(reach_after(0)) {
             for x in 0..width {
                 let i = y * width + x;
                 stats[i * STATS] = cost(x, y, current[i]);
             }
         }
     }
-    for &jump in jumps(plan) {
+    for (round, &jump) in jumps.iter().enumerate() {
         previous.copy_from_slice(current);
-        for y in 0..region {
+        for y in near(reach_after(round)) {
             for x in 0..width {
                 let i = y * width + x;
                 let own = previous[i];
@@ -394,11 +406,17 @@ pub fn refine_band<T: Scalar, S: Sample>(
                     y.checked_sub(jump).map(|yy| yy * width + x),
                     (y + jump < region).then(|| (y + jump) * width + x),
                 ];
-                for j in candidates.into_iter().flatten() {
-                    let d = previous[j];
-                    if (d - own).abs() <= k.gate {
+                // Disparities already tried this round: trying one again gives the same
+                // cost, which cannot pass the bar a second time.
+                let mut tried = [own; 4];
+                for (n, j) in candidates.into_iter().enumerate() {
+                    let Some(d) = j.map(|j| previous[j]) else {
+                        continue;
+                    };
+                    if (d - own).abs() <= k.gate || tried[..n].contains(&d) {
                         continue;
                     }
+                    tried[n] = d;
                     let c = cost(x, y, d);
                     if c < bar {
                         bar = c;
@@ -410,12 +428,6 @@ pub fn refine_band<T: Scalar, S: Sample>(
             }
         }
     }
-    // Region rows (relative to `first`) within `reach` rows of the band.
-    let near = |reach: usize| -> Range<usize> {
-        let lo = rows.start.saturating_sub(reach).max(first) - first;
-        let hi = (rows.end + reach).min(last) - first;
-        lo..hi
-    };
     for iteration in 0..p.iterations {
         // Rows whose statistics the remaining iterations can still reach the band from.
         let measured = near((p.iterations - iteration) * r);

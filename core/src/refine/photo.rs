@@ -54,31 +54,72 @@ pub(crate) struct Views<T> {
     /// Views per group times channels: the number of terms of each group per pixel.
     pub terms: [f32; GROUPS],
     centre: usize,
-    width: usize,
-    height: usize,
     channels: usize,
     used: usize,
     row_stride: usize,
-    /// Largest sample position along x and y, and the last bilinear cell's origin.
+    /// Largest sample position along x and y.
     x_max: T,
     y_max: T,
+    /// The last bilinear cell's origin along x and y, as an index and in `T`.
+    x_last: usize,
+    y_last: usize,
     x_cell: T,
     y_cell: T,
-    /// `INTENSITY_SCALE / 255`: an 8-bit sample's scaled intensity per level.
-    unit: T,
+    /// The scaled intensity of each 8-bit level: `level · INTENSITY_SCALE / 255`,
+    /// computed in `T` as `T::from_i32(level) · unit` (a table lookup costs less than
+    /// the conversion and the product, with the same bits).
+    levels: [T; 256],
 }
 
-/// The scaled intensity of a sample in `T`. 8-bit samples take one integer conversion
-/// and one multiplication in `T`, so fixed point does no `f32` arithmetic in the
-/// sampling loop; `f32` samples cross the `f32 → T` boundary here. (For `T = f32` both
-/// equal `to_unit() · INTENSITY_SCALE` bit for bit.)
+/// The scaled intensity of a sample in `T`. 8-bit samples read the table of levels, so
+/// fixed point does no `f32` arithmetic in the sampling loop; `f32` samples cross the
+/// `f32 → T` boundary here. (For `T = f32` both equal `to_unit() · INTENSITY_SCALE` bit
+/// for bit.)
 #[inline(always)]
-fn texel<T: Scalar, S: Sample>(sample: S, unit: T) -> T {
+fn texel<T: Scalar, S: Sample>(sample: S, levels: &[T; 256]) -> T {
     // Resolved at compile time for each sample type.
     match (&sample as &dyn Any).downcast_ref::<u8>() {
-        Some(&level) => T::from_i32(i32::from(level)) * unit,
+        Some(&level) => levels[usize::from(level)],
         None => T::from_f32(sample.to_unit() * INTENSITY_SCALE),
     }
+}
+
+/// `(⌊p⌋, p − ⌊p⌋)` of a position `p ≥ 0` inside the image. For `f32` the truncating
+/// conversion is the floor of a non-negative value (and the fraction is exact below
+/// 2^24), without the out-of-line `floorf`; fixed point splits its bits.
+#[inline(always)]
+fn split<T: Scalar>(p: T) -> (usize, T) {
+    // Resolved at compile time for each scalar type.
+    match (&p as &dyn Any).downcast_ref::<f32>() {
+        Some(&v) => {
+            // `as` saturates (and maps NaN to 0); positions are below the image size.
+            let whole = v as u32;
+            (whole as usize, T::from_f32(v - whole as f32))
+        }
+        None => {
+            let (whole, fraction) = p.floor_fract();
+            (whole.max(0) as usize, fraction)
+        }
+    }
+}
+
+/// The bilinear cell (origin, fraction) of position `p` in `[0, last + 1]`, `last` the
+/// last cell's origin (`last_t` in `T`).
+#[inline(always)]
+fn cell<T: Scalar>(p: T, last: usize, last_t: T) -> (usize, T) {
+    let (whole, fraction) = split(p);
+    if whole > last {
+        // The last row or column itself: the last cell at fraction 1.
+        (last, p - last_t)
+    } else {
+        (whole, fraction)
+    }
+}
+
+/// `N` consecutive samples from `at` (`None` past the end of the data).
+#[inline(always)]
+fn samples<S: Sample, const N: usize>(data: &[S], at: usize) -> Option<&[S; N]> {
+    data.get(at..at.checked_add(N)?)?.try_into().ok()
 }
 
 impl<T: Scalar> Views<T> {
@@ -88,21 +129,28 @@ impl<T: Scalar> Views<T> {
         let (r0, c0) = grid.center();
         let used = layout.channels.min(3);
         let coordinate = |v: usize| T::from_i32(i32::try_from(v).unwrap_or(i32::MAX));
+        let unit = T::from_f32(INTENSITY_SCALE / 255.0);
+        let mut levels = [T::ZERO; 256];
+        for (level, l) in (0i32..).zip(levels.iter_mut()) {
+            *l = T::from_i32(level) * unit;
+        }
+        let x_last = layout.width.saturating_sub(2);
+        let y_last = layout.height.saturating_sub(2);
         let mut views = Views {
             taps: [Tap::default(); MAX_VIEWS],
             len: 0,
             terms: [0.0; GROUPS],
             centre: grid.index(r0, c0) * layout.view_stride,
-            width: layout.width,
-            height: layout.height,
             channels: layout.channels,
             used,
             row_stride: layout.row_stride,
-            x_max: coordinate(layout.width - 1),
-            y_max: coordinate(layout.height - 1),
-            x_cell: coordinate(layout.width - 2),
-            y_cell: coordinate(layout.height - 2),
-            unit: T::from_f32(INTENSITY_SCALE / 255.0),
+            x_max: coordinate(layout.width.saturating_sub(1)),
+            y_max: coordinate(layout.height.saturating_sub(1)),
+            x_last,
+            y_last,
+            x_cell: coordinate(x_last),
+            y_cell: coordinate(y_last),
+            levels,
         };
         for r in 0..grid.rows {
             for c in 0..grid.cols {
@@ -151,35 +199,81 @@ impl<T: Scalar> Views<T> {
         robust: T,
         out: &mut [T; STATS],
     ) {
-        *out = [T::ZERO; STATS];
-        let ch = self.channels;
-        let base = self.centre + y * self.row_stride + x * ch;
-        let mut centre = [T::ZERO; 3];
-        for (c, v) in centre.iter_mut().enumerate().take(self.used) {
-            *v = texel(data[base + c], self.unit);
+        // The layout has 1, 3 or 4 channels: one or three are used.
+        if self.used == 1 {
+            self.pixel_channels::<S, 1>(data, x, y, d, robust, out)
+        } else {
+            self.pixel_channels::<S, 3>(data, x, y, d, robust, out)
         }
+    }
+
+    /// The robust photometric cost of pixel `(x, y)` at disparity `d`: the sum over the
+    /// groups of their weighted residual energy `E`, the same value as summing the `E`
+    /// of [`Views::pixel`]'s groups, at a third of the sampling (the derivative's
+    /// samples are not needed).
+    #[inline]
+    pub(crate) fn cost<S: Sample>(&self, data: &[S], x: usize, y: usize, d: T, robust: T) -> T {
+        if self.used == 1 {
+            self.cost_channels::<S, 1>(data, x, y, d, robust)
+        } else {
+            self.cost_channels::<S, 3>(data, x, y, d, robust)
+        }
+    }
+
+    /// The centre view's samples of pixel `(x, y)` and its coordinates in `T`.
+    #[inline(always)]
+    fn centre<S: Sample, const N: usize>(
+        &self,
+        data: &[S],
+        x: usize,
+        y: usize,
+    ) -> Option<([T; N], T, T)> {
+        let base = self.centre + y * self.row_stride + x * self.channels;
+        let centre = samples::<S, N>(data, base)?.map(|s| texel(s, &self.levels));
         // `refine_band` checked that every coordinate converts without saturating.
-        let (xf, yf) = (T::from_i32(x as i32), T::from_i32(y as i32));
+        Some((centre, T::from_i32(x as i32), T::from_i32(y as i32)))
+    }
+
+    /// Whether the samples of `tap` at `d ± h` (the derivative's) lie inside the image:
+    /// both the statistics and the cost skip the views where they do not.
+    #[inline(always)]
+    fn sees(&self, tap: &Tap<T>, xf: T, yf: T, d: T) -> bool {
+        let (dp, dm) = (d + tap.h, d - tap.h);
+        let (xp, yp) = (xf - dp * tap.du, yf - dp * tap.dv);
+        let (xm, ym) = (xf - dm * tap.du, yf - dm * tap.dv);
+        let inside =
+            |px: T, py: T| px >= T::ZERO && px <= self.x_max && py >= T::ZERO && py <= self.y_max;
+        inside(xp, yp) && inside(xm, ym)
+    }
+
+    fn pixel_channels<S: Sample, const N: usize>(
+        &self,
+        data: &[S],
+        x: usize,
+        y: usize,
+        d: T,
+        robust: T,
+        out: &mut [T; STATS],
+    ) {
+        *out = [T::ZERO; STATS];
+        let Some((centre, xf, yf)) = self.centre::<S, N>(data, x, y) else {
+            return;
+        };
         for tap in &self.taps[..self.len] {
-            // Sample positions at d + h and d − h.
-            let (dp, dm) = (d + tap.h, d - tap.h);
-            let (xp, yp) = (xf - dp * tap.du, yf - dp * tap.dv);
-            let (xm, ym) = (xf - dm * tap.du, yf - dm * tap.dv);
-            let inside = |px: T, py: T| {
-                px >= T::ZERO && px <= self.x_max && py >= T::ZERO && py <= self.y_max
-            };
-            if !(inside(xp, yp) && inside(xm, ym)) {
+            if !self.sees(tap, xf, yf, d) {
                 continue;
             }
-            let mut plus = [T::ZERO; 3];
-            let mut minus = [T::ZERO; 3];
-            let mut at = [T::ZERO; 3];
-            self.bilinear(data, tap, (x, y), (xp, yp), &mut plus);
-            self.bilinear(data, tap, (x, y), (xm, ym), &mut minus);
-            let (xa, ya) = (xf - d * tap.du, yf - d * tap.dv);
-            self.bilinear(data, tap, (x, y), (xa, ya), &mut at);
+            let (dp, dm) = (d + tap.h, d - tap.h);
+            let plus =
+                self.bilinear::<S, N>(data, tap, (x, y), (xf - dp * tap.du, yf - dp * tap.dv));
+            let minus =
+                self.bilinear::<S, N>(data, tap, (x, y), (xf - dm * tap.du, yf - dm * tap.dv));
+            let at = self.bilinear::<S, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv));
+            let (Some(plus), Some(minus), Some(at)) = (plus, minus, at) else {
+                continue;
+            };
             let (mut a, mut b, mut e) = (T::ZERO, T::ZERO, T::ZERO);
-            for c in 0..self.used {
+            for c in 0..N {
                 let g = (plus[c] - minus[c]) * tap.inv;
                 let r = at[c] - centre[c];
                 a += g * g;
@@ -201,63 +295,97 @@ impl<T: Scalar> Views<T> {
         }
     }
 
-    /// The bilinear cell (origin, fraction) of position `p` in `[0, last + 1]`, `last`
-    /// the last cell's origin (`last_t` in `T`).
-    #[inline(always)]
-    fn cell(p: T, last: usize, last_t: T) -> (usize, T) {
-        let (whole, fraction) = p.floor_fract();
-        let whole = whole.max(0) as usize;
-        if whole > last {
-            // The last row or column itself: the last cell at fraction 1.
-            (last, p - last_t)
-        } else {
-            (whole, fraction)
+    fn cost_channels<S: Sample, const N: usize>(
+        &self,
+        data: &[S],
+        x: usize,
+        y: usize,
+        d: T,
+        robust: T,
+    ) -> T {
+        let Some((centre, xf, yf)) = self.centre::<S, N>(data, x, y) else {
+            return T::ZERO;
+        };
+        // Per group, in the order `pixel` sums them, so that the cost has its bits.
+        let mut energy = [T::ZERO; GROUPS];
+        for tap in &self.taps[..self.len] {
+            if !self.sees(tap, xf, yf, d) {
+                continue;
+            }
+            let Some(at) =
+                self.bilinear::<S, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv))
+            else {
+                continue;
+            };
+            let mut e = T::ZERO;
+            for c in 0..N {
+                let r = at[c] - centre[c];
+                e += r * r;
+            }
+            let e = robust / (robust + e) * e;
+            for (k, sum) in energy.iter_mut().enumerate() {
+                if tap.groups & (1 << k) != 0 {
+                    *sum += e;
+                }
+            }
         }
+        energy.iter().fold(T::ZERO, |sum, &e| sum + e)
     }
 
-    /// Bilinear sample of every used channel at `(px, py)`, inside the image, for the
-    /// centre-view pixel `pixel`.
+    /// Bilinear sample of the `N` used channels at `(px, py)`, inside the image, for the
+    /// centre-view pixel `pixel` (`None` only for a layout the samples do not fill).
     #[inline(always)]
-    fn bilinear<S: Sample>(
+    fn bilinear<S: Sample, const N: usize>(
         &self,
         data: &[S],
         tap: &Tap<T>,
         pixel: (usize, usize),
         (px, py): (T, T),
-        out: &mut [T; 3],
-    ) {
+    ) -> Option<[T; N]> {
         let ch = self.channels;
-        let unit = self.unit;
+        let levels = &self.levels;
+        let mut out = [T::ZERO; N];
         if tap.in_row {
             // Horizontal neighbours: the row is exact, one lerp.
-            let (x0, ax) = Self::cell(px, self.width - 2, self.x_cell);
+            let (x0, ax) = cell(px, self.x_last, self.x_cell);
             let i0 = tap.start + pixel.1 * self.row_stride + x0 * ch;
-            for (c, o) in out.iter_mut().enumerate().take(self.used) {
-                let (s0, s1) = (texel(data[i0 + c], unit), texel(data[i0 + ch + c], unit));
-                *o = s0 + ax * (s1 - s0);
+            let (s0, s1) = (samples::<S, N>(data, i0)?, samples::<S, N>(data, i0 + ch)?);
+            for c in 0..N {
+                let (s0, s1) = (texel(s0[c], levels), texel(s1[c], levels));
+                out[c] = s0 + ax * (s1 - s0);
             }
         } else if tap.in_column {
-            let (y0, ay) = Self::cell(py, self.height - 2, self.y_cell);
+            let (y0, ay) = cell(py, self.y_last, self.y_cell);
             let i0 = tap.start + y0 * self.row_stride + pixel.0 * ch;
-            for (c, o) in out.iter_mut().enumerate().take(self.used) {
-                let (s0, s1) = (
-                    texel(data[i0 + c], unit),
-                    texel(data[i0 + self.row_stride + c], unit),
-                );
-                *o = s0 + ay * (s1 - s0);
+            let (s0, s1) = (
+                samples::<S, N>(data, i0)?,
+                samples::<S, N>(data, i0 + self.row_stride)?,
+            );
+            for c in 0..N {
+                let (s0, s1) = (texel(s0[c], levels), texel(s1[c], levels));
+                out[c] = s0 + ay * (s1 - s0);
             }
         } else {
-            let (x0, ax) = Self::cell(px, self.width - 2, self.x_cell);
-            let (y0, ay) = Self::cell(py, self.height - 2, self.y_cell);
+            let (x0, ax) = cell(px, self.x_last, self.x_cell);
+            let (y0, ay) = cell(py, self.y_last, self.y_cell);
             let i00 = tap.start + y0 * self.row_stride + x0 * ch;
             let i10 = i00 + self.row_stride;
-            for (c, o) in out.iter_mut().enumerate().take(self.used) {
-                let (s00, s01) = (texel(data[i00 + c], unit), texel(data[i00 + ch + c], unit));
-                let (s10, s11) = (texel(data[i10 + c], unit), texel(data[i10 + ch + c], unit));
+            let (t0, t1) = (
+                samples::<S, N>(data, i00)?,
+                samples::<S, N>(data, i00 + ch)?,
+            );
+            let (b0, b1) = (
+                samples::<S, N>(data, i10)?,
+                samples::<S, N>(data, i10 + ch)?,
+            );
+            for c in 0..N {
+                let (s00, s01) = (texel(t0[c], levels), texel(t1[c], levels));
+                let (s10, s11) = (texel(b0[c], levels), texel(b1[c], levels));
                 let top = s00 + ax * (s01 - s00);
                 let bottom = s10 + ax * (s11 - s10);
-                *o = top + ay * (bottom - top);
+                out[c] = top + ay * (bottom - top);
             }
         }
+        Some(out)
     }
 }
