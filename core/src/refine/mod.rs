@@ -376,7 +376,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
     // A round only visits the rows that the later rounds and the iterations can still
     // carry to the band (it reads its neighbours up to `jump` rows further, which the
     // round before visited): the rows outside would not change the result.
-    let cost = |x: usize, y: usize, d: T| -> T { views.cost(data, x, first + y, d, k.robust) };
+    // The cost of a pixel at its own disparity is only needed once a neighbour offers
+    // another one: `stats[i · STATS + 1]` is one when `stats[i · STATS]` holds it.
+    let (unknown, known) = (T::ZERO, T::ONE);
     let jumps = jumps(plan);
     let reach_after = |round: usize| -> usize {
         p.iterations * r
@@ -385,11 +387,11 @@ pub fn refine_band<T: Scalar, S: Sample>(
                 .map_or(0, |j| j.iter().sum::<usize>())
     };
     if !jumps.is_empty() {
-        for y in near(reach_after(0)) {
-            for x in 0..width {
-                let i = y * width + x;
-                stats[i * STATS] = cost(x, y, current[i]);
-            }
+        let span = near(reach_after(0));
+        for stat in
+            stats[span.start * width * STATS..span.end * width * STATS].chunks_exact_mut(STATS)
+        {
+            stat[1] = unknown;
         }
     }
     for (round, &jump) in jumps.iter().enumerate() {
@@ -398,8 +400,6 @@ pub fn refine_band<T: Scalar, S: Sample>(
             for x in 0..width {
                 let i = y * width + x;
                 let own = previous[i];
-                let mut best = (stats[i * STATS], own);
-                let mut bar = best.0 * k.accept;
                 let candidates = [
                     x.checked_sub(jump).map(|xx| y * width + xx),
                     (x + jump < width).then(|| y * width + x + jump),
@@ -409,6 +409,7 @@ pub fn refine_band<T: Scalar, S: Sample>(
                 // Disparities already tried this round: trying one again gives the same
                 // cost, which cannot pass the bar a second time.
                 let mut tried = [own; 4];
+                let mut bar = None;
                 for (n, j) in candidates.into_iter().enumerate() {
                     let Some(d) = j.map(|j| previous[j]) else {
                         continue;
@@ -417,14 +418,23 @@ pub fn refine_band<T: Scalar, S: Sample>(
                         continue;
                     }
                     tried[n] = d;
-                    let c = cost(x, y, d);
-                    if c < bar {
-                        bar = c;
-                        best = (c, d);
+                    let Some(stat) = stats.get_mut(i * STATS..i * STATS + 2) else {
+                        continue;
+                    };
+                    if stat[1] == unknown {
+                        // Without a bar the cost is always returned.
+                        stat[0] = views
+                            .cost(data, x, first + y, own, k.robust, None)
+                            .unwrap_or(T::MAX);
+                        stat[1] = known;
+                    }
+                    let limit = *bar.get_or_insert(stat[0] * k.accept);
+                    if let Some(c) = views.cost(data, x, first + y, d, k.robust, Some(limit)) {
+                        bar = Some(c);
+                        stat[0] = c;
+                        current[i] = d;
                     }
                 }
-                current[i] = best.1;
-                stats[i * STATS] = best.0;
             }
         }
     }

@@ -210,13 +210,23 @@ impl<T: Scalar> Views<T> {
     /// The robust photometric cost of pixel `(x, y)` at disparity `d`: the sum over the
     /// groups of their weighted residual energy `E`, the same value as summing the `E`
     /// of [`Views::pixel`]'s groups, at a third of the sampling (the derivative's
-    /// samples are not needed).
+    /// samples are not needed). `None` when the cost is not below `bar`, as soon as
+    /// that is known: every term is non-negative and rounded sums are monotonic, so the
+    /// sum of the views so far (in the same order) is a lower bound of the cost.
     #[inline]
-    pub(crate) fn cost<S: Sample>(&self, data: &[S], x: usize, y: usize, d: T, robust: T) -> T {
+    pub(crate) fn cost<S: Sample>(
+        &self,
+        data: &[S],
+        x: usize,
+        y: usize,
+        d: T,
+        robust: T,
+        bar: Option<T>,
+    ) -> Option<T> {
         if self.used == 1 {
-            self.cost_channels::<S, 1>(data, x, y, d, robust)
+            self.cost_channels::<S, 1>(data, x, y, d, robust, bar)
         } else {
-            self.cost_channels::<S, 3>(data, x, y, d, robust)
+            self.cost_channels::<S, 3>(data, x, y, d, robust, bar)
         }
     }
 
@@ -302,9 +312,12 @@ impl<T: Scalar> Views<T> {
         y: usize,
         d: T,
         robust: T,
-    ) -> T {
+        bar: Option<T>,
+    ) -> Option<T> {
+        let total = |energy: &[T; GROUPS]| energy.iter().fold(T::ZERO, |sum, &e| sum + e);
+        let below = |c: T| bar.is_none_or(|bar| c < bar);
         let Some((centre, xf, yf)) = self.centre::<S, N>(data, x, y) else {
-            return T::ZERO;
+            return below(T::ZERO).then_some(T::ZERO);
         };
         // Per group, in the order `pixel` sums them, so that the cost has its bits.
         let mut energy = [T::ZERO; GROUPS];
@@ -328,8 +341,12 @@ impl<T: Scalar> Views<T> {
                     *sum += e;
                 }
             }
+            if !below(total(&energy)) {
+                return None;
+            }
         }
-        energy.iter().fold(T::ZERO, |sum, &e| sum + e)
+        let cost = total(&energy);
+        below(cost).then_some(cost)
     }
 
     /// Bilinear sample of the `N` used channels at `(px, py)`, inside the image, for the
