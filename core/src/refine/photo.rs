@@ -43,8 +43,10 @@ struct Tap<T> {
     h: T,
     /// `1 / (2h)`: the central difference's divisor (the view's reach, an integer).
     inv: T,
-    /// Bit `k` set when the view belongs to group `k`.
-    groups: u8,
+    /// The groups the view belongs to: one or (off the centre row and column) two,
+    /// each below [`GROUPS`].
+    group: usize,
+    second_group: Option<usize>,
 }
 
 /// The compared views of a light field.
@@ -158,14 +160,16 @@ impl<T: Scalar> Views<T> {
                 if !set.contains(dr, dc) || views.len >= MAX_VIEWS {
                     continue;
                 }
-                let groups = u8::from(dc < 0)
-                    | u8::from(dc > 0) << 1
-                    | u8::from(dr < 0) << 2
-                    | u8::from(dr > 0) << 3;
-                for (k, t) in views.terms.iter_mut().enumerate() {
-                    if groups & (1 << k) != 0 {
-                        *t += used as f32;
-                    }
+                // Left, right, up, down.
+                let horizontal = (dc != 0).then_some(usize::from(dc > 0));
+                let vertical = (dr != 0).then_some(2 + usize::from(dr > 0));
+                let (group, second_group) = match (horizontal, vertical) {
+                    (Some(h), v) => (h, v),
+                    (None, Some(v)) => (v, None),
+                    (None, None) => continue,
+                };
+                for g in [Some(group), second_group].into_iter().flatten() {
+                    views.terms[g] += used as f32;
                 }
                 let reach = dr.unsigned_abs().max(dc.unsigned_abs()) as f32;
                 let h = 0.5 / reach;
@@ -177,7 +181,8 @@ impl<T: Scalar> Views<T> {
                     in_column: dc == 0,
                     h: T::from_f32(h),
                     inv: T::from_f32(0.5 / h),
-                    groups,
+                    group,
+                    second_group,
                 };
                 views.len += 1;
             }
@@ -249,11 +254,18 @@ impl<T: Scalar> Views<T> {
     #[inline(always)]
     fn sees(&self, tap: &Tap<T>, xf: T, yf: T, d: T) -> bool {
         let (dp, dm) = (d + tap.h, d - tap.h);
-        let (xp, yp) = (xf - dp * tap.du, yf - dp * tap.dv);
-        let (xm, ym) = (xf - dm * tap.du, yf - dm * tap.dv);
-        let inside =
-            |px: T, py: T| px >= T::ZERO && px <= self.x_max && py >= T::ZERO && py <= self.y_max;
-        inside(xp, yp) && inside(xm, ym)
+        // Off the view's own axis a position is the pixel's (the offset is zero), which
+        // lies inside.
+        let inside_x = |dd: T| {
+            let p = xf - dd * tap.du;
+            p >= T::ZERO && p <= self.x_max
+        };
+        let inside_y = |dd: T| {
+            let p = yf - dd * tap.dv;
+            p >= T::ZERO && p <= self.y_max
+        };
+        (tap.in_column || (inside_x(dp) && inside_x(dm)))
+            && (tap.in_row || (inside_y(dp) && inside_y(dm)))
     }
 
     fn pixel_channels<S: Sample, const N: usize>(
@@ -295,11 +307,11 @@ impl<T: Scalar> Views<T> {
             // hardly counts.
             let w = robust / (robust + e);
             let (a, b, e) = (w * a, w * b, w * e);
-            for k in 0..GROUPS {
-                if tap.groups & (1 << k) != 0 {
-                    out[3 * k] += a;
-                    out[3 * k + 1] += b;
-                    out[3 * k + 2] += e;
+            for g in [Some(tap.group), tap.second_group].into_iter().flatten() {
+                if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
+                    sums[0] += a;
+                    sums[1] += b;
+                    sums[2] += e;
                 }
             }
         }
@@ -336,8 +348,8 @@ impl<T: Scalar> Views<T> {
                 e += r * r;
             }
             let e = robust / (robust + e) * e;
-            for (k, sum) in energy.iter_mut().enumerate() {
-                if tap.groups & (1 << k) != 0 {
+            for g in [Some(tap.group), tap.second_group].into_iter().flatten() {
+                if let Some(sum) = energy.get_mut(g) {
                     *sum += e;
                 }
             }
