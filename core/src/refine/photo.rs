@@ -57,7 +57,6 @@ pub(crate) struct Views<T> {
     pub terms: [f32; GROUPS],
     centre: usize,
     channels: usize,
-    used: usize,
     row_stride: usize,
     /// Largest sample position along x and y.
     x_max: T,
@@ -121,7 +120,8 @@ fn cell<T: Scalar>(p: T, last: usize, last_t: T) -> (usize, T) {
 /// `N` consecutive samples from `at` (`None` past the end of the data).
 #[inline(always)]
 fn samples<S: Sample, const N: usize>(data: &[S], at: usize) -> Option<&[S; N]> {
-    data.get(at..at.checked_add(N)?)?.try_into().ok()
+    // Indices stay far below `usize::MAX`; a wrapped end would only fail the lookup.
+    data.get(at..at.wrapping_add(N))?.try_into().ok()
 }
 
 impl<T: Scalar> Views<T> {
@@ -144,7 +144,6 @@ impl<T: Scalar> Views<T> {
             terms: [0.0; GROUPS],
             centre: grid.index(r0, c0) * layout.view_stride,
             channels: layout.channels,
-            used,
             row_stride: layout.row_stride,
             x_max: coordinate(layout.width.saturating_sub(1)),
             y_max: coordinate(layout.height.saturating_sub(1)),
@@ -204,11 +203,12 @@ impl<T: Scalar> Views<T> {
         robust: T,
         out: &mut [T; STATS],
     ) {
-        // The layout has 1, 3 or 4 channels: one or three are used.
-        if self.used == 1 {
-            self.pixel_channels::<S, 1>(data, x, y, d, robust, out)
-        } else {
-            self.pixel_channels::<S, 3>(data, x, y, d, robust, out)
+        // A layout has 1, 3 or 4 channels (`Layout::validate`): one or three are used.
+        match self.channels {
+            1 => self.pixel_channels::<S, 1, 1>(data, x, y, d, robust, out),
+            3 => self.pixel_channels::<S, 3, 3>(data, x, y, d, robust, out),
+            4 => self.pixel_channels::<S, 4, 3>(data, x, y, d, robust, out),
+            _ => *out = [T::ZERO; STATS],
         }
     }
 
@@ -228,22 +228,23 @@ impl<T: Scalar> Views<T> {
         robust: T,
         bar: Option<T>,
     ) -> Option<T> {
-        if self.used == 1 {
-            self.cost_channels::<S, 1>(data, x, y, d, robust, bar)
-        } else {
-            self.cost_channels::<S, 3>(data, x, y, d, robust, bar)
+        match self.channels {
+            1 => self.cost_channels::<S, 1, 1>(data, x, y, d, robust, bar),
+            3 => self.cost_channels::<S, 3, 3>(data, x, y, d, robust, bar),
+            4 => self.cost_channels::<S, 4, 3>(data, x, y, d, robust, bar),
+            _ => None,
         }
     }
 
     /// The centre view's samples of pixel `(x, y)` and its coordinates in `T`.
     #[inline(always)]
-    fn centre<S: Sample, const N: usize>(
+    fn centre<S: Sample, const CH: usize, const N: usize>(
         &self,
         data: &[S],
         x: usize,
         y: usize,
     ) -> Option<([T; N], T, T)> {
-        let base = self.centre + y * self.row_stride + x * self.channels;
+        let base = self.centre + y * self.row_stride + x * CH;
         let centre = samples::<S, N>(data, base)?.map(|s| texel(s, &self.levels));
         // `refine_band` checked that every coordinate converts without saturating.
         Some((centre, T::from_i32(x as i32), T::from_i32(y as i32)))
@@ -268,7 +269,7 @@ impl<T: Scalar> Views<T> {
             && (tap.in_row || (inside_y(dp) && inside_y(dm)))
     }
 
-    fn pixel_channels<S: Sample, const N: usize>(
+    fn pixel_channels<S: Sample, const CH: usize, const N: usize>(
         &self,
         data: &[S],
         x: usize,
@@ -278,7 +279,7 @@ impl<T: Scalar> Views<T> {
         out: &mut [T; STATS],
     ) {
         *out = [T::ZERO; STATS];
-        let Some((centre, xf, yf)) = self.centre::<S, N>(data, x, y) else {
+        let Some((centre, xf, yf)) = self.centre::<S, CH, N>(data, x, y) else {
             return;
         };
         for tap in &self.taps[..self.len] {
@@ -287,10 +288,10 @@ impl<T: Scalar> Views<T> {
             }
             let (dp, dm) = (d + tap.h, d - tap.h);
             let plus =
-                self.bilinear::<S, N>(data, tap, (x, y), (xf - dp * tap.du, yf - dp * tap.dv));
+                self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - dp * tap.du, yf - dp * tap.dv));
             let minus =
-                self.bilinear::<S, N>(data, tap, (x, y), (xf - dm * tap.du, yf - dm * tap.dv));
-            let at = self.bilinear::<S, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv));
+                self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - dm * tap.du, yf - dm * tap.dv));
+            let at = self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv));
             let (Some(plus), Some(minus), Some(at)) = (plus, minus, at) else {
                 continue;
             };
@@ -317,7 +318,7 @@ impl<T: Scalar> Views<T> {
         }
     }
 
-    fn cost_channels<S: Sample, const N: usize>(
+    fn cost_channels<S: Sample, const CH: usize, const N: usize>(
         &self,
         data: &[S],
         x: usize,
@@ -328,7 +329,7 @@ impl<T: Scalar> Views<T> {
     ) -> Option<T> {
         let total = |energy: &[T; GROUPS]| energy.iter().fold(T::ZERO, |sum, &e| sum + e);
         let below = |c: T| bar.is_none_or(|bar| c < bar);
-        let Some((centre, xf, yf)) = self.centre::<S, N>(data, x, y) else {
+        let Some((centre, xf, yf)) = self.centre::<S, CH, N>(data, x, y) else {
             return below(T::ZERO).then_some(T::ZERO);
         };
         // Per group, in the order `pixel` sums them, so that the cost has its bits.
@@ -338,7 +339,7 @@ impl<T: Scalar> Views<T> {
                 continue;
             }
             let Some(at) =
-                self.bilinear::<S, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv))
+                self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv))
             else {
                 continue;
             };
@@ -361,31 +362,32 @@ impl<T: Scalar> Views<T> {
         below(cost).then_some(cost)
     }
 
-    /// Bilinear sample of the `N` used channels at `(px, py)`, inside the image, for the
-    /// centre-view pixel `pixel` (`None` only for a layout the samples do not fill).
+    /// Bilinear sample of the `N` used channels (of `CH`) at `(px, py)`, inside the
+    /// image, for the centre-view pixel `pixel` (`None` only for a layout the samples do
+    /// not fill).
     #[inline(always)]
-    fn bilinear<S: Sample, const N: usize>(
+    fn bilinear<S: Sample, const CH: usize, const N: usize>(
         &self,
         data: &[S],
         tap: &Tap<T>,
         pixel: (usize, usize),
         (px, py): (T, T),
     ) -> Option<[T; N]> {
-        let ch = self.channels;
         let levels = &self.levels;
         let mut out = [T::ZERO; N];
+        // One slice per pair of horizontally adjacent samples: one bounds check.
+        let pair = |at: usize| data.get(at..at.wrapping_add(CH + N));
         if tap.in_row {
             // Horizontal neighbours: the row is exact, one lerp.
             let (x0, ax) = cell(px, self.x_last, self.x_cell);
-            let i0 = tap.start + pixel.1 * self.row_stride + x0 * ch;
-            let (s0, s1) = (samples::<S, N>(data, i0)?, samples::<S, N>(data, i0 + ch)?);
+            let s = pair(tap.start + pixel.1 * self.row_stride + x0 * CH)?;
             for c in 0..N {
-                let (s0, s1) = (texel(s0[c], levels), texel(s1[c], levels));
+                let (s0, s1) = (texel(s[c], levels), texel(s[CH + c], levels));
                 out[c] = s0 + ax * (s1 - s0);
             }
         } else if tap.in_column {
             let (y0, ay) = cell(py, self.y_last, self.y_cell);
-            let i0 = tap.start + y0 * self.row_stride + pixel.0 * ch;
+            let i0 = tap.start + y0 * self.row_stride + pixel.0 * CH;
             let (s0, s1) = (
                 samples::<S, N>(data, i0)?,
                 samples::<S, N>(data, i0 + self.row_stride)?,
@@ -397,19 +399,11 @@ impl<T: Scalar> Views<T> {
         } else {
             let (x0, ax) = cell(px, self.x_last, self.x_cell);
             let (y0, ay) = cell(py, self.y_last, self.y_cell);
-            let i00 = tap.start + y0 * self.row_stride + x0 * ch;
-            let i10 = i00 + self.row_stride;
-            let (t0, t1) = (
-                samples::<S, N>(data, i00)?,
-                samples::<S, N>(data, i00 + ch)?,
-            );
-            let (b0, b1) = (
-                samples::<S, N>(data, i10)?,
-                samples::<S, N>(data, i10 + ch)?,
-            );
+            let i00 = tap.start + y0 * self.row_stride + x0 * CH;
+            let (t, b) = (pair(i00)?, pair(i00 + self.row_stride)?);
             for c in 0..N {
-                let (s00, s01) = (texel(t0[c], levels), texel(t1[c], levels));
-                let (s10, s11) = (texel(b0[c], levels), texel(b1[c], levels));
+                let (s00, s01) = (texel(t[c], levels), texel(t[CH + c], levels));
+                let (s10, s11) = (texel(b[c], levels), texel(b[CH + c], levels));
                 let top = s00 + ax * (s01 - s00);
                 let bottom = s10 + ax * (s11 - s10);
                 out[c] = top + ay * (bottom - top);
