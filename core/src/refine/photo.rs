@@ -66,6 +66,8 @@ pub(crate) struct Views<T> {
     y_last: usize,
     x_cell: T,
     y_cell: T,
+    /// One half in `T`.
+    half: T,
     /// The scaled intensity of each 8-bit level: `level · INTENSITY_SCALE / 255`,
     /// computed in `T` as `T::from_i32(level) · unit` (a table lookup costs less than
     /// the conversion and the product, with the same bits).
@@ -117,6 +119,27 @@ fn cell<T: Scalar>(p: T, last: usize, last_t: T) -> (usize, T) {
     }
 }
 
+/// The scaled intensities of `L` consecutive samples from `at`: a pixel's `CH` samples
+/// and, when `L > CH`, the next pixel's first (zero past the end of the data), a lane
+/// that keeps three channels in four SIMD lanes and that no sum reads (`None` when the
+/// pixel itself lies past the end).
+#[inline(always)]
+fn lanes<T: Scalar, S: Sample, const CH: usize, const L: usize>(
+    data: &[S],
+    at: usize,
+    levels: &[T; 256],
+) -> Option<[T; L]> {
+    if let Some(s) = samples::<S, L>(data, at) {
+        return Some(s.map(|v| texel(v, levels)));
+    }
+    let s = data.get(at..at.wrapping_add(CH.min(L)))?;
+    let mut out = [T::ZERO; L];
+    for (o, &v) in out.iter_mut().zip(s) {
+        *o = texel(v, levels);
+    }
+    Some(out)
+}
+
 /// `N` consecutive samples from `at` (`None` past the end of the data).
 #[inline(always)]
 fn samples<S: Sample, const N: usize>(data: &[S], at: usize) -> Option<&[S; N]> {
@@ -151,6 +174,7 @@ impl<T: Scalar> Views<T> {
             y_last,
             x_cell: coordinate(x_last),
             y_cell: coordinate(y_last),
+            half: T::from_f32(0.5),
             levels,
         };
         for r in 0..grid.rows {
@@ -205,9 +229,9 @@ impl<T: Scalar> Views<T> {
     ) {
         // A layout has 1, 3 or 4 channels (`Layout::validate`): one or three are used.
         match self.channels {
-            1 => self.pixel_channels::<S, 1, 1>(data, x, y, d, robust, out),
-            3 => self.pixel_channels::<S, 3, 3>(data, x, y, d, robust, out),
-            4 => self.pixel_channels::<S, 4, 3>(data, x, y, d, robust, out),
+            1 => self.pixel_channels::<S, 1, 1, 1>(data, x, y, d, robust, out),
+            3 => self.pixel_channels::<S, 3, 3, 4>(data, x, y, d, robust, out),
+            4 => self.pixel_channels::<S, 4, 3, 4>(data, x, y, d, robust, out),
             _ => *out = [T::ZERO; STATS],
         }
     }
@@ -229,9 +253,9 @@ impl<T: Scalar> Views<T> {
         bar: Option<T>,
     ) -> Option<T> {
         match self.channels {
-            1 => self.cost_channels::<S, 1, 1>(data, x, y, d, robust, bar),
-            3 => self.cost_channels::<S, 3, 3>(data, x, y, d, robust, bar),
-            4 => self.cost_channels::<S, 4, 3>(data, x, y, d, robust, bar),
+            1 => self.cost_channels::<S, 1, 1, 1>(data, x, y, d, robust, bar),
+            3 => self.cost_channels::<S, 3, 3, 4>(data, x, y, d, robust, bar),
+            4 => self.cost_channels::<S, 4, 3, 4>(data, x, y, d, robust, bar),
             _ => None,
         }
     }
@@ -245,31 +269,36 @@ impl<T: Scalar> Views<T> {
         y: usize,
     ) -> Option<([T; N], T, T)> {
         let base = self.centre + y * self.row_stride + x * CH;
-        let centre = samples::<S, N>(data, base)?.map(|s| texel(s, &self.levels));
+        let centre = lanes::<T, S, CH, N>(data, base, &self.levels)?;
         // `refine_band` checked that every coordinate converts without saturating.
         Some((centre, T::from_i32(x as i32), T::from_i32(y as i32)))
     }
 
-    /// Whether the samples of `tap` at `d ± h` (the derivative's) lie inside the image:
-    /// both the statistics and the cost skip the views where they do not.
+    /// Whether the derivative's samples of `tap` lie inside the image: at `d ± h` for an
+    /// oblique view, half a pixel either side of the position at `d` along the axis of
+    /// a view in the centre row or column ([`Views::axis`]). Both the statistics and the
+    /// cost skip the views where they do not.
     #[inline(always)]
     fn sees(&self, tap: &Tap<T>, xf: T, yf: T, d: T) -> bool {
+        let along = |coordinate: T, offset: T, max: T| {
+            let p = coordinate - d * offset;
+            p - self.half >= T::ZERO && p + self.half <= max
+        };
+        if tap.in_row {
+            return along(xf, tap.du, self.x_max);
+        }
+        if tap.in_column {
+            return along(yf, tap.dv, self.y_max);
+        }
         let (dp, dm) = (d + tap.h, d - tap.h);
-        // Off the view's own axis a position is the pixel's (the offset is zero), which
-        // lies inside.
-        let inside_x = |dd: T| {
-            let p = xf - dd * tap.du;
-            p >= T::ZERO && p <= self.x_max
+        let inside = |dd: T| {
+            let (px, py) = (xf - dd * tap.du, yf - dd * tap.dv);
+            px >= T::ZERO && px <= self.x_max && py >= T::ZERO && py <= self.y_max
         };
-        let inside_y = |dd: T| {
-            let p = yf - dd * tap.dv;
-            p >= T::ZERO && p <= self.y_max
-        };
-        (tap.in_column || (inside_x(dp) && inside_x(dm)))
-            && (tap.in_row || (inside_y(dp) && inside_y(dm)))
+        inside(dp) && inside(dm)
     }
 
-    fn pixel_channels<S: Sample, const CH: usize, const N: usize>(
+    fn pixel_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
         &self,
         data: &[S],
         x: usize,
@@ -279,46 +308,55 @@ impl<T: Scalar> Views<T> {
         out: &mut [T; STATS],
     ) {
         *out = [T::ZERO; STATS];
-        let Some((centre, xf, yf)) = self.centre::<S, CH, N>(data, x, y) else {
+        let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return;
         };
         for tap in &self.taps[..self.len] {
-            if !self.sees(tap, xf, yf, d) {
-                continue;
-            }
-            let (dp, dm) = (d + tap.h, d - tap.h);
-            let plus =
-                self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - dp * tap.du, yf - dp * tap.dv));
-            let minus =
-                self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - dm * tap.du, yf - dm * tap.dv));
-            let at = self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv));
-            let (Some(plus), Some(minus), Some(at)) = (plus, minus, at) else {
+            // The image at the sample position on either side (half a pixel of image
+            // motion) and at it: `g = (first − second) · factor`.
+            let samples = if tap.in_row || tap.in_column {
+                self.axis::<S, CH, L>(data, tap, (x, y), (xf, yf), d)
+            } else {
+                self.oblique::<S, CH, L>(data, tap, (x, y), (xf, yf), d)
+            };
+            let Some(([first, second, at], factor)) = samples else {
                 continue;
             };
-            let (mut a, mut b, mut e) = (T::ZERO, T::ZERO, T::ZERO);
-            for c in 0..N {
-                let g = (plus[c] - minus[c]) * tap.inv;
+            // Every lane at once (SIMD-friendly), then the used channels summed in order.
+            let (mut gg, mut gr, mut rr) = ([T::ZERO; L], [T::ZERO; L], [T::ZERO; L]);
+            for c in 0..L {
+                let g = (first[c] - second[c]) * factor;
                 let r = at[c] - centre[c];
-                a += g * g;
-                b += g * (g * d - r);
-                e += r * r;
+                gg[c] = g * g;
+                gr[c] = g * (g * d - r);
+                rr[c] = r * r;
+            }
+            let (mut a, mut b, mut e) = (T::ZERO, T::ZERO, T::ZERO);
+            for c in 0..N.min(L) {
+                a += gg[c];
+                b += gr[c];
+                e += rr[c];
             }
             // Cauchy weight of the view (iteratively reweighted least squares): a view
             // that disagrees by much more than the noise (an occluder, a highlight)
             // hardly counts.
             let w = robust / (robust + e);
             let (a, b, e) = (w * a, w * b, w * e);
-            for g in [Some(tap.group), tap.second_group].into_iter().flatten() {
+            let mut add = |g: usize| {
                 if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
                     sums[0] += a;
                     sums[1] += b;
                     sums[2] += e;
                 }
+            };
+            add(tap.group);
+            if let Some(g) = tap.second_group {
+                add(g);
             }
         }
     }
 
-    fn cost_channels<S: Sample, const CH: usize, const N: usize>(
+    fn cost_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
         &self,
         data: &[S],
         x: usize,
@@ -329,7 +367,7 @@ impl<T: Scalar> Views<T> {
     ) -> Option<T> {
         let total = |energy: &[T; GROUPS]| energy.iter().fold(T::ZERO, |sum, &e| sum + e);
         let below = |c: T| bar.is_none_or(|bar| c < bar);
-        let Some((centre, xf, yf)) = self.centre::<S, CH, N>(data, x, y) else {
+        let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return below(T::ZERO).then_some(T::ZERO);
         };
         // Per group, in the order `pixel` sums them, so that the cost has its bits.
@@ -339,20 +377,28 @@ impl<T: Scalar> Views<T> {
                 continue;
             }
             let Some(at) =
-                self.bilinear::<S, CH, N>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv))
+                self.bilinear::<S, CH, L>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv))
             else {
                 continue;
             };
-            let mut e = T::ZERO;
-            for c in 0..N {
+            let mut rr = [T::ZERO; L];
+            for c in 0..L {
                 let r = at[c] - centre[c];
-                e += r * r;
+                rr[c] = r * r;
+            }
+            let mut e = T::ZERO;
+            for &v in &rr[..N.min(L)] {
+                e += v;
             }
             let e = robust / (robust + e) * e;
-            for g in [Some(tap.group), tap.second_group].into_iter().flatten() {
+            let mut add = |g: usize| {
                 if let Some(sum) = energy.get_mut(g) {
                     *sum += e;
                 }
+            };
+            add(tap.group);
+            if let Some(g) = tap.second_group {
+                add(g);
             }
             if !below(total(&energy)) {
                 return None;
@@ -362,53 +408,119 @@ impl<T: Scalar> Views<T> {
         below(cost).then_some(cost)
     }
 
-    /// Bilinear sample of the `N` used channels (of `CH`) at `(px, py)`, inside the
-    /// image, for the centre-view pixel `pixel` (`None` only for a layout the samples do
-    /// not fill).
+    /// The samples of a view in the centre row or column of the grid, whose image
+    /// motion lies along one image axis: at `p − ½`, `p + ½` and `p`, `p` the position
+    /// at `d` along that axis, from the three samples around them (one cell split, one
+    /// bounds check). `p` itself is interpolated as by [`Views::bilinear`]. The
+    /// derivative's factor is the view's offset: `g = −∂I/∂p · offset`.
+    /// `None` when `p ± ½` leaves the image.
     #[inline(always)]
-    fn bilinear<S: Sample, const CH: usize, const N: usize>(
+    fn axis<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        tap: &Tap<T>,
+        (x, y): (usize, usize),
+        (xf, yf): (T, T),
+        d: T,
+    ) -> Option<([[T; L]; 3], T)> {
+        let (coordinate, offset, max, last, base, stride) = if tap.in_row {
+            let base = tap.start + y * self.row_stride;
+            (xf, tap.du, self.x_max, self.x_last + 1, base, CH)
+        } else {
+            let base = tap.start + x * CH;
+            (
+                yf,
+                tap.dv,
+                self.y_max,
+                self.y_last + 1,
+                base,
+                self.row_stride,
+            )
+        };
+        let half = self.half;
+        let p = coordinate - d * offset;
+        let low = p - half;
+        if !(low >= T::ZERO && p + half <= max) {
+            return None;
+        }
+        // `low = k + f`: the samples k, k + 1 and k + 2 (k + 2 only weighs when inside).
+        let (k, f) = split(low);
+        let at = |i: usize| lanes::<T, S, CH, L>(data, base + i * stride, &self.levels);
+        let (t0, t1) = (at(k)?, at(k + 1)?);
+        let t2 = if k + 2 <= last { at(k + 2)? } else { t1 };
+        let lerp = |s0: [T; L], s1: [T; L], a: T| {
+            let mut out = [T::ZERO; L];
+            for c in 0..L {
+                out[c] = s0[c] + a * (s1[c] - s0[c]);
+            }
+            out
+        };
+        let centre = if f < half {
+            lerp(t0, t1, f + half)
+        } else {
+            lerp(t1, t2, f - half)
+        };
+        Some(([lerp(t0, t1, f), lerp(t1, t2, f), centre], offset))
+    }
+
+    /// The samples of any other view: bilinear at `d + h`, `d − h` and `d`, with the
+    /// central difference's factor `1 / (2h)`. `None` when a sample leaves the image.
+    #[inline(always)]
+    fn oblique<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        tap: &Tap<T>,
+        pixel: (usize, usize),
+        (xf, yf): (T, T),
+        d: T,
+    ) -> Option<([[T; L]; 3], T)> {
+        if !self.sees(tap, xf, yf, d) {
+            return None;
+        }
+        let (dp, dm) = (d + tap.h, d - tap.h);
+        let sample = |dd: T| {
+            self.bilinear::<S, CH, L>(data, tap, pixel, (xf - dd * tap.du, yf - dd * tap.dv))
+        };
+        Some(([sample(dp)?, sample(dm)?, sample(d)?], tap.inv))
+    }
+
+    /// Bilinear sample of the `L` lanes at `(px, py)` (see [`lanes`]), inside the image,
+    /// for the centre-view pixel `pixel` (`None` only for a layout the samples do not
+    /// fill).
+    #[inline(always)]
+    fn bilinear<S: Sample, const CH: usize, const L: usize>(
         &self,
         data: &[S],
         tap: &Tap<T>,
         pixel: (usize, usize),
         (px, py): (T, T),
-    ) -> Option<[T; N]> {
+    ) -> Option<[T; L]> {
         let levels = &self.levels;
-        let mut out = [T::ZERO; N];
-        // One slice per pair of horizontally adjacent samples: one bounds check.
-        let pair = |at: usize| data.get(at..at.wrapping_add(CH + N));
-        if tap.in_row {
+        let lerp = |s0: [T; L], s1: [T; L], a: T| {
+            let mut out = [T::ZERO; L];
+            for c in 0..L {
+                out[c] = s0[c] + a * (s1[c] - s0[c]);
+            }
+            out
+        };
+        let at = |i: usize| lanes::<T, S, CH, L>(data, i, levels);
+        Some(if tap.in_row {
             // Horizontal neighbours: the row is exact, one lerp.
             let (x0, ax) = cell(px, self.x_last, self.x_cell);
-            let s = pair(tap.start + pixel.1 * self.row_stride + x0 * CH)?;
-            for c in 0..N {
-                let (s0, s1) = (texel(s[c], levels), texel(s[CH + c], levels));
-                out[c] = s0 + ax * (s1 - s0);
-            }
+            let i0 = tap.start + pixel.1 * self.row_stride + x0 * CH;
+            lerp(at(i0)?, at(i0 + CH)?, ax)
         } else if tap.in_column {
             let (y0, ay) = cell(py, self.y_last, self.y_cell);
             let i0 = tap.start + y0 * self.row_stride + pixel.0 * CH;
-            let (s0, s1) = (
-                samples::<S, N>(data, i0)?,
-                samples::<S, N>(data, i0 + self.row_stride)?,
-            );
-            for c in 0..N {
-                let (s0, s1) = (texel(s0[c], levels), texel(s1[c], levels));
-                out[c] = s0 + ay * (s1 - s0);
-            }
+            lerp(at(i0)?, at(i0 + self.row_stride)?, ay)
         } else {
             let (x0, ax) = cell(px, self.x_last, self.x_cell);
             let (y0, ay) = cell(py, self.y_last, self.y_cell);
             let i00 = tap.start + y0 * self.row_stride + x0 * CH;
-            let (t, b) = (pair(i00)?, pair(i00 + self.row_stride)?);
-            for c in 0..N {
-                let (s00, s01) = (texel(t[c], levels), texel(t[CH + c], levels));
-                let (s10, s11) = (texel(b[c], levels), texel(b[CH + c], levels));
-                let top = s00 + ax * (s01 - s00);
-                let bottom = s10 + ax * (s11 - s10);
-                out[c] = top + ay * (bottom - top);
-            }
-        }
-        Some(out)
+            let i10 = i00 + self.row_stride;
+            let top = lerp(at(i00)?, at(i00 + CH)?, ax);
+            let bottom = lerp(at(i10)?, at(i10 + CH)?, ax);
+            lerp(top, bottom, ay)
+        })
     }
 }
