@@ -446,8 +446,24 @@ impl<T: Scalar> Views<T> {
         // `low = k + f`: the samples k, k + 1 and k + 2 (k + 2 only weighs when inside).
         let (k, f) = split(low);
         let at = |i: usize| lanes::<T, S, CH, L>(data, base + i * stride, &self.levels);
-        let (t0, t1) = (at(k)?, at(k + 1)?);
-        let t2 = if k + 2 <= last { at(k + 2)? } else { t1 };
+        let start = base + k * CH;
+        let run = (tap.in_row && k + 2 <= last)
+            .then(|| data.get(start..start.wrapping_add(2 * CH + L)))
+            .flatten();
+        let (t0, t1, t2) = if let Some(run) = run {
+            // The three pixels lie side by side in the row: one bounds check.
+            let lane = |o: usize| -> [T; L] {
+                let mut out = [T::ZERO; L];
+                for (c, v) in out.iter_mut().enumerate() {
+                    *v = texel(run[o + c], &self.levels);
+                }
+                out
+            };
+            (lane(0), lane(CH), lane(2 * CH))
+        } else {
+            let (t0, t1) = (at(k)?, at(k + 1)?);
+            (t0, t1, if k + 2 <= last { at(k + 2)? } else { t1 })
+        };
         let lerp = |s0: [T; L], s1: [T; L], a: T| {
             let mut out = [T::ZERO; L];
             for c in 0..L {
