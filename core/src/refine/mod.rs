@@ -8,6 +8,10 @@
 //! 2, 1 px): each pixel tries the disparities of its four neighbours at the jump and
 //! keeps one whose robust photometric cost (the pixel alone) is below
 //! `PROPAGATION_ACCEPT` times its own, which pulls wrong regions to their surroundings.
+//! A cost needs one sample per view (no derivative), a pixel's own cost is only
+//! computed once a neighbour offers another disparity, a disparity is tried once per
+//! round, and a candidate's sum stops as soon as it reaches the bar (its terms are
+//! non-negative): none of these changes the result.
 //!
 //! **Gauss–Newton** ([`RefineParams::iterations`]): for view `v` at camera offset
 //! `(u, v)` the residual `r = I_v(x − d·u, y − d·v) − I_c(x, y)` per colour channel
@@ -21,7 +25,10 @@
 //! ```
 //!
 //! i.e. the window average of the per-pixel Gauss–Newton updates weighted by their
-//! curvature. The window only takes neighbours within `WINDOW_GATE` of the pixel's
+//! curvature. A pixel that moved by less than `SETTLED` (10⁻³ px) in the previous
+//! iteration keeps its `A, B, E`: to first order `B` does not depend on `d`, and the
+//! skipped sampling is most of an iteration's cost once the map has settled (measured
+//! on HCI: BadPix and MSE unchanged to ±0.001 points, `docs/bench-refine.md`). The window only takes neighbours within `WINDOW_GATE` of the pixel's
 //! disparity (it never straddles a depth edge); the step is clamped to
 //! [`RefineParams::max_step`] and the result to the EPI range. Views are summed in four
 //! half-plane groups (left, right, up, down): with [`RefineParams::occlusion`] a half
@@ -92,6 +99,9 @@ const OCCLUSION_FLOOR: f32 = 1.0e-4;
 const WINDOW_GATE: f32 = 0.1;
 /// Horizontal and vertical solutions further apart than this (px) disagree.
 const AXIS_AGREEMENT: f32 = 0.05;
+/// A pixel whose disparity moved by less than this (px) in a Gauss–Newton iteration
+/// keeps its statistics for the next one.
+const SETTLED: f32 = 1.0e-3;
 /// Curvature added per term so that textureless pixels keep their disparity.
 const DAMPING_PER_TERM: f32 = 1.0e-6;
 
@@ -190,6 +200,7 @@ struct Constants<T> {
     occlusion_ratio: T,
     occlusion_floor: T,
     axis_agreement: T,
+    settled: T,
     /// Squared confidence scale.
     confidence2: T,
 }
@@ -212,6 +223,7 @@ impl<T: Scalar> Constants<T> {
             occlusion_ratio: T::from_f32(OCCLUSION_RATIO),
             occlusion_floor: T::from_f32(OCCLUSION_FLOOR * intensity2),
             axis_agreement: T::from_f32(AXIS_AGREEMENT),
+            settled: T::from_f32(SETTLED),
             confidence2: T::from_f32(p.confidence_scale * p.confidence_scale),
         }
     }
@@ -453,6 +465,14 @@ pub fn refine_band<T: Scalar, S: Sample>(
         for y in measured.clone() {
             for x in 0..width {
                 let i = y * width + x;
+                // A pixel that moved by less than `SETTLED` since its statistics were
+                // measured keeps them (every row measured now was measured and updated
+                // by the iteration before): to first order `B` does not change with
+                // `d` (`r` grows by `g·Δd`), and the step from the stale `A`, `B` is
+                // that from the fresh ones within a few `SETTLED`.
+                if iteration > 0 && (current[i] - previous[i]).abs() < k.settled {
+                    continue;
+                }
                 let mut s = [T::ZERO; STATS];
                 views.pixel(data, x, first + y, current[i], k.robust, &mut s);
                 stats[i * STATS..(i + 1) * STATS].copy_from_slice(&s);
