@@ -27,6 +27,22 @@ const MAX_VIEWS: usize = GRID_MAX * GRID_MAX;
 /// exactly, bit for bit.
 pub(crate) const INTENSITY_SCALE: f32 = 16.0;
 
+/// The power of two by which [`Views::cost`] scales its terms, as `scale · robust`
+/// (`robust` the squared residual scale times the channels, scaled intensity²;
+/// `memberships` the views counted once per group they belong to): each view's weighted
+/// energy is at most `robust`, so the cost stays below `2^13` while its terms use the
+/// bits of Q16.16 (at the default scale one term is at most 0.077 unscaled, 5033 LSB;
+/// a propagation decision compares costs to a share of 0.7, which the rounding of small
+/// terms flipped). Powers of two scale `f32` exactly: its decisions do not change.
+/// One (no scaling) without a robust scale (`robust` = `MAX`).
+pub(crate) fn cost_scale(robust: f32, memberships: f32) -> f32 {
+    if !(robust > 0.0 && robust < f32::MAX && memberships > 0.0) {
+        return 1.0;
+    }
+    let room = libm::floorf(libm::log2f(8192.0 / (robust * memberships)));
+    libm::ldexpf(1.0, room.clamp(0.0, 16.0) as i32)
+}
+
 /// One compared view.
 #[derive(Clone, Copy, Debug, Default)]
 struct Tap<T> {
@@ -237,11 +253,12 @@ impl<T: Scalar> Views<T> {
     }
 
     /// The robust photometric cost of pixel `(x, y)` at disparity `d`: the sum over the
-    /// groups of their weighted residual energy `E`, the same value as summing the `E`
-    /// of [`Views::pixel`]'s groups, at a third of the sampling (the derivative's
-    /// samples are not needed). `None` when the cost is not below `bar`, as soon as
-    /// that is known: every term is non-negative and rounded sums are monotonic, so the
-    /// sum of the views so far (in the same order) is a lower bound of the cost.
+    /// groups of their weighted residual energy `E` times `scale / robust` (`scaled` =
+    /// `scale`: a power of two, see [`cost_scale`]), at a third of the sampling of
+    /// [`Views::pixel`] (the derivative's samples are not needed). `None` when the cost
+    /// is not below `bar`, as soon as that is known: every term is non-negative and
+    /// rounded sums are monotonic, so the sum of the views so far (in the same order) is a
+    /// lower bound of the cost.
     #[inline]
     pub(crate) fn cost<S: Sample>(
         &self,
@@ -249,7 +266,7 @@ impl<T: Scalar> Views<T> {
         x: usize,
         y: usize,
         d: T,
-        robust: T,
+        robust: (T, T),
         bar: Option<T>,
     ) -> Option<T> {
         match self.channels {
@@ -362,7 +379,7 @@ impl<T: Scalar> Views<T> {
         x: usize,
         y: usize,
         d: T,
-        robust: T,
+        (robust, scaled): (T, T),
         bar: Option<T>,
     ) -> Option<T> {
         let total = |energy: &[T; GROUPS]| energy.iter().fold(T::ZERO, |sum, &e| sum + e);
@@ -390,7 +407,7 @@ impl<T: Scalar> Views<T> {
             for &v in &rr[..N.min(L)] {
                 e += v;
             }
-            let e = robust / (robust + e) * e;
+            let e = scaled / (robust + e) * e;
             let mut add = |g: usize| {
                 if let Some(sum) = energy.get_mut(g) {
                     *sum += e;
