@@ -87,15 +87,14 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_synthetic_scenes() {
         let rendered = render(scene, size, seed);
         // EPI → refine → TV against the 99 % goal, and the default pipeline with the
         // (f32) weighted median, which spreads the few differing pixels over its windows.
-        // Measured (docs/bench-refine.md): without the median 99.71–100 %, with it
-        // 98.93 % (spheres: three pixels where the EPI maps differ by 2·10⁻⁵ px take
-        // different propagation paths) and 99.51–100 % on the others (97.97–100 % before
-        // the propagation costs were scaled).
+        // Measured (docs/bench-refine.md): without the median 99.93–100 %, with it
+        // 99.56–100 % (97.97–100 % before the propagation costs and the statistics were
+        // scaled up in Q16).
         let no_median = Params {
             median: crate::median::MedianParams::off(),
             ..Params::default()
         };
-        for (params, bound) in [(no_median, 0.995), (Params::default(), 0.985)] {
+        for (params, bound) in [(no_median, 0.995), (Params::default(), 0.99)] {
             let reference = full::<f32>(&rendered, params);
             let fixed = full::<Q16>(&rendered, params);
             let (share, max) = agreement(&reference, &fixed, 0.02);
@@ -139,7 +138,7 @@ fn q16_refinement_stays_within_two_hundredths_of_f32_from_the_same_input() {
             100.0 * share,
             100.0 * confidence_share
         );
-        // Measured 99.90–100 % (docs/bench-refine.md).
+        // Measured 100 % on every scene (docs/bench-refine.md).
         assert!(share >= 0.995, "{}: {share} (max {max})", scene.name());
         assert!(
             confidence_share >= 0.99,

@@ -49,8 +49,8 @@
 //! # Numbers
 //! The stage computes in the scalar type `T` of its scratch (`f32` or Q16.16); the
 //! disparity maps it reads and writes are `f32` (converted at the ends). Q16.16 saturates
-//! at ±32768 and resolves 2^-16, so two scales keep it precise and in range. Both are
-//! powers of two, applied to every term alike: `f32` gives the same bits as unscaled, and
+//! at ±32768 and resolves 2^-16, so the scales below keep it precise and in range. All
+//! are powers of two, applied to every term alike: `f32` gives the same bits as unscaled, and
 //! the ratios the stage uses (`B / A`, `E / A`, mean residuals) do not change.
 //! - Intensities are multiplied by `INTENSITY_SCALE` = 16, so that the squared residual
 //!   of one 8-bit level is 256 LSB rather than one: the robust weights, `E` and the `A` of
@@ -72,9 +72,16 @@
 //!   times the pixel's own. (Measured, Q16 vs f32 default pipeline on the synthetic
 //!   scenes of `fixed_tests`: with the median 97.97–100 % → 98.93–100 %; `f32` decisions
 //!   are unchanged, bit for bit.)
-//! - One pixel's group statistics are not scaled: a view adds at most `3 · (reach · 16)²`
-//!   to `A` (12288 at reach 4), so only a pixel whose views all see near full-contrast
-//!   edges at the largest reach could saturate; on HCI the largest view term is 779.
+//! - One pixel's statistics (with the damping and the occlusion floor) are multiplied by
+//!   `STAT_SCALE` = 4 (with a robust scale): weakly textured windows, whose `A` and `B`
+//!   are a few hundred LSB unscaled, decided between the horizontal and the vertical
+//!   solution (`AXIS_AGREEMENT`) on rounding (measured, Q16 vs f32 default pipeline on
+//!   the synthetic scenes of `fixed_tests`, with the median: 98.93–100 % → 99.56–100 %;
+//!   refinement alone 99.90–100 % → 100 %). The window sums of `A` therefore exceed the
+//!   `MAX / 32` limit above from 256 unscaled (re-summed at 2^-6 of unscaled: still
+//!   2^18 LSB for such a window). A view adds at most `3 · (reach · 16)² · 4` to `A`
+//!   (49152 at reach 4), so a pixel whose views see full-contrast edges at the largest
+//!   reach can saturate; on HCI the largest view term is 779 unscaled (3116 scaled).
 //!
 //! The tests (`fixed_tests`) and `docs/bench-fixed.md` measure Q16.16 against `f32`.
 
@@ -106,6 +113,9 @@ const OCCLUSION_FLOOR: f32 = 1.0e-4;
 const WINDOW_GATE: f32 = 0.1;
 /// Horizontal and vertical solutions further apart than this (px) disagree.
 const AXIS_AGREEMENT: f32 = 0.05;
+/// Per-pixel statistics (and the damping and occlusion floor with them) are multiplied
+/// by this power of two (with a robust scale).
+const STAT_SCALE: f32 = 4.0;
 /// A pixel whose disparity moved by less than this (px) in a Gauss–Newton iteration
 /// keeps its statistics for the next one.
 const SETTLED: f32 = 1.0e-3;
@@ -201,6 +211,8 @@ struct Constants<T> {
     robust: T,
     /// Curvature damping per (statistics-scaled) term.
     damping: T,
+    /// The power of two the per-pixel statistics are multiplied by.
+    stat_scale: f32,
     gate: T,
     accept: T,
     max_step: T,
@@ -214,6 +226,11 @@ struct Constants<T> {
 
 impl<T: Scalar> Constants<T> {
     fn new(p: &RefineParams, channels: usize, range: (f32, f32)) -> Self {
+        let stat_scale = if p.robust_scale > 0.0 {
+            STAT_SCALE
+        } else {
+            1.0
+        };
         let intensity2 = INTENSITY_SCALE * INTENSITY_SCALE;
         Constants {
             lo: T::from_f32(range.0),
@@ -223,12 +240,13 @@ impl<T: Scalar> Constants<T> {
             } else {
                 T::MAX
             },
-            damping: T::from_f32(DAMPING_PER_TERM * intensity2),
+            damping: T::from_f32(DAMPING_PER_TERM * intensity2 * stat_scale),
+            stat_scale,
             gate: T::from_f32(WINDOW_GATE),
             accept: T::from_f32(PROPAGATION_ACCEPT),
             max_step: T::from_f32(p.max_step),
             occlusion_ratio: T::from_f32(OCCLUSION_RATIO),
-            occlusion_floor: T::from_f32(OCCLUSION_FLOOR * intensity2),
+            occlusion_floor: T::from_f32(OCCLUSION_FLOOR * intensity2 * stat_scale),
             axis_agreement: T::from_f32(AXIS_AGREEMENT),
             settled: T::from_f32(SETTLED),
             confidence2: T::from_f32(p.confidence_scale * p.confidence_scale),
@@ -387,6 +405,7 @@ pub fn refine_band<T: Scalar, S: Sample>(
     let scale = photo::cost_scale(if p.robust_scale > 0.0 { robust } else { 0.0 }, memberships);
     // The robust scale with and without the cost's scale.
     let cost_robust = (k.robust, k.robust * T::from_f32(scale));
+    let stat_robust = (k.robust, k.robust * T::from_f32(k.stat_scale));
     // Region rows (relative to `first`) within `reach` rows of the band.
     let near = |reach: usize| -> Range<usize> {
         let lo = rows.start.saturating_sub(reach).max(first) - first;
@@ -487,7 +506,7 @@ pub fn refine_band<T: Scalar, S: Sample>(
                     continue;
                 }
                 let mut s = [T::ZERO; STATS];
-                views.pixel(data, x, first + y, current[i], k.robust, &mut s);
+                views.pixel(data, x, first + y, current[i], stat_robust, &mut s);
                 stats[i * STATS..(i + 1) * STATS].copy_from_slice(&s);
             }
         }

@@ -230,8 +230,9 @@ impl<T: Scalar> Views<T> {
     }
 
     /// Accumulates the statistics of pixel `(x, y)` at disparity `d` into `out`
-    /// (zeroed first), each view weighted by `robust / (robust + Σ r²)` (`robust` the
-    /// squared residual scale times the channels, in scaled intensity²). Views whose
+    /// (zeroed first), each view weighted by `scaled / (robust + Σ r²)` (`robust` the
+    /// squared residual scale times the channels, in scaled intensity²; `scaled` the
+    /// same times the statistics' power-of-two scale). Views whose
     /// samples leave the image are skipped.
     #[inline]
     pub(crate) fn pixel<S: Sample>(
@@ -240,7 +241,7 @@ impl<T: Scalar> Views<T> {
         x: usize,
         y: usize,
         d: T,
-        robust: T,
+        robust: (T, T),
         out: &mut [T; STATS],
     ) {
         // A layout has 1, 3 or 4 channels (`Layout::validate`): one or three are used.
@@ -321,7 +322,7 @@ impl<T: Scalar> Views<T> {
         x: usize,
         y: usize,
         d: T,
-        robust: T,
+        (robust, scaled): (T, T),
         out: &mut [T; STATS],
     ) {
         *out = [T::ZERO; STATS];
@@ -357,7 +358,7 @@ impl<T: Scalar> Views<T> {
             // Cauchy weight of the view (iteratively reweighted least squares): a view
             // that disagrees by much more than the noise (an occluder, a highlight)
             // hardly counts.
-            let w = robust / (robust + e);
+            let w = scaled / (robust + e);
             let (a, b, e) = (w * a, w * b, w * e);
             let mut add = |g: usize| {
                 if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
