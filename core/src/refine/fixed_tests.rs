@@ -86,13 +86,15 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_synthetic_scenes() {
     ] {
         let rendered = render(scene, size, seed);
         // EPI → refine → TV against the 99 % goal, and the default pipeline with the
-        // (f32) weighted median, which spreads the few differing pixels over its windows:
-        // measured 97.97–100 % on these small scenes, short of the goal (docs/bench-fixed.md).
+        // (f32) weighted median, which spreads the few differing pixels over its windows.
+        // Measured (docs/bench-refine.md): without the median 99.93–100 %, with it
+        // 99.56–100 % (97.97–100 % before the propagation costs and the statistics were
+        // scaled up in Q16).
         let no_median = Params {
             median: crate::median::MedianParams::off(),
             ..Params::default()
         };
-        for (params, bound) in [(no_median, 0.99), (Params::default(), 0.97)] {
+        for (params, bound) in [(no_median, 0.995), (Params::default(), 0.99)] {
             let reference = full::<f32>(&rendered, params);
             let fixed = full::<Q16>(&rendered, params);
             let (share, max) = agreement(&reference, &fixed, 0.02);
@@ -136,7 +138,8 @@ fn q16_refinement_stays_within_two_hundredths_of_f32_from_the_same_input() {
             100.0 * share,
             100.0 * confidence_share
         );
-        assert!(share >= 0.99, "{}: {share} (max {max})", scene.name());
+        // Measured 100 % on every scene (docs/bench-refine.md).
+        assert!(share >= 0.995, "{}: {share} (max {max})", scene.name());
         assert!(
             confidence_share >= 0.99,
             "{}: confidence {confidence_share}",
