@@ -182,15 +182,19 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     const median = () =>
       timed(medianStage, async () => {
         const rowBands = Math.ceil(height / medianRows);
+        // From the second pass on, the workers also get the map the pass before read,
+        // so they recompute only near the pixels that moved (same values).
+        let previous = null;
         for (let pass = 0; pass < plan.medianPasses; pass++) {
           const filtered = new Float32Array(width * height);
           await parts(
-            { disparity, confidence },
+            previous ? { disparity, confidence, previous } : { disparity, confidence },
             rowBands,
             (index) => ({ op: "medianRows", start: index * medianRows, end: Math.min(height, (index + 1) * medianRows) }),
             (index, reply) => filtered.set(reply.disparity, index * medianRows * width),
             (fraction) => onProgress(medianStage, (pass + fraction) / plan.medianPasses),
           );
+          previous = disparity;
           disparity = filtered;
         }
       });

@@ -75,8 +75,12 @@ const handlers = {
       tvIterations: e.tvIterations,
     };
   },
-  maps({ disparity, confidence }) {
-    requireEstimator().setMaps(disparity, confidence);
+  maps({ disparity, confidence, previous }) {
+    const e = requireEstimator();
+    e.setMaps(disparity, confidence);
+    // A median pass after the first also gets the map the pass before it read.
+    if (previous) e.setPreviousDisparity(previous);
+    else e.clearPreviousDisparity();
     return {};
   },
   refineBand({ index, min, max }) {

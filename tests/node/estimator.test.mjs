@@ -123,14 +123,21 @@ function byParts(estimator, d, c, min, max, bandLines) {
     confidence = refinedConfidence;
   }
   const median = () => {
+    // Passes after the first are told the map the pass before read (they recompute
+    // only near what moved): the result must not change.
+    let previous = null;
     for (let pass = 0; pass < estimator.medianPasses; pass++) {
       estimator.setMaps(disparity, confidence);
+      if (previous) estimator.setPreviousDisparity(previous);
+      else estimator.clearPreviousDisparity();
       const filtered = new Float32Array(pixels);
       for (let start = 0; start < SIZE; start += bandLines) {
         filtered.set(estimator.medianRows(start, Math.min(SIZE, start + bandLines)), start * SIZE);
       }
+      previous = disparity;
       disparity = filtered;
     }
+    estimator.clearPreviousDisparity();
   };
   if (estimator.medianBeforeTv) median();
   estimator.setMaps(disparity, confidence);
@@ -195,6 +202,7 @@ test("stage parts report how the stages are cut and reject bad requests", () => 
   assert.throws(() => estimator.refineBand(6, -1, 1), /refine band/);
   assert.throws(() => estimator.tvTile(16), /tile/);
   assert.throws(() => estimator.medianRows(10, 200), /median band end row/);
+  assert.throws(() => estimator.setPreviousDisparity(zeros.subarray(2)), /previous disparity has 16382 values/);
   assert.throws(() => estimator.tvResiduals(new Float32Array(3)), /histories has 3 values/);
   assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /tv.tile/);
 });

@@ -192,6 +192,8 @@ pub struct Estimator {
     /// The maps the stage parts (`refineBand`, `medianRows`, `tvTile`) read, set by
     /// `setMaps`: disparity then confidence, `plan.pixels()` each.
     pub(crate) maps: Option<(Vec<f32>, Vec<f32>)>,
+    /// The map the previous median pass read (see `setPreviousDisparity`).
+    pub(crate) previous: Option<Vec<f32>>,
 }
 
 impl Estimator {
@@ -275,6 +277,7 @@ impl Estimator {
             stages,
             aligned: None,
             maps: None,
+            previous: None,
         })
     }
 

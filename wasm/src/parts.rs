@@ -89,10 +89,33 @@ impl Estimator {
         Ok(())
     }
 
-    /// Frees the maps of `setMaps`.
+    /// Frees the maps of `setMaps` and the map of `setPreviousDisparity`.
     #[wasm_bindgen(js_name = clearMaps)]
     pub fn clear_maps(&mut self) {
         self.maps = None;
+        self.previous = None;
+    }
+
+    /// For a median pass after the first: the disparity the previous pass read (copied,
+    /// `plan.pixels()` values). `medianRows` then filters only near the pixels that
+    /// moved, with the same result as a full pass.
+    #[wasm_bindgen(js_name = setPreviousDisparity)]
+    pub fn set_previous_disparity(&mut self, previous: &[f32]) -> Result<(), JsError> {
+        let pixels = self.plan.pixels();
+        if previous.len() != pixels {
+            return Err(message(&format!(
+                "the previous disparity has {} values but the view has {pixels} pixels",
+                previous.len()
+            )));
+        }
+        self.previous = Some(previous.to_vec());
+        Ok(())
+    }
+
+    /// Forgets the map of `setPreviousDisparity` (the next `medianRows` is a first pass).
+    #[wasm_bindgen(js_name = clearPreviousDisparity)]
+    pub fn clear_previous_disparity(&mut self) {
+        self.previous = None;
     }
 
     /// Number of refine bands; 0 when `params.refine` is false (the refined maps are
@@ -162,7 +185,8 @@ impl Estimator {
 
     /// One median pass over image rows `start..end` of the disparity of `setMaps` (the
     /// previous pass's whole map), guided by the centre view: `(end − start) · width`
-    /// values, row-major.
+    /// values, row-major. With `setPreviousDisparity`, only pixels near the ones the
+    /// previous pass moved are recomputed (same values).
     #[wasm_bindgen(js_name = medianRows)]
     pub fn median_rows(&self, start: usize, end: usize) -> Result<Vec<f32>, JsError> {
         let (input, _) = self.stage_maps()?;
@@ -173,14 +197,26 @@ impl Estimator {
             .ok_or_else(|| message(&format!("median rows {start}..{end}: start is after end")))?;
         let mut out = vec![0.0f32; rows.saturating_mul(width)];
         let mut scratch = vec![0.0f32; median::scratch_len(&self.plan)];
-        median::filter_rows(
-            &self.plan,
-            &lf.center_view(),
-            input,
-            start..end,
-            &mut out,
-            &mut scratch,
-        )
+        let guide = lf.center_view();
+        match &self.previous {
+            Some(previous) => median::filter_rows_again(
+                &self.plan,
+                &guide,
+                input,
+                previous,
+                start..end,
+                &mut out,
+                &mut scratch,
+            ),
+            None => median::filter_rows(
+                &self.plan,
+                &guide,
+                input,
+                start..end,
+                &mut out,
+                &mut scratch,
+            ),
+        }
         .map_err(error)?;
         Ok(out)
     }
