@@ -95,7 +95,15 @@ fn median_passes<S: Sample>(
         if pass == 0 {
             median::filter(plan, &guide, input, output, scratch)?;
         } else {
-            median::filter_rows_again(plan, &guide, input, previous, rows.clone(), output, scratch)?;
+            median::filter_rows_again(
+                plan,
+                &guide,
+                input,
+                previous,
+                rows.clone(),
+                output,
+                scratch,
+            )?;
         }
         previous.copy_from_slice(input);
         input.copy_from_slice(output);
@@ -217,7 +225,15 @@ pub fn regularize<T: Scalar, S: Sample>(
     confidence.copy_from_slice(mid_c);
     let median = plan.params().median;
     if median.enabled && median.before_tv {
-        median_passes(plan, lf, mid_d, disparity, median_previous, median_scratch, progress)?;
+        median_passes(
+            plan,
+            lf,
+            mid_d,
+            disparity,
+            median_previous,
+            median_scratch,
+            progress,
+        )?;
     }
 
     let layout = plan.layout();
@@ -264,7 +280,15 @@ pub fn regularize<T: Scalar, S: Sample>(
     report(progress, tv::STAGE, solves, solves)?;
     if median.enabled && !median.before_tv {
         mid_d.copy_from_slice(disparity);
-        median_passes(plan, lf, mid_d, disparity, median_previous, median_scratch, progress)?;
+        median_passes(
+            plan,
+            lf,
+            mid_d,
+            disparity,
+            median_previous,
+            median_scratch,
+            progress,
+        )?;
     }
     Ok(())
 }
