@@ -6,7 +6,7 @@ use super::band::Band;
 use super::hypotheses::Hypotheses;
 use super::kernels::{apply_pair, centre_weights, truncated_gaussian, Kernel};
 use super::planes::{shift, Planes, Sources};
-use super::{ColorMode, EpiParams, Search};
+use super::{ColorMode, EpiParams, Search, INTENSITY_SCALE};
 use crate::error::{Error, Result};
 use crate::lightfield::GRID_MAX;
 use crate::scalar::Scalar;
@@ -98,6 +98,9 @@ fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
 const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
+/// Traces up to this are degenerate (no texture): 10⁻⁶ at an intensity scale of 64, scaled
+/// with the trace (the square of the intensity scale) so that `f32` decides as before.
+const TINY_TRACE: f32 = 1e-6 * (INTENSITY_SCALE / 64.0) * (INTENSITY_SCALE / 64.0);
 /// Samples per register block of the tensor sums: the gradients and sums of a block are
 /// accumulated over every channel and view before they are stored (8: 123–124 ms,
 /// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/bench-epi.md).
@@ -649,7 +652,7 @@ impl<T: Scalar> LineEstimator<T> {
         let degenerate = T::from_f32(DEGENERATE);
         let single = T::from_f32(SINGLE);
         let out_of_window = T::from_f32(OUT_OF_WINDOW);
-        let tiny_trace = T::from_f32(1e-6).max(T::EPSILON);
+        let tiny_trace = T::from_f32(TINY_TRACE).max(T::EPSILON);
         let min_den = T::from_f32(1.0 / 64.0);
         let min_gap = T::from_f32(1.0 / 256.0);
         let two = T::from_i32(2);
