@@ -121,7 +121,8 @@ fn engine_with_the_refill_matches_the_core_pipeline_bit_for_bit() {
 /// (weakly textured surfaces, where the refinement fattens edges) it lowers BadPix0.07
 /// clearly; on the scenes whose depth steps sit on colour edges it changes little
 /// (no more than 0.2 points of BadPix0.07 and 2 % of RMS). The mixed scene is printed
-/// only: at 64² its BadPix0.07 rises by ~0.5 points (docs/bench-fill.md).
+/// only: at 64² its BadPix0.07 rises by ~0.4 points, at 128² it falls or stays
+/// (docs/bench-fill.md).
 #[test]
 fn refill_fixes_low_texture_edges_and_spares_the_others() {
     for kind in [

@@ -62,6 +62,11 @@ pub struct GeoFillParams {
     /// towards the nearer seed, 0.0001…1 (positive, so that every band pixel's path
     /// cost is above a seed's 0).
     pub spatial: f32,
+    /// A band pixel whose cheapest path to a seed costs more than this (unit intensity)
+    /// keeps its value, 0.001…16: a fattened pixel reaches the background through
+    /// uniform colour, while a thin structure inside a band (no seed of its own) would
+    /// have to cross its own colour edge, 0.15 ≈ two edges of 20 levels.
+    pub max_cost: f32,
     /// Forward + backward sweep pairs of the distance transform, 1…[`MAX_SWEEPS`]: one
     /// pair finds paths that turn at most once between the sweep directions.
     pub sweeps: usize,
@@ -84,6 +89,7 @@ impl Default for GeoFillParams {
             band: 5,
             reach: 16,
             spatial: 0.004,
+            max_cost: 0.15,
             sweeps: 2,
             planar: false,
         }
@@ -118,6 +124,12 @@ impl GeoFillParams {
             return bad(
                 "geofill.spatial",
                 "must be in [0.0001, 1] (unit intensity per pixel)",
+            );
+        }
+        if !(self.max_cost.is_finite() && (0.001..=16.0).contains(&self.max_cost)) {
+            return bad(
+                "geofill.max_cost",
+                "must be in [0.001, 16] (unit intensity)",
             );
         }
         if !(1..=MAX_SWEEPS).contains(&self.sweeps) {
@@ -216,10 +228,11 @@ pub fn fill<S: Sample>(
     let Field {
         dist, off_x, off_y, ..
     } = field;
+    let max_cost = p.max_cost;
     for y in 0..height {
         for x in 0..width {
             let i = y * width + x;
-            if !(dist[i] > 0.0 && dist[i].is_finite() && input[i].is_finite()) {
+            if !(dist[i] > 0.0 && dist[i] <= max_cost && input[i].is_finite()) {
                 continue;
             }
             let (ox, oy) = (off_x[i], off_y[i]);
@@ -577,6 +590,43 @@ mod tests {
     }
 
     #[test]
+    fn thin_structure_inside_a_band_keeps_its_value() {
+        let plan = plan();
+        let bar = |x: usize, y: usize| (18..20).contains(&x) && (8..13).contains(&y);
+        let mut image = vec![0u8; W * H * 3];
+        for (i, px) in image.chunks_exact_mut(3).enumerate() {
+            let (x, y) = (i % W, i / W);
+            px.fill(if x < 10 || bar(x, y) { 200 } else { 30 });
+        }
+        let data = light_field(&image);
+        let lf = LightField::new(&data, *plan.layout()).unwrap();
+        // The foreground (x < 10) is fattened to x < 15, within a band's reach of a
+        // short bright bar at disparity 3 whose own steps sit on colour edges.
+        let input: Vec<f32> = (0..W * H)
+            .map(|i| match (i % W, i / W) {
+                (x, y) if bar(x, y) => 3.0,
+                (x, _) if x < 15 => 2.0,
+                _ => 0.5,
+            })
+            .collect();
+        let mut out = vec![0.0f32; W * H];
+        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        fill(&plan, &lf.center_view(), &input, &mut out, &mut scratch).unwrap();
+        for y in 0..H {
+            for x in 0..W {
+                let want = if bar(x, y) {
+                    3.0
+                } else if x < 10 {
+                    2.0
+                } else {
+                    0.5
+                };
+                assert_eq!(out[y * W + x], want, "({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
     fn step_on_a_colour_edge_is_left_alone() {
         let plan = plan();
         let mut image = vec![0u8; W * H * 3];
@@ -655,6 +705,10 @@ mod tests {
                 ..ok
             },
             GeoFillParams { sweeps: 0, ..ok },
+            GeoFillParams {
+                max_cost: 0.0,
+                ..ok
+            },
         ] {
             assert!(matches!(
                 bad.validate(),

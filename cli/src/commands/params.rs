@@ -203,6 +203,11 @@ pub struct ParamArgs {
     /// left alone (default from the core).
     #[arg(long, value_name = "F")]
     pub fill_edge: Option<f32>,
+    /// Geodesic refill: a band pixel whose cheapest colour path to a pixel outside the
+    /// band costs more than this (unit intensity) keeps its value (default from the
+    /// core).
+    #[arg(long, value_name = "F")]
+    pub fill_max_cost: Option<f32>,
     /// Geodesic refill: path cost per pixel of length, in unit intensity, against the
     /// colour differences crossed (default from the core).
     #[arg(long, value_name = "F")]
@@ -249,6 +254,7 @@ impl Default for ParamArgs {
             fill_step: None,
             fill_spatial: None,
             fill_edge: None,
+            fill_max_cost: None,
             fill_planar: false,
             align: AlignChoice::Auto,
             align_interp: AlignInterp::Bilinear,
@@ -320,6 +326,9 @@ impl ParamArgs {
         }
         if let Some(t) = self.fill_step {
             params.geofill.step = t;
+        }
+        if let Some(c) = self.fill_max_cost {
+            params.geofill.max_cost = c;
         }
         if let Some(e) = self.fill_edge {
             params.geofill.edge = e;
@@ -403,5 +412,36 @@ mod tests {
                 max: 0.5
             }
         );
+    }
+
+    #[test]
+    fn fill_flags() {
+        let on = ParamArgs {
+            fill: Some(1),
+            fill_band: Some(12),
+            fill_max_cost: Some(0.3),
+            fill_planar: true,
+            ..ParamArgs::default()
+        };
+        let g = on.params(None).unwrap().geofill;
+        assert!(g.enabled && g.planar);
+        assert_eq!((g.band, g.reach, g.max_cost), (12, 24, 0.3));
+        let off = ParamArgs {
+            fill: Some(0),
+            ..ParamArgs::default()
+        };
+        assert!(!off.params(None).unwrap().geofill.enabled);
+        for bad in [
+            ParamArgs {
+                fill: Some(2),
+                ..ParamArgs::default()
+            },
+            ParamArgs {
+                fill_band: Some(0),
+                ..ParamArgs::default()
+            },
+        ] {
+            assert!(bad.params(None).is_err());
+        }
     }
 }
