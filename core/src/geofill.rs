@@ -690,6 +690,40 @@ mod tests {
     }
 
     #[test]
+    fn a_stream_refuses_the_refill() {
+        let params = *plan().params();
+        let params = Params {
+            refine: crate::refine::RefineParams::off(),
+            median: crate::median::MedianParams::off(),
+            tv: crate::tv::TvParams {
+                sweeps: 0,
+                ..params.tv
+            },
+            epi: crate::epi::EpiParams {
+                range: crate::epi::DisparityRange::Fixed {
+                    min: -1.0,
+                    max: 1.0,
+                },
+                ..params.epi
+            },
+            ..params
+        };
+        let layout = *plan().layout();
+        assert!(matches!(
+            crate::stream::StreamPlan::new(layout, params),
+            Err(Error::InvalidParameter {
+                name: "geofill.enabled",
+                ..
+            })
+        ));
+        let off = Params {
+            geofill: GeoFillParams::off(),
+            ..params
+        };
+        assert!(crate::stream::StreamPlan::new(layout, off).is_ok());
+    }
+
+    #[test]
     fn parameters_are_checked() {
         let ok = GeoFillParams::default();
         assert!(ok.validate().is_ok());
