@@ -34,7 +34,7 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
   const onProgress = (stage, fraction) => signal.aborted || report(stage, fraction);
   const [rangeStage, horizontalStage, verticalStage] = stages.filter((s) => s.startsWith("epi"));
   // The core's names of the later stages (as `stageNames()` lists them).
-  const [refineStage, medianStage, tvStage] = ["refine", "median", "tv"];
+  const [refineStage, geofillStage, medianStage, tvStage] = ["refine", "geofill", "median", "tv"];
   const timings = [];
   const check = () => {
     if (signal.aborted) throw new Cancelled();
@@ -130,7 +130,7 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     );
     check();
     // The later stages by parts, in the order of the core's `pipeline::regularize`:
-    // refine bands, then each median pass (before TV unless `median.beforeTv` is false),
+    // refine bands, the geodesic refill (when on), then each median pass (before TV unless `median.beforeTv` is false),
     // then TV tiles. Each stage's input maps go to every worker once; its parts then
     // spread over the pool. Cancel drops the queued parts and ignores the in-flight ones.
     const plan = await pool.run({ op: "parts" });
@@ -174,6 +174,22 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       );
       disparity = refined;
       confidence = refinedConfidence;
+    }
+    // The geodesic refill: one whole-map part (its sweeps have one order).
+    if (plan.geofill) {
+      let filled = disparity;
+      await timed(geofillStage, () =>
+        parts(
+          { disparity, confidence },
+          1,
+          () => ({ op: "geofill" }),
+          (_, reply) => {
+            filled = reply.disparity;
+          },
+          (fraction) => onProgress(geofillStage, fraction),
+        ),
+      );
+      disparity = filled;
     }
     // Each pass filters the whole previous map, cut into row bands: about four per
     // worker (a band recomputes the slopes of the window rows around it, so bands much

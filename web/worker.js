@@ -69,6 +69,7 @@ const handlers = {
     return {
       refineBands: e.refineBands,
       refineRows,
+      geofill: e.geofill,
       medianPasses: e.medianPasses,
       medianBeforeTv: e.medianBeforeTv,
       tvTiles: e.tvTiles,
@@ -89,6 +90,10 @@ const handlers = {
     const confidence = band.confidence;
     band.free();
     return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
+  },
+  geofill() {
+    const disparity = requireEstimator().geofillMap();
+    return { disparity, transfer: [disparity.buffer] };
   },
   medianRows({ start, end }) {
     const disparity = requireEstimator().medianRows(start, end);

@@ -18,6 +18,7 @@ extern crate alloc;
 pub mod align;
 pub mod epi;
 pub mod error;
+pub mod geofill;
 pub mod geometry;
 pub mod lightfield;
 pub mod median;

@@ -1,7 +1,8 @@
 //! The core entry point: runs the stages over a light field into caller-owned maps,
 //! serially, with progress reports that can cancel:
 //! (alignment, [`run_aligned`] only) → EPI → photometric refinement (when
-//! `params.refine.enabled`) → edge-snapping weighted median (when
+//! `params.refine.enabled`) → geodesic refill of the band around depth steps (when
+//! `params.geofill.enabled`) → edge-snapping weighted median (when
 //! `params.median.enabled`, before or after TV) → TV.
 
 use core::ops::ControlFlow;
@@ -9,6 +10,7 @@ use core::ops::ControlFlow;
 use crate::align::{self, AlignMode, AlignParams, AlignReport, AlignedViews, WarpSample};
 use crate::epi;
 use crate::error::{checked_product, Error, Result};
+use crate::geofill;
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample};
 use crate::median;
@@ -56,13 +58,18 @@ pub fn stage_scratch_len(plan: &Plan, stages: Stages) -> usize {
 }
 
 /// Scratch (`f32` elements) [`run`] needs for the intermediate maps (disparity and
-/// confidence between the stages) and the weighted median's rows.
+/// confidence between the stages), the TV duals and the weighted median's rows (which
+/// the geodesic refill, running before both, borrows when enabled).
 pub fn map_scratch_len(plan: &Plan) -> usize {
-    plan.pixels()
-        .saturating_mul(2)
-        .saturating_add(tv::dual_len(plan))
+    let tail = tv::dual_len(plan)
         .saturating_add(median_map_len(plan))
-        .saturating_add(median::scratch_len(plan))
+        .saturating_add(median::scratch_len(plan));
+    let tail = if plan.params().geofill.enabled {
+        tail.max(geofill::scratch_len(plan))
+    } else {
+        tail
+    };
+    plan.pixels().saturating_mul(2).saturating_add(tail)
 }
 
 /// The weighted median's copy of the map two passes back (see
@@ -214,8 +221,6 @@ pub fn regularize<T: Scalar, S: Sample>(
     }
     let (mid_d, rest) = maps.split_at_mut(pixels);
     let (mid_c, rest) = rest.split_at_mut(pixels);
-    let (duals, rest) = rest.split_at_mut(tv::dual_len(plan));
-    let (median_previous, median_scratch) = rest.split_at_mut(median_map_len(plan));
     if plan.params().refine.enabled {
         refine::refine_with_progress(plan, lf, range, disparity, mid_d, mid_c, scratch, progress)?;
     } else {
@@ -223,6 +228,16 @@ pub fn regularize<T: Scalar, S: Sample>(
         mid_c.copy_from_slice(confidence);
     }
     confidence.copy_from_slice(mid_c);
+    if plan.params().geofill.enabled {
+        // The refill writes through `disparity`, which TV overwrites next; its scratch
+        // is the duals', the median's copy and the median's rows, all still unused.
+        report(progress, geofill::STAGE, 0, 1)?;
+        geofill::fill(plan, &lf.center_view(), mid_d, disparity, rest)?;
+        mid_d.copy_from_slice(disparity);
+        report(progress, geofill::STAGE, 1, 1)?;
+    }
+    let (duals, rest) = rest.split_at_mut(tv::dual_len(plan));
+    let (median_previous, median_scratch) = rest.split_at_mut(median_map_len(plan));
     let median = plan.params().median;
     if median.enabled && median.before_tv {
         median_passes(

@@ -5,6 +5,7 @@
 use crate::align::{AlignMode, AlignParams};
 use crate::epi::EpiParams;
 use crate::error::{checked_product, Result};
+use crate::geofill::GeoFillParams;
 use crate::lightfield::Layout;
 use crate::median::MedianParams;
 use crate::refine::RefineParams;
@@ -26,6 +27,9 @@ pub struct Params {
     pub tv: TvParams,
     /// Edge-snapping weighted median guided by the centre view (before TV by default).
     pub median: MedianParams,
+    /// Geodesic refill of the band around depth steps (after the refinement, before the
+    /// median).
+    pub geofill: GeoFillParams,
 }
 
 impl Default for Params {
@@ -47,6 +51,7 @@ impl Default for Params {
                 ..TvParams::default()
             },
             median: MedianParams::default(),
+            geofill: GeoFillParams::default(),
         }
     }
 }
@@ -60,6 +65,7 @@ impl Params {
             refine: RefineParams::off(),
             tv: TvParams::default(),
             median: MedianParams::off(),
+            geofill: GeoFillParams::off(),
         }
     }
 }
@@ -81,6 +87,7 @@ impl Plan {
         params.refine.validate()?;
         params.tv.validate()?;
         params.median.validate()?;
+        params.geofill.validate()?;
         let pixels = checked_product(&[layout.width, layout.height], "the disparity map")?;
         Ok(Plan {
             layout,

@@ -183,7 +183,8 @@ fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> us
 
 impl StreamPlan {
     /// Validates `layout` and `params` for streaming: the disparity range must be fixed
-    /// (or the shear off), the refinement, the weighted median and the alignment off.
+    /// (or the shear off), the refinement, the weighted median, the geodesic refill and the
+    /// alignment off.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
         if params.refine.enabled {
@@ -196,6 +197,12 @@ impl StreamPlan {
             return Err(Error::InvalidParameter {
                 name: "median.enabled",
                 reason: "must be off for a stream: the weighted median is not streamed",
+            });
+        }
+        if params.geofill.enabled {
+            return Err(Error::InvalidParameter {
+                name: "geofill.enabled",
+                reason: "must be off for a stream: the geodesic refill is a whole-frame stage",
             });
         }
         if params.tv.sweeps != 0 {

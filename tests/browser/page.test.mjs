@@ -106,13 +106,15 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
     const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
     lf.initSync({ module });
     const spec = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
-    const scene = lf.synthesize(spec);
+    const scenes = { occlusion: lf.synthesize(spec), lowTexture: lf.synthesize({ ...spec, scene: "low-texture" }) };
     const shape = { rows: 7, cols: 7, width: 80, height: 64, channels: 3 };
     const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
     const out = [];
     // Defaults (one refine band and one TV tile at this size), then parameters that cut
-    // refine, median and TV into many parts, with the median before and after TV.
-    for (const params of [{}, { refineBandRows: 24, tvTile: 32 }, { refineBandRows: 20, tvTile: 40, medianBeforeTv: false, iterations: 80 }]) {
+    // refine, median and TV into many parts, with the median before and after TV; the
+    // geodesic refill on a weakly textured scene, where it has fattened edges to move.
+    for (const params of [{}, { refineBandRows: 24, tvTile: 32 }, { refineBandRows: 20, tvTile: 40, medianBeforeTv: false, iterations: 80 }, { geofill: true, tvTile: 32 }]) {
+      const scene = params.geofill ? scenes.lowTexture : scenes.occlusion;
       const serial = new lf.Estimator(scene.views, shape, params).estimate();
       for (const size of [1, 3]) {
         const pool = await WorkerPool.create(module, size);
@@ -128,7 +130,7 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
           confidence: same(r.confidence, serial.confidence),
           residuals: same(r.residuals, serial.residuals) && r.residuals.length > 0,
           stages: ["refine", "median", "tv"].every((s) => stages.has(s)),
-          timings: r.timings.map((t) => t.stage).filter((s) => ["refine", "median", "tv"].includes(s)).join(),
+          timings: r.timings.map((t) => t.stage).filter((s) => ["refine", "geofill", "median", "tv"].includes(s)).join(),
         });
       }
     }
@@ -136,10 +138,11 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
   });
   for (const r of results) {
     assert.ok(r.disparity && r.confidence && r.residuals && r.stages, JSON.stringify(r));
-    const order = JSON.parse(r.params).medianBeforeTv === false ? "refine,tv,median" : "refine,median,tv";
+    const p = JSON.parse(r.params);
+    const order = p.medianBeforeTv === false ? "refine,tv,median" : p.geofill ? "refine,geofill,median,tv" : "refine,median,tv";
     assert.equal(r.timings, order, JSON.stringify(r));
   }
-  assert.equal(results.length, 6);
+  assert.equal(results.length, 8);
   await page.close();
 });
 

@@ -42,7 +42,9 @@ test("the full pipeline (EPI → refine → median → TV) beats the EPI stage a
   assert.ok(scores.mse100 <= epiScores.mse100, `MSE×100 ${scores.mse100} vs EPI ${epiScores.mse100}`);
   assert.equal(scores.invalidPct, 0);
   for (const c of full.confidence) assert.ok(c >= 0 && c <= 1);
-  assert.deepEqual(full.timings.map((t) => t.stage), lf.stageNames().filter((s) => s !== "warp"));
+  // Every stage but the warp (the array is rectified) and the geodesic refill (off by
+  // default).
+  assert.deepEqual(full.timings.map((t) => t.stage), lf.stageNames().filter((s) => s !== "warp" && s !== "geofill"));
   for (const t of full.timings) assert.ok(t.ms >= 0);
   const r = full.residuals;
   assert.ok(r.length > 1 && r.length <= 300, `${r.length} TV iterations`);
@@ -221,8 +223,9 @@ test("progress reaches the end of every stage, and returning false cancels", () 
     assert.ok(p.done <= p.total);
     last.set(p.stage, p);
   });
-  // Every stage but the warp: alignment (auto) finds this array rectified.
-  for (const stage of lf.stageNames().filter((s) => s !== "warp")) {
+  // Every stage but the warp (alignment, auto, finds this array rectified) and the
+  // geodesic refill (off by default).
+  for (const stage of lf.stageNames().filter((s) => s !== "warp" && s !== "geofill")) {
     const p = last.get(stage);
     assert.ok(p, `no report for ${stage}`);
     assert.equal(p.done, p.total, stage);

@@ -73,6 +73,8 @@ export interface EstimateParams {
   refine?: boolean;
   /** Edge-snapping weighted median guided by the centre view, between refine and TV (default true). */
   median?: boolean;
+  /** Geodesic refill of the band around depth steps inside uniform colour, after refine and before the median (default false): a foreground fattened into a flat background returns to its colour edge. */
+  geofill?: boolean;
   /** Weight λ of the total variation against the data term (larger: smoother), 0…1000. */
   lambda?: number;
   /** Most TV (PPXA) iterations per tile, 1…100000. */

@@ -9,7 +9,7 @@ use wasm_bindgen::prelude::*;
 use crate::js::{message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 18] = [
+const PARAM_KEYS: [&str; 19] = [
     "range",
     "innerSigma",
     "outerSigma",
@@ -22,6 +22,7 @@ const PARAM_KEYS: [&str; 18] = [
     "stage",
     "refine",
     "median",
+    "geofill",
     "lambda",
     "iterations",
     "align",
@@ -126,6 +127,9 @@ pub fn params(object: &JsValue) -> Result<Params, JsError> {
     }
     if let Some(v) = f.boolean("median")? {
         params.median.enabled = v;
+    }
+    if let Some(v) = f.boolean("geofill")? {
+        params.geofill.enabled = v;
     }
     float("lambda", &mut params.tv.lambda)?;
     if let Some(v) = f.count("iterations")? {

@@ -1,10 +1,11 @@
 //! The stages after EPI by parts, so the page can spread them over Web Workers: refine
-//! bands, weighted-median row bands (one pass at a time), TV tiles. Each part is the
+//! bands, the geodesic refill (one whole-map part), weighted-median row bands (one pass
+//! at a time), TV tiles. Each part is the
 //! core's own band/tile function; put together in the order the core's serial
 //! `pipeline::regularize` runs them they give its bits, whatever the split.
 
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
-use lfdepth::{median, refine};
+use lfdepth::{geofill, median, refine};
 use wasm_bindgen::prelude::*;
 
 use crate::estimator::{iterations_run, Band, Estimator};
@@ -163,6 +164,26 @@ impl Estimator {
             disparity,
             confidence,
         })
+    }
+
+    /// True when the geodesic refill runs (after the refine bands, before the median).
+    #[wasm_bindgen(getter)]
+    pub fn geofill(&self) -> bool {
+        self.plan.params().geofill.enabled
+    }
+
+    /// The geodesic refill of the disparity of `setMaps` (the refined map), guided by the
+    /// centre view: `plan.pixels()` values. One serial part: its sweeps run over the
+    /// whole map in one order.
+    #[wasm_bindgen(js_name = geofillMap)]
+    pub fn geofill_map(&self) -> Result<Vec<f32>, JsError> {
+        let (input, _) = self.stage_maps()?;
+        let lf = self.light_field()?;
+        let mut out = vec![0.0f32; self.plan.pixels()];
+        let mut scratch = vec![0.0f32; geofill::scratch_len(&self.plan)];
+        geofill::fill(&self.plan, &lf.center_view(), input, &mut out, &mut scratch)
+            .map_err(error)?;
+        Ok(out)
     }
 
     /// Weighted-median passes to run over the whole map, one after the other; 0 when

@@ -183,6 +183,39 @@ pub struct ParamArgs {
     /// Weighted median: run it after TV instead of between the refinement and TV.
     #[arg(long)]
     pub median_after_tv: bool,
+    /// Geodesic refill of the band around depth steps (after the refinement, before the
+    /// median): 1 on, 0 off (default from the core). Each pixel within --fill-band px of
+    /// a disparity step takes the value of the outside pixel it reaches through the
+    /// most uniform colour of the centre view, so a foreground fattened into a flat
+    /// background returns to its colour edge.
+    #[arg(long, value_name = "0|1")]
+    pub fill: Option<u8>,
+    /// Geodesic refill: width (px, city-block) of the band refilled around each step,
+    /// 1…32 (default from the core).
+    #[arg(long, value_name = "N")]
+    pub fill_band: Option<usize>,
+    /// Geodesic refill: a disparity difference between 4-neighbours larger than this
+    /// (px) is a depth step (default from the core).
+    #[arg(long, value_name = "F")]
+    pub fill_step: Option<f32>,
+    /// Geodesic refill: a depth step with a colour step (largest channel difference, unit
+    /// intensity) of at least this within 2 px across it sits on its colour edge and is
+    /// left alone (default from the core).
+    #[arg(long, value_name = "F")]
+    pub fill_edge: Option<f32>,
+    /// Geodesic refill: a band pixel whose cheapest colour path to a pixel outside the
+    /// band costs more than this (unit intensity) keeps its value (default from the
+    /// core).
+    #[arg(long, value_name = "F")]
+    pub fill_max_cost: Option<f32>,
+    /// Geodesic refill: path cost per pixel of length, in unit intensity, against the
+    /// colour differences crossed (default from the core).
+    #[arg(long, value_name = "F")]
+    pub fill_spatial: Option<f32>,
+    /// Geodesic refill: extrapolate the source pixel's value along its slope instead of
+    /// copying it.
+    #[arg(long)]
+    pub fill_planar: bool,
     /// Align the views by per-view homographies first: `off`, `on`, or `auto` (only when
     /// the array is found not to be rectified).
     #[arg(long, value_enum, default_value_t = AlignChoice::Auto)]
@@ -216,6 +249,13 @@ impl Default for ParamArgs {
             median_snap: None,
             median_flat: false,
             median_after_tv: false,
+            fill: None,
+            fill_band: None,
+            fill_step: None,
+            fill_spatial: None,
+            fill_edge: None,
+            fill_max_cost: None,
+            fill_planar: false,
             align: AlignChoice::Auto,
             align_interp: AlignInterp::Bilinear,
             align_views: AlignViewsChoice::Read,
@@ -274,6 +314,31 @@ impl ParamArgs {
         if let Some(sigma) = self.median_sigma {
             params.median.color_sigma = sigma;
         }
+        match self.fill {
+            Some(0) => params.geofill.enabled = false,
+            Some(1) => params.geofill.enabled = true,
+            Some(_) => return Err(CliError::Usage("--fill takes 0 (off) or 1 (on)".into())),
+            None => {}
+        }
+        if let Some(n) = self.fill_band {
+            params.geofill.band = n;
+            params.geofill.reach = params.geofill.reach.max(2 * n);
+        }
+        if let Some(t) = self.fill_step {
+            params.geofill.step = t;
+        }
+        if let Some(c) = self.fill_max_cost {
+            params.geofill.max_cost = c;
+        }
+        if let Some(e) = self.fill_edge {
+            params.geofill.edge = e;
+        }
+        if let Some(c) = self.fill_spatial {
+            params.geofill.spatial = c;
+        }
+        if self.fill_planar {
+            params.geofill.planar = true;
+        }
         // Out-of-range values are reported here, before any view is decoded.
         params
             .tv
@@ -283,6 +348,10 @@ impl ParamArgs {
             .median
             .validate()
             .map_err(|e| CliError::core("checking the --median flags", e))?;
+        params
+            .geofill
+            .validate()
+            .map_err(|e| CliError::core("checking the --fill flags", e))?;
         params.epi.range = match self.disparity_range {
             RangeChoice::Auto if self.no_shear => params.epi.range,
             RangeChoice::Auto => DisparityRange::Auto,
@@ -343,5 +412,36 @@ mod tests {
                 max: 0.5
             }
         );
+    }
+
+    #[test]
+    fn fill_flags() {
+        let on = ParamArgs {
+            fill: Some(1),
+            fill_band: Some(12),
+            fill_max_cost: Some(0.3),
+            fill_planar: true,
+            ..ParamArgs::default()
+        };
+        let g = on.params(None).unwrap().geofill;
+        assert!(g.enabled && g.planar);
+        assert_eq!((g.band, g.reach, g.max_cost), (12, 24, 0.3));
+        let off = ParamArgs {
+            fill: Some(0),
+            ..ParamArgs::default()
+        };
+        assert!(!off.params(None).unwrap().geofill.enabled);
+        for bad in [
+            ParamArgs {
+                fill: Some(2),
+                ..ParamArgs::default()
+            },
+            ParamArgs {
+                fill_band: Some(0),
+                ..ParamArgs::default()
+            },
+        ] {
+            assert!(bad.params(None).is_err());
+        }
     }
 }

@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 
 use lfdepth::align::{self, AlignMode, AlignReport};
 use lfdepth::epi::{self, Direction};
+use lfdepth::geofill;
 use lfdepth::median;
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::tv::{self, Guide, Maps, SolveOutput};
@@ -322,6 +323,9 @@ fn run_stages<T: Scalar, S: Sample + Sync>(
         estimate.confidence = c;
         estimate.timings.push((refine::STAGE, start.elapsed()));
     }
+    if plan.params().geofill.enabled {
+        geofill_whole(plan, lf, &mut estimate, tracker)?;
+    }
     let median = plan.params().median;
     if median.enabled && median.before_tv {
         median_passes(plan, lf, &mut estimate, tracker)?;
@@ -336,6 +340,31 @@ fn run_stages<T: Scalar, S: Sample + Sync>(
         median_passes(plan, lf, &mut estimate, tracker)?;
     }
     Ok(estimate)
+}
+
+/// The geodesic refill over the whole map, timed as one stage: its sweeps run in one
+/// raster order over the frame, so it is one serial call (the core's, bit for bit).
+fn geofill_whole<S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    estimate: &mut Estimate,
+    tracker: &Tracker<'_>,
+) -> Result<(), lfdepth::Error> {
+    let start = Instant::now();
+    tracker.start(geofill::STAGE, 1);
+    let mut out = vec![0.0f32; plan.pixels()];
+    let mut scratch = vec![0.0f32; geofill::scratch_len(plan)];
+    geofill::fill(
+        plan,
+        &lf.center_view(),
+        &estimate.disparity,
+        &mut out,
+        &mut scratch,
+    )?;
+    estimate.disparity = out;
+    tracker.add(1);
+    estimate.timings.push((geofill::STAGE, start.elapsed()));
+    Ok(())
 }
 
 /// Every pass of the weighted median over `estimate.disparity`, timed as one stage.
