@@ -133,7 +133,10 @@ fn engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipeline() 
 fn check_engine_against_core(s: &Scene, params: Params) -> Vec<f32> {
     let reference = run(s, params, StageSelect::Full, 1);
     let names: Vec<&str> = reference.timings.iter().map(|t| t.0).collect();
-    assert_eq!(names, ["epi range", "epi", "refine", "median", "tv"]);
+    assert_eq!(
+        names,
+        ["epi range", "epi", "refine", "geofill", "median", "tv"]
+    );
     assert!(!reference.residuals.is_empty());
     for threads in [2, 3] {
         let e = run(s, params, StageSelect::Full, threads);

@@ -53,6 +53,7 @@ fn stream_params(layout: Layout, min: f32, max: f32, halo: usize) -> (Params, St
             },
             refine: RefineParams::off(),
             median: lfdepth::median::MedianParams::off(),
+            geofill: lfdepth::geofill::GeoFillParams::off(),
             tv: TvParams {
                 tile,
                 halo,

@@ -83,7 +83,7 @@ impl Default for GeoFillParams {
     /// extrapolate over several pixels).
     fn default() -> Self {
         GeoFillParams {
-            enabled: false,
+            enabled: true,
             step: 0.8,
             edge: 0.03,
             band: 5,

@@ -78,6 +78,7 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
         },
         refine: RefineParams::off(),
         median: lfdepth::median::MedianParams::off(),
+        geofill: lfdepth::geofill::GeoFillParams::off(),
         tv: TvParams {
             tile: TILE,
             halo: HALO,

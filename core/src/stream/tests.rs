@@ -22,6 +22,7 @@ fn params(tile: usize, halo: usize, min: f32, max: f32) -> Params {
         },
         refine: RefineParams::off(),
         median: crate::median::MedianParams::off(),
+        geofill: crate::geofill::GeoFillParams::off(),
         tv: TvParams {
             tile,
             halo,
@@ -182,6 +183,7 @@ fn bad_streams_are_refused_with_errors() {
     let auto = Params {
         refine: RefineParams::off(),
         median: crate::median::MedianParams::off(),
+        geofill: crate::geofill::GeoFillParams::off(),
         ..Params::default()
     };
     assert!(matches!(
