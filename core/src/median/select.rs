@@ -5,34 +5,51 @@
 /// quickselect with three-way partitions; `values` and `weights` are reordered).
 /// `half` must be at most the total weight and the slices non-empty and equally long.
 pub(super) fn weighted_median(values: &mut [f32], weights: &mut [u32], half: u64) -> f32 {
-    let (mut lo, mut hi) = (0usize, values.len().min(weights.len()));
+    let n = values.len().min(weights.len());
+    let (values, weights) = (&mut values[..n], &mut weights[..n]);
+    // The indices below stay within [0, n) (`lo ≤ lt ≤ i < gt ≤ hi ≤ n`); the
+    // optimiser cannot follow that through the loops, so each access is a checked one
+    // whose miss ends the selection (it never misses).
+    let (mut lo, mut hi) = (0usize, n);
     let mut below = 0u64;
     while hi > lo {
         let slice = lo..hi;
-        let pivot = median_of_three(
-            values[slice.start],
-            values[slice.start + slice.len() / 2],
-            values[slice.end - 1],
-        );
+        let (Some(&first), Some(&middle), Some(&last)) = (
+            values.get(slice.start),
+            values.get(slice.start + slice.len() / 2),
+            values.get(slice.end - 1),
+        ) else {
+            break;
+        };
+        let pivot = median_of_three(first, middle, last);
         // Dutch-flag partition of [lo, hi): < pivot | == pivot | > pivot.
         let (mut lt, mut i, mut gt) = (lo, lo, hi);
         while i < gt {
-            let v = values[i];
+            let Some(&v) = values.get(i) else { break };
             if v < pivot {
+                if lt >= n {
+                    break;
+                }
                 values.swap(i, lt);
                 weights.swap(i, lt);
                 lt += 1;
                 i += 1;
             } else if v > pivot {
                 gt -= 1;
+                if gt >= n {
+                    break;
+                }
                 values.swap(i, gt);
                 weights.swap(i, gt);
             } else {
                 i += 1;
             }
         }
-        let w_less: u64 = weights[lo..lt].iter().map(|&w| u64::from(w)).sum();
-        let w_equal: u64 = weights[lt..gt].iter().map(|&w| u64::from(w)).sum();
+        let sum = |range: core::ops::Range<usize>| -> u64 {
+            let part = weights.get(range).unwrap_or_default();
+            part.iter().map(|&w| u64::from(w)).sum()
+        };
+        let (w_less, w_equal) = (sum(lo..lt), sum(lt..gt));
         if below + w_less >= half {
             hi = lt;
         } else if below + w_less + w_equal >= half {
@@ -75,7 +92,26 @@ fn value_of(key: u64) -> f32 {
 /// total falls short. For the few dozen votes of one side of a window, sorting and one
 /// scan beat the partitions.
 pub(super) fn weighted_median_of_keys(keys: &mut [u64], target: u64) -> Option<f32> {
-    keys.sort_unstable();
+    // Insertion sort, not `sort_unstable`: core's sort keeps a panic path for orders
+    // that are not total, which the firmware's link check counts (u64 order is total,
+    // so every sort gives these same keys).
+    for i in 1..keys.len() {
+        let Some(&key) = keys.get(i) else { break };
+        let mut j = i;
+        // `j − 1` wraps past 0 to an index `get` misses: the loop's end.
+        while let Some(&before) = keys.get(j.wrapping_sub(1)) {
+            if before <= key {
+                break;
+            }
+            if let Some(slot) = keys.get_mut(j) {
+                *slot = before;
+            }
+            j -= 1;
+        }
+        if let Some(slot) = keys.get_mut(j) {
+            *slot = key;
+        }
+    }
     let mut sum = 0u64;
     for &k in keys.iter() {
         sum += k & 0xFFFF_FFFF;
