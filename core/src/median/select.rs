@@ -87,36 +87,63 @@ fn value_of(key: u64) -> f32 {
     })
 }
 
-/// [`weighted_median`] of the finite values in `keys` (made by [`key`]; sorted here):
-/// the smallest value whose weight of values `≤` it reaches `target`, `None` when the
-/// total falls short. For the few dozen votes of one side of a window, sorting and one
-/// scan beat the partitions.
+/// [`weighted_median`] of the finite values in `keys` (made by [`key`]; reordered
+/// here): the smallest value whose weight of values `≤` it reaches `target`, `None` when
+/// the total falls short. The answer is that of sorting the keys and scanning them (the
+/// key order is total, `−0` below `+0`), found by a weighted quickselect on the keys:
+/// fewer compares than a sort for the few dozen votes of one side of a window, and no
+/// panic path (core's `sort_unstable` keeps one for orders that are not total, which
+/// the firmware's link check counts).
 pub(super) fn weighted_median_of_keys(keys: &mut [u64], target: u64) -> Option<f32> {
-    // Insertion sort, not `sort_unstable`: core's sort keeps a panic path for orders
-    // that are not total, which the firmware's link check counts (u64 order is total,
-    // so every sort gives these same keys).
-    for i in 1..keys.len() {
-        let Some(&key) = keys.get(i) else { break };
-        let mut j = i;
-        // `j − 1` wraps past 0 to an index `get` misses: the loop's end.
-        while let Some(&before) = keys.get(j.wrapping_sub(1)) {
-            if before <= key {
-                break;
-            }
-            if let Some(slot) = keys.get_mut(j) {
-                *slot = before;
-            }
-            j -= 1;
-        }
-        if let Some(slot) = keys.get_mut(j) {
-            *slot = key;
-        }
+    let weight = |k: u64| k & 0xFFFF_FFFF;
+    if target == 0 {
+        // The first key of the sorted scan.
+        return keys.iter().copied().min().map(value_of);
     }
-    let mut sum = 0u64;
-    for &k in keys.iter() {
-        sum += k & 0xFFFF_FFFF;
-        if sum >= target {
-            return Some(value_of(k));
+    let n = keys.len();
+    // As in [`weighted_median`]: `lo ≤ lt ≤ i < gt ≤ hi ≤ n`, each access checked.
+    let (mut lo, mut hi) = (0usize, n);
+    let mut below = 0u64;
+    while hi > lo {
+        let (Some(&a), Some(&b), Some(&c)) =
+            (keys.get(lo), keys.get(lo + (hi - lo) / 2), keys.get(hi - 1))
+        else {
+            break;
+        };
+        let pivot = a.max(b).min(a.min(b).max(c));
+        // Dutch-flag partition of [lo, hi): < pivot | == pivot | > pivot.
+        let (mut lt, mut i, mut gt) = (lo, lo, hi);
+        while i < gt {
+            let Some(&k) = keys.get(i) else { break };
+            if k < pivot {
+                if lt >= n {
+                    break;
+                }
+                keys.swap(i, lt);
+                lt += 1;
+                i += 1;
+            } else if k > pivot {
+                gt -= 1;
+                if gt >= n {
+                    break;
+                }
+                keys.swap(i, gt);
+            } else {
+                i += 1;
+            }
+        }
+        let sum = |range: core::ops::Range<usize>| -> u64 {
+            let part = keys.get(range).unwrap_or_default();
+            part.iter().map(|&k| weight(k)).sum()
+        };
+        let (w_less, w_equal) = (sum(lo..lt), sum(lt..gt));
+        if below + w_less >= target {
+            hi = lt;
+        } else if below + w_less + w_equal >= target {
+            return Some(value_of(pivot));
+        } else {
+            below += w_less + w_equal;
+            lo = gt;
         }
     }
     None
@@ -176,6 +203,39 @@ mod tests {
             let got = weighted_median(&mut v[..n], &mut w[..n], total.div_ceil(2));
             assert_eq!(got, expected, "trial {trial}");
             assert_eq!(sorted, Some(expected), "trial {trial}, by sorting keys");
+        }
+    }
+
+    #[test]
+    fn weighted_median_of_keys_equals_the_sorted_scan() {
+        let mut state = 777u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            state >> 8
+        };
+        let values = [-0.0f32, 0.0, 1.5, -2.25, 3.0, -1e-30, 7.0];
+        for trial in 0..2000 {
+            let n = trial % 70;
+            let mut keys = [0u64; 70];
+            for k in keys.iter_mut().take(n) {
+                let v = values[next() as usize % values.len()];
+                *k = key(v, next() % 4);
+            }
+            let total: u64 = keys[..n].iter().map(|&k| k & 0xFFFF_FFFF).sum();
+            let target = u64::from(next()) % (total + 2);
+            let mut sorted = keys;
+            sorted[..n].sort_unstable();
+            let mut sum = 0;
+            let expected = sorted[..n].iter().find_map(|&k| {
+                sum += k & 0xFFFF_FFFF;
+                (sum >= target).then(|| value_of(k))
+            });
+            let got = weighted_median_of_keys(&mut keys[..n], target);
+            assert_eq!(
+                got.map(f32::to_bits),
+                expected.map(f32::to_bits),
+                "trial {trial}"
+            );
         }
     }
 }
