@@ -97,6 +97,14 @@ fn median_passes<S: Sample>(
     let passes = plan.params().median.passes;
     let guide = lf.center_view();
     let rows = 0..plan.layout().height;
+    // One length check up front lets the copies below go without their own.
+    if output.len() != input.len() || previous.len() != input.len() {
+        return Err(Error::OutputSize {
+            what: "the median maps",
+            needed: input.len(),
+            got: output.len().min(previous.len()),
+        });
+    }
     for pass in 0..passes {
         report(progress, median::STAGE, pass, passes)?;
         if pass == 0 {
@@ -219,8 +227,12 @@ pub fn regularize<T: Scalar, S: Sample>(
             got: maps.len(),
         });
     }
-    let (mid_d, rest) = maps.split_at_mut(pixels);
-    let (mid_c, rest) = rest.split_at_mut(pixels);
+    let too_small = Error::ScratchTooSmall {
+        needed,
+        got: maps.len(),
+    };
+    let (mid_d, rest) = maps.split_at_mut_checked(pixels).ok_or(too_small)?;
+    let (mid_c, rest) = rest.split_at_mut_checked(pixels).ok_or(too_small)?;
     if plan.params().refine.enabled {
         refine::refine_with_progress(plan, lf, range, disparity, mid_d, mid_c, scratch, progress)?;
     } else {
@@ -236,8 +248,12 @@ pub fn regularize<T: Scalar, S: Sample>(
         mid_d.copy_from_slice(disparity);
         report(progress, geofill::STAGE, 1, 1)?;
     }
-    let (duals, rest) = rest.split_at_mut(tv::dual_len(plan));
-    let (median_previous, median_scratch) = rest.split_at_mut(median_map_len(plan));
+    let (duals, rest) = rest
+        .split_at_mut_checked(tv::dual_len(plan))
+        .ok_or(too_small)?;
+    let (median_previous, median_scratch) = rest
+        .split_at_mut_checked(median_map_len(plan))
+        .ok_or(too_small)?;
     let median = plan.params().median;
     if median.enabled && median.before_tv {
         median_passes(
@@ -271,13 +287,19 @@ pub fn regularize<T: Scalar, S: Sample>(
             report(progress, tv::STAGE, sweep * tiles + index, solves)?;
             let (core, _) = tv::tile_rects(plan, index)?;
             let start = core.y * layout.width + core.x;
+            let got = disparity.len();
+            let disparity = disparity.get_mut(start..).ok_or(Error::OutputSize {
+                what: "the disparity map",
+                needed: start,
+                got,
+            })?;
             tv::refine_tile(
                 plan,
                 &maps,
                 &guide,
                 index,
                 SolveOutput {
-                    disparity: &mut disparity[start..],
+                    disparity,
                     stride: layout.width,
                     history: if sweep == 0 { &mut *history } else { &mut [] },
                     dual: if sweep < sweeps {

@@ -23,7 +23,9 @@ pub const HEIGHT: usize = 32;
 const GRID: Grid = Grid::new(9, 9);
 const VIEWS: usize = 81 * WIDTH * HEIGHT;
 const KERNEL_ELEMENTS: usize = 48 * 1024;
-const MAP_ELEMENTS: usize = 4 * 1024;
+// The map scratch: two maps, the TV duals and the median's previous pass (7,996 at
+// 32×32 with `Params::default()`).
+const MAP_ELEMENTS: usize = 8 * 1024;
 const ALIGN_ELEMENTS: usize = 128 * 1024;
 const HISTORY: usize = 300;
 

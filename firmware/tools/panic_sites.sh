@@ -10,7 +10,7 @@ CARGO_PROFILE_FIRMWARE_DEBUG=line-tables-only CARGO_PROFILE_FIRMWARE_STRIP=none 
     RUSTFLAGS="-D warnings" cargo build -q -p lfdepth-firmware --profile firmware \
     --target "$target" --target-dir target/nostd-lines ${FEATURES:+--features "$FEATURES"} || exit 1
 image=target/nostd-lines/$target/firmware/lfdepth-firmware
-panics=$(llvm-nm "$image" | grep -E "panic|slice_.*_fail|len_mismatch_fail" \
+panics=$(llvm-nm "$image" | grep -E "panic|slice_.*_fail|len_mismatch_fail|unwrap_failed|expect_failed" \
     | awk '{print $1}' | sed 's/^0*//' | paste -sd'|')
 sites=$(llvm-objdump -d --no-show-raw-insn "$image" \
     | grep -E "\sb(l|\.w|)\s+0x($panics)\b" | awk '{print $1}' | tr -d ':')

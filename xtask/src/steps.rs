@@ -12,6 +12,7 @@
 //! | `firmware-thumbv7em`, `firmware-thumbv6m` | `cargo build -p lfdepth-firmware --profile firmware --target …` (the stream in a `no_main` image, f32 / Q16), same flags and directory |
 //! | `firmware-size` | text / data / bss of both firmware images (docs/EMBEDDED.md) |
 //! | `firmware-panic-free` | both firmware images again with `--features panic-free` (their panic handler calls an undefined symbol, so the link fails if any panic path survives optimisation), same flags and directory |
+//! | `firmware-panic-free-frame` | the same with `--features panic-free,whole-frame`: the images run `pipeline::run_aligned` (alignment, EPI, refine, median, TV) instead of the stream |
 //! | `doc`            | `cargo doc -p lfdepth --no-deps` with `RUSTDOCFLAGS=-D warnings` |
 //! | `wasm-build`     | `cargo build -p lfdepth-wasm --target wasm32-unknown-unknown --release` |
 //! | `test-release`   | `cargo test --workspace --release -- --show-output` (the heavy accuracy tests) |
@@ -217,13 +218,15 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
     };
     // After `firmware-size`: it rebuilds the images in place (the same code but for the
     // panic handler), both targets in one cargo call.
-    let panic_free = Action::Run(
-        Cmd::cargo(&["build", "-p", "lfdepth-firmware", "--profile", "firmware"])
-            .args(&["--features", "panic-free"])
-            .args(&["--target", FIRMWARE[0].0, "--target", FIRMWARE[1].0])
-            .args(&["--target-dir", "target/nostd"])
-            .env("RUSTFLAGS", "-D warnings"),
-    );
+    let panic_free = |features: &str| {
+        Action::Run(
+            Cmd::cargo(&["build", "-p", "lfdepth-firmware", "--profile", "firmware"])
+                .args(&["--features", features])
+                .args(&["--target", FIRMWARE[0].0, "--target", FIRMWARE[1].0])
+                .args(&["--target-dir", "target/nostd"])
+                .env("RUSTFLAGS", "-D warnings"),
+        )
+    };
     let images = FIRMWARE
         .iter()
         .map(|(target, label)| {
@@ -235,7 +238,11 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
         ("firmware-thumbv7em", firmware(FIRMWARE[0].0)),
         ("firmware-thumbv6m", firmware(FIRMWARE[1].0)),
         ("firmware-size", Action::ElfSizes(images)),
-        ("firmware-panic-free", panic_free),
+        ("firmware-panic-free", panic_free("panic-free")),
+        (
+            "firmware-panic-free-frame",
+            panic_free("panic-free,whole-frame"),
+        ),
     ] {
         steps.push(if quick {
             skip(name, quick_reason)
@@ -467,6 +474,7 @@ mod tests {
                 "firmware-thumbv6m",
                 "firmware-size",
                 "firmware-panic-free",
+                "firmware-panic-free-frame",
                 "doc",
                 "wasm-build",
                 "test-release",
@@ -482,7 +490,7 @@ mod tests {
             .filter(|s| s.action.is_ok())
             .map(|s| s.name)
             .collect();
-        assert_eq!(running.len(), 13);
+        assert_eq!(running.len(), 14);
         assert_eq!(
             skipped(&steps, "node-tests").as_deref(),
             Some("no tests/node/*.test.mjs")
@@ -538,6 +546,7 @@ mod tests {
             "firmware-thumbv7em",
             "firmware-size",
             "firmware-panic-free",
+            "firmware-panic-free-frame",
             "wasm-build",
             "test-release",
             "wasm-pack",
@@ -598,27 +607,37 @@ mod tests {
     }
 
     #[test]
-    fn the_panic_free_link_check_builds_both_images_with_the_feature() {
+    fn the_panic_free_link_checks_build_both_images_with_the_features() {
         let steps = plan(&Inputs::default(), false);
-        let Some(Ok(Action::Run(cmd))) = steps
-            .iter()
-            .find(|s| s.name == "firmware-panic-free")
-            .map(|s| s.action.clone())
-        else {
-            panic!("firmware-panic-free is not a command");
-        };
-        let text = cmd.to_string();
-        assert!(text.starts_with("RUSTFLAGS=-D warnings "), "{text}");
-        for part in [
-            "-p lfdepth-firmware --profile firmware --features panic-free",
-            "--target thumbv7em-none-eabihf --target thumbv6m-none-eabi",
-            "--target-dir target/nostd",
+        for (name, features) in [
+            ("firmware-panic-free", "--features panic-free "),
+            (
+                "firmware-panic-free-frame",
+                "--features panic-free,whole-frame ",
+            ),
         ] {
-            assert!(text.contains(part), "{part}: {text}");
+            let Some(Ok(Action::Run(cmd))) = steps
+                .iter()
+                .find(|s| s.name == name)
+                .map(|s| s.action.clone())
+            else {
+                panic!("{name} is not a command");
+            };
+            let text = cmd.to_string();
+            assert!(text.starts_with("RUSTFLAGS=-D warnings "), "{text}");
+            for part in [
+                "-p lfdepth-firmware --profile firmware ",
+                features,
+                "--target thumbv7em-none-eabihf --target thumbv6m-none-eabi",
+                "--target-dir target/nostd",
+            ] {
+                assert!(text.contains(part), "{part}: {text}");
+            }
         }
         let order = names(&steps);
         let at = |name| order.iter().position(|&n| n == name);
         assert!(at("firmware-size") < at("firmware-panic-free"));
+        assert!(at("firmware-panic-free") < at("firmware-panic-free-frame"));
     }
 
     #[test]

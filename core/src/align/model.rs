@@ -1,7 +1,7 @@
 //! Homography fitting: normalised DLT (least squares over many pairs, exact through
 //! four), a seeded RANSAC around it, and the small random generator it uses.
 
-use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix3, RealField, SMatrix, SVector, Vector3};
 
 /// A 3 × 3 homography as a stack matrix.
 pub type Mat = Matrix3<f32>;
@@ -68,7 +68,7 @@ pub fn fit(pairs: impl Iterator<Item = (f32, f32, f32, f32)> + Clone) -> Option<
     }
     ata.fill_upper_triangle_with_lower_triangle();
     let h = if count == 4 {
-        ata.lu().solve(&atb)?
+        lu_solve(&ata, &atb)?
     } else {
         ata.cholesky()?.solve(&atb)
     };
@@ -158,7 +158,9 @@ pub fn ransac(
 
 /// The matrix of a [`crate::Homography`].
 pub fn from_homography(h: &crate::Homography) -> Mat {
-    Mat::from_row_slice(&h.m)
+    // Not `from_row_slice`, whose length check the link check counts as a panic path.
+    let [m0, m1, m2, m3, m4, m5, m6, m7, m8] = h.m;
+    Mat::new(m0, m1, m2, m3, m4, m5, m6, m7, m8)
 }
 
 /// The [`crate::Homography`] of a matrix, scaled so that `h₃₃ = 1`.
@@ -184,12 +186,125 @@ pub fn hom(m: &Mat, x: f32, y: f32) -> Vector3<f32> {
     m * Vector3::new(x, y, 1.0)
 }
 
+/// Solves the N × N system `a · x = b` by LU decomposition with partial pivoting, the
+/// same operations in the same order as `a.lu().solve(b)` of nalgebra (so bit for bit
+/// the same result), without its run-time shape checks, which the firmware's link check
+/// counts as panic paths (see docs/EMBEDDED.md, "Panics"). `None` when `a` is singular.
+pub fn lu_solve<T: RealField + Copy, const N: usize>(
+    a: &SMatrix<T, N, N>,
+    b: &SVector<T, N>,
+) -> Option<SVector<T, N>> {
+    // nalgebra stores columns: `data.0[c][r]` is `a[(r, c)]`.
+    let mut m: [[T; N]; N] = core::array::from_fn(|r| core::array::from_fn(|c| a.data.0[c][r]));
+    let mut x: [T; N] = b.data.0[0];
+    // Decomposition: the row swaps are applied to `x` in the order they are made, as
+    // nalgebra's permutation sequence does.
+    let mut swaps = [None; N];
+    for i in 0..N {
+        let mut piv = i;
+        let mut largest = m[i][i].abs();
+        for (r, row) in m.iter().enumerate().skip(i + 1) {
+            if row[i].abs() > largest {
+                largest = row[i].abs();
+                piv = r;
+            }
+        }
+        let Some(diag) = m.get(piv).map(|row| row[i]) else {
+            break;
+        };
+        if diag.is_zero() {
+            continue;
+        }
+        if piv != i {
+            m.swap(i, piv.min(N - 1));
+            swaps[i] = Some(piv);
+        }
+        let inv_diag = T::one() / diag;
+        let pivot = m[i];
+        for row in m.iter_mut().skip(i + 1) {
+            row[i] *= inv_diag;
+            let coeff = row[i];
+            for (value, &p) in row.iter_mut().zip(&pivot).skip(i + 1) {
+                *value = -p * coeff + *value;
+            }
+        }
+    }
+    for (i, swap) in swaps.iter().enumerate() {
+        if let Some(piv) = *swap {
+            x.swap(i, piv.min(N - 1));
+        }
+    }
+    // Forward substitution, unit lower triangle.
+    for i in 0..N.saturating_sub(1) {
+        let coeff = x[i] / T::one();
+        for (xr, row) in x.iter_mut().zip(&m).skip(i + 1) {
+            *xr = -coeff * row[i] + *xr;
+        }
+    }
+    // Back substitution.
+    for i in (0..N).rev() {
+        let diag = m[i][i];
+        if diag.is_zero() {
+            return None;
+        }
+        let coeff = x[i] / diag;
+        x[i] = coeff;
+        for (xr, row) in x.iter_mut().zip(&m).take(i) {
+            *xr = -coeff * row[i] + *xr;
+        }
+    }
+    Some(SVector::from_fn(|r, _| x[r]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn truth() -> Mat {
         Mat::new(1.01, -0.03, 2.5, 0.025, 0.995, -1.5, 2e-5, -1e-5, 1.0)
+    }
+
+    #[test]
+    fn lu_solve_is_bit_identical_to_nalgebra() {
+        let mut rng = Rng::new(7);
+        let mut value = || (rng.below(2001) as f64 - 1000.0) / 37.0;
+        let mut checked = 0;
+        for case in 0..400 {
+            let mut a = Matrix3::<f64>::from_fn(|_, _| value());
+            let b = Vector3::<f64>::from_fn(|_, _| value());
+            // Some singular and some needing no pivoting.
+            if case % 10 == 0 {
+                let row = a.row(0).into_owned();
+                a.set_row(2, &row);
+            }
+            if case % 10 == 1 {
+                a[(0, 0)] = 1e3;
+            }
+            let theirs = a.lu().solve(&b);
+            let ours = lu_solve(&a, &b);
+            assert_eq!(theirs.is_some(), ours.is_some(), "case {case}");
+            if let (Some(t), Some(o)) = (theirs, ours) {
+                for k in 0..3 {
+                    assert_eq!(t[k].to_bits(), o[k].to_bits(), "case {case}");
+                }
+                checked += 1;
+            }
+            let (a32, b32) = (a.map(|v| v as f32), b.map(|v| v as f32));
+            let (t, o) = (a32.lu().solve(&b32), lu_solve(&a32, &b32));
+            assert_eq!(
+                t.map(|v| v.map(f32::to_bits)),
+                o.map(|v| v.map(f32::to_bits))
+            );
+            // The 8 × 8 system of `fit`.
+            let a8 = SMatrix::<f32, 8, 8>::from_fn(|_, _| value() as f32);
+            let b8 = SVector::<f32, 8>::from_fn(|_, _| value() as f32);
+            let (t, o) = (a8.lu().solve(&b8), lu_solve(&a8, &b8));
+            assert_eq!(
+                t.map(|v| v.map(f32::to_bits)),
+                o.map(|v| v.map(f32::to_bits))
+            );
+        }
+        assert!(checked > 300);
     }
 
     #[test]

@@ -55,12 +55,19 @@ impl Pyramid {
 
     /// Level `l` of a pyramid stored in `data`.
     pub fn level<'d>(&self, data: &'d [f32], l: usize) -> Image<'d> {
-        let start = self.offset[l];
-        let len = self.width[l] * self.height[l];
+        let (Some(&start), Some(&width), Some(&height)) =
+            (self.offset.get(l), self.width.get(l), self.height.get(l))
+        else {
+            return Image {
+                data: &[],
+                width: 0,
+                height: 0,
+            };
+        };
         Image {
-            data: data.get(start..start + len).unwrap_or(&[]),
-            width: self.width[l],
-            height: self.height[l],
+            data: data.get(start..start + width * height).unwrap_or(&[]),
+            width,
+            height,
         }
     }
 
@@ -77,9 +84,15 @@ impl Pyramid {
         let scale = 1.0 / channels as f32;
         for y in 0..h {
             let Some(row) = view.row(y) else { continue };
-            let out = &mut data[y * w..(y + 1) * w];
+            // `data` holds the whole pyramid and `row` the whole view row: no skips.
+            let Some(out) = data.get_mut(y * w..(y + 1) * w) else {
+                continue;
+            };
             for (x, o) in out.iter_mut().enumerate() {
-                let px = &row[x * view.channels()..x * view.channels() + channels];
+                let first = x * view.channels();
+                let Some(px) = row.get(first..first + channels) else {
+                    continue;
+                };
                 let sum: f32 = px.iter().map(|s| s.to_unit()).sum();
                 // Non-finite input samples become black rather than poisoning the fit.
                 *o = if sum.is_finite() { sum * scale } else { 0.0 };
@@ -89,16 +102,31 @@ impl Pyramid {
 
     /// Fills levels 1… from level 0.
     pub fn reduce(&self, data: &mut [f32]) {
-        for l in 1..self.levels {
+        for l in 1..self.levels.min(MAX_LEVELS) {
             let (pw, nw, nh) = (self.width[l - 1], self.width[l], self.height[l]);
-            let (src, dst) = data.split_at_mut(self.offset[l]);
-            let src = &src[self.offset[l - 1]..];
+            // `data` holds the whole pyramid (`self.len`): the returns never happen.
+            let Some((src, dst)) = data.split_at_mut_checked(self.offset[l]) else {
+                return;
+            };
+            let Some(src) = src.get(self.offset[l - 1]..) else {
+                return;
+            };
             for y in 0..nh {
-                let r0 = &src[2 * y * pw..];
-                let r1 = &src[(2 * y + 1) * pw..];
-                for x in 0..nw {
-                    dst[y * nw + x] =
-                        0.25 * (r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1]);
+                let (Some(r0), Some(r1), Some(out)) = (
+                    src.get(2 * y * pw..),
+                    src.get((2 * y + 1) * pw..),
+                    dst.get_mut(y * nw..(y + 1) * nw),
+                ) else {
+                    return;
+                };
+                let (mut r0, mut r1) = (r0.iter(), r1.iter());
+                for o in out.iter_mut() {
+                    let (Some(a0), Some(a1), Some(b0), Some(b1)) =
+                        (r0.next(), r0.next(), r1.next(), r1.next())
+                    else {
+                        break;
+                    };
+                    *o = 0.25 * (a0 + a1 + b0 + b1);
                 }
             }
         }
@@ -136,9 +164,14 @@ impl Image<'_> {
         }
         let (fx, fy) = (x - x0 as f32, y - y0 as f32);
         let i = y0 * self.width + x0;
-        let d = self.data.get(i..i + self.width + 2)?;
-        let top = d[0] + fx * (d[1] - d[0]);
-        let bottom = d[self.width] + fx * (d[self.width + 1] - d[self.width]);
+        let &[t0, t1, ..] = self.data.get(i..)? else {
+            return None;
+        };
+        let &[b0, b1, ..] = self.data.get(i + self.width..)? else {
+            return None;
+        };
+        let top = t0 + fx * (t1 - t0);
+        let bottom = b0 + fx * (b1 - b0);
         Some(top + fy * (bottom - top))
     }
 }

@@ -71,8 +71,16 @@ const PATCHES: usize = 4;
 /// Baseline of a view: `(c − c0, r − r0)`.
 fn baseline(grid: Grid, v: usize) -> (f32, f32) {
     let (r0, c0) = grid.center();
-    let (r, c) = (v / grid.cols, v % grid.cols);
+    let (r, c) = row_col(grid, v);
     (c as f32 - c0 as f32, r as f32 - r0 as f32)
+}
+
+/// Row and column of view `v` (`(0, 0)` for an empty grid, which has no views).
+fn row_col(grid: Grid, v: usize) -> (usize, usize) {
+    (
+        v.checked_div(grid.cols).unwrap_or(0),
+        v.checked_rem(grid.cols).unwrap_or(0),
+    )
 }
 
 /// The views to track, centre excluded, nearest baselines first.
@@ -83,7 +91,7 @@ fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
     match set {
         ViewSet::All | ViewSet::Cross => {
             for v in 0..grid.len() {
-                let (r, c) = (v / grid.cols, v % grid.cols);
+                let (r, c) = row_col(grid, v);
                 let wanted = set == ViewSet::All || r == r0 || c == c0;
                 if v != centre && wanted {
                     let _ = out.push(v);
@@ -125,8 +133,14 @@ fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
     // Insertion sort: stable, allocation-free, at most 288 entries.
     for i in 1..out.len() {
         let mut j = i;
-        while j > 0 && norm(out[j - 1]) > norm(out[j]) {
-            out.swap(j - 1, j);
+        while j > 0 {
+            let Some([a, b]) = out.get_mut(j - 1..=j) else {
+                break;
+            };
+            if norm(*a) <= norm(*b) {
+                break;
+            }
+            core::mem::swap(a, b);
             j -= 1;
         }
     }
@@ -153,32 +167,50 @@ struct State<'s> {
 impl State<'_> {
     fn ob(&self, v: usize, i: usize) -> Option<(f32, f32)> {
         let k = (v * MAX_FEATURES + i) * 2;
-        let (x, y) = (self.obs[k], self.obs[k + 1]);
+        let (x, y) = (*self.obs.get(k)?, *self.obs.get(k + 1)?);
         x.is_finite().then_some((x, y))
     }
     fn set_ob(&mut self, v: usize, i: usize, q: Option<(f32, f32)>) {
         let k = (v * MAX_FEATURES + i) * 2;
         let (x, y) = q.unwrap_or((f32::NAN, f32::NAN));
-        self.obs[k] = x;
-        self.obs[k + 1] = y;
-        self.weight[v * MAX_FEATURES + i] = if q.is_some() { 1.0 } else { 0.0 };
+        // The tables hold every (view, corner) of the grid (`run` sized them), so the
+        // skips below never happen.
+        if let Some([ox, oy]) = self.obs.get_mut(k..k + 2) {
+            *ox = x;
+            *oy = y;
+        }
+        self.set_inlier(v, i, q.is_some());
+    }
+    fn set_inlier(&mut self, v: usize, i: usize, inlier: bool) {
+        if let Some(w) = self.weight.get_mut(v * MAX_FEATURES + i) {
+            *w = if inlier { 1.0 } else { 0.0 };
+        }
     }
     fn inlier(&self, v: usize, i: usize) -> bool {
-        self.weight[v * MAX_FEATURES + i] > 0.5
+        self.weight
+            .get(v * MAX_FEATURES + i)
+            .is_some_and(|&w| w > 0.5)
+    }
+    fn is_tracked(&self, v: usize) -> bool {
+        self.tracked.get(v) == Some(&true)
+    }
+    fn is_solved(&self, i: usize) -> bool {
+        self.solved.get(i) == Some(&true)
     }
 
     /// Points step: `(X_i, d_i)` for every corner from its inlier observations mapped by
     /// `maps` (view → rectified).
     fn solve_points(&mut self, maps: &[Homography]) {
-        for i in 0..self.corners.len() {
+        for i in 0..self.corners.len().min(MAX_FEATURES) {
             let (mut n, mut sb, mut su, mut sbb, mut sbu) =
                 (0.0f32, [0.0f32; 2], [0.0f32; 2], 0.0f32, 0.0f32);
             for v in 0..self.grid.len() {
-                if !self.tracked[v] || !self.inlier(v, i) {
+                if !self.is_tracked(v) || !self.inlier(v, i) {
                     continue;
                 }
                 let Some(q) = self.ob(v, i) else { continue };
-                let m = model::from_homography(&maps[v]);
+                let Some(h) = maps.get(v) else { continue };
+                let m = model::from_homography(h);
                 let Some(u) = model::apply(&m, q.0, q.1) else {
                     continue;
                 };
@@ -220,7 +252,7 @@ impl State<'_> {
             let mut atb = Vector3::<f32>::zeros();
             let mut count = 0;
             let (cx, cy) = (width as f32 * 0.5, height as f32 * 0.5);
-            for i in 0..self.corners.len() {
+            for i in 0..self.corners.len().min(MAX_FEATURES) {
                 if self.solved[i] && in_patch(&self.corners[i]) {
                     let a = Vector3::new(self.x[i] - cx, self.y[i] - cy, 1.0);
                     ata += a * a.transpose();
@@ -231,22 +263,23 @@ impl State<'_> {
             if count < 6 {
                 continue;
             }
-            let Some(plane) = ata.lu().solve(&atb) else {
+            let Some(plane) = model::lu_solve(&ata, &atb) else {
                 continue;
             };
-            for i in 0..self.corners.len() {
-                if !(self.solved[i] && in_patch(&self.corners[i])) {
+            for i in 0..self.corners.len().min(MAX_FEATURES) {
+                if !(self.solved[i] && self.corners.get(i).is_some_and(in_patch)) {
                     continue;
                 }
                 let d = plane[0] * (self.x[i] - cx) + plane[1] * (self.y[i] - cy) + plane[2];
                 // X given d: mean of M_v(q) + d · b_v.
                 let (mut n, mut sx, mut sy) = (0.0f32, 0.0f32, 0.0f32);
                 for v in 0..self.grid.len() {
-                    if !self.tracked[v] || !self.inlier(v, i) {
+                    if !self.is_tracked(v) || !self.inlier(v, i) {
                         continue;
                     }
                     let Some(q) = self.ob(v, i) else { continue };
-                    let Some(u) = model::apply(&model::from_homography(&maps[v]), q.0, q.1) else {
+                    let Some(h) = maps.get(v) else { continue };
+                    let Some(u) = model::apply(&model::from_homography(h), q.0, q.1) else {
                         continue;
                     };
                     let b = baseline(self.grid, v);
@@ -265,7 +298,7 @@ impl State<'_> {
 
     /// Reprojection residual of observation `(v, i)` under `m`.
     fn residual(&self, m: &Mat, v: usize, i: usize) -> Option<f32> {
-        if !self.solved[i] {
+        if !self.is_solved(i) {
             return None;
         }
         let q = self.ob(v, i)?;
@@ -296,11 +329,16 @@ pub fn run<S: Sample, M: ViewMap>(
     let (r0, c0) = grid.center();
     let centre = grid.index(r0, c0);
     let pyramid = Pyramid::new(width, height)?;
-    let (centre_pyr, rest) = scratch.split_at_mut(pyramid.len);
-    let (view_pyr, rest) = rest.split_at_mut(pyramid.len);
     let cells = grid.len() * MAX_FEATURES;
-    let (obs, rest) = rest.split_at_mut(2 * cells);
-    let weight = &mut rest[..cells];
+    // `align::scratch_len` covers these; a short slice is the caller's error.
+    let too_small = Error::ScratchTooSmall {
+        needed: 2 * pyramid.len + Tracks::len_for(grid.len())?,
+        got: scratch.len(),
+    };
+    let (centre_pyr, rest) = scratch.split_at_mut_checked(pyramid.len).ok_or(too_small)?;
+    let (view_pyr, rest) = rest.split_at_mut_checked(pyramid.len).ok_or(too_small)?;
+    let (obs, rest) = rest.split_at_mut_checked(2 * cells).ok_or(too_small)?;
+    let weight = rest.get_mut(..cells).ok_or(too_small)?;
 
     pyramid.build(&lf.center_view(), centre_pyr);
     let centre_pyr = &*centre_pyr;
@@ -339,10 +377,14 @@ pub fn run<S: Sample, M: ViewMap>(
     state.obs.fill(f32::NAN);
     state.weight.fill(0.0);
     for i in 0..n {
-        let c = state.corners[i];
+        let Some(&c) = state.corners.get(i) else {
+            break;
+        };
         state.set_ob(centre, i, Some((c.x, c.y)));
     }
-    state.tracked[centre] = true;
+    if let Some(t) = state.tracked.get_mut(centre) {
+        *t = true;
+    }
 
     // First pass, ring after ring of views around the centre (Chebyshev distance): the
     // disparity measured in the inner rings predicts each corner's position in the next
@@ -357,9 +399,9 @@ pub fn run<S: Sample, M: ViewMap>(
     let rings = order.iter().map(|&v| ring(v)).max().unwrap_or(0);
     for k in 1..=rings {
         let mut predicted = [0.0f32; MAX_FEATURES];
-        for i in 0..n {
-            if d_den[i] > 0.0 {
-                predicted[i] = d_num[i] / d_den[i];
+        for ((p, &num), &den) in predicted.iter_mut().zip(&d_num).zip(&d_den).take(n) {
+            if den > 0.0 {
+                *p = num / den;
             }
         }
         let corners = &state.corners;
@@ -388,17 +430,18 @@ pub fn run<S: Sample, M: ViewMap>(
         drop(tasks);
         for v in (0..grid.len()).filter(|&v| ring(v) == k && order.contains(&v)) {
             let b = baseline(grid, v);
-            for i in 0..n {
+            for (i, (num, den)) in d_num.iter_mut().zip(&mut d_den).enumerate().take(n) {
                 let q = state.ob(v, i);
-                if let Some(q) = q {
+                if let (Some(q), Some(c)) = (q, state.corners.get(i)) {
                     // q − p ≈ −d · b (misalignment is noise here).
-                    let c = state.corners[i];
-                    d_num[i] -= b.0 * (q.0 - c.x) + b.1 * (q.1 - c.y);
-                    d_den[i] += b.0 * b.0 + b.1 * b.1;
+                    *num -= b.0 * (q.0 - c.x) + b.1 * (q.1 - c.y);
+                    *den += b.0 * b.0 + b.1 * b.1;
                 }
                 state.set_ob(v, i, q);
             }
-            state.tracked[v] = true;
+            if let Some(t) = state.tracked.get_mut(v) {
+                *t = true;
+            }
         }
     }
     let first = alternate(&mut state, params, homographies, width, height, map)?;
@@ -410,8 +453,9 @@ pub fn run<S: Sample, M: ViewMap>(
     // Second pass: predicted positions and template shapes from the first estimate, so
     // that rotation and scale between views no longer bias the matches. Every view is
     // independent of the others now.
-    let Some(to_rect) = homographies[centre]
-        .inverse()
+    let Some(to_rect) = homographies
+        .get(centre)
+        .and_then(Homography::inverse)
         .map(|h| model::from_homography(&h))
     else {
         return alternate(&mut state, params, homographies, width, height, map);
@@ -478,7 +522,8 @@ fn track_first<S: Sample>(
             needed: pyramid.len,
             got,
         })?;
-    let view = lf.view(v / grid.cols, v % grid.cols)?;
+    let (r, c) = row_col(grid, v);
+    let view = lf.view(r, c)?;
     pyramid.build(&view, view_pyr);
     let pair = Pair {
         pyramid,
@@ -487,8 +532,7 @@ fn track_first<S: Sample>(
     };
     let b = baseline(grid, v);
     let mut found = 0;
-    for (i, c) in corners.iter().enumerate() {
-        let d = predicted[i];
+    for ((i, c), &d) in corners.iter().enumerate().zip(predicted) {
         let guess = (c.x - d * b.0, c.y - d * b.1);
         let q = track::track(&pair, (c.x, c.y), guess, track::IDENTITY, usize::MAX);
         found += usize::from(q.is_some());
@@ -529,7 +573,8 @@ fn track_second<S: Sample>(
     })?);
     let centre_to_view = h_v * to_rect;
     let shape = jacobian(&centre_to_view, o).unwrap_or(track::IDENTITY);
-    let view = lf.view(v / grid.cols, v % grid.cols)?;
+    let (r, c) = row_col(grid, v);
+    let view = lf.view(r, c)?;
     // The second pass matches at full resolution only.
     pyramid.build_base(&view, view_pyr);
     let pair = Pair {
@@ -540,7 +585,7 @@ fn track_second<S: Sample>(
     let b = baseline(grid, v);
     let mut found = 0;
     for (i, c) in corners.iter().enumerate() {
-        let predicted = if points.solved[i] {
+        let predicted = if points.solved.get(i) == Some(&true) {
             model::apply(
                 &h_v,
                 points.x[i] - points.d[i] * b.0,
@@ -578,7 +623,7 @@ fn fix_gauge(
     let (r0, c0) = grid.center();
     let centre = grid.index(r0, c0);
     let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
-    let mc = model::from_homography(&maps[centre]);
+    let mc = model::from_homography(maps.get(centre)?);
     let at = model::apply(&mc, o.0, o.1)?;
     let ax = model::apply(&mc, o.0 + 1.0, o.1)?;
     let ay = model::apply(&mc, o.0, o.1 + 1.0)?;
@@ -606,25 +651,25 @@ fn fix_gauge(
     };
 
     let (mut num, mut den) = (0.0f32, 0.0f32);
-    for v in 0..grid.len() {
-        if !state.tracked[v] {
+    for (v, map) in maps.iter_mut().enumerate().take(grid.len()) {
+        if !state.is_tracked(v) {
             continue;
         }
-        let m = g * model::from_homography(&maps[v]);
-        maps[v] = model::to_homography(&m)?;
+        let m = g * model::from_homography(map);
+        *map = model::to_homography(&m)?;
         let b = baseline(grid, v);
         let t = model::apply(&m, o.0, o.1)?;
         num += b.0 * (t.0 - o.0) + b.1 * (t.1 - o.1);
         den += b.0 * b.0 + b.1 * b.1;
     }
     let delta = if den > 0.0 { -num / den } else { 0.0 };
-    for v in 0..grid.len() {
-        if !state.tracked[v] {
+    for (v, map) in maps.iter_mut().enumerate().take(grid.len()) {
+        if !state.is_tracked(v) {
             continue;
         }
         let b = baseline(grid, v);
         let shift = Mat::new(1.0, 0.0, delta * b.0, 0.0, 1.0, delta * b.1, 0.0, 0.0, 1.0);
-        maps[v] = model::to_homography(&(shift * model::from_homography(&maps[v])))?;
+        *map = model::to_homography(&(shift * model::from_homography(map)))?;
     }
     Some(())
 }
@@ -664,23 +709,23 @@ fn correct_common_distortion(
     let mut ata = SMatrix::<f64, COMMON_MODES, COMMON_MODES>::zeros();
     let mut atb = SVector::<f64, COMMON_MODES>::zeros();
     let mut mats: FixedVec<Mat, MAX_VIEWS> = FixedVec::new();
-    for v in 0..grid.len() {
-        let _ = mats.push(model::from_homography(&maps[v]));
+    for map in maps.iter().take(grid.len()) {
+        let _ = mats.push(model::from_homography(map));
     }
     // Per observation: baseline, mode derivatives (3 × 2) and residual (2), in f64.
     type Obs = ((f64, f64), [[f64; 2]; COMMON_MODES], [f64; 2]);
     let mut rows: FixedVec<Obs, MAX_VIEWS> = FixedVec::new();
-    for i in 0..state.corners.len() {
-        if !state.solved[i] {
+    for i in 0..state.corners.len().min(MAX_FEATURES) {
+        if !state.is_solved(i) {
             continue;
         }
         rows.clear();
-        for v in 0..grid.len() {
-            if !state.tracked[v] || !state.inlier(v, i) {
+        for (v, m) in mats.iter().enumerate() {
+            if !state.is_tracked(v) || !state.inlier(v, i) {
                 continue;
             }
             let Some(q) = state.ob(v, i) else { continue };
-            let Some(u) = model::apply(&mats[v], q.0, q.1) else {
+            let Some(u) = model::apply(m, q.0, q.1) else {
                 continue;
             };
             let b = baseline(grid, v);
@@ -708,35 +753,36 @@ fn correct_common_distortion(
             continue;
         };
         // Projection of a stacked vector `z` onto the complement of the point's columns.
-        let project = |z: &dyn Fn(usize) -> [f64; 2]| -> FixedVec<[f64; 2], MAX_VIEWS> {
+        let project = |z: &dyn Fn(&Obs) -> [f64; 2]| -> FixedVec<[f64; 2], MAX_VIEWS> {
             let mut ftz = Vector3::<f64>::zeros();
-            for (j, (b, _, _)) in rows.iter().enumerate() {
-                let e = z(j);
+            for row in rows.iter() {
+                let (b, e) = (row.0, z(row));
                 ftz += Vector3::new(e[0], e[1], -(b.0 * e[0] + b.1 * e[1]));
             }
             let c = ftf_inv * ftz;
             let mut out = FixedVec::new();
-            for (j, (b, _, _)) in rows.iter().enumerate() {
-                let e = z(j);
+            for row in rows.iter() {
+                let (b, e) = (row.0, z(row));
                 let _ = out.push([e[0] - c[0] + c[2] * b.0, e[1] - c[1] + c[2] * b.1]);
             }
             out
         };
-        let r = project(&|j| rows[j].2);
+        let r = project(&|row| row.2);
         let a: [FixedVec<[f64; 2], MAX_VIEWS>; COMMON_MODES] =
-            core::array::from_fn(|k| project(&|j| rows[j].1[k]));
-        for j in 0..rows.len() {
+            core::array::from_fn(|k| project(&|row| row.1[k]));
+        // `r` and every `a[k]` have one entry per row: the skips never happen.
+        for (j, rj) in r.iter().enumerate() {
             for k in 0..COMMON_MODES {
-                let ak = a[k][j];
-                atb[k] += ak[0] * r[j][0] + ak[1] * r[j][1];
+                let Some(ak) = a[k].get(j) else { continue };
+                atb[k] += ak[0] * rj[0] + ak[1] * rj[1];
                 for l in 0..COMMON_MODES {
-                    let al = a[l][j];
+                    let Some(al) = a[l].get(j) else { continue };
                     ata[(k, l)] += ak[0] * al[0] + ak[1] * al[1];
                 }
             }
         }
     }
-    let phi = ata.lu().solve(&(-atb))?;
+    let phi = model::lu_solve(&ata, &(-atb))?;
     let (r, e, h) = (phi[0] as f32, phi[1] as f32, phi[2] as f32);
     // A small, finite correction or none.
     let largest = r.abs().max(e.abs()).max(h.abs());
@@ -757,15 +803,17 @@ fn correct_common_distortion(
         1.0,
     );
     let mut corrected: FixedVec<Homography, MAX_VIEWS> = FixedVec::new();
-    for v in 0..grid.len() {
-        let h = if state.tracked[v] {
-            model::to_homography(&(c * mats[v]))?
+    for (v, (m, map)) in mats.iter().zip(maps.iter()).enumerate() {
+        let h = if state.is_tracked(v) {
+            model::to_homography(&(c * m))?
         } else {
-            maps[v]
+            *map
         };
         let _ = corrected.push(h);
     }
-    maps.copy_from_slice(&corrected);
+    for (map, h) in maps.iter_mut().zip(&corrected) {
+        *map = *h;
+    }
     Some(())
 }
 
@@ -779,10 +827,10 @@ fn rms(
     let (mut total, mut count) = (0.0f32, 0usize);
     for v in 0..state.grid.len() {
         let mut rep = ViewReport::default();
-        if state.tracked[v] {
-            let m = model::from_homography(&maps[v]);
+        if let (true, Some(h)) = (state.is_tracked(v), maps.get(v)) {
+            let m = model::from_homography(h);
             let (mut sum, mut k) = (0.0f32, 0usize);
-            for i in 0..state.corners.len() {
+            for i in 0..state.corners.len().min(MAX_FEATURES) {
                 if state.inlier(v, i) {
                     if let Some(r) = state.residual(&m, v, i) {
                         sum += r * r;
@@ -812,18 +860,20 @@ fn rms(
 fn median_residual(state: &State<'_>, maps: &[Homography], cap: f32) -> f32 {
     let mut bins = [0u32; 256];
     let mut total = 0u32;
-    for v in 0..state.grid.len() {
-        if !state.tracked[v] {
+    for (v, h) in maps.iter().enumerate().take(state.grid.len()) {
+        if !state.is_tracked(v) {
             continue;
         }
-        let m = model::from_homography(&maps[v]);
-        for i in 0..state.corners.len() {
+        let m = model::from_homography(h);
+        for i in 0..state.corners.len().min(MAX_FEATURES) {
             if !state.inlier(v, i) {
                 continue;
             }
             if let Some(r) = state.residual(&m, v, i) {
                 let k = ((r / cap * 256.0) as usize).min(255);
-                bins[k] += 1;
+                if let Some(bin) = bins.get_mut(k) {
+                    *bin += 1;
+                }
                 total += 1;
             }
         }
@@ -840,15 +890,15 @@ fn median_residual(state: &State<'_>, maps: &[Homography], cap: f32) -> f32 {
 
 /// Marks observations within `threshold` of the model as inliers (tracked ones only).
 fn classify(state: &mut State<'_>, maps: &[Homography], threshold: f32) {
-    for v in 0..state.grid.len() {
-        if !state.tracked[v] {
+    for (v, h) in maps.iter().enumerate().take(state.grid.len()) {
+        if !state.is_tracked(v) {
             continue;
         }
-        let m = model::from_homography(&maps[v]);
-        for i in 0..state.corners.len() {
+        let m = model::from_homography(h);
+        for i in 0..state.corners.len().min(MAX_FEATURES) {
             let ok = state.ob(v, i).is_some()
                 && state.residual(&m, v, i).is_some_and(|r| r <= threshold);
-            state.weight[v * MAX_FEATURES + i] = if ok { 1.0 } else { 0.0 };
+            state.set_inlier(v, i, ok);
         }
     }
 }
@@ -877,14 +927,14 @@ fn alternate<M: ViewMap>(
         {
             let st = &*state;
             let mut tasks: FixedVec<ViewTask<'_>, MAX_VIEWS> = FixedVec::new();
-            for v in (0..grid.len()).filter(|&v| st.tracked[v]) {
+            for v in (0..grid.len()).filter(|&v| st.is_tracked(v)) {
                 let _ = tasks.push(ViewTask::new(v, &mut []));
             }
             let job = |task: &mut ViewTask<'_>, _: &mut [f32]| {
                 let v = task.view();
                 let b = baseline(grid, v);
                 let pair = |i: usize| {
-                    if !(st.solved[i] && st.inlier(v, i)) {
+                    if !(st.is_solved(i) && st.inlier(v, i)) {
                         return None;
                     }
                     let q = st.ob(v, i)?;
@@ -901,7 +951,13 @@ fn alternate<M: ViewMap>(
             map.map(&mut tasks, &mut [], &job);
             for task in &tasks {
                 let v = task.view();
-                maps[v] = task.homography.ok_or(Error::Alignment {
+                let len = maps.len();
+                let slot = maps.get_mut(v).ok_or(Error::OutOfRange {
+                    what: "view",
+                    index: v,
+                    len,
+                })?;
+                *slot = task.homography.ok_or(Error::Alignment {
                     view: v,
                     reason: "no homography fits the matches of this view: it is too different from the centre view",
                 })?;
@@ -935,7 +991,7 @@ fn alternate<M: ViewMap>(
             (threshold * 0.5).max(params.inlier_threshold)
         } else {
             let sigma = 1.4826 * median_residual(state, maps, params.inlier_threshold);
-            (CLIP_SIGMAS * sigma).clamp(MIN_CLIP, params.inlier_threshold)
+            crate::epi::clamp_f32(CLIP_SIGMAS * sigma, MIN_CLIP, params.inlier_threshold)
         };
         let settled = (next - threshold).abs() <= 0.05 * threshold;
         threshold = next;
@@ -953,7 +1009,9 @@ fn alternate<M: ViewMap>(
         previous = if settled { err } else { f32::INFINITY };
     }
     for v in 0..grid.len() {
-        if state.tracked[v] && (report.views[v].inliers as usize) < params.min_inliers {
+        // `rms` reported every view (none when no round ran: 0 inliers).
+        let inliers = report.views.get(v).map_or(0, |r| usize::from(r.inliers));
+        if state.is_tracked(v) && inliers < params.min_inliers {
             return Err(Error::Alignment {
                 view: v,
                 reason: "too few matches agree with one homography: the view is textureless or too different from the centre view",
@@ -963,14 +1021,14 @@ fn alternate<M: ViewMap>(
     // The misalignment as measured: the same inliers, identity homographies.
     report.identity_rms = identity_rms(state);
     // Outputs: rectified → view.
-    for v in 0..grid.len() {
-        if state.tracked[v] {
-            maps[v] = maps[v].inverse().ok_or(Error::Alignment {
+    for (v, map) in maps.iter_mut().enumerate().take(grid.len()) {
+        if state.is_tracked(v) {
+            *map = map.inverse().ok_or(Error::Alignment {
                 view: v,
                 reason: "the estimated homography is singular: the view is too different from the centre view",
             })?;
         } else {
-            maps[v] = Homography::IDENTITY;
+            *map = Homography::IDENTITY;
         }
     }
     Ok(report)
@@ -980,10 +1038,13 @@ fn alternate<M: ViewMap>(
 fn identity_rms(state: &mut State<'_>) -> f32 {
     let (x, y, d, solved) = (state.x, state.y, state.d, state.solved);
     let identities = [Homography::IDENTITY; MAX_VIEWS];
-    let views = state.grid.len();
-    state.solve_points(&identities[..views]);
+    // A grid has at most MAX_VIEWS views (`Grid::new`).
+    let identities = identities
+        .get(..state.grid.len())
+        .unwrap_or(&identities[..]);
+    state.solve_points(identities);
     let mut scratch = FixedVec::new();
-    let r = rms(state, &identities[..views], &mut scratch);
+    let r = rms(state, identities, &mut scratch);
     state.x = x;
     state.y = y;
     state.d = d;

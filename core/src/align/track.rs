@@ -176,8 +176,10 @@ fn sample_grid(img: &Image<'_>, x0: f32, y0: f32, side: usize, out: &mut [f32]) 
         ) else {
             return false;
         };
-        for (i, o) in row.iter_mut().enumerate() {
-            *o = w00 * top[i] + w01 * top[i + 1] + w10 * bottom[i] + w11 * bottom[i + 1];
+        let (top_next, bottom_next) = (top.iter().skip(1), bottom.iter().skip(1));
+        let pixels = top.iter().zip(top_next).zip(bottom.iter().zip(bottom_next));
+        for (o, ((t0, t1), (b0, b1))) in row.iter_mut().zip(pixels) {
+            *o = w00 * t0 + w01 * t1 + w10 * b0 + w11 * b1;
         }
     }
     true
@@ -189,15 +191,18 @@ fn sample_patch(img: &Image<'_>, qx: f32, qy: f32, a: [f32; 4], out: &mut [f32; 
     if a == IDENTITY {
         return sample_grid(img, qx - r, qy - r, SIDE, out);
     }
-    let mut k = 0;
+    let mut slots = out.iter_mut();
     for dy in -RADIUS..=RADIUS {
         for dx in -RADIUS..=RADIUS {
             let (ox, oy) = (dx as f32, dy as f32);
-            match img.sample(qx + a[0] * ox + a[1] * oy, qy + a[2] * ox + a[3] * oy) {
-                Some(v) => out[k] = v,
-                None => return false,
-            }
-            k += 1;
+            // SIDE × SIDE = AREA slots: `next` never runs out.
+            let (Some(v), Some(slot)) = (
+                img.sample(qx + a[0] * ox + a[1] * oy, qy + a[2] * ox + a[3] * oy),
+                slots.next(),
+            ) else {
+                return false;
+            };
+            *slot = v;
         }
     }
     true
@@ -213,14 +218,15 @@ fn ncc(
     t_mean: f32,
     buf: &mut [f32; AREA],
 ) -> Option<f32> {
-    let mut k = 0;
+    let mut slots = buf.iter_mut();
     let mut mean = 0.0f32;
     for dy in -RADIUS..=RADIUS {
         for dx in -RADIUS..=RADIUS {
             let (ox, oy) = (dx as f32, dy as f32);
-            buf[k] = img.sample(x + a[0] * ox + a[1] * oy, y + a[2] * ox + a[3] * oy)?;
-            mean += buf[k];
-            k += 1;
+            // SIDE × SIDE = AREA slots: `next` never runs out.
+            let slot = slots.next()?;
+            *slot = img.sample(x + a[0] * ox + a[1] * oy, y + a[2] * ox + a[3] * oy)?;
+            mean += *slot;
         }
     }
     mean /= AREA as f32;

@@ -102,7 +102,15 @@ pub fn warp_rows_with<S: Sample, O: WarpSample>(
             got: out.len(),
         });
     }
-    let h = &homographies[view];
+    let h = homographies.get(view).ok_or(Error::OutOfRange {
+        what: "view",
+        index: view,
+        len: homographies.len(),
+    })?;
+    if row_len == 0 || channels == 0 {
+        // An empty band (validated layouts have pixels and channels): nothing to write.
+        return Ok(());
+    }
     if !h.m.iter().all(|v| v.is_finite()) {
         return Err(Error::NonFinite {
             what: "the homography",
@@ -123,7 +131,7 @@ pub fn warp_rows_with<S: Sample, O: WarpSample>(
         let yf = y as f32;
         // Homogeneous coordinates advance linearly along the row.
         let (mut nx, mut ny, mut w) = (m[1] * yf + m[2], m[4] * yf + m[5], m[7] * yf + m[8]);
-        for px in out_row.chunks_exact_mut(channels) {
+        for px in out_row.chunks_exact_mut(channels.max(1)) {
             match interpolation {
                 Interpolation::Bilinear => src.bilinear(nx / w, ny / w, px),
                 Interpolation::CatmullRom => src.catmull_rom(nx / w, ny / w, px),

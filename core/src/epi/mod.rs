@@ -397,8 +397,12 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
                 got: scratch.len(),
             });
         }
-        let (d, rest) = scratch.split_at_mut(n);
-        let (c, work) = rest.split_at_mut(n);
+        let too_small = Error::ScratchTooSmall {
+            needed,
+            got: scratch.len(),
+        };
+        let (d, rest) = scratch.split_at_mut_checked(n).ok_or(too_small)?;
+        let (c, work) = rest.split_at_mut_checked(n).ok_or(too_small)?;
         Ok((d, c, work))
     }
 
@@ -592,13 +596,12 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
         }
         band.line(y, work, d_line, c_line)?;
         let row = y * width..(y + 1) * width;
-        write_line(
-            &hyps,
-            d_line,
-            c_line,
-            &mut disparity[row.clone()],
-            &mut confidence[row],
-        );
+        // Both maps hold `pixels` values (checked above): the skip never happens.
+        let (Some(out_d), Some(out_c)) = (disparity.get_mut(row.clone()), confidence.get_mut(row))
+        else {
+            continue;
+        };
+        write_line(&hyps, d_line, c_line, out_d, out_c);
     }
     report(progress, STAGE_HORIZONTAL, height, height)?;
 
@@ -612,10 +615,11 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
         let (lo, hi) = (hyps.min(), hyps.max());
         for (y, (&dv, &cv)) in d_line.iter().zip(c_line.iter()).enumerate() {
             let i = y * width + x;
-            let (dv, cv) = (dv.to_f32().clamp(lo, hi), cv.to_f32().clamp(0.0, 1.0));
-            let (d, c) = fuse(fusion, disparity[i], confidence[i], dv, cv);
-            disparity[i] = d;
-            confidence[i] = c;
+            let (dv, cv) = (clamp_f32(dv.to_f32(), lo, hi), cv.to_f32().clamp(0.0, 1.0));
+            let (Some(d), Some(c)) = (disparity.get_mut(i), confidence.get_mut(i)) else {
+                continue;
+            };
+            (*d, *c) = fuse(fusion, *d, *c, dv, cv);
         }
     }
     report(progress, STAGE_VERTICAL, width, width)?;

@@ -52,7 +52,13 @@ pub fn estimate_range<T: Scalar, S: Sample>(
         let mut line = RANGE_LINE_STEP / 2;
         while line < direction.lines(plan) {
             band.line(line, work, d, c)?;
-            for (&dv, &cv) in d[margin..n - margin].iter().zip(&c[margin..n - margin]) {
+            // `split_scratch` gave lines of `n` values and `margin` ≤ n / 4.
+            let inner = margin..n - margin;
+            let (d, c) = (
+                d.get(inner.clone()).unwrap_or(&[]),
+                c.get(inner).unwrap_or(&[]),
+            );
+            for (&dv, &cv) in d.iter().zip(c) {
                 if cv.to_f32() >= MIN_COHERENCE {
                     let bin = ((dv.to_f32() + reach) / BIN) as usize;
                     histogram[bin.min(BINS - 1)] += 1;
@@ -70,7 +76,9 @@ pub fn estimate_range<T: Scalar, S: Sample>(
     // the outermost windows of CLUSTER bins that hold at least TAIL of the samples.
     let need = ((total as f32 * TAIL) as u64).max(1);
     let window_mass = |first: usize| -> u64 {
-        histogram[first..(first + CLUSTER).min(BINS)]
+        histogram
+            .get(first..(first + CLUSTER).min(BINS))
+            .unwrap_or(&[])
             .iter()
             .map(|&h| h as u64)
             .sum()

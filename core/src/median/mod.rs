@@ -235,8 +235,14 @@ fn run<S: Sample>(
             got: scratch.len(),
         });
     }
-    let (step_counts, rest) = scratch[..needed].split_at_mut(width);
-    let (change_counts, ring) = rest.split_at_mut(width);
+    let too_small = Error::ScratchTooSmall {
+        needed,
+        got: scratch.len(),
+    };
+    let (step_counts, rest) = scratch[..needed]
+        .split_at_mut_checked(width)
+        .ok_or(too_small)?;
+    let (change_counts, ring) = rest.split_at_mut_checked(width).ok_or(too_small)?;
     let p = plan.params().median;
     let weights = Weights::new(p.color_sigma);
     let r = p.radius;
@@ -248,7 +254,8 @@ fn run<S: Sample>(
     let count_steps = |yy: usize, counts: &mut [f32], delta: f32| {
         gate::count_steps(input, width, p.gate, yy, counts, delta);
     };
-    for (o, y) in out.chunks_exact_mut(width).zip(rows) {
+    // `max(1)`: a layout has pixels (`check`); an empty row would have nothing to cut.
+    for (o, y) in out.chunks_exact_mut(width.max(1)).zip(rows) {
         let row = input
             .get(y * width..(y + 1) * width)
             .ok_or(Error::OutOfRange {
@@ -256,7 +263,9 @@ fn run<S: Sample>(
                 index: y,
                 len: height,
             })?;
-        o.copy_from_slice(row);
+        for (o, &v) in o.iter_mut().zip(row) {
+            *o = v;
+        }
         let ys = y.saturating_sub(r)..(y + r + 1).min(height);
         let last = ys.end - 1;
         // Rows whose step below lies inside the window, and the last one's right steps.

@@ -142,7 +142,11 @@ impl<S: Sample> Window<'_, '_, S> {
         let mut inside = [0u16; SPAN];
         let mut outside = 0u16;
         let mut row_lanes: [Option<Lanes<'_>>; SPAN] = [const { None }; SPAN];
-        for ((i, yy), slot) in ys.clone().enumerate().zip(row_lanes.iter_mut()) {
+        let rows_out = row_lanes
+            .iter_mut()
+            .zip(below.iter_mut())
+            .zip(above.iter_mut().zip(inside.iter_mut()));
+        for (yy, ((slot, below), (above, inside))) in ys.clone().zip(rows_out) {
             let Some(lanes) = self.rows.lanes(yy, x, r) else {
                 continue;
             };
@@ -152,9 +156,9 @@ impl<S: Sample> Window<'_, '_, S> {
                 (a & lanes_in_window) as u16,
                 (f & lanes_in_window) as u16,
             );
-            below[i] = b;
-            above[i] = a;
-            inside[i] = f & !(b | a);
+            *below = b;
+            *above = a;
+            *inside = f & !(b | a);
             outside |= b | a;
             *slot = Some(lanes);
         }
@@ -166,14 +170,17 @@ impl<S: Sample> Window<'_, '_, S> {
         let mut d2s = [[0u32; LANES]; SPAN];
         let mut measured = 0u16;
         let (mut weight_below, mut weight_above) = (0u64, 0u64);
-        for (i, (lanes, d2)) in row_lanes.iter().zip(d2s.iter_mut()).enumerate() {
-            let (Some(lanes), true) = (lanes, below[i] | above[i] != 0) else {
+        let rows_in = row_lanes.iter().zip(d2s.iter_mut());
+        for (i, ((lanes, d2), (&below, &above))) in
+            rows_in.zip(below.iter().zip(&above)).enumerate()
+        {
+            let (Some(lanes), true) = (lanes, below | above != 0) else {
                 continue;
             };
             *d2 = distances(lanes, &centre);
             measured |= 1 << i;
-            weight_below += self.weigh(below[i], d2);
-            weight_above += self.weigh(above[i], d2);
+            weight_below += self.weigh(below, d2);
+            weight_above += self.weigh(above, d2);
         }
         // With I the inside weight and T = I + B + A the total, the selection moves the
         // pixel iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both
@@ -247,8 +254,8 @@ impl<S: Sample> Window<'_, '_, S> {
         let centre = self.rows.colour_at(y, x);
         let mut keys = [0u64; MAX_TAPS];
         let mut n = 0;
-        for (i, yy) in ys.clone().enumerate().take(SPAN) {
-            let mut bits = side.lanes[i];
+        for (yy, &bits) in ys.clone().zip(&side.lanes) {
+            let mut bits = bits;
             if bits == 0 {
                 continue;
             }
@@ -267,7 +274,9 @@ impl<S: Sample> Window<'_, '_, S> {
                 }
             }
         }
-        let m = match weighted_median_of_keys(&mut keys[..n], side.target) {
+        // `n` counts the keys written, at most MAX_TAPS: the default never happens.
+        let keys = keys.get_mut(..n).unwrap_or_default();
+        let m = match weighted_median_of_keys(keys, side.target) {
             Some(m) if m != 0.0 && side.target > 0 => m,
             _ => return self.select(x, y, own),
         };
@@ -326,7 +335,12 @@ impl<S: Sample> Window<'_, '_, S> {
         // the weight beyond `own ± snap` on one side reaches half.
         let half = total.div_ceil(2);
         if n > 0 && (below >= half || total - above < half) {
-            let m = weighted_median(&mut values[..n], &mut taps[..n], half);
+            // `n` ≤ MAX_TAPS (checked where it grows): the default never happens.
+            let (values, taps) = (
+                values.get_mut(..n).unwrap_or_default(),
+                taps.get_mut(..n).unwrap_or_default(),
+            );
+            let m = weighted_median(values, taps, half);
             if (m - own).abs() > p.snap {
                 return m;
             }

@@ -83,38 +83,53 @@ impl<'a> RowRing<'a> {
         else {
             return;
         };
-        let (values, rest) = rows.split_at_mut(stride);
-        let (sx, rest) = rest.split_at_mut(stride);
-        let (sy, colours) = rest.split_at_mut(stride);
+        // `stride` ≥ PAD_LEFT + width + PAD_RIGHT unless it saturated, and then `new`'s
+        // caller could not have had `ring_len` elements: the returns below never happen.
+        let Some((values, rest)) = rows.split_at_mut_checked(stride) else {
+            return;
+        };
+        let Some((sx, rest)) = rest.split_at_mut_checked(stride) else {
+            return;
+        };
+        let Some((sy, colours)) = rest.split_at_mut_checked(stride) else {
+            return;
+        };
+        let columns = PAD_LEFT..PAD_LEFT + width;
         let channels = guide.channels();
         let samples = guide.row(yy).unwrap_or(&[]);
-        for (c, plane) in colours.chunks_exact_mut(stride).enumerate() {
+        for (c, plane) in colours.chunks_exact_mut(stride.max(1)).enumerate() {
             plane.fill(0.0);
             if c >= channels {
                 continue;
             }
-            for (level, pixel) in plane[PAD_LEFT..PAD_LEFT + width]
-                .iter_mut()
-                .zip(samples.chunks_exact(channels))
-            {
+            let Some(levels) = plane.get_mut(columns.clone()) else {
+                return;
+            };
+            for (level, pixel) in levels.iter_mut().zip(samples.chunks_exact(channels)) {
                 *level = pixel.get(c).map_or(0.0, |s| f32::from(s.level()));
             }
         }
         let Some(row) = map.get(yy * width..(yy + 1) * width) else {
             return;
         };
-        values[..PAD_LEFT].fill(f32::NAN);
-        values[PAD_LEFT..PAD_LEFT + width].copy_from_slice(row);
-        values[PAD_LEFT + width..].fill(f32::NAN);
+        let Some((left, rest)) = values.split_at_mut_checked(PAD_LEFT) else {
+            return;
+        };
+        let Some((inside, right)) = rest.split_at_mut_checked(width) else {
+            return;
+        };
+        left.fill(f32::NAN);
+        for (v, &d) in inside.iter_mut().zip(row) {
+            *v = d;
+        }
+        right.fill(f32::NAN);
         sx.fill(0.0);
         sy.fill(0.0);
         if planar {
-            let columns = PAD_LEFT..PAD_LEFT + width;
-            for (xx, (gx, gy)) in sx[columns.clone()]
-                .iter_mut()
-                .zip(&mut sy[columns])
-                .enumerate()
-            {
+            let (Some(sx), Some(sy)) = (sx.get_mut(columns.clone()), sy.get_mut(columns)) else {
+                return;
+            };
+            for (xx, (gx, gy)) in sx.iter_mut().zip(sy).enumerate() {
                 (*gx, *gy) = slope(map, width, height, xx, yy, gate);
             }
         }

@@ -5,34 +5,51 @@
 /// quickselect with three-way partitions; `values` and `weights` are reordered).
 /// `half` must be at most the total weight and the slices non-empty and equally long.
 pub(super) fn weighted_median(values: &mut [f32], weights: &mut [u32], half: u64) -> f32 {
-    let (mut lo, mut hi) = (0usize, values.len().min(weights.len()));
+    let n = values.len().min(weights.len());
+    let (values, weights) = (&mut values[..n], &mut weights[..n]);
+    // The indices below stay within [0, n) (`lo ≤ lt ≤ i < gt ≤ hi ≤ n`); the
+    // optimiser cannot follow that through the loops, so each access is a checked one
+    // whose miss ends the selection (it never misses).
+    let (mut lo, mut hi) = (0usize, n);
     let mut below = 0u64;
     while hi > lo {
         let slice = lo..hi;
-        let pivot = median_of_three(
-            values[slice.start],
-            values[slice.start + slice.len() / 2],
-            values[slice.end - 1],
-        );
+        let (Some(&first), Some(&middle), Some(&last)) = (
+            values.get(slice.start),
+            values.get(slice.start + slice.len() / 2),
+            values.get(slice.end - 1),
+        ) else {
+            break;
+        };
+        let pivot = median_of_three(first, middle, last);
         // Dutch-flag partition of [lo, hi): < pivot | == pivot | > pivot.
         let (mut lt, mut i, mut gt) = (lo, lo, hi);
         while i < gt {
-            let v = values[i];
+            let Some(&v) = values.get(i) else { break };
             if v < pivot {
+                if lt >= n {
+                    break;
+                }
                 values.swap(i, lt);
                 weights.swap(i, lt);
                 lt += 1;
                 i += 1;
             } else if v > pivot {
                 gt -= 1;
+                if gt >= n {
+                    break;
+                }
                 values.swap(i, gt);
                 weights.swap(i, gt);
             } else {
                 i += 1;
             }
         }
-        let w_less: u64 = weights[lo..lt].iter().map(|&w| u64::from(w)).sum();
-        let w_equal: u64 = weights[lt..gt].iter().map(|&w| u64::from(w)).sum();
+        let sum = |range: core::ops::Range<usize>| -> u64 {
+            let part = weights.get(range).unwrap_or_default();
+            part.iter().map(|&w| u64::from(w)).sum()
+        };
+        let (w_less, w_equal) = (sum(lo..lt), sum(lt..gt));
         if below + w_less >= half {
             hi = lt;
         } else if below + w_less + w_equal >= half {
@@ -70,17 +87,63 @@ fn value_of(key: u64) -> f32 {
     })
 }
 
-/// [`weighted_median`] of the finite values in `keys` (made by [`key`]; sorted here):
-/// the smallest value whose weight of values `≤` it reaches `target`, `None` when the
-/// total falls short. For the few dozen votes of one side of a window, sorting and one
-/// scan beat the partitions.
+/// [`weighted_median`] of the finite values in `keys` (made by [`key`]; reordered
+/// here): the smallest value whose weight of values `≤` it reaches `target`, `None` when
+/// the total falls short. The answer is that of sorting the keys and scanning them (the
+/// key order is total, `−0` below `+0`), found by a weighted quickselect on the keys:
+/// fewer compares than a sort for the few dozen votes of one side of a window, and no
+/// panic path (core's `sort_unstable` keeps one for orders that are not total, which
+/// the firmware's link check counts).
 pub(super) fn weighted_median_of_keys(keys: &mut [u64], target: u64) -> Option<f32> {
-    keys.sort_unstable();
-    let mut sum = 0u64;
-    for &k in keys.iter() {
-        sum += k & 0xFFFF_FFFF;
-        if sum >= target {
-            return Some(value_of(k));
+    let weight = |k: u64| k & 0xFFFF_FFFF;
+    if target == 0 {
+        // The first key of the sorted scan.
+        return keys.iter().copied().min().map(value_of);
+    }
+    let n = keys.len();
+    // As in [`weighted_median`]: `lo ≤ lt ≤ i < gt ≤ hi ≤ n`, each access checked.
+    let (mut lo, mut hi) = (0usize, n);
+    let mut below = 0u64;
+    while hi > lo {
+        let (Some(&a), Some(&b), Some(&c)) =
+            (keys.get(lo), keys.get(lo + (hi - lo) / 2), keys.get(hi - 1))
+        else {
+            break;
+        };
+        let pivot = a.max(b).min(a.min(b).max(c));
+        // Dutch-flag partition of [lo, hi): < pivot | == pivot | > pivot.
+        let (mut lt, mut i, mut gt) = (lo, lo, hi);
+        while i < gt {
+            let Some(&k) = keys.get(i) else { break };
+            if k < pivot {
+                if lt >= n {
+                    break;
+                }
+                keys.swap(i, lt);
+                lt += 1;
+                i += 1;
+            } else if k > pivot {
+                gt -= 1;
+                if gt >= n {
+                    break;
+                }
+                keys.swap(i, gt);
+            } else {
+                i += 1;
+            }
+        }
+        let sum = |range: core::ops::Range<usize>| -> u64 {
+            let part = keys.get(range).unwrap_or_default();
+            part.iter().map(|&k| weight(k)).sum()
+        };
+        let (w_less, w_equal) = (sum(lo..lt), sum(lt..gt));
+        if below + w_less >= target {
+            hi = lt;
+        } else if below + w_less + w_equal >= target {
+            return Some(value_of(pivot));
+        } else {
+            below += w_less + w_equal;
+            lo = gt;
         }
     }
     None
@@ -140,6 +203,39 @@ mod tests {
             let got = weighted_median(&mut v[..n], &mut w[..n], total.div_ceil(2));
             assert_eq!(got, expected, "trial {trial}");
             assert_eq!(sorted, Some(expected), "trial {trial}, by sorting keys");
+        }
+    }
+
+    #[test]
+    fn weighted_median_of_keys_equals_the_sorted_scan() {
+        let mut state = 777u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            state >> 8
+        };
+        let values = [-0.0f32, 0.0, 1.5, -2.25, 3.0, -1e-30, 7.0];
+        for trial in 0..2000 {
+            let n = trial % 70;
+            let mut keys = [0u64; 70];
+            for k in keys.iter_mut().take(n) {
+                let v = values[next() as usize % values.len()];
+                *k = key(v, next() % 4);
+            }
+            let total: u64 = keys[..n].iter().map(|&k| k & 0xFFFF_FFFF).sum();
+            let target = u64::from(next()) % (total + 2);
+            let mut sorted = keys;
+            sorted[..n].sort_unstable();
+            let mut sum = 0;
+            let expected = sorted[..n].iter().find_map(|&k| {
+                sum += k & 0xFFFF_FFFF;
+                (sum >= target).then(|| value_of(k))
+            });
+            let got = weighted_median_of_keys(&mut keys[..n], target);
+            assert_eq!(
+                got.map(f32::to_bits),
+                expected.map(f32::to_bits),
+                "trial {trial}"
+            );
         }
     }
 }

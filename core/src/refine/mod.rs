@@ -156,7 +156,7 @@ pub fn scratch_len(plan: &Plan) -> usize {
 pub fn band_count(plan: &Plan) -> usize {
     plan.layout()
         .height
-        .div_ceil(plan.params().refine.band_rows)
+        .div_ceil(plan.params().refine.band_rows.max(1))
 }
 
 /// Image rows of band `index`.
@@ -301,7 +301,9 @@ fn window_sum<T: Scalar>(
     for yy in ys {
         for xx in xs.clone() {
             let j = yy * width + xx;
-            if (previous[j] - d).abs() > gate {
+            // The window lies within the region, which `previous` covers.
+            let Some(&p) = previous.get(j) else { continue };
+            if (p - d).abs() > gate {
                 continue;
             }
             let terms = sum.iter_mut().zip(&stats[j * STATS..(j + 1) * STATS]);
@@ -376,15 +378,25 @@ pub fn refine_band<T: Scalar, S: Sample>(
             got: scratch.len(),
         });
     }
-    let input = &disparity[first * width..last * width];
+    let input = disparity
+        .get(first * width..last * width)
+        .ok_or(Error::OutputSize {
+            what: "the input disparity",
+            needed: last * width,
+            got: disparity.len(),
+        })?;
     if input.iter().any(|v| !v.is_finite()) {
         return Err(Error::NonFinite {
             what: "the input disparity",
         });
     }
-    let (current, rest) = scratch.split_at_mut(pixels);
-    let (previous, rest) = rest.split_at_mut(pixels);
-    let stats = &mut rest[..pixels * STATS];
+    let too_small = Error::ScratchTooSmall {
+        needed,
+        got: scratch.len(),
+    };
+    let (current, rest) = scratch.split_at_mut_checked(pixels).ok_or(too_small)?;
+    let (previous, rest) = rest.split_at_mut_checked(pixels).ok_or(too_small)?;
+    let stats = rest.get_mut(..pixels * STATS).ok_or(too_small)?;
     for (c, &v) in current.iter_mut().zip(input) {
         *c = T::from_f32(v);
     }
@@ -432,9 +444,10 @@ pub fn refine_band<T: Scalar, S: Sample>(
     };
     if !jumps.is_empty() {
         let span = near(reach_after(0));
-        for stat in
-            stats[span.start * width * STATS..span.end * width * STATS].chunks_exact_mut(STATS)
-        {
+        let near_stats = stats
+            .get_mut(span.start * width * STATS..span.end * width * STATS)
+            .unwrap_or_default();
+        for stat in near_stats.chunks_exact_mut(STATS) {
             stat[1] = unknown;
         }
     }
@@ -443,7 +456,10 @@ pub fn refine_band<T: Scalar, S: Sample>(
         for y in near(reach_after(round)) {
             for x in 0..width {
                 let i = y * width + x;
-                let own = previous[i];
+                // `near` rows lie within the region, which `previous` covers.
+                let Some(&own) = previous.get(i) else {
+                    continue;
+                };
                 // A missing neighbour (past the region) offers the pixel's own value,
                 // which the gate skips.
                 let at = |j: Option<usize>| j.and_then(|j| previous.get(j)).copied();
@@ -464,11 +480,13 @@ pub fn refine_band<T: Scalar, S: Sample>(
                 // cost, which cannot pass the bar a second time.
                 let mut tried = [own; 4];
                 let mut bar = None;
-                for (n, d) in candidates.into_iter().enumerate() {
-                    if !offers[n] || tried[..n].contains(&d) {
+                for (n, (d, offer)) in candidates.into_iter().zip(offers).enumerate() {
+                    if !offer || tried.get(..n).is_some_and(|t| t.contains(&d)) {
                         continue;
                     }
-                    tried[n] = d;
+                    if let Some(t) = tried.get_mut(n) {
+                        *t = d;
+                    }
                     let Some(stat) = stats.get_mut(i * STATS..i * STATS + 2) else {
                         continue;
                     };
@@ -483,7 +501,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
                     if let Some(c) = views.cost(data, x, first + y, d, cost_robust, Some(limit)) {
                         bar = Some(c);
                         stat[0] = c;
-                        current[i] = d;
+                        if let Some(current) = current.get_mut(i) {
+                            *current = d;
+                        }
                     }
                 }
             }
@@ -502,23 +522,37 @@ pub fn refine_band<T: Scalar, S: Sample>(
                 // by the iteration before): to first order `B` does not change with
                 // `d` (`r` grows by `g·Δd`), and the step from the stale `A`, `B` is
                 // that from the fresh ones within a few `SETTLED`.
-                if iteration > 0 && (current[i] - previous[i]).abs() < k.settled {
+                // `measured` rows lie within the region, which the tables cover.
+                let (Some(&now), Some(&before), Some(stat)) = (
+                    current.get(i),
+                    previous.get(i),
+                    stats
+                        .get_mut(i * STATS..)
+                        .and_then(|s| s.first_chunk_mut::<STATS>()),
+                ) else {
+                    continue;
+                };
+                if iteration > 0 && (now - before).abs() < k.settled {
                     continue;
                 }
                 let mut s = [T::ZERO; STATS];
-                views.pixel(data, x, first + y, current[i], stat_robust, &mut s);
-                stats[i * STATS..(i + 1) * STATS].copy_from_slice(&s);
+                views.pixel(data, x, first + y, now, stat_robust, &mut s);
+                *stat = s;
             }
         }
         let span = measured.start * width..measured.end * width;
-        previous[span.clone()].copy_from_slice(&current[span]);
+        if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
+            to.copy_from_slice(from);
+        }
         let last_iteration = iteration + 1 == p.iterations;
         for y in updated {
             for x in 0..width {
                 // Window sum over the neighbours whose disparity is within
                 // `WINDOW_GATE` of this pixel's: the window does not reach across depth
                 // edges.
-                let d = previous[y * width + x];
+                let Some(&d) = previous.get(y * width + x) else {
+                    continue;
+                };
                 let (ys, xs) = (
                     y.saturating_sub(r)..(y + r + 1).min(region),
                     x.saturating_sub(r)..(x + r + 1).min(width),
@@ -545,14 +579,21 @@ pub fn refine_band<T: Scalar, S: Sample>(
                 let target = (b + damping * d) / (a + damping);
                 let step = (target - d).clamp(-k.max_step, k.max_step);
                 let next = (d + step).clamp(k.lo, k.hi);
-                current[i] = if next.is_finite() { next } else { d };
+                let next = if next.is_finite() { next } else { d };
+                if let Some(current) = current.get_mut(i) {
+                    *current = next;
+                }
                 if last_iteration {
                     let o = (first + y - rows.start) * width + x;
+                    let (Some(out), Some(confidence)) = (out.get_mut(o), confidence.get_mut(o))
+                    else {
+                        continue;
+                    };
                     // Fixed-point rounding of the range ends must not step outside it.
-                    out[o] = current[i].to_f32().clamp(range.0, range.1);
+                    *out = crate::epi::clamp_f32(next.to_f32(), range.0, range.1);
                     let err2 = e / (a + damping);
                     let c = T::ONE / (T::ONE + err2 / k.confidence2);
-                    confidence[o] = if c.is_finite() {
+                    *confidence = if c.is_finite() {
                         c.to_f32().clamp(0.0, 1.0)
                     } else {
                         0.0
@@ -581,23 +622,39 @@ fn select<T: Scalar>(
     let mut keep = [true; GROUPS];
     if occlusion {
         for pair in [[0, 1], [2, 3]] {
-            let mean = |g: usize| sum[3 * g + 2] / counts.means[g];
+            // Groups are 0…GROUPS − 1: the defaults never happen.
+            let mean = |g: usize| match (sum.get(3 * g + 2), counts.means.get(g)) {
+                (Some(&e), Some(&m)) => e / m,
+                _ => T::ZERO,
+            };
             let (m0, m1) = (mean(pair[0]), mean(pair[1]));
-            if m0 > k.occlusion_ratio * m1 + k.occlusion_floor {
-                keep[pair[0]] = false;
+            let drop = if m0 > k.occlusion_ratio * m1 + k.occlusion_floor {
+                keep.get_mut(pair[0])
             } else if m1 > k.occlusion_ratio * m0 + k.occlusion_floor {
-                keep[pair[1]] = false;
+                keep.get_mut(pair[1])
+            } else {
+                None
+            };
+            if let Some(keep) = drop {
+                *keep = false;
             }
         }
     }
     let axis = |groups: [usize; 2]| {
         let (mut a, mut b, mut e, mut n) = (T::ZERO, T::ZERO, T::ZERO, T::ZERO);
         for g in groups {
-            if keep[g] {
-                a += sum[3 * g];
-                b += sum[3 * g + 1];
-                e += sum[3 * g + 2];
-                n += counts.terms[g];
+            let (Some(true), Some(group), Some(&terms)) = (
+                keep.get(g).copied(),
+                sum.get(3 * g..3 * g + 3),
+                counts.terms.get(g),
+            ) else {
+                continue;
+            };
+            if let [ga, gb, ge] = *group {
+                a += ga;
+                b += gb;
+                e += ge;
+                n += terms;
             }
         }
         (a, b, e, n)
@@ -648,16 +705,16 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
         }
         let rows = band_rows(plan, band)?;
         let span = rows.start * width..rows.end * width;
-        refine_band(
-            plan,
-            lf,
-            range,
-            disparity,
-            rows,
-            &mut out[span.clone()],
-            &mut confidence[span],
-            scratch,
-        )?;
+        // `band_rows` are image rows and both maps hold every pixel (checked above).
+        let (Some(out), Some(confidence)) = (out.get_mut(span.clone()), confidence.get_mut(span))
+        else {
+            return Err(Error::OutputSize {
+                what: "the refined disparity/confidence",
+                needed: pixels,
+                got: 0,
+            });
+        };
+        refine_band(plan, lf, range, disparity, rows, out, confidence, scratch)?;
     }
     match progress(Progress {
         stage: STAGE,

@@ -208,7 +208,9 @@ impl<T: Scalar> Views<T> {
                     (None, None) => continue,
                 };
                 for g in [Some(group), second_group].into_iter().flatten() {
-                    views.terms[g] += used as f32;
+                    if let Some(terms) = views.terms.get_mut(g) {
+                        *terms += used as f32;
+                    }
                 }
                 let reach = dr.unsigned_abs().max(dc.unsigned_abs()) as f32;
                 let h = 0.5 / reach;
@@ -329,7 +331,8 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return;
         };
-        for tap in &self.taps[..self.len] {
+        // `len` ≤ MAX_VIEWS (`new` stops there): the default never happens.
+        for tap in self.taps.get(..self.len).unwrap_or_default() {
             // The image at the sample position on either side (half a pixel of image
             // motion) and at it: `g = (first − second) · factor`.
             let samples = if tap.in_row || tap.in_column {
@@ -390,7 +393,8 @@ impl<T: Scalar> Views<T> {
         };
         // Per group, in the order `pixel` sums them, so that the cost has its bits.
         let mut energy = [T::ZERO; GROUPS];
-        for tap in &self.taps[..self.len] {
+        // `len` ≤ MAX_VIEWS (`new` stops there): the default never happens.
+        for tap in self.taps.get(..self.len).unwrap_or_default() {
             if !self.sees(tap, xf, yf, d) {
                 continue;
             }
