@@ -145,6 +145,21 @@ pub fn scratch_len(plan: &Plan) -> usize {
     plan.pixels().saturating_mul(3)
 }
 
+/// `s[i]`, NaN past the end: the indices are in range (every map holds `width · height`
+/// values, checked on entry); the checked form keeps panics out of the image.
+#[inline]
+fn at(s: &[f32], i: usize) -> f32 {
+    s.get(i).copied().unwrap_or(f32::NAN)
+}
+
+/// `s[i] = v`, nothing past the end (see [`at`]).
+#[inline]
+fn put(s: &mut [f32], i: usize, v: f32) {
+    if let Some(x) = s.get_mut(i) {
+        *x = v;
+    }
+}
+
 /// Marks a pixel that neither takes part nor changes (non-finite outside the band).
 const BLOCKED: f32 = -1.0;
 
@@ -189,9 +204,16 @@ pub fn fill<S: Sample>(
         });
     }
     let p = plan.params().geofill;
-    let (dist, rest) = scratch[..needed].split_at_mut(pixels);
-    let (off_x, off_y) = rest.split_at_mut(pixels);
-    out.copy_from_slice(input);
+    let short = Error::ScratchTooSmall {
+        needed,
+        got: scratch.len(),
+    };
+    let (dist, rest) = scratch.split_at_mut_checked(pixels).ok_or(short)?;
+    let (off_x, rest) = rest.split_at_mut_checked(pixels).ok_or(short)?;
+    let off_y = rest.get_mut(..pixels).ok_or(short)?;
+    for (o, &v) in out.iter_mut().zip(input) {
+        *o = v;
+    }
     band_distance(guide, input, (width, height), (p.step, p.edge), dist);
     let band = p.band as f32;
     let mut any = false;
@@ -232,10 +254,11 @@ pub fn fill<S: Sample>(
     for y in 0..height {
         for x in 0..width {
             let i = y * width + x;
-            if !(dist[i] > 0.0 && dist[i] <= max_cost && input[i].is_finite()) {
+            let di = at(dist, i);
+            if !(di > 0.0 && di <= max_cost && at(input, i).is_finite()) {
                 continue;
             }
-            let (ox, oy) = (off_x[i], off_y[i]);
+            let (ox, oy) = (at(off_x, i), at(off_y, i));
             // Offsets are small integers held exactly in f32.
             let sx = x as i64 + ox as i64;
             let sy = y as i64 + oy as i64;
@@ -246,11 +269,11 @@ pub fn fill<S: Sample>(
                 continue;
             }
             let s = sy * width + sx;
-            let mut v = input[s];
+            let mut v = at(input, s);
             if p.planar {
                 let seed = |xx: usize, yy: usize| {
                     let j = yy * width + xx;
-                    (dist[j] == 0.0).then(|| input[j])
+                    (at(dist, j) == 0.0).then(|| at(input, j))
                 };
                 let gx = seed_slope(|k| {
                     let xx = sx as i64 + k;
@@ -268,7 +291,7 @@ pub fn fill<S: Sample>(
                 });
                 v -= gx * ox + gy * oy;
             }
-            out[i] = v;
+            put(out, i, v);
         }
     }
     Ok(())
@@ -339,44 +362,44 @@ fn band_distance<S: Sample>(
     for y in 0..height {
         for x in 0..width {
             let i = y * width + x;
-            let v = input[i];
+            let v = at(input, i);
             if !v.is_finite() {
                 continue;
             }
-            if x + 1 < width && jump(v, input[i + 1]) && flat(x, y, 1, 0) {
-                dist[i] = 0.0;
-                dist[i + 1] = 0.0;
+            if x + 1 < width && jump(v, at(input, i + 1)) && flat(x, y, 1, 0) {
+                put(dist, i, 0.0);
+                put(dist, i + 1, 0.0);
             }
-            if y + 1 < height && jump(v, input[i + width]) && flat(x, y, 0, 1) {
-                dist[i] = 0.0;
-                dist[i + width] = 0.0;
+            if y + 1 < height && jump(v, at(input, i + width)) && flat(x, y, 0, 1) {
+                put(dist, i, 0.0);
+                put(dist, i + width, 0.0);
             }
         }
     }
     for y in 0..height {
         for x in 0..width {
             let i = y * width + x;
-            let mut d = dist[i];
+            let mut d = at(dist, i);
             if x > 0 {
-                d = d.min(dist[i - 1] + 1.0);
+                d = d.min(at(dist, i - 1) + 1.0);
             }
             if y > 0 {
-                d = d.min(dist[i - width] + 1.0);
+                d = d.min(at(dist, i - width) + 1.0);
             }
-            dist[i] = d;
+            put(dist, i, d);
         }
     }
     for y in (0..height).rev() {
         for x in (0..width).rev() {
             let i = y * width + x;
-            let mut d = dist[i];
+            let mut d = at(dist, i);
             if x + 1 < width {
-                d = d.min(dist[i + 1] + 1.0);
+                d = d.min(at(dist, i + 1) + 1.0);
             }
             if y + 1 < height {
-                d = d.min(dist[i + width] + 1.0);
+                d = d.min(at(dist, i + width) + 1.0);
             }
-            dist[i] = d;
+            put(dist, i, d);
         }
     }
 }
@@ -435,7 +458,7 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
                 let x = if backward { width - 1 - xi } else { xi };
                 let i = y * width + x;
                 // Seeds (0) and blocked pixels (< 0) keep their state; costs are never NaN.
-                if self.dist[i] <= 0.0 {
+                if at(self.dist, i) <= 0.0 {
                     continue;
                 }
                 for &(dx, dy) in &VISITED {
@@ -454,12 +477,12 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
                             None => continue,
                         }
                     };
-                    let dn = self.dist[n];
+                    let dn = at(self.dist, n);
                     if !(dn >= 0.0 && dn.is_finite()) {
                         continue;
                     }
-                    let ox = self.off_x[n] + dx as f32;
-                    let oy = self.off_y[n] + dy as f32;
+                    let ox = at(self.off_x, n) + dx as f32;
+                    let oy = at(self.off_y, n) + dy as f32;
                     if ox.abs() > self.reach || oy.abs() > self.reach {
                         continue;
                     }
@@ -469,10 +492,10 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
                         1.0
                     };
                     let cost = dn + self.colour_step(row, x, colours, nx) + self.spatial * length;
-                    if cost < self.dist[i] {
-                        self.dist[i] = cost;
-                        self.off_x[i] = ox;
-                        self.off_y[i] = oy;
+                    if cost < at(self.dist, i) {
+                        put(self.dist, i, cost);
+                        put(self.off_x, i, ox);
+                        put(self.off_y, i, oy);
                     }
                 }
             }
