@@ -9,7 +9,7 @@ use core::ops::ControlFlow;
 
 use crate::align::{self, AlignMode, AlignParams, AlignReport, AlignedViews, WarpSample};
 use crate::epi;
-use crate::error::{checked_product, Error, Result};
+use crate::error::{Error, Result};
 use crate::geofill;
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample};
@@ -17,7 +17,7 @@ use crate::median;
 use crate::plan::Plan;
 use crate::refine;
 use crate::scalar::Scalar;
-use crate::tv::{self, Guide, Maps, SolveOutput};
+use crate::tv::{self, Guide, Maps};
 
 /// A progress report: `done` of `total` units of `stage` are finished.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -270,51 +270,9 @@ pub fn regularize<T: Scalar, S: Sample>(
     let layout = plan.layout();
     let tv_maps = Maps::new(layout.width, layout.height, mid_d, mid_c)?;
     let guide = Guide::View(lf.center_view());
-    let (cols, rows) = tv::tile_count(plan);
-    let tiles = checked_product(&[cols, rows], "the TV tiles")?;
-    let sweeps = plan.params().tv.sweeps;
-    let solves = checked_product(&[tiles, sweeps + 1], "the TV tile solves")?;
-    // Outer sweeps carry the dual from one pass over the tiles to the next.
-    let (mut previous, mut next) = duals.split_at_mut(duals.len() / 2);
-    history.fill(0.0);
-    for sweep in 0..=sweeps {
-        let maps = if sweep == 0 {
-            tv_maps
-        } else {
-            tv_maps.with_dual(previous)?
-        };
-        for index in 0..tiles {
-            report(progress, tv::STAGE, sweep * tiles + index, solves)?;
-            let (core, _) = tv::tile_rects(plan, index)?;
-            let start = core.y * layout.width + core.x;
-            let got = disparity.len();
-            let disparity = disparity.get_mut(start..).ok_or(Error::OutputSize {
-                what: "the disparity map",
-                needed: start,
-                got,
-            })?;
-            tv::refine_tile(
-                plan,
-                &maps,
-                &guide,
-                index,
-                SolveOutput {
-                    disparity,
-                    stride: layout.width,
-                    history: if sweep == 0 { &mut *history } else { &mut [] },
-                    dual: if sweep < sweeps {
-                        next.get_mut(2 * start..)
-                    } else {
-                        None
-                    },
-                },
-                scratch,
-            )?;
-        }
-        core::mem::swap(&mut previous, &mut next);
-    }
-    tv::normalise_history(plan, history);
-    report(progress, tv::STAGE, solves, solves)?;
+    tv::refine_with_progress(
+        plan, &tv_maps, &guide, disparity, history, scratch, duals, progress,
+    )?;
     if median.enabled && !median.before_tv {
         mid_d.copy_from_slice(disparity);
         median_passes(

@@ -1,8 +1,11 @@
 //! Tiles: cores of `tile × tile` pixels solved on the core plus a halo, so tiles are
 //! independent (any order, any thread) and the result is bit-identical however they run.
 
-use crate::error::{Error, Result};
+use core::ops::ControlFlow;
+
+use crate::error::{checked_product, Error, Result};
 use crate::lightfield::Sample;
+use crate::pipeline::Progress;
 use crate::plan::Plan;
 use crate::scalar::Scalar;
 
@@ -157,6 +160,24 @@ pub fn refine<S: Scalar, P: Sample>(
     scratch: &mut [S],
     duals: &mut [f32],
 ) -> Result<RefineReport> {
+    refine_with_progress(plan, maps, guide, out, history, scratch, duals, &mut |_| {
+        ControlFlow::Continue(())
+    })
+}
+
+/// [`refine`], reporting each tile solve to `progress` (stage [`super::STAGE`]; done out
+/// of tiles × passes); `ControlFlow::Break(())` stops with [`Error::Cancelled`].
+#[allow(clippy::too_many_arguments)]
+pub fn refine_with_progress<S: Scalar, P: Sample>(
+    plan: &Plan,
+    maps: &Maps<'_>,
+    guide: &Guide<'_, P>,
+    out: &mut [f32],
+    history: &mut [f32],
+    scratch: &mut [S],
+    duals: &mut [f32],
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<RefineReport> {
     check_maps(plan, maps)?;
     if out.len() != plan.pixels() {
         return Err(Error::OutputSize {
@@ -173,18 +194,19 @@ pub fn refine<S: Scalar, P: Sample>(
         });
     }
     let needed = dual_len(plan);
-    if duals.len() < needed {
-        return Err(Error::BufferTooSmall {
-            what: "the outer sweeps' duals",
-            needed,
-            got: duals.len(),
-        });
-    }
+    let short = Error::BufferTooSmall {
+        what: "the outer sweeps' duals",
+        needed,
+        got: duals.len(),
+    };
+    let duals = duals.get_mut(..needed).ok_or(short)?;
+    let (mut previous, mut next) = duals.split_at_mut_checked(needed / 2).ok_or(short)?;
     history.fill(0.0);
     let width = plan.layout().width;
     let sweeps = plan.params().tv.sweeps;
-    let (mut previous, mut next) = duals[..needed].split_at_mut(needed / 2);
     let (cols, rows) = tile_count(plan);
+    let tiles = checked_product(&[cols, rows], "the TV tiles")?;
+    let solves = checked_product(&[tiles, sweeps + 1], "the TV tile solves")?;
     let mut report = RefineReport::default();
     for sweep in 0..=sweeps {
         let maps = if sweep == 0 {
@@ -192,16 +214,23 @@ pub fn refine<S: Scalar, P: Sample>(
         } else {
             maps.with_dual(previous)?
         };
-        for index in 0..cols * rows {
+        for index in 0..tiles {
+            tell(progress, sweep * tiles + index, solves)?;
             let (core, _) = tile_rects(plan, index)?;
             let start = core.y * width + core.x;
+            let got = out.len();
+            let disparity = out.get_mut(start..).ok_or(Error::OutputSize {
+                what: "the refined disparity",
+                needed: start,
+                got,
+            })?;
             let tile = refine_tile(
                 plan,
                 &maps,
                 guide,
                 index,
                 SolveOutput {
-                    disparity: &mut out[start..],
+                    disparity,
                     stride: width,
                     history: if sweep == 0 { &mut *history } else { &mut [] },
                     dual: if sweep < sweeps {
@@ -217,5 +246,21 @@ pub fn refine<S: Scalar, P: Sample>(
         core::mem::swap(&mut previous, &mut next);
     }
     normalise_history(plan, history);
+    tell(progress, solves, solves)?;
     Ok(report)
+}
+
+fn tell(
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+    done: usize,
+    total: usize,
+) -> Result<()> {
+    match progress(Progress {
+        stage: super::STAGE,
+        done: done as u64,
+        total: total as u64,
+    }) {
+        ControlFlow::Continue(()) => Ok(()),
+        ControlFlow::Break(()) => Err(Error::Cancelled),
+    }
 }
