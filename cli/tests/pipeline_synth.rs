@@ -126,6 +126,8 @@ fn engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipeline() 
         .iter()
         .zip(&with_sweeps)
         .any(|(a, b)| a.to_bits() != b.to_bits()));
+    // The occlusion scene, where the geodesic refill (on by default) moves edges.
+    check_engine_against_core(&scene(SceneKind::Occlusion, 48), params());
 }
 
 /// The engine with 1, 2 and 3 threads and the serial core pipeline compute the same bits;
