@@ -40,9 +40,11 @@ pub enum ViewSet {
     All,
     /// The centre row and column of the grid.
     Cross,
-    /// The views one and two steps from the centre along the axes and the eight outer
-    /// views (corners and edge middles): enough to tell a rectified array from a
-    /// misaligned one, cheaply; the nearer views predict the parallax in the outer ones.
+    /// The views one and two steps from the centre along the axes and the four corner
+    /// views: enough to tell a rectified array from a misaligned one, cheaply; the
+    /// nearer views predict the parallax in the outer ones. (Until session 4 also the
+    /// four edge middles, on the axes like the nearer views: 16 views, and 256 corners
+    /// instead of [`PROBE_FEATURES`]; 24 ms per 9×9×512² array instead of 9.)
     Probe,
 }
 
@@ -55,6 +57,10 @@ impl Tracks {
         checked_product(&[views, MAX_FEATURES, 3], "the alignment track table")
     }
 }
+
+/// Corners the auto mode's probe ([`ViewSet::Probe`]) tracks (at most
+/// `align.features`, at least `align.min_inliers`).
+const PROBE_FEATURES: usize = 64;
 
 /// RANSAC threshold of the first round (pixels): misalignment is still in the points.
 const FIRST_THRESHOLD: f32 = 3.0;
@@ -110,12 +116,8 @@ fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
                 (r0.saturating_sub(2), c0),
                 ((r0 + 2).min(grid.rows - 1), c0),
                 (0, 0),
-                (0, c0),
                 (0, last_c),
-                (r0, 0),
-                (r0, last_c),
                 (last_r, 0),
-                (last_r, c0),
                 (last_r, last_c),
             ];
             for (r, c) in picks {
@@ -342,10 +344,16 @@ pub fn run<S: Sample, M: ViewMap>(
 
     pyramid.build(&lf.center_view(), centre_pyr);
     let centre_pyr = &*centre_pyr;
+    // The probe only tells a rectified array from a misaligned one: fewer corners do.
+    let features = if set == ViewSet::Probe {
+        params.features.min(PROBE_FEATURES.max(params.min_inliers))
+    } else {
+        params.features
+    };
     // Detect at the coarsest level that still gives each corner a cell of ≥ 4×4 pixels.
     let mut level = 0;
     while level + 1 < pyramid.levels.min(3)
-        && pyramid.width[level + 1] * pyramid.height[level + 1] >= 16 * params.features
+        && pyramid.width[level + 1] * pyramid.height[level + 1] >= 16 * features
     {
         level += 1;
     }
@@ -363,7 +371,7 @@ pub fn run<S: Sample, M: ViewMap>(
     corners::detect(
         &pyramid.level(centre_pyr, level),
         level,
-        params.features,
+        features,
         MARGIN,
         &mut state.corners,
     );
