@@ -80,6 +80,10 @@ fn estimate(lf: &LightField<'_, u8>, params: AlignParams) -> (Vec<Homography>, f
     let mut est = vec![Homography::IDENTITY; lf.grid().len()];
     let mut scratch = vec![0.0f32; align::scratch_len(lf.layout(), &params).unwrap()];
     let report = align::estimate(lf, &params, &mut est, &mut scratch).unwrap();
+    eprintln!(
+        "  estimate {:?}/{:?}: disparity shift {:+.4} px, coherence {:.3}",
+        params.views, params.disparity_step, report.disparity_shift, report.disparity_coherence
+    );
     (est, report.rms)
 }
 
@@ -797,6 +801,86 @@ fn final_disparity() {
                     );
                 }
             }
+        }
+    }
+}
+
+/// Which stage after the EPI stage loses the accuracy on warped views (a measurement, run
+/// by hand): rectified views against views warped with the true homographies (bilinear
+/// and Catmull–Rom, no estimate, no gauge), the pipeline with stages switched off one at
+/// a time; BadPix0.07 near depth steps / elsewhere in brackets.
+/// `cargo test --release -p lfdepth-cli --test align_epi final_stages -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn final_stages() {
+    let n = SIZE;
+    let run = |data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect| {
+        let lf = LightField::new(data, spec.layout()).unwrap();
+        let options = EstimateOptions {
+            params,
+            stage,
+            threads: None,
+        };
+        engine::estimate(&lf, &options, &mut |_, _, _| {})
+            .unwrap()
+            .disparity
+    };
+    let no_refine = {
+        let mut p = Params::default();
+        p.refine.enabled = false;
+        p
+    };
+    let refine_only = {
+        let mut p = Params::default();
+        p.geofill.enabled = false;
+        p.median.enabled = false;
+        p
+    };
+    let no_median = {
+        let mut p = Params::default();
+        p.median.enabled = false;
+        p
+    };
+    let variants = [
+        ("EPI", Params::default(), StageSelect::Epi),
+        ("full", Params::default(), StageSelect::Full),
+        ("full, no refine", no_refine, StageSelect::Full),
+        ("full, no geofill/median", refine_only, StageSelect::Full),
+        ("full, no median", no_median, StageSelect::Full),
+    ];
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let ideal_f: Vec<f32> = ideal.iter().map(|&v| f32::from(v) / 255.0).collect();
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        let inputs = [
+            ("rectified", ideal_f),
+            (
+                "true H bilinear",
+                warp_all(&lf, &truth, Interpolation::Bilinear),
+            ),
+            (
+                "true H Catmull-Rom",
+                warp_all(&lf, &truth, Interpolation::CatmullRom),
+            ),
+            ("true H Lanczos-3", warp_lanczos(&lf, &truth)),
+        ];
+        for (label, params, stage) in variants {
+            let mut line = format!("{name} {label}:");
+            let mut reference = 0.0;
+            for (k, (input, data)) in inputs.iter().enumerate() {
+                let d = run(data, &spec, params, stage);
+                let s = badpix(&d, &gt, n);
+                let (near, far) = badpix_split(&d, &gt, n);
+                if k == 0 {
+                    reference = s;
+                }
+                line += &format!(
+                    " {input} {s:.2} ({:+.1} %; {near:.2}/{far:.3})",
+                    100.0 * (s / reference - 1.0)
+                );
+            }
+            eprintln!("{line}");
         }
     }
 }

@@ -176,8 +176,8 @@ fn misaligned_hci_scenes_are_realigned() {
         let before = reprojection_rms(&identity, &truth, layout.grid, w, h, &disparities).unwrap();
         let after = reprojection_rms(&hs, &truth, layout.grid, w, h, &disparities).unwrap();
         eprintln!(
-            "hci/{scene}: reprojection {before:.3} -> {after:.4} px, track RMS {:.4}, {} corners",
-            report.rms, report.features
+            "hci/{scene}: reprojection {before:.3} -> {after:.4} px, track RMS {:.4}, {} corners, disparity shift {:+.4} px (coherence {:.3})",
+            report.rms, report.features, report.disparity_shift, report.disparity_coherence
         );
         assert!(after < 0.1, "{scene}: {after}");
         let (auto, _) = run(&misaligned, layout, &AlignParams::default());

@@ -19,7 +19,10 @@
 //! estimate fixes these four degrees of freedom by convention: the centre view keeps its
 //! own scale and the position of its image centre (by default it is the reference and
 //! keeps the identity, see [`Reference`]), and the view translations have no mean
-//! component along the baselines (zero-mean misalignment). [`gauge_rms`] compares
+//! component along the baselines (zero-mean misalignment) — after which the offset `δ`
+//! is moved by at most half of [`AlignParams::disparity_step`] so that the tracked
+//! points' disparities lie nearest the EPI stage's shear hypotheses (0 keeps the
+//! zero-mean convention). [`gauge_rms`] compares
 //! homographies modulo this gauge, [`reprojection_rms`] measures what the EPI stage
 //! sees. To first order in the disparity the same holds for a disparity *plane*: moving
 //! every view by `(δ + βx + γy)·b_v` is adding `δ + βx + γy` to every disparity, so the
@@ -152,7 +155,8 @@ pub struct AlignParams {
     /// every point is unobservable (module docs); by convention it is fixed by
     /// zero-mean view translations along the baselines, and then, when this is > 0,
     /// moved by at most half of it so that the tracked points' disparities lie as near
-    /// as possible to multiples of it (their circular mean), see
+    /// as possible to multiples of it (their circular mean) — when they cluster on one
+    /// phase (coherence ≥ 0.3, see [`AlignReport::disparity_coherence`]), see
     /// `solve::snap_disparity_offset`. The EPI stage shears at multiples of its
     /// `shear_step` (0.5 px by default, the default here) and measures surfaces that
     /// lie on a shear most accurately; any `shear_step` that divides this value has the
@@ -249,6 +253,14 @@ pub struct AlignReport {
     pub rms: f32,
     /// Alternation rounds run.
     pub iterations: usize,
+    /// Disparity (px) added to every point by the choice of the gauge offset
+    /// ([`AlignParams::disparity_step`]); 0 when it is off or left the offset alone
+    /// (coherence under 0.3).
+    pub disparity_shift: f32,
+    /// How closely the tracked points' disparities cluster on one phase of the
+    /// disparity step, 0 (spread evenly) … 1 (all on one phase): the length of their
+    /// mean phase vector.
+    pub disparity_coherence: f32,
 }
 
 /// One view's share of a batch of per-view work — tracking the centre view's corners
