@@ -80,6 +80,10 @@ fn estimate(lf: &LightField<'_, u8>, params: AlignParams) -> (Vec<Homography>, f
     let mut est = vec![Homography::IDENTITY; lf.grid().len()];
     let mut scratch = vec![0.0f32; align::scratch_len(lf.layout(), &params).unwrap()];
     let report = align::estimate(lf, &params, &mut est, &mut scratch).unwrap();
+    eprintln!(
+        "  estimate {:?}/{:?}: disparity shift {:+.4} px, coherence {:.3}",
+        params.views, params.disparity_step, report.disparity_shift, report.disparity_coherence
+    );
     (est, report.rms)
 }
 
@@ -179,12 +183,12 @@ fn aligned_arrays_score_like_rectified_ones() {
                 model == AlignModel::PlanePatches || score <= 1.03 * ideal_score,
                 "{name} {model:?}/{frame:?}/{views:?}: {score} vs {ideal_score} with the true homographies"
             );
-            // The goal, 10 % relative BadPix0.07, is met on `mixed` (every variant of the
-            // per-view model). On `planes` the warp and the EPI stage's sensitivity to
-            // the unobservable disparity offset alone cost 4–15 % (docs/bench-align.md).
-            let bound = if scene == SceneKind::Mixed { 1.10 } else { 1.2 };
+            // The goal, 10 % relative BadPix0.07, is met by every variant of the per-view
+            // model on both scenes (measured +3.9 … +8.8 %). On `planes` it takes the
+            // gauge offset on the EPI stage's shears (`AlignParams::disparity_step`):
+            // before, the unobservable offset alone cost it 6–12 % (docs/bench-align.md).
             assert!(
-                model == AlignModel::PlanePatches || score <= bound * reference,
+                model == AlignModel::PlanePatches || score <= 1.10 * reference,
                 "{name} {model:?}/{frame:?}/{views:?}: {score} vs {reference}"
             );
         }
@@ -665,6 +669,218 @@ fn plane_patches_report() {
                 r.rms,
                 r.iterations
             );
+        }
+    }
+}
+
+/// Why an unobservable disparity offset moves the score (a measurement, run by hand): the
+/// scene rendered rectified with every disparity shifted by `δ` (no warp at all; the
+/// synthetic scenes place their surfaces at fractions of `[disparity_min,
+/// disparity_max]`, so shifting both shifts every disparity), scored by the EPI stage
+/// with its defaults (auto range), with the range fixed to the shifted true range, with
+/// an exhaustive search, and by the full pipeline.
+/// `cargo test --release -p lfdepth-cli --test align_epi offset_sensitivity -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn offset_sensitivity() {
+    use lfdepth::epi::{DisparityRange, Search};
+    let n = SIZE;
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        for delta in [-0.1f32, -0.05, -0.025, 0.0, 0.025, 0.05, 0.1, 0.25] {
+            let mut spec = SynthSpec::new(scene, Grid::new(9, 9), n, n);
+            spec.seed = 11;
+            spec.disparity_min += delta;
+            spec.disparity_max += delta;
+            let mut views = vec![0u8; spec.layout().validate().unwrap()];
+            let mut gt = vec![0.0f32; n * n];
+            let mut hs = vec![Homography::IDENTITY; spec.grid.len()];
+            synth::render(&spec, &mut views, &mut gt, &mut hs).unwrap();
+            let lf = LightField::new(&views[..], spec.layout()).unwrap();
+            let plan = lfdepth::Plan::new(spec.layout(), Params::default()).unwrap();
+            let mut scratch = vec![0.0f32; lfdepth::epi::scratch_len(&plan)];
+            let range = lfdepth::epi::estimate_range(&plan, &lf, &mut scratch).unwrap();
+            let run = |params: Params, stage: StageSelect| {
+                let options = EstimateOptions {
+                    params,
+                    stage,
+                    threads: None,
+                };
+                let d = engine::estimate(&lf, &options, &mut |_, _, _| {})
+                    .unwrap()
+                    .disparity;
+                (badpix(&d, &gt, n), badpix_split(&d, &gt, n))
+            };
+            let mut fixed = Params::default();
+            fixed.epi.range = DisparityRange::Fixed {
+                min: spec.disparity_min - 0.2,
+                max: spec.disparity_max + 0.2,
+            };
+            let mut exhaustive = Params::default();
+            exhaustive.epi.search = Search::Exhaustive;
+            let mut fixed_exh = fixed;
+            fixed_exh.epi.search = Search::Exhaustive;
+            let cases = [
+                ("epi", run(Params::default(), StageSelect::Epi)),
+                ("epi fixed range", run(fixed, StageSelect::Epi)),
+                ("epi exhaustive", run(exhaustive, StageSelect::Epi)),
+                ("epi fixed+exh", run(fixed_exh, StageSelect::Epi)),
+                ("full", run(Params::default(), StageSelect::Full)),
+            ];
+            let mut line = format!(
+                "{} offset {delta:+.3}: range ({:.3}, {:.3})",
+                scene.name(),
+                range.0,
+                range.1
+            );
+            for (label, (s, (near, far))) in cases {
+                line += &format!("; {label} {s:.2} ({near:.2}/{far:.2})");
+            }
+            eprintln!("{line}");
+        }
+    }
+}
+
+/// The final disparity (every stage, `StageSelect::Full`) of the aligned arrays against
+/// the rectified one (a measurement, run by hand): the pipeline's cross-only estimate
+/// and every view, bilinear and Catmull–Rom, after the unobservable disparity plane.
+/// `cargo test --release -p lfdepth-cli --test align_epi final_disparity -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn final_disparity() {
+    let n = SIZE;
+    let full = |data: &[f32], spec: &SynthSpec| {
+        let lf = LightField::new(data, spec.layout()).unwrap();
+        let options = EstimateOptions {
+            params: Params::default(),
+            stage: StageSelect::Full,
+            threads: None,
+        };
+        engine::estimate(&lf, &options, &mut |_, _, _| {})
+            .unwrap()
+            .disparity
+    };
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let ideal_f: Vec<f32> = ideal.iter().map(|&v| f32::from(v) / 255.0).collect();
+        let (rect_epi, rect_full) = (
+            badpix(&epi(&ideal, &spec), &gt, n),
+            badpix(&full(&ideal_f, &spec), &gt, n),
+        );
+        eprintln!("{name}: rectified EPI {rect_epi:.2}, full {rect_full:.2}");
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        let (r0, c0) = spec.grid.center();
+        let cols = spec.grid.cols;
+        for views in [AlignedViews::Cross, AlignedViews::All] {
+            for step in [0.0f32, 0.5] {
+                let params = AlignParams {
+                    mode: AlignMode::On,
+                    views,
+                    disparity_step: step,
+                    ..AlignParams::default()
+                };
+                let (est, _) = estimate(&lf, params);
+                let include =
+                    |v: usize| views == AlignedViews::All || v / cols == r0 || v % cols == c0;
+                let g = gauge_fit_where(&est, &truth, spec.grid, n, n, &include).unwrap();
+                let fix = |raw: Vec<f32>| -> Vec<f32> {
+                    raw.iter()
+                        .enumerate()
+                        .map(|(i, &d)| g.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                        .collect()
+                };
+                for how in [Interpolation::Bilinear, Interpolation::CatmullRom] {
+                    let warped = warp_all(&lf, &est, how);
+                    let e = badpix(&fix(epi(&warped, &spec)), &gt, n);
+                    let f = badpix(&fix(full(&warped, &spec)), &gt, n);
+                    eprintln!(
+                        "{name} {views:?} disparity_step {step} {how:?}: EPI {e:.2} ({:+.1} %), full {f:.2} ({:+.1} %); gauge offset {:.4}",
+                        100.0 * (e / rect_epi - 1.0),
+                        100.0 * (f / rect_full - 1.0),
+                        g.disparity_offset
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Which stage after the EPI stage loses the accuracy on warped views (a measurement, run
+/// by hand): rectified views against views warped with the true homographies (bilinear
+/// and Catmull–Rom, no estimate, no gauge), the pipeline with stages switched off one at
+/// a time; BadPix0.07 near depth steps / elsewhere in brackets.
+/// `cargo test --release -p lfdepth-cli --test align_epi final_stages -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn final_stages() {
+    let n = SIZE;
+    let run = |data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect| {
+        let lf = LightField::new(data, spec.layout()).unwrap();
+        let options = EstimateOptions {
+            params,
+            stage,
+            threads: None,
+        };
+        engine::estimate(&lf, &options, &mut |_, _, _| {})
+            .unwrap()
+            .disparity
+    };
+    let no_refine = {
+        let mut p = Params::default();
+        p.refine.enabled = false;
+        p
+    };
+    let refine_only = {
+        let mut p = Params::default();
+        p.geofill.enabled = false;
+        p.median.enabled = false;
+        p
+    };
+    let no_median = {
+        let mut p = Params::default();
+        p.median.enabled = false;
+        p
+    };
+    let variants = [
+        ("EPI", Params::default(), StageSelect::Epi),
+        ("full", Params::default(), StageSelect::Full),
+        ("full, no refine", no_refine, StageSelect::Full),
+        ("full, no geofill/median", refine_only, StageSelect::Full),
+        ("full, no median", no_median, StageSelect::Full),
+    ];
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let ideal_f: Vec<f32> = ideal.iter().map(|&v| f32::from(v) / 255.0).collect();
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        let inputs = [
+            ("rectified", ideal_f),
+            (
+                "true H bilinear",
+                warp_all(&lf, &truth, Interpolation::Bilinear),
+            ),
+            (
+                "true H Catmull-Rom",
+                warp_all(&lf, &truth, Interpolation::CatmullRom),
+            ),
+            ("true H Lanczos-3", warp_lanczos(&lf, &truth)),
+        ];
+        for (label, params, stage) in variants {
+            let mut line = format!("{name} {label}:");
+            let mut reference = 0.0;
+            for (k, (input, data)) in inputs.iter().enumerate() {
+                let d = run(data, &spec, params, stage);
+                let s = badpix(&d, &gt, n);
+                let (near, far) = badpix_split(&d, &gt, n);
+                if k == 0 {
+                    reference = s;
+                }
+                line += &format!(
+                    " {input} {s:.2} ({:+.1} %; {near:.2}/{far:.3})",
+                    100.0 * (s / reference - 1.0)
+                );
+            }
+            eprintln!("{line}");
         }
     }
 }

@@ -19,7 +19,10 @@
 //! estimate fixes these four degrees of freedom by convention: the centre view keeps its
 //! own scale and the position of its image centre (by default it is the reference and
 //! keeps the identity, see [`Reference`]), and the view translations have no mean
-//! component along the baselines (zero-mean misalignment). [`gauge_rms`] compares
+//! component along the baselines (zero-mean misalignment) — after which the offset `δ`
+//! is moved by at most half of [`AlignParams::disparity_step`] so that the tracked
+//! points' disparities lie nearest the EPI stage's shear hypotheses (0 keeps the
+//! zero-mean convention). [`gauge_rms`] compares
 //! homographies modulo this gauge, [`reprojection_rms`] measures what the EPI stage
 //! sees. To first order in the disparity the same holds for a disparity *plane*: moving
 //! every view by `(δ + βx + γy)·b_v` is adding `δ + βx + γy` to every disparity, so the
@@ -148,6 +151,17 @@ pub struct AlignParams {
     pub interpolation: Interpolation,
     /// Which views to estimate.
     pub views: AlignedViews,
+    /// Disparity grid of the gauge offset (px; 0 = off). The disparity offset common to
+    /// every point is unobservable (module docs); by convention it is fixed by
+    /// zero-mean view translations along the baselines, and then, when this is > 0,
+    /// moved by at most half of it so that the tracked points' disparities lie as near
+    /// as possible to multiples of it (their circular mean) — when they cluster on one
+    /// phase (coherence ≥ 0.3, see [`AlignReport::disparity_coherence`]), see
+    /// `solve::snap_disparity_offset`. The EPI stage shears at multiples of its
+    /// `shear_step` (0.5 px by default, the default here) and measures surfaces that
+    /// lie on a shear most accurately; any `shear_step` that divides this value has the
+    /// same multiples.
+    pub disparity_step: f32,
 }
 
 impl Default for AlignParams {
@@ -165,6 +179,7 @@ impl Default for AlignParams {
             seed: 0x5eed_a11e,
             interpolation: Interpolation::Bilinear,
             views: AlignedViews::Read,
+            disparity_step: 0.5,
         }
     }
 }
@@ -192,6 +207,12 @@ impl AlignParams {
             return bad(
                 "align.rectified_rms",
                 "must be a finite number ≥ 0 (pixels)",
+            );
+        }
+        if !(self.disparity_step.is_finite() && (0.0..=4.0).contains(&self.disparity_step)) {
+            return bad(
+                "align.disparity_step",
+                "must be a finite number between 0 (off) and 4 (pixels)",
             );
         }
         if !(8..=MAX_FEATURES).contains(&self.min_inliers) || self.min_inliers > self.features {
@@ -232,6 +253,14 @@ pub struct AlignReport {
     pub rms: f32,
     /// Alternation rounds run.
     pub iterations: usize,
+    /// Disparity (px) added to every point by the choice of the gauge offset
+    /// ([`AlignParams::disparity_step`]); 0 when it is off or left the offset alone
+    /// (coherence under 0.3).
+    pub disparity_shift: f32,
+    /// How closely the tracked points' disparities cluster on one phase of the
+    /// disparity step, 0 (spread evenly) … 1 (all on one phase): the length of their
+    /// mean phase vector.
+    pub disparity_coherence: f32,
 }
 
 /// One view's share of a batch of per-view work — tracking the centre view's corners
@@ -470,6 +499,76 @@ mod tests {
             assert!(!report.skipped);
             assert!(before > 1.0, "{before}");
             assert!(after < 0.1, "{model:?}: {after}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod gauge_offset_tests {
+    extern crate std;
+    use super::*;
+    use crate::lightfield::Grid;
+    use crate::synth::{self, Misalignment, SceneKind, SynthSpec};
+    use std::vec;
+
+    /// A misaligned `planes` array whose surfaces all lie on multiples of 0.5 px: with
+    /// `disparity_step` 0.5 the estimate's disparity offset (against the truth) is a
+    /// multiple of 0.5, so the surfaces land on the EPI stage's shears; with 0 it is
+    /// wherever the zero-mean convention puts it. The reprojection error is the same.
+    #[test]
+    fn the_disparity_offset_lands_on_the_step() {
+        let mut spec = SynthSpec::new(SceneKind::Planes, Grid::new(5, 5), 128, 128);
+        // Levels −1.5 + 2.5·k/5: −1.5, −1, −0.5, 0, 0.5, 1.
+        spec.disparity_min = -1.5;
+        spec.disparity_max = 1.0;
+        spec.seed = 3;
+        spec.misalign = Some(Misalignment {
+            max_rotation_deg: 2.0,
+            max_translation_px: 3.0,
+            max_scale: 0.01,
+            max_perspective: 0.002,
+        });
+        let layout = spec.layout();
+        let mut data = vec![0u8; layout.validate().unwrap()];
+        let mut gt = vec![0.0f32; 128 * 128];
+        let mut truth = vec![Homography::IDENTITY; 25];
+        synth::render(&spec, &mut data, &mut gt, &mut truth).unwrap();
+        let mut offsets = [0.0f32; 2];
+        let mut rms = [0.0f32; 2];
+        for (k, step) in [0.0f32, 0.5].into_iter().enumerate() {
+            let params = AlignParams {
+                mode: AlignMode::On,
+                views: AlignedViews::All,
+                disparity_step: step,
+                ..AlignParams::default()
+            };
+            let (report, hs) = tests::run(&data, layout, &params);
+            rms[k] = report.unwrap().rms;
+            offsets[k] = gauge_fit(&hs, &truth, spec.grid, 128, 128)
+                .unwrap()
+                .disparity_offset;
+        }
+        std::eprintln!("offsets {offsets:?}, track RMS {rms:?}");
+        let off_grid = |d: f32| libm::fabsf(d - 0.5 * libm::roundf(d / 0.5));
+        assert!(off_grid(offsets[1]) < 0.03, "{offsets:?}");
+        assert!(
+            libm::fabsf(offsets[1] - offsets[0]) <= 0.25 + 1e-3,
+            "{offsets:?}"
+        );
+        assert!(libm::fabsf(rms[1] - rms[0]) < 1e-3, "{rms:?}");
+    }
+
+    #[test]
+    fn bad_disparity_steps_are_parameter_errors() {
+        for step in [-0.5, f32::NAN, f32::INFINITY, 5.0] {
+            let params = AlignParams {
+                disparity_step: step,
+                ..AlignParams::default()
+            };
+            assert!(
+                matches!(params.validate(), Err(Error::InvalidParameter { .. })),
+                "{step}"
+            );
         }
     }
 }

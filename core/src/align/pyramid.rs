@@ -88,12 +88,10 @@ impl Pyramid {
             let Some(out) = data.get_mut(y * w..(y + 1) * w) else {
                 continue;
             };
-            for (x, o) in out.iter_mut().enumerate() {
-                let first = x * view.channels();
-                let Some(px) = row.get(first..first + channels) else {
-                    continue;
-                };
-                let sum: f32 = px.iter().map(|s| s.to_unit()).sum();
+            // Pixel by pixel through `chunks_exact` (no index checks): the same sums,
+            // in the same order, as indexing each pixel's channels.
+            for (o, px) in out.iter_mut().zip(row.chunks_exact(view.channels().max(1))) {
+                let sum: f32 = px.iter().take(channels).map(|s| s.to_unit()).sum();
                 // Non-finite input samples become black rather than poisoning the fit.
                 *o = if sum.is_finite() { sum * scale } else { 0.0 };
             }

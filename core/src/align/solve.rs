@@ -40,9 +40,11 @@ pub enum ViewSet {
     All,
     /// The centre row and column of the grid.
     Cross,
-    /// The views one and two steps from the centre along the axes and the eight outer
-    /// views (corners and edge middles): enough to tell a rectified array from a
-    /// misaligned one, cheaply; the nearer views predict the parallax in the outer ones.
+    /// The views one and two steps from the centre along the axes and the four corner
+    /// views: enough to tell a rectified array from a misaligned one, cheaply; the
+    /// nearer views predict the parallax in the outer ones. (Until session 4 also the
+    /// four edge middles, on the axes like the nearer views: 16 views, and 256 corners
+    /// instead of [`PROBE_FEATURES`]; 24 ms per 9×9×512² array instead of 9.)
     Probe,
 }
 
@@ -55,6 +57,17 @@ impl Tracks {
         checked_product(&[views, MAX_FEATURES, 3], "the alignment track table")
     }
 }
+
+/// Corners the auto mode's probe ([`ViewSet::Probe`]) tracks (at most
+/// `align.features`, at least `align.min_inliers`).
+const PROBE_FEATURES: usize = 64;
+
+/// Shortest mean phase vector of the points' disparities (0 … 1) for which
+/// [`snap_disparity_offset`] moves the gauge offset. Measured: 0.46–0.51 on the
+/// synthetic `planes` arrays (fronto-parallel planes, +6…12 % BadPix0.07 off the
+/// shears), 0.18–0.19 on `mixed` (no measurable preference); 256 random phases give
+/// about 0.06.
+const MIN_DISPARITY_COHERENCE: f32 = 0.3;
 
 /// RANSAC threshold of the first round (pixels): misalignment is still in the points.
 const FIRST_THRESHOLD: f32 = 3.0;
@@ -110,12 +123,8 @@ fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
                 (r0.saturating_sub(2), c0),
                 ((r0 + 2).min(grid.rows - 1), c0),
                 (0, 0),
-                (0, c0),
                 (0, last_c),
-                (r0, 0),
-                (r0, last_c),
                 (last_r, 0),
-                (last_r, c0),
                 (last_r, last_c),
             ];
             for (r, c) in picks {
@@ -342,10 +351,16 @@ pub fn run<S: Sample, M: ViewMap>(
 
     pyramid.build(&lf.center_view(), centre_pyr);
     let centre_pyr = &*centre_pyr;
+    // The probe only tells a rectified array from a misaligned one: fewer corners do.
+    let features = if set == ViewSet::Probe {
+        params.features.min(PROBE_FEATURES.max(params.min_inliers))
+    } else {
+        params.features
+    };
     // Detect at the coarsest level that still gives each corner a cell of ≥ 4×4 pixels.
     let mut level = 0;
     while level + 1 < pyramid.levels.min(3)
-        && pyramid.width[level + 1] * pyramid.height[level + 1] >= 16 * params.features
+        && pyramid.width[level + 1] * pyramid.height[level + 1] >= 16 * features
     {
         level += 1;
     }
@@ -363,7 +378,7 @@ pub fn run<S: Sample, M: ViewMap>(
     corners::detect(
         &pyramid.level(centre_pyr, level),
         level,
-        params.features,
+        features,
         MARGIN,
         &mut state.corners,
     );
@@ -1008,6 +1023,11 @@ fn alternate<M: ViewMap>(
         }
         previous = if settled { err } else { f32::INFINITY };
     }
+    if params.disparity_step > 0.0 {
+        let (shift, coherence) = snap_disparity_offset(state, maps, params.disparity_step);
+        report.disparity_shift = shift;
+        report.disparity_coherence = coherence;
+    }
     for v in 0..grid.len() {
         // `rms` reported every view (none when no round ran: 0 inliers).
         let inliers = report.views.get(v).map_or(0, |r| usize::from(r.inliers));
@@ -1032,6 +1052,69 @@ fn alternate<M: ViewMap>(
         }
     }
     Ok(report)
+}
+
+/// Moves the gauge's disparity offset by `δ ∈ (−step/2, step/2]` so that the solved
+/// points' disparities lie as near as possible to multiples of `step`: `δ` maximises
+/// `Σ cos(2π(d_i + δ)/step)` (the circular mean of the phases `d_i / step`). Adding `δ`
+/// to every disparity is the gauge transform `M_v ↦ M_v − δ·b_v` (view → rectified), so
+/// the reprojection error does not change. Why: the EPI stage shears at multiples of its
+/// step and its estimates near occlusion edges are best for surfaces that lie on a
+/// shear; the offset is unobservable, so the estimate may as well put the scene's
+/// dominant disparities there (measured on the synthetic `planes` array: a rectified
+/// scene shifted by 0.1 px off the shears scores +12 % BadPix0.07 in the EPI stage,
+/// docs/bench-align.md, Session 4). Points with too few views are left out. Only
+/// when the phases cluster (their mean vector at least [`MIN_DISPARITY_COHERENCE`]
+/// long): disparities spread over every phase gain nothing from the move (measured:
+/// the rectified `mixed` array scores within ±2 % at any offset), and then the
+/// zero-mean convention, which is nearer the true offset on average, stays. Returns the
+/// shift and the coherence.
+fn snap_disparity_offset(state: &mut State<'_>, maps: &mut [Homography], step: f32) -> (f32, f32) {
+    let grid = state.grid;
+    let n = state.corners.len().min(MAX_FEATURES);
+    let turn = core::f32::consts::TAU / step;
+    let (mut sin, mut cos, mut count) = (0.0f32, 0.0f32, 0.0f32);
+    for i in (0..n).filter(|&i| state.is_solved(i)) {
+        let phase = turn * state.d[i];
+        sin += libm::sinf(phase);
+        cos += libm::cosf(phase);
+        count += 1.0;
+    }
+    let coherence = libm::sqrtf(sin * sin + cos * cos) / count.max(1.0);
+    // NaN (no solved point) compares as not coherent.
+    if coherence.partial_cmp(&MIN_DISPARITY_COHERENCE) == Some(core::cmp::Ordering::Less)
+        || coherence.is_nan()
+    {
+        return (0.0, coherence);
+    }
+    let delta = -libm::atan2f(sin, cos) / turn;
+    if !delta.is_finite() {
+        return (0.0, coherence);
+    }
+    for (v, map) in maps.iter_mut().enumerate().take(grid.len()) {
+        if !state.is_tracked(v) {
+            continue;
+        }
+        let b = baseline(grid, v);
+        let shift = Mat::new(
+            1.0,
+            0.0,
+            -delta * b.0,
+            0.0,
+            1.0,
+            -delta * b.1,
+            0.0,
+            0.0,
+            1.0,
+        );
+        if let Some(h) = model::to_homography(&(shift * model::from_homography(map))) {
+            *map = h;
+        }
+    }
+    for d in state.d.iter_mut().take(n) {
+        *d += delta;
+    }
+    (delta, coherence)
 }
 
 /// RMS of the inlier observations when every view is taken as already rectified.
