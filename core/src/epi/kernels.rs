@@ -255,7 +255,7 @@ pub(crate) fn apply_pair<T: Scalar>(
                 *a = centre * v;
             }
         }
-        for (j, (&ko, &ke)) in (1..=r).zip(odd_taps.iter().zip(even_taps)) {
+        for (j, (&ko, &ke)) in (1..r + 1).zip(odd_taps.iter().zip(even_taps)) {
             let (Some(below), Some(above)) = (window(t0 + r - j), window(t0 + r + j)) else {
                 continue;
             };
@@ -324,7 +324,7 @@ impl<T: Scalar> Kernel<T> {
                 }
             }
         }
-        for (j, &k) in (1..=r).zip(upper) {
+        for (j, &k) in (1..r + 1).zip(upper) {
             let (Some(below), Some(above)) = (window(t0 + r - j), window(t0 + r + j)) else {
                 continue;
             };

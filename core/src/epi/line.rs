@@ -497,12 +497,18 @@ impl<T: Scalar> LineEstimator<T> {
                 let to = planes.plane(kind, k, c_n);
                 let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
                 let gray = gray.get_mut(..planes.len).ok_or(short)?;
-                gray.fill(T::ZERO);
                 for c in 0..c_n {
                     let at = planes.plane(kind, k, c);
                     let plane = stored.get(at..at + planes.len).ok_or(short)?;
-                    for (g, &v) in gray.iter_mut().zip(plane) {
-                        *g += v;
+                    // The first channel as `0 + v`, the sum the others are added to.
+                    if c == 0 {
+                        for (g, &v) in gray.iter_mut().zip(plane) {
+                            *g = T::ZERO + v;
+                        }
+                    } else {
+                        for (g, &v) in gray.iter_mut().zip(plane) {
+                            *g += v;
+                        }
                     }
                 }
                 for g in gray.iter_mut() {
