@@ -1,7 +1,7 @@
 //! Criterion benchmarks of the EPI stage on a 9×9×512×512 RGB synthetic scene (`Mixed`,
 //! disparities −1.5…1.5 px, automatic range): the engine with 1 and 2 threads (and 1 thread
-//! with the exhaustive hypothesis search, for a same-run comparison), and the core's serial
-//! `pipeline::estimate` in Q16.16.
+//! with the exhaustive hypothesis search, for a same-run comparison), the automatic range
+//! estimate alone, and the core's serial `pipeline::estimate` in Q16.16.
 //! `cargo bench -p lfdepth-cli --bench epi`
 
 use std::ops::ControlFlow;
@@ -70,6 +70,11 @@ fn bench(c: &mut Criterion) {
         b.iter(|| estimate(&lf, &exhaustive, &mut |_, _, _| {}).unwrap())
     });
     let plan = Plan::new(spec.layout(), Params::default()).unwrap();
+    // The automatic range alone (`lfdepth estimate` prints it as `epi range`), f32.
+    let mut range_scratch = vec![0.0f32; epi::scratch_len(&plan)];
+    group.bench_function("range_9x9x512x512", |b| {
+        b.iter(|| epi::hypotheses(&plan, &lf, &mut range_scratch).unwrap())
+    });
     let mut d = vec![0.0; plan.pixels()];
     let mut conf = vec![0.0; plan.pixels()];
     let mut scratch = vec![Q16::ZERO; lfdepth::pipeline::scratch_len(&plan)];

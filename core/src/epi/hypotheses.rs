@@ -81,6 +81,23 @@ impl Hypotheses {
         })
     }
 
+    /// The fewest shears `step` apart, centred on `[min, max]`, that leave every disparity
+    /// of it within `step / 2` of one (up to the rounding of the shears to multiples of
+    /// `grid`, the fine shears' step, so that they read the planes the fine ones read).
+    /// The coarse pass's set: a range 3.65 px wide takes 2 shears where the multiples of
+    /// `step` covering it take 3.
+    pub(crate) fn centred(min: f32, max: f32, step: f32, window: f32, grid: f32) -> Result<Self> {
+        let mut h = Self::sheared(min, max, step, window)?;
+        let count = libm::ceilf((max - min) / step).max(1.0);
+        if !(count.is_finite() && grid > 0.0) || count as usize >= h.count {
+            return Ok(h);
+        }
+        let first = 0.5 * (min + max) - 0.5 * (count - 1.0) * step;
+        h.first = libm::roundf(first / grid) * grid;
+        h.count = count as usize;
+        Ok(h)
+    }
+
     /// Number of shears.
     pub fn count(&self) -> usize {
         self.count
@@ -130,5 +147,42 @@ mod tests {
         let plain = EpiParams { shear: false, ..p };
         let h = Hypotheses::new(&plain, -2.0, 3.0).unwrap();
         assert_eq!((h.count(), h.shear(0)), (1, 0.0));
+    }
+
+    #[test]
+    fn centred_shears_are_fewer_and_still_cover_the_range() {
+        // HCI cotton's range: 2 shears at ±1 instead of the multiples −2, 0, 2.
+        let h = Hypotheses::centred(-1.9, 1.75, 2.0, 1.0, 0.5).unwrap();
+        assert_eq!((h.count(), h.shear(0), h.shear(1)), (2, -1.0, 1.0));
+        for i in 0..=160 {
+            for width in [0.0f32, 0.3, 1.0, 2.0, 3.65, 4.0, 5.5, 9.9, 16.0] {
+                let min = -8.0 + 0.1 * i as f32;
+                let max = min + width;
+                if max > 8.0 {
+                    continue;
+                }
+                let h = Hypotheses::centred(min, max, 2.0, 1.0, 0.5).unwrap();
+                let old = Hypotheses::sheared(min, max, 2.0, 1.0).unwrap();
+                assert!(h.count() <= old.count(), "{min}..{max}");
+                for j in 0..h.count() {
+                    let s = h.shear(j);
+                    assert!(
+                        (s / 0.5 - libm::roundf(s / 0.5)).abs() < 1e-4,
+                        "{s} off the grid"
+                    );
+                    assert!(s.abs() <= MAX_DISPARITY + 0.25, "{s}");
+                }
+                for k in 0..=20 {
+                    let d = min + width * k as f32 / 20.0;
+                    let nearest = (0..h.count())
+                        .map(|j| (h.shear(j) - d).abs())
+                        .fold(f32::MAX, f32::min);
+                    assert!(
+                        nearest <= 1.25 + 1e-4,
+                        "{min}..{max}: {d} is {nearest} away"
+                    );
+                }
+            }
+        }
     }
 }

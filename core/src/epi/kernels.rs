@@ -225,11 +225,27 @@ pub(crate) fn apply_pair<T: Scalar>(
         even.apply(input, out_even);
         return;
     }
-    // Clamped edges (the first and last `r` samples) as `apply_range` computes them.
-    odd.apply_range(input, out_odd, 0..r);
-    odd.apply_range(input, out_odd, n - r..n);
-    even.apply_range(input, out_even, 0..r);
-    even.apply_range(input, out_even, n - r..n);
+    // Clamped edges (the first and last `r` samples) as `apply_range` computes them (the
+    // same sums in the same order), both kernels in one loop.
+    let (Some(all_odd), Some(all_even)) = (odd.taps.get(..2 * r + 1), even.taps.get(..2 * r + 1))
+    else {
+        return;
+    };
+    let last = n - 1;
+    for t in (0..r).chain(n - r..n) {
+        let (mut acc_odd, mut acc_even) = (T::ZERO, T::ZERO);
+        for (j, (&ko, &ke)) in all_odd.iter().zip(all_even).enumerate() {
+            let v = input
+                .get((t + j).saturating_sub(r).min(last))
+                .copied()
+                .unwrap_or(T::ZERO);
+            acc_odd += ko * v;
+            acc_even += ke * v;
+        }
+        if let (Some(o), Some(e)) = (out_odd.get_mut(t), out_even.get_mut(t)) {
+            (*o, *e) = (acc_odd, acc_even);
+        }
+    }
     let (Some(&centre), Some(odd_taps), Some(even_taps)) = (
         even.taps.get(r),
         odd.taps.get(r + 1..2 * r + 1),
@@ -255,7 +271,7 @@ pub(crate) fn apply_pair<T: Scalar>(
                 *a = centre * v;
             }
         }
-        for (j, (&ko, &ke)) in (1..=r).zip(odd_taps.iter().zip(even_taps)) {
+        for (j, (&ko, &ke)) in (1..r + 1).zip(odd_taps.iter().zip(even_taps)) {
             let (Some(below), Some(above)) = (window(t0 + r - j), window(t0 + r + j)) else {
                 continue;
             };
@@ -324,7 +340,7 @@ impl<T: Scalar> Kernel<T> {
                 }
             }
         }
-        for (j, &k) in (1..=r).zip(upper) {
+        for (j, &k) in (1..r + 1).zip(upper) {
             let (Some(below), Some(above)) = (window(t0 + r - j), window(t0 + r + j)) else {
                 continue;
             };

@@ -69,8 +69,9 @@ fn off_planes(
 /// `params` can make: shears are multiples of `shear_step`, so with `2·shear_step` an
 /// integer every offset is a multiple of half a sample (odd ones only at odd distances
 /// from the centre, and only when `2·shear_step` is odd), within the stored reach
-/// (|shear| ≤ MAX_DISPARITY + 1). The coarse pass's shears (steps of 2 px then) and the
-/// range probe's are integers. Any other step may need every kind of plane.
+/// (|shear| ≤ MAX_DISPARITY + 1). The coarse pass's shears are multiples of the fine
+/// step too (`Hypotheses::centred`), the range probe's are integers. Any other step may
+/// need every kind of plane.
 fn planes_bound(params: &EpiParams, views: usize, centre: usize) -> ([bool; GRID_MAX], bool) {
     let mut half = [false; GRID_MAX];
     if !params.shear {
@@ -107,9 +108,9 @@ const TINY_TRACE: f32 = 1e-6 * (INTENSITY_SCALE / 64.0) * (INTENSITY_SCALE / 64.
 pub(super) const BLOCK: usize = 16;
 /// Samples the tensor kernel keeps in registers at a time (a divisor of `BLOCK`).
 const LANES: usize = 16;
-/// The coarse pass tests every `COARSE_STEPS`-th shear step (at most 2 px apart, the
-/// largest step the residual window still covers): 2 and 3 steps gave the same HCI
-/// scores as 4 (docs/bench-epi.md).
+/// The coarse pass tests shears `COARSE_STEPS` shear steps apart (at most 2 px, the
+/// largest step the residual window still covers), as few as cover the range centred on
+/// it: 2 and 3 steps gave the same HCI scores as 4 (docs/bench-epi.md).
 const COARSE_STEPS: f32 = 4.0;
 /// The coarse pass scores every `COARSE_STRIDE`-th sample along the line (the tensor is
 /// smoothed over ±3·outer_sigma samples anyway); the others take their neighbour's.
@@ -229,11 +230,12 @@ impl<T: Scalar> LineEstimator<T> {
         let coarse = match params.search {
             Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
                 let step = hypotheses.step();
-                Hypotheses::sheared(
+                Hypotheses::centred(
                     hypotheses.min(),
                     hypotheses.max(),
                     (COARSE_STEPS * step).min(2.0),
                     1.0,
+                    step,
                 )
                 .ok()
                 .map(|coarse| Coarse {
@@ -495,12 +497,18 @@ impl<T: Scalar> LineEstimator<T> {
                 let to = planes.plane(kind, k, c_n);
                 let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
                 let gray = gray.get_mut(..planes.len).ok_or(short)?;
-                gray.fill(T::ZERO);
                 for c in 0..c_n {
                     let at = planes.plane(kind, k, c);
                     let plane = stored.get(at..at + planes.len).ok_or(short)?;
-                    for (g, &v) in gray.iter_mut().zip(plane) {
-                        *g += v;
+                    // The first channel as `0 + v`, the sum the others are added to.
+                    if c == 0 {
+                        for (g, &v) in gray.iter_mut().zip(plane) {
+                            *g = T::ZERO + v;
+                        }
+                    } else {
+                        for (g, &v) in gray.iter_mut().zip(plane) {
+                            *g += v;
+                        }
                     }
                 }
                 for g in gray.iter_mut() {
@@ -614,9 +622,10 @@ impl<T: Scalar> LineEstimator<T> {
                     }
                     probe += 1;
                 }
-                let blocks = start.saturating_sub(reach) / BLOCK
-                    ..(end + reach).div_ceil(BLOCK).min(planes.n_blocks / BLOCK);
-                self.tensor_blocks(bank, &sources, tensor, blocks);
+                // The outer smoothing of samples start..end reads the tensor within its
+                // reach (clamped to the line).
+                let span = start.saturating_sub(reach)..(end + reach).min(n);
+                self.tensor_span(bank, &sources, tensor, span, planes.n_blocks);
                 let sums = &mut *tensor;
                 let (jxx, jxk, jkk) = (
                     sums.jxx.get(..n).unwrap_or_default(),
@@ -819,41 +828,56 @@ impl<T: Scalar> LineEstimator<T> {
         sources
     }
 
-    /// The outer-weighted tensor (xx, xk, kk) of the samples of `blocks` (of `BLOCK`
-    /// samples) into `tensor.jxx` etc., summed over the source channels and the views.
-    fn tensor_blocks(
+    /// The outer-weighted tensor (xx, xk, kk) of the samples `span` (at least, within the
+    /// first `len` samples) into `tensor.jxx` etc., summed over the source channels and the
+    /// views.
+    fn tensor_span(
         &self,
         bank: &[T],
         sources: &Sources,
         tensor: &mut Tensor<'_, T>,
-        blocks: Range<usize>,
+        span: Range<usize>,
+        len: usize,
     ) {
         match Band::<T>::width_for(self.band.taps) {
-            3 => self.tensor_line::<3>(bank, sources, tensor, blocks),
-            5 => self.tensor_line::<5>(bank, sources, tensor, blocks),
-            7 => self.tensor_line::<7>(bank, sources, tensor, blocks),
-            9 => self.tensor_line::<9>(bank, sources, tensor, blocks),
-            _ => self.tensor_line::<GRID_MAX>(bank, sources, tensor, blocks),
+            3 => self.tensor_line::<3>(bank, sources, tensor, span, len),
+            5 => self.tensor_line::<5>(bank, sources, tensor, span, len),
+            7 => self.tensor_line::<7>(bank, sources, tensor, span, len),
+            9 => self.tensor_line::<9>(bank, sources, tensor, span, len),
+            _ => self.tensor_line::<GRID_MAX>(bank, sources, tensor, span, len),
         }
     }
 
+    /// The tensor of `span` in runs of `LANES` samples starting anywhere (a sample's sums
+    /// do not depend on its run), the last run overlapping its predecessor: no sample
+    /// outside `span` is computed unless `span` is shorter than `LANES`.
     fn tensor_line<const TAPS: usize>(
         &self,
         bank: &[T],
         sources: &Sources,
         tensor: &mut Tensor<'_, T>,
-        blocks: Range<usize>,
+        span: Range<usize>,
+        len: usize,
     ) {
-        let span = blocks.start * BLOCK..blocks.end * BLOCK;
-        let lines = (tensor.jxx.get_mut(span.clone()).unwrap_or_default())
-            .chunks_exact_mut(LANES)
-            .zip((tensor.jxk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(LANES))
-            .zip((tensor.jkk.get_mut(span.clone()).unwrap_or_default()).chunks_exact_mut(LANES));
-        for (t0, ((xx, xk), kk)) in span.step_by(LANES).zip(lines) {
-            let [sxx, sxk, skk] = self.tensor_lanes::<TAPS>(bank, sources, t0);
-            xx.copy_from_slice(&sxx);
-            xk.copy_from_slice(&sxk);
-            kk.copy_from_slice(&skk);
+        // `len` (whole blocks of the line) ≥ LANES; a short span widens to one run.
+        let end = span.end.max(span.start + LANES).min(len);
+        let start = span.start.min(end.saturating_sub(LANES));
+        let mut t0 = start;
+        while t0 < end {
+            let at = t0.min(end.saturating_sub(LANES));
+            let [sxx, sxk, skk] = self.tensor_lanes::<TAPS>(bank, sources, at);
+            let store = |line: &mut [T], sums: &[T; LANES]| {
+                if let Some(out) = line
+                    .get_mut(at..)
+                    .and_then(|l| l.first_chunk_mut::<LANES>())
+                {
+                    *out = *sums;
+                }
+            };
+            store(tensor.jxx, &sxx);
+            store(tensor.jxk, &sxk);
+            store(tensor.jkk, &skk);
+            t0 = at + LANES;
         }
     }
 

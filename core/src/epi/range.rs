@@ -9,8 +9,9 @@ use crate::lightfield::{LightField, Sample};
 use crate::plan::Plan;
 use crate::scalar::Scalar;
 
-/// Every how many lines the range probe looks.
-pub const RANGE_LINE_STEP: usize = 8;
+/// Every how many lines the range probe looks (16 rather than 8: a third of the probe's
+/// time; the HCI ranges moved by at most one 0.05 px bin, docs/bench-epi.md).
+pub const RANGE_LINE_STEP: usize = 16;
 /// Probed disparities (integer shears ±PROBE_REACH, each accepting ±1 px residuals).
 const PROBE_REACH: f32 = 4.0;
 /// Only estimates at least this coherent enter the histogram.
