@@ -1116,15 +1116,31 @@ fn project_lanes<S: Scalar, const L: usize>(
             if !outside {
                 return;
             }
+            // `1/√n2` by Newton's method in f32 (`inverse_sqrt`), not a square root and
+            // two divisions: plain arithmetic, so the 16 lanes vectorise (libm's `sqrtf`
+            // is a scalar instruction), and Q16.16 is spared two 64-bit divisions.
             for ((h, v), &n2) in h.iter_mut().zip(v.iter_mut()).zip(n2.iter()) {
-                if n2 > S::ONE {
-                    let r = n2.sqrt();
-                    *h = *h / r;
-                    *v = *v / r;
-                }
+                let outside = n2 > S::ONE;
+                let scale = S::from_f32(inverse_sqrt(n2.to_f32()));
+                let scale = if outside { scale } else { S::ONE };
+                *h *= scale;
+                *v *= scale;
             }
         }
     }
+}
+
+/// `1/√x` for `x ≥ 1` (smaller `x` are taken as 1) to within a few ulp of f32: the
+/// classic bit-level first guess (≈ 3.4 % off) and three Newton steps, each squaring the
+/// relative error (3e-2 → 2e-3 → 5e-6 → f32 rounding).
+#[inline(always)]
+fn inverse_sqrt(x: f32) -> f32 {
+    let x = if x > 1.0 { x } else { 1.0 };
+    let mut y = f32::from_bits(0x5f37_5a86u32.wrapping_sub(x.to_bits() >> 1));
+    for _ in 0..3 {
+        y *= 1.5 - 0.5 * x * y * y;
+    }
+    y
 }
 
 /// Row `y` of `WᵀF` into `out` (`width` long):
