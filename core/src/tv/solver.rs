@@ -504,6 +504,25 @@ impl<'s, S: Scalar> Graph<'s, S> {
             let gi = (region.y + y) * maps.width + region.x + x;
             data_weight(maps.confidence.get(gi).copied().unwrap_or(0.0), params)
         };
+        // `a_i` grows with the confidence, so the least confident node of the region is
+        // the stiffest; when even it gets `k = 0` (the default pipeline's inputs), the
+        // weights stay as they are and one bound serves every pair.
+        let mut least = f32::INFINITY;
+        for y in 0..h {
+            let start = (region.y + y) * maps.width + region.x;
+            if let Some(row) = maps.confidence.get(start..start + w) {
+                least = row.iter().fold(least, |m, &c| m.min(c));
+            }
+        }
+        let stiffest = params.step * params.lambda * params.lambda / data_weight(least, params);
+        if metric_shift(stiffest) == 0 {
+            let bound = S::from_f32(match params.norm {
+                TvNorm::L1 => DUAL_SCALE,
+                TvNorm::L2 => 1.0 / DUAL_SCALE,
+            });
+            self.bound.fill(bound);
+            return;
+        }
         for y in 0..h {
             for x in 0..w {
                 let i = y * w + x;
