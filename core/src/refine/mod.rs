@@ -9,9 +9,12 @@
 //! keeps one whose robust photometric cost (the pixel alone) is below
 //! `PROPAGATION_ACCEPT` times its own, which pulls wrong regions to their surroundings.
 //! A cost needs one sample per view (no derivative), a pixel's own cost is only
-//! computed once a neighbour offers another disparity, a disparity is tried once per
-//! round, and a candidate's sum stops as soon as it reaches the bar (its terms are
-//! non-negative): none of these changes the result.
+//! computed once a neighbour offers another disparity, and a candidate's sum stops
+//! once it reaches the bar (its terms are non-negative; checked after each chunk of
+//! views): none of these changes the result. A disparity within `SAME_CANDIDATE`
+//! (0.05 px) of one tried this round, or of the last `REMEMBERED` ones the pixel
+//! rejected in earlier rounds, is not tried again (an equal one could not pass the
+//! bar, which only falls; a nearly equal one rarely does).
 //!
 //! **Gauss–Newton** ([`RefineParams::iterations`]): for view `v` at camera offset
 //! `(u, v)` the residual `r = I_v(x − d·u, y − d·v) − I_c(x, y)` per colour channel
@@ -126,6 +129,14 @@ const DAMPING_PER_TERM: f32 = 1.0e-6;
 
 /// Jumps (px) of the propagation rounds, largest first (jump flooding).
 const JUMPS: [usize; 4] = [8, 4, 2, 1];
+/// Propagation candidates closer than this (px) to one already tried count as tried:
+/// nearly equal disparities have nearly equal costs. (Measured on HCI cotton: 0.05
+/// saves 10 % of the stage and costs +0.004 BadPix0.07 points; 0.1 saved 13 % for
+/// +0.027.)
+const SAME_CANDIDATE: f32 = 0.05;
+/// Rejected propagation candidates a pixel remembers across rounds (in its statistics'
+/// slots, unused until the iterations).
+const REMEMBERED: usize = 4;
 /// A neighbour's disparity replaces a pixel's when its photometric cost is below this
 /// share of the pixel's own.
 const PROPAGATION_ACCEPT: f32 = 0.7;
@@ -216,6 +227,7 @@ struct Constants<T> {
     /// The power of two the per-pixel statistics are multiplied by.
     stat_scale: f32,
     gate: T,
+    same: T,
     accept: T,
     max_step: T,
     occlusion_ratio: T,
@@ -245,6 +257,7 @@ impl<T: Scalar> Constants<T> {
             damping: T::from_f32(DAMPING_PER_TERM * intensity2 * stat_scale),
             stat_scale,
             gate: T::from_f32(WINDOW_GATE),
+            same: T::from_f32(SAME_CANDIDATE),
             accept: T::from_f32(PROPAGATION_ACCEPT),
             max_step: T::from_f32(p.max_step),
             occlusion_ratio: T::from_f32(OCCLUSION_RATIO),
@@ -436,6 +449,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
     // round before visited): the rows outside would not change the result.
     // The cost of a pixel at its own disparity is only needed once a neighbour offers
     // another one: `stats[i · STATS + 1]` is one when `stats[i · STATS]` holds it.
+    // `stats[i · STATS + 2..][..REMEMBERED]` hold the last candidates pixel i rejected
+    // (`MAX` for none): a round visits a subset of the rows the round before visited,
+    // so every band sees the same history for the rows it keeps.
     let (unknown, known) = (T::ZERO, T::ONE);
     let jumps = jumps(plan);
     let reach_after = |round: usize| -> usize {
@@ -451,6 +467,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
             .unwrap_or_default();
         for stat in near_stats.chunks_exact_mut(STATS) {
             stat[1] = unknown;
+            if let Some(rejected) = stat.get_mut(2..2 + REMEMBERED) {
+                rejected.fill(T::MAX);
+            }
         }
     }
     for (round, &jump) in jumps.iter().enumerate() {
@@ -478,20 +497,29 @@ pub fn refine_band<T: Scalar, S: Sample>(
                 if offers == [false; 4] {
                     continue;
                 }
-                // Disparities already tried this round: trying one again gives the same
-                // cost, which cannot pass the bar a second time.
+                let Some(stat) = stats
+                    .get_mut(i * STATS..)
+                    .and_then(|s| s.first_chunk_mut::<{ 2 + REMEMBERED }>())
+                else {
+                    continue;
+                };
+                // Disparities already tried this round, and the last ones rejected in
+                // earlier rounds: one within `SAME_CANDIDATE` of those is not tried (an
+                // equal one would give the same cost, which cannot pass the bar a second
+                // time: the bar only falls).
                 let mut tried = [own; 4];
                 let mut bar = None;
                 for (n, (d, offer)) in candidates.into_iter().zip(offers).enumerate() {
-                    if !offer || tried.get(..n).is_some_and(|t| t.contains(&d)) {
+                    let near = |t: &T| (*t - d).abs() <= k.same;
+                    if !offer
+                        || tried.get(..n).is_some_and(|t| t.iter().any(near))
+                        || stat[2..].iter().any(near)
+                    {
                         continue;
                     }
                     if let Some(t) = tried.get_mut(n) {
                         *t = d;
                     }
-                    let Some(stat) = stats.get_mut(i * STATS..i * STATS + 2) else {
-                        continue;
-                    };
                     if stat[1] == unknown {
                         // Without a bar the cost is always returned.
                         stat[0] = views
@@ -506,6 +534,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
                         if let Some(current) = current.get_mut(i) {
                             *current = d;
                         }
+                    } else {
+                        stat[2..].rotate_right(1);
+                        stat[2] = d;
                     }
                 }
             }

@@ -699,6 +699,19 @@ impl<T: Scalar> Views<T> {
                     }
                     None => false,
                 }
+            } else if k + J <= last + 1 {
+                // Down a column: one bounds check for the span.
+                match data.get(start..start.wrapping_add((J - 1) * stride + N)) {
+                    Some(run) => {
+                        for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                            for (c, channel) in texel.iter_mut().enumerate() {
+                                channel[n] = run.get(j * stride + c).copied().unwrap_or_default();
+                            }
+                        }
+                        true
+                    }
+                    None => false,
+                }
             } else {
                 let mut inside = true;
                 for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
