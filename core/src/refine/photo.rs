@@ -3,6 +3,11 @@
 //! `g = ∂r/∂d`, accumulated as Gauss–Newton normal equations in four half-plane groups
 //! of views (left, right, up, down) so that occluded halves can be dropped.
 //!
+//! The views in the centre row and column (all of the default `ViewSet::Cross`) move
+//! along one image axis: their samples are gathered in chunks of [`CHUNK`] views into
+//! structure-of-arrays buffers and go through one loop of fixed length that the compiler
+//! vectorises. Other views take three bilinear samples each.
+//!
 //! Everything is computed in the scalar type `T`; see [the module](super) for the scale
 //! that keeps Q16.16 precise.
 
@@ -438,12 +443,12 @@ impl<T: Scalar> Views<T> {
     }
 
     /// The robust photometric cost of pixel `(x, y)` at disparity `d`: the sum over the
-    /// groups of their weighted residual energy `E` times `scale / robust` (`scaled` =
-    /// `scale`: a power of two, see [`cost_scale`]), at a third of the sampling of
-    /// [`Views::pixel`] (the derivative's samples are not needed). `None` when the cost
-    /// is not below `bar`, as soon as that is known: every term is non-negative and
-    /// rounded sums are monotonic, so the sum of the views so far (in the same order) is a
-    /// lower bound of the cost.
+    /// views (an oblique one once per group it belongs to, as the statistics count it)
+    /// of their weighted residual energy times `scale / robust` (`scaled` = `scale`: a
+    /// power of two, see [`cost_scale`]), with two of the three samples per view of
+    /// [`Views::pixel`] (the derivative is not needed). `None` when the cost is not
+    /// below `bar`, as soon as that is known after a chunk: every term is non-negative
+    /// and rounded sums are monotonic, so the running sum is a lower bound of the cost.
     #[inline]
     pub(crate) fn cost<S: Sample>(
         &self,
