@@ -445,8 +445,8 @@ impl<T: Scalar> Views<T> {
     /// The robust photometric cost of pixel `(x, y)` at disparity `d`: the sum over the
     /// views (an oblique one once per group it belongs to, as the statistics count it)
     /// of their weighted residual energy times `scale / robust` (`scaled` = `scale`: a
-    /// power of two, see [`cost_scale`]), with two of the three samples per view of
-    /// [`Views::pixel`] (the derivative is not needed). `None` when the cost is not
+    /// power of two, see [`cost_scale`]), one sample per view from two texels (the
+    /// statistics read three: the derivative is not needed). `None` when the cost is not
     /// below `bar`, as soon as that is known after a chunk: every term is non-negative
     /// and rounded sums are monotonic, so the running sum is a lower bound of the cost.
     #[inline]
