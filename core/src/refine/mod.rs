@@ -5,13 +5,18 @@
 //! view with many views ([`ViewSet`]) directly, in two steps.
 //!
 //! **Propagation** ([`RefineParams::propagation`] rounds, jump flooding with jumps 8, 4,
-//! 2, 1 px): each pixel tries the disparities of its four neighbours at the jump and
-//! keeps one whose robust photometric cost (the pixel alone) is below
+//! 2, 1 px): each pixel tries the disparities of its four neighbours at the jump that
+//! differ from its own by more than `PROPAGATION_OFFER` (0.25 px; smaller corrections
+//! are the iterations' work) and keeps one whose robust photometric cost (the pixel
+//! alone) is below
 //! `PROPAGATION_ACCEPT` times its own, which pulls wrong regions to their surroundings.
 //! A cost needs one sample per view (no derivative), a pixel's own cost is only
-//! computed once a neighbour offers another disparity, a disparity is tried once per
-//! round, and a candidate's sum stops as soon as it reaches the bar (its terms are
-//! non-negative): none of these changes the result.
+//! computed once a neighbour offers another disparity, and a candidate's sum stops
+//! once it reaches the bar (its terms are non-negative; checked after each chunk of
+//! views): none of these changes the result. A disparity within `SAME_CANDIDATE`
+//! (0.05 px) of one tried this round, or of the last `REMEMBERED` ones the pixel
+//! rejected in earlier rounds, is not tried again (an equal one could not pass the
+//! bar, which only falls; a nearly equal one rarely does).
 //!
 //! **Gauss–Newton** ([`RefineParams::iterations`]): for view `v` at camera offset
 //! `(u, v)` the residual `r = I_v(x − d·u, y − d·v) − I_c(x, y)` per colour channel
@@ -25,10 +30,11 @@
 //! ```
 //!
 //! i.e. the window average of the per-pixel Gauss–Newton updates weighted by their
-//! curvature. A pixel that moved by less than `SETTLED` (10⁻³ px) in the previous
+//! curvature. A pixel that moved by less than `SETTLED` (10⁻² px) in the previous
 //! iteration keeps its `A, B, E`: to first order `B` does not depend on `d`, and the
 //! skipped sampling is most of an iteration's cost once the map has settled (measured
-//! on HCI: BadPix and MSE unchanged to ±0.001 points, `docs/bench-refine.md`). The window only takes neighbours within `WINDOW_GATE` of the pixel's
+//! on HCI: BadPix0.07 and MSE×100 within ±0.012 points of sampling every pixel,
+//! `docs/bench-refine.md`). The window only takes neighbours within `WINDOW_GATE` of the pixel's
 //! disparity (it never straddles a depth edge); the step is clamped to
 //! [`RefineParams::max_step`] and the result to the EPI range. Views are summed in four
 //! half-plane groups (left, right, up, down): with [`RefineParams::occlusion`] a half
@@ -117,13 +123,29 @@ const AXIS_AGREEMENT: f32 = 0.05;
 /// by this power of two (with a robust scale).
 const STAT_SCALE: f32 = 4.0;
 /// A pixel whose disparity moved by less than this (px) in a Gauss–Newton iteration
-/// keeps its statistics for the next one.
-const SETTLED: f32 = 1.0e-3;
+/// keeps its statistics for the next one. 10⁻² px skips 66 % of the later iterations'
+/// sampling on HCI cotton (10⁻³: 24 %); the score changes are in `docs/bench-refine.md`.
+const SETTLED: f32 = 1.0e-2;
 /// Curvature added per term so that textureless pixels keep their disparity.
 const DAMPING_PER_TERM: f32 = 1.0e-6;
 
 /// Jumps (px) of the propagation rounds, largest first (jump flooding).
 const JUMPS: [usize; 4] = [8, 4, 2, 1];
+/// A neighbour offers its disparity to the propagation only when it differs from the
+/// pixel's by more than this (px): smaller corrections are left to the Gauss–Newton
+/// iterations (each moves up to `max_step`). (Measured on HCI, `docs/bench-refine.md`:
+/// the window gate 0.1 as before → 0.25 makes the stage 1.25× faster, cotton
+/// BadPix0.07 2.066 → 2.067 and MSE×100 1.158 → 1.077, backgammon 2.045 → 2.061 /
+/// 3.065; 0.3 cost cotton +0.04 BadPix0.07.)
+const PROPAGATION_OFFER: f32 = 0.25;
+/// Propagation candidates closer than this (px) to one already tried count as tried:
+/// nearly equal disparities have nearly equal costs. (Measured on HCI cotton: 0.05
+/// saves 10 % of the stage and costs +0.004 BadPix0.07 points; 0.1 saved 13 % for
+/// +0.027.)
+const SAME_CANDIDATE: f32 = 0.05;
+/// Rejected propagation candidates a pixel remembers across rounds (in its statistics'
+/// slots, unused until the iterations).
+const REMEMBERED: usize = 4;
 /// A neighbour's disparity replaces a pixel's when its photometric cost is below this
 /// share of the pixel's own.
 const PROPAGATION_ACCEPT: f32 = 0.7;
@@ -214,6 +236,8 @@ struct Constants<T> {
     /// The power of two the per-pixel statistics are multiplied by.
     stat_scale: f32,
     gate: T,
+    offer: T,
+    same: T,
     accept: T,
     max_step: T,
     occlusion_ratio: T,
@@ -243,6 +267,8 @@ impl<T: Scalar> Constants<T> {
             damping: T::from_f32(DAMPING_PER_TERM * intensity2 * stat_scale),
             stat_scale,
             gate: T::from_f32(WINDOW_GATE),
+            offer: T::from_f32(PROPAGATION_OFFER),
+            same: T::from_f32(SAME_CANDIDATE),
             accept: T::from_f32(PROPAGATION_ACCEPT),
             max_step: T::from_f32(p.max_step),
             occlusion_ratio: T::from_f32(OCCLUSION_RATIO),
@@ -434,6 +460,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
     // round before visited): the rows outside would not change the result.
     // The cost of a pixel at its own disparity is only needed once a neighbour offers
     // another one: `stats[i · STATS + 1]` is one when `stats[i · STATS]` holds it.
+    // `stats[i · STATS + 2..][..REMEMBERED]` hold the last candidates pixel i rejected
+    // (`MAX` for none): a round visits a subset of the rows the round before visited,
+    // so every band sees the same history for the rows it keeps.
     let (unknown, known) = (T::ZERO, T::ONE);
     let jumps = jumps(plan);
     let reach_after = |round: usize| -> usize {
@@ -449,6 +478,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
             .unwrap_or_default();
         for stat in near_stats.chunks_exact_mut(STATS) {
             stat[1] = unknown;
+            if let Some(rejected) = stat.get_mut(2..2 + REMEMBERED) {
+                rejected.fill(T::MAX);
+            }
         }
     }
     for (round, &jump) in jumps.iter().enumerate() {
@@ -472,24 +504,33 @@ pub fn refine_band<T: Scalar, S: Sample>(
                 .map(|d| d.unwrap_or(own));
                 // Most pixels agree with all four: one test for them (fewer mispredicted
                 // branches than four).
-                let offers = candidates.map(|d| (d - own).abs() > k.gate);
+                let offers = candidates.map(|d| (d - own).abs() > k.offer);
                 if offers == [false; 4] {
                     continue;
                 }
-                // Disparities already tried this round: trying one again gives the same
-                // cost, which cannot pass the bar a second time.
+                let Some(stat) = stats
+                    .get_mut(i * STATS..)
+                    .and_then(|s| s.first_chunk_mut::<{ 2 + REMEMBERED }>())
+                else {
+                    continue;
+                };
+                // Disparities already tried this round, and the last ones rejected in
+                // earlier rounds: one within `SAME_CANDIDATE` of those is not tried (an
+                // equal one would give the same cost, which cannot pass the bar a second
+                // time: the bar only falls).
                 let mut tried = [own; 4];
                 let mut bar = None;
                 for (n, (d, offer)) in candidates.into_iter().zip(offers).enumerate() {
-                    if !offer || tried.get(..n).is_some_and(|t| t.contains(&d)) {
+                    let near = |t: &T| (*t - d).abs() <= k.same;
+                    if !offer
+                        || tried.get(..n).is_some_and(|t| t.iter().any(near))
+                        || stat[2..].iter().any(near)
+                    {
                         continue;
                     }
                     if let Some(t) = tried.get_mut(n) {
                         *t = d;
                     }
-                    let Some(stat) = stats.get_mut(i * STATS..i * STATS + 2) else {
-                        continue;
-                    };
                     if stat[1] == unknown {
                         // Without a bar the cost is always returned.
                         stat[0] = views
@@ -504,6 +545,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
                         if let Some(current) = current.get_mut(i) {
                             *current = d;
                         }
+                    } else {
+                        stat[2..].rotate_right(1);
+                        stat[2] = d;
                     }
                 }
             }

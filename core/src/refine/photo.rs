@@ -3,6 +3,11 @@
 //! `g = ∂r/∂d`, accumulated as Gauss–Newton normal equations in four half-plane groups
 //! of views (left, right, up, down) so that occluded halves can be dropped.
 //!
+//! The views in the centre row and column (all of the default `ViewSet::Cross`) move
+//! along one image axis: their samples are gathered in chunks of [`CHUNK`] views into
+//! structure-of-arrays buffers and go through one loop of fixed length that the compiler
+//! vectorises. Other views take three bilinear samples each.
+//!
 //! Everything is computed in the scalar type `T`; see [the module](super) for the scale
 //! that keeps Q16.16 precise.
 
@@ -43,7 +48,7 @@ pub(crate) fn cost_scale(robust: f32, memberships: f32) -> f32 {
     libm::ldexpf(1.0, room.clamp(0.0, 16.0) as i32)
 }
 
-/// One compared view.
+/// A compared view off the centre row and column (the diagonal and full view sets).
 #[derive(Clone, Copy, Debug, Default)]
 struct Tap<T> {
     /// Index of the view's first sample.
@@ -51,10 +56,6 @@ struct Tap<T> {
     /// Camera offset from the centre (columns, rows).
     du: T,
     dv: T,
-    /// In the centre row (`dv = 0`): samples lie on the pixel's own image row.
-    in_row: bool,
-    /// In the centre column (`du = 0`): samples lie on the pixel's own image column.
-    in_column: bool,
     /// Half the disparity step of the central difference: one pixel of image motion.
     h: T,
     /// `1 / (2h)`: the central difference's divisor (the view's reach, an integer).
@@ -65,8 +66,146 @@ struct Tap<T> {
     second_group: Option<usize>,
 }
 
+/// A compared view in the centre row or column of the grid: its samples move along one
+/// image axis, and it belongs to one group.
+#[derive(Clone, Copy, Debug, Default)]
+struct AxisTap<T> {
+    /// Index of the view's first sample.
+    start: usize,
+    /// Camera offset along the axis of motion (columns in the centre row, rows in the
+    /// centre column).
+    offset: T,
+    /// In the centre row (motion along x), else in the centre column (along y).
+    in_row: bool,
+    /// The group (left, right, up, down) the view belongs to.
+    group: usize,
+    /// Distance from the centre view (grid steps).
+    reach: usize,
+}
+
+/// Most views in the centre row and column of a grid.
+const MAX_AXIS: usize = 2 * (GRID_MAX - 1);
+
+/// Axis taps are sampled in chunks of this many: the gathered samples then go through
+/// one loop of fixed length that the compiler vectorises (the weights' divisions too).
+const CHUNK: usize = 16;
+
+/// The gathered samples of up to [`CHUNK`] axis taps for one pixel, structure of
+/// arrays: sample `j` of a tap (see [`Views::fill`]), channel, tap.
+struct Chunk<T, S, const N: usize> {
+    raw: [[[S; CHUNK]; N]; 3],
+    /// Fraction of the position within its cell.
+    fraction: [T; CHUNK],
+    /// The tap's offset along its axis: the derivative's factor.
+    offset: [T; CHUNK],
+    group: [usize; CHUNK],
+}
+
+impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
+    fn new() -> Self {
+        Chunk {
+            raw: [[[S::default(); CHUNK]; N]; 3],
+            fraction: [T::ZERO; CHUNK],
+            offset: [T::ZERO; CHUNK],
+            group: [0; CHUNK],
+        }
+    }
+
+    /// The scaled intensities of the first `J` samples (the others zero).
+    #[inline(always)]
+    fn scaled<const J: usize>(&self, levels: &[T; 256]) -> [[[T; CHUNK]; N]; 3] {
+        let mut out = [[[T::ZERO; CHUNK]; N]; 3];
+        for (to, from) in out.iter_mut().zip(&self.raw).take(J) {
+            for (to, from) in to.iter_mut().zip(from) {
+                *to = convert(from, levels);
+            }
+        }
+        out
+    }
+
+    /// Adds the Gauss–Newton statistics of the first `n` taps (gathered with `J` = 3)
+    /// at `d` to their groups in `out` (see [`Views::pixel`]). Every lane is computed
+    /// (the loop has a fixed length); lanes from `n` on are not added.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn statistics(
+        &self,
+        n: usize,
+        levels: &[T; 256],
+        centre: &[T; N],
+        d: T,
+        half: T,
+        (robust, scaled): (T, T),
+        out: &mut [T; STATS],
+    ) {
+        let [t0, t1, t2] = self.scaled::<3>(levels);
+        let (mut sa, mut sb, mut se) = ([T::ZERO; CHUNK], [T::ZERO; CHUNK], [T::ZERO; CHUNK]);
+        for v in 0..CHUNK {
+            let (f, offset) = (self.fraction[v], self.offset[v]);
+            // The image at `p − ½` and `p + ½` (`t0 + f·(t1 − t0)`, `t1 + f·(t2 − t1)`)
+            // and at `p` (between t0 and t1 for f < ½, t1 and t2 above: the weights
+            // without a branch): `g = (I(p − ½) − I(p + ½)) · offset`,
+            // `r = I(p) − centre`.
+            let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
+            let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
+            for c in 0..N {
+                let (a0, a1, a2) = (t0[c][v], t1[c][v], t2[c][v]);
+                let (d01, d12) = (a1 - a0, a2 - a1);
+                let g = (f * (d01 - d12) - d01) * offset;
+                let r = a1 - w0 * d01 + w2 * d12 - centre[c];
+                gg += g * g;
+                gr += g * (g * d - r);
+                rr += r * r;
+            }
+            // Cauchy weight of the view (iteratively reweighted least squares): a view
+            // that disagrees by much more than the noise (an occluder, a highlight)
+            // hardly counts.
+            let w = scaled / (robust + rr);
+            (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
+        }
+        for v in 0..n.min(CHUNK) {
+            let g = self.group[v];
+            if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
+                sums[0] += sa[v];
+                sums[1] += sb[v];
+                sums[2] += se[v];
+            }
+        }
+    }
+
+    /// The weighted energies `scaled / (robust + e) · e` of the taps (gathered with
+    /// `J` = 2), `e = Σ r²` at `p`; lanes past those gathered hold any value.
+    #[inline(always)]
+    fn energies(&self, levels: &[T; 256], centre: &[T; N], (robust, scaled): (T, T)) -> [T; CHUNK] {
+        let [t0, t1, _] = self.scaled::<2>(levels);
+        let mut out = [T::ZERO; CHUNK];
+        for (v, o) in out.iter_mut().enumerate() {
+            let f = self.fraction[v];
+            let mut e = T::ZERO;
+            for c in 0..N {
+                let r = t0[c][v] + f * (t1[c][v] - t0[c][v]) - centre[c];
+                e += r * r;
+            }
+            *o = scaled / (robust + e) * e;
+        }
+        out
+    }
+}
+
+/// The first `N` lanes of `lanes`.
+#[inline(always)]
+fn used<T: Scalar, const L: usize, const N: usize>(lanes: &[T; L]) -> [T; N] {
+    core::array::from_fn(|c| lanes.get(c).copied().unwrap_or(T::ZERO))
+}
+
 /// The compared views of a light field.
 pub(crate) struct Views<T> {
+    /// The views in the centre row and column, the farthest first (they tell
+    /// disparities apart best, so a propagation candidate's cost reaches its bar
+    /// sooner), left, right, up, down among equally far ones.
+    axis: [AxisTap<T>; MAX_AXIS],
+    axis_len: usize,
+    /// The other views.
     taps: [Tap<T>; MAX_VIEWS],
     len: usize,
     /// Views per group times channels: the number of terms of each group per pixel.
@@ -103,6 +242,31 @@ fn texel<T: Scalar, S: Sample>(sample: S, levels: &[T; 256]) -> T {
     }
 }
 
+/// [`INTENSITY_SCALE`] per 8-bit level in `f32`: the factor of the table of levels.
+const UNIT: f32 = INTENSITY_SCALE / 255.0;
+
+/// The scaled intensities of `L` samples. 8-bit samples into `f32` take one vector
+/// conversion and product (the same bits as the table, `level as f32 · UNIT`); every
+/// other pair of types converts each sample with [`texel`].
+#[inline(always)]
+fn convert<T: Scalar, S: Sample, const L: usize>(s: &[S; L], levels: &[T; 256]) -> [T; L] {
+    let mut out = [T::ZERO; L];
+    // Resolved at compile time for each pair of types.
+    if let (Some(bytes), Some(to)) = (
+        (s as &dyn Any).downcast_ref::<[u8; L]>(),
+        (&mut out as &mut dyn Any).downcast_mut::<[f32; L]>(),
+    ) {
+        for (o, &b) in to.iter_mut().zip(bytes) {
+            *o = f32::from(b) * UNIT;
+        }
+        return out;
+    }
+    for (o, &v) in out.iter_mut().zip(s) {
+        *o = texel(v, levels);
+    }
+    out
+}
+
 /// `(⌊p⌋, p − ⌊p⌋)` of a position `p ≥ 0` inside the image. For `f32` the truncating
 /// conversion is the floor of a non-negative value (and the fraction is exact below
 /// 2^24), without the out-of-line `floorf`; fixed point splits its bits.
@@ -112,7 +276,7 @@ fn split<T: Scalar>(p: T) -> (usize, T) {
     match (&p as &dyn Any).downcast_ref::<f32>() {
         Some(&v) => {
             // `as` saturates (and maps NaN to 0); positions are below the image size.
-            let whole = v as u32;
+            let whole = (v as i32).max(0);
             (whole as usize, T::from_f32(v - whole as f32))
         }
         None => {
@@ -146,7 +310,7 @@ fn lanes<T: Scalar, S: Sample, const CH: usize, const L: usize>(
     levels: &[T; 256],
 ) -> Option<[T; L]> {
     if let Some(s) = samples::<S, L>(data, at) {
-        return Some(s.map(|v| texel(v, levels)));
+        return Some(convert(s, levels));
     }
     let s = data.get(at..at.wrapping_add(CH.min(L)))?;
     let mut out = [T::ZERO; L];
@@ -178,6 +342,8 @@ impl<T: Scalar> Views<T> {
         let x_last = layout.width.saturating_sub(2);
         let y_last = layout.height.saturating_sub(2);
         let mut views = Views {
+            axis: [AxisTap::default(); MAX_AXIS],
+            axis_len: 0,
             taps: [Tap::default(); MAX_VIEWS],
             len: 0,
             terms: [0.0; GROUPS],
@@ -212,20 +378,41 @@ impl<T: Scalar> Views<T> {
                         *terms += used as f32;
                     }
                 }
+                let start = grid.index(r, c) * layout.view_stride;
+                if dr == 0 || dc == 0 {
+                    if let Some(tap) = views.axis.get_mut(views.axis_len) {
+                        *tap = AxisTap {
+                            start,
+                            offset: T::from_f32(if dr == 0 { dc } else { dr } as f32),
+                            in_row: dr == 0,
+                            group,
+                            reach: dr.unsigned_abs().max(dc.unsigned_abs()),
+                        };
+                        views.axis_len += 1;
+                    }
+                    continue;
+                }
                 let reach = dr.unsigned_abs().max(dc.unsigned_abs()) as f32;
                 let h = 0.5 / reach;
                 views.taps[views.len] = Tap {
-                    start: grid.index(r, c) * layout.view_stride,
+                    start,
                     du: T::from_f32(dc as f32),
                     dv: T::from_f32(dr as f32),
-                    in_row: dr == 0,
-                    in_column: dc == 0,
                     h: T::from_f32(h),
                     inv: T::from_f32(0.5 / h),
                     group,
                     second_group,
                 };
                 views.len += 1;
+            }
+        }
+        // Farthest first, stable (insertion sort: no allocation).
+        let axis = views.axis.get_mut(..views.axis_len).unwrap_or_default();
+        for i in 1..axis.len() {
+            let mut j = i;
+            while j > 0 && axis[j - 1].reach < axis[j].reach {
+                axis.swap(j - 1, j);
+                j -= 1;
             }
         }
         views
@@ -256,12 +443,12 @@ impl<T: Scalar> Views<T> {
     }
 
     /// The robust photometric cost of pixel `(x, y)` at disparity `d`: the sum over the
-    /// groups of their weighted residual energy `E` times `scale / robust` (`scaled` =
-    /// `scale`: a power of two, see [`cost_scale`]), at a third of the sampling of
-    /// [`Views::pixel`] (the derivative's samples are not needed). `None` when the cost
-    /// is not below `bar`, as soon as that is known: every term is non-negative and
-    /// rounded sums are monotonic, so the sum of the views so far (in the same order) is a
-    /// lower bound of the cost.
+    /// views (an oblique one once per group it belongs to, as the statistics count it)
+    /// of their weighted residual energy times `scale / robust` (`scaled` = `scale`: a
+    /// power of two, see [`cost_scale`]), one sample per view from two texels (the
+    /// statistics read three: the derivative is not needed). `None` when the cost is not
+    /// below `bar`, as soon as that is known after a chunk: every term is non-negative
+    /// and rounded sums are monotonic, so the running sum is a lower bound of the cost.
     #[inline]
     pub(crate) fn cost<S: Sample>(
         &self,
@@ -294,22 +481,48 @@ impl<T: Scalar> Views<T> {
         Some((centre, T::from_i32(x as i32), T::from_i32(y as i32)))
     }
 
-    /// Whether the derivative's samples of `tap` lie inside the image: at `d ± h` for an
-    /// oblique view, half a pixel either side of the position at `d` along the axis of
-    /// a view in the centre row or column ([`Views::axis`]). Both the statistics and the
-    /// cost skip the views where they do not.
+    /// The oblique taps.
+    #[inline(always)]
+    fn oblique_taps(&self) -> &[Tap<T>] {
+        // `len` ≤ MAX_VIEWS (`new` stops there): the default never happens.
+        self.taps.get(..self.len).unwrap_or_default()
+    }
+
+    /// Where the samples of an axis tap lie for pixel `(x, y)`: the position along the
+    /// axis, its largest value, the index of the last sample along it, the sample index
+    /// of position 0 and the stride between positions (in samples).
+    #[inline(always)]
+    fn axis_frame(
+        &self,
+        tap: &AxisTap<T>,
+        (x, y): (usize, usize),
+        (xf, yf): (T, T),
+        d: T,
+    ) -> (T, T, usize, usize, usize) {
+        if tap.in_row {
+            (
+                xf - d * tap.offset,
+                self.x_max,
+                self.x_last + 1,
+                tap.start + y * self.row_stride,
+                self.channels,
+            )
+        } else {
+            (
+                yf - d * tap.offset,
+                self.y_max,
+                self.y_last + 1,
+                tap.start + x * self.channels,
+                self.row_stride,
+            )
+        }
+    }
+
+    /// Whether the derivative's samples of an oblique `tap` (at `d ± h`) lie inside the
+    /// image. Both the statistics and the cost skip the views where they do not (for an
+    /// axis tap: where the position at `d` is not half a pixel inside the image).
     #[inline(always)]
     fn sees(&self, tap: &Tap<T>, xf: T, yf: T, d: T) -> bool {
-        let along = |coordinate: T, offset: T, max: T| {
-            let p = coordinate - d * offset;
-            p - self.half >= T::ZERO && p + self.half <= max
-        };
-        if tap.in_row {
-            return along(xf, tap.du, self.x_max);
-        }
-        if tap.in_column {
-            return along(yf, tap.dv, self.y_max);
-        }
         let (dp, dm) = (d + tap.h, d - tap.h);
         let inside = |dd: T| {
             let (px, py) = (xf - dd * tap.du, yf - dd * tap.dv);
@@ -331,19 +544,30 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return;
         };
-        // `len` ≤ MAX_VIEWS (`new` stops there): the default never happens.
-        for tap in self.taps.get(..self.len).unwrap_or_default() {
-            // The image at the sample position on either side (half a pixel of image
-            // motion) and at it: `g = (first − second) · factor`.
-            let samples = if tap.in_row || tap.in_column {
-                self.axis::<S, CH, L>(data, tap, (x, y), (xf, yf), d)
-            } else {
-                self.oblique::<S, CH, L>(data, tap, (x, y), (xf, yf), d)
-            };
-            let Some(([first, second, at], factor)) = samples else {
+        let mut chunk = Chunk::<T, S, N>::new();
+        let mut cursor = 0;
+        let centre_used = used::<T, L, N>(&centre);
+        loop {
+            let n = self.fill::<S, CH, N, 3>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
+            if n == 0 {
+                break;
+            }
+            chunk.statistics(
+                n,
+                &self.levels,
+                &centre_used,
+                d,
+                self.half,
+                (robust, scaled),
+                out,
+            );
+        }
+        for tap in self.oblique_taps() {
+            let Some(([first, second, at], factor)) =
+                self.oblique::<S, CH, L>(data, tap, (xf, yf), d)
+            else {
                 continue;
             };
-            // Every lane at once (SIMD-friendly), then the used channels summed in order.
             let (mut gg, mut gr, mut rr) = ([T::ZERO; L], [T::ZERO; L], [T::ZERO; L]);
             for c in 0..L {
                 let g = (first[c] - second[c]) * factor;
@@ -358,9 +582,6 @@ impl<T: Scalar> Views<T> {
                 b += gr[c];
                 e += rr[c];
             }
-            // Cauchy weight of the view (iteratively reweighted least squares): a view
-            // that disagrees by much more than the noise (an occluder, a highlight)
-            // hardly counts.
             let w = scaled / (robust + e);
             let (a, b, e) = (w * a, w * b, w * e);
             let mut add = |g: usize| {
@@ -386,129 +607,153 @@ impl<T: Scalar> Views<T> {
         (robust, scaled): (T, T),
         bar: Option<T>,
     ) -> Option<T> {
-        let total = |energy: &[T; GROUPS]| energy.iter().fold(T::ZERO, |sum, &e| sum + e);
         let below = |c: T| bar.is_none_or(|bar| c < bar);
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return below(T::ZERO).then_some(T::ZERO);
         };
-        // Per group, in the order `pixel` sums them, so that the cost has its bits.
-        let mut energy = [T::ZERO; GROUPS];
-        // `len` ≤ MAX_VIEWS (`new` stops there): the default never happens.
-        for tap in self.taps.get(..self.len).unwrap_or_default() {
+        // The views' weighted energies in a fixed order: a running sum of non-negative
+        // terms, so a partial sum at or above the bar decides.
+        let mut cost = T::ZERO;
+        let mut chunk = Chunk::<T, S, N>::new();
+        let mut cursor = 0;
+        let centre_used = used::<T, L, N>(&centre);
+        loop {
+            let n = self.fill::<S, CH, N, 2>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
+            if n == 0 {
+                break;
+            }
+            let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+            for &e in energies.get(..n).unwrap_or_default() {
+                cost += e;
+                if !below(cost) {
+                    return None;
+                }
+            }
+        }
+        for tap in self.oblique_taps() {
             if !self.sees(tap, xf, yf, d) {
                 continue;
             }
-            let Some(at) =
-                self.bilinear::<S, CH, L>(data, tap, (x, y), (xf - d * tap.du, yf - d * tap.dv))
+            let Some(at) = self.bilinear::<S, CH, L>(data, tap, (xf - d * tap.du, yf - d * tap.dv))
             else {
                 continue;
             };
-            let mut rr = [T::ZERO; L];
-            for c in 0..L {
-                let r = at[c] - centre[c];
-                rr[c] = r * r;
-            }
             let mut e = T::ZERO;
-            for &v in &rr[..N.min(L)] {
-                e += v;
+            for c in 0..N.min(L) {
+                let r = at[c] - centre[c];
+                e += r * r;
             }
             let e = scaled / (robust + e) * e;
-            let mut add = |g: usize| {
-                if let Some(sum) = energy.get_mut(g) {
-                    *sum += e;
-                }
-            };
-            add(tap.group);
-            if let Some(g) = tap.second_group {
-                add(g);
+            cost += e;
+            if tap.second_group.is_some() {
+                cost += e;
             }
-            if !below(total(&energy)) {
+            if !below(cost) {
                 return None;
             }
         }
-        let cost = total(&energy);
         below(cost).then_some(cost)
     }
 
-    /// The samples of a view in the centre row or column of the grid, whose image
-    /// motion lies along one image axis: at `p − ½`, `p + ½` and `p`, `p` the position
-    /// at `d` along that axis, from the three samples around them (one cell split, one
-    /// bounds check). `p` itself is interpolated as by [`Views::bilinear`]. The
-    /// derivative's factor is the view's offset: `g = −∂I/∂p · offset`.
-    /// `None` when `p ± ½` leaves the image.
+    /// The next axis tap.
     #[inline(always)]
-    fn axis<S: Sample, const CH: usize, const L: usize>(
-        &self,
-        data: &[S],
-        tap: &Tap<T>,
-        (x, y): (usize, usize),
-        (xf, yf): (T, T),
-        d: T,
-    ) -> Option<([[T; L]; 3], T)> {
-        let (coordinate, offset, max, last, base, stride) = if tap.in_row {
-            let base = tap.start + y * self.row_stride;
-            (xf, tap.du, self.x_max, self.x_last + 1, base, CH)
-        } else {
-            let base = tap.start + x * CH;
-            (
-                yf,
-                tap.dv,
-                self.y_max,
-                self.y_last + 1,
-                base,
-                self.row_stride,
-            )
-        };
-        let half = self.half;
-        let p = coordinate - d * offset;
-        let low = p - half;
-        if !(low >= T::ZERO && p + half <= max) {
-            return None;
-        }
-        // `low = k + f`: the samples k, k + 1 and k + 2 (k + 2 only weighs when inside).
-        let (k, f) = split(low);
-        let at = |i: usize| lanes::<T, S, CH, L>(data, base + i * stride, &self.levels);
-        let start = base + k * CH;
-        let run = (tap.in_row && k + 2 <= last)
-            .then(|| data.get(start..start.wrapping_add(2 * CH + L)))
-            .flatten();
-        let (t0, t1, t2) = if let Some(run) = run {
-            // The three pixels lie side by side in the row: one bounds check.
-            let lane = |o: usize| -> [T; L] {
-                let mut out = [T::ZERO; L];
-                for (c, v) in out.iter_mut().enumerate() {
-                    *v = texel(run[o + c], &self.levels);
-                }
-                out
-            };
-            (lane(0), lane(CH), lane(2 * CH))
-        } else {
-            let (t0, t1) = (at(k)?, at(k + 1)?);
-            (t0, t1, if k + 2 <= last { at(k + 2)? } else { t1 })
-        };
-        let lerp = |s0: [T; L], s1: [T; L], a: T| {
-            let mut out = [T::ZERO; L];
-            for c in 0..L {
-                out[c] = s0[c] + a * (s1[c] - s0[c]);
-            }
-            out
-        };
-        let centre = if f < half {
-            lerp(t0, t1, f + half)
-        } else {
-            lerp(t1, t2, f - half)
-        };
-        Some(([lerp(t0, t1, f), lerp(t1, t2, f), centre], offset))
+    fn next_axis(&self, cursor: &mut usize) -> Option<&AxisTap<T>> {
+        let tap = self.axis.get(..self.axis_len)?.get(*cursor)?;
+        *cursor += 1;
+        Some(tap)
     }
 
-    /// The samples of any other view: bilinear at `d + h`, `d − h` and `d`, with the
+    /// Gathers the samples of the next axis taps (from index `cursor`) that see pixel
+    /// `(x, y)` at `d` into `chunk`, at most [`CHUNK`]; returns how many. `J` = 3: the
+    /// samples `k`, `k + 1`, `k + 2` around the position `p` with `p − ½ = k + f` (for
+    /// the derivative); `J` = 2: `k`, `k + 1` with `p = k + f`. A sample past the
+    /// image takes the one before it (it has weight zero). A tap sees the pixel when
+    /// `p ± ½` lies inside the image (the statistics and the cost skip the same taps).
+    #[inline(always)]
+    fn fill<S: Sample, const CH: usize, const N: usize, const J: usize>(
+        &self,
+        data: &[S],
+        cursor: &mut usize,
+        pixel: (usize, usize),
+        position: (T, T),
+        d: T,
+        chunk: &mut Chunk<T, S, N>,
+    ) -> usize {
+        let half = self.half;
+        let mut n = 0;
+        while n < CHUNK {
+            let Some(tap) = self.next_axis(cursor) else {
+                break;
+            };
+            let (p, max, last, base, stride) = self.axis_frame(tap, pixel, position, d);
+            if !(p - half >= T::ZERO && p + half <= max) {
+                continue;
+            }
+            let (k, f) = split(if J == 3 { p - half } else { p });
+            let start = base + k * stride;
+            let inside = if tap.in_row && k + J <= last + 1 {
+                // The samples lie side by side in the row: one bounds check.
+                match data.get(start..start.wrapping_add((J - 1) * CH + N)) {
+                    Some(run) => {
+                        for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                            for (c, channel) in texel.iter_mut().enumerate() {
+                                channel[n] = run[j * CH + c];
+                            }
+                        }
+                        true
+                    }
+                    None => false,
+                }
+            } else if k + J <= last + 1 {
+                // Down a column: one bounds check for the span.
+                match data.get(start..start.wrapping_add((J - 1) * stride + N)) {
+                    Some(run) => {
+                        for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                            for (c, channel) in texel.iter_mut().enumerate() {
+                                channel[n] = run.get(j * stride + c).copied().unwrap_or_default();
+                            }
+                        }
+                        true
+                    }
+                    None => false,
+                }
+            } else {
+                let mut inside = true;
+                for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                    let i = base + (k + j).min(last) * stride;
+                    match data.get(i..i.wrapping_add(N)) {
+                        Some(samples) => {
+                            for (channel, &sample) in texel.iter_mut().zip(samples) {
+                                channel[n] = sample;
+                            }
+                        }
+                        None => inside = false,
+                    }
+                }
+                inside
+            };
+            if !inside {
+                continue;
+            }
+            if let (Some(fraction), Some(offset), Some(to)) = (
+                chunk.fraction.get_mut(n),
+                chunk.offset.get_mut(n),
+                chunk.group.get_mut(n),
+            ) {
+                (*fraction, *offset, *to) = (f, tap.offset, tap.group);
+            }
+            n += 1;
+        }
+        n
+    }
+
+    /// The samples of an oblique view: bilinear at `d + h`, `d − h` and `d`, with the
     /// central difference's factor `1 / (2h)`. `None` when a sample leaves the image.
     #[inline(always)]
     fn oblique<S: Sample, const CH: usize, const L: usize>(
         &self,
         data: &[S],
         tap: &Tap<T>,
-        pixel: (usize, usize),
         (xf, yf): (T, T),
         d: T,
     ) -> Option<([[T; L]; 3], T)> {
@@ -516,21 +761,18 @@ impl<T: Scalar> Views<T> {
             return None;
         }
         let (dp, dm) = (d + tap.h, d - tap.h);
-        let sample = |dd: T| {
-            self.bilinear::<S, CH, L>(data, tap, pixel, (xf - dd * tap.du, yf - dd * tap.dv))
-        };
+        let sample =
+            |dd: T| self.bilinear::<S, CH, L>(data, tap, (xf - dd * tap.du, yf - dd * tap.dv));
         Some(([sample(dp)?, sample(dm)?, sample(d)?], tap.inv))
     }
 
-    /// Bilinear sample of the `L` lanes at `(px, py)` (see [`lanes`]), inside the image,
-    /// for the centre-view pixel `pixel` (`None` only for a layout the samples do not
-    /// fill).
+    /// Bilinear sample of the `L` lanes at `(px, py)` (see [`lanes`]), inside the image
+    /// (`None` only for a layout the samples do not fill).
     #[inline(always)]
     fn bilinear<S: Sample, const CH: usize, const L: usize>(
         &self,
         data: &[S],
         tap: &Tap<T>,
-        pixel: (usize, usize),
         (px, py): (T, T),
     ) -> Option<[T; L]> {
         let levels = &self.levels;
@@ -542,23 +784,12 @@ impl<T: Scalar> Views<T> {
             out
         };
         let at = |i: usize| lanes::<T, S, CH, L>(data, i, levels);
-        Some(if tap.in_row {
-            // Horizontal neighbours: the row is exact, one lerp.
-            let (x0, ax) = cell(px, self.x_last, self.x_cell);
-            let i0 = tap.start + pixel.1 * self.row_stride + x0 * CH;
-            lerp(at(i0)?, at(i0 + CH)?, ax)
-        } else if tap.in_column {
-            let (y0, ay) = cell(py, self.y_last, self.y_cell);
-            let i0 = tap.start + y0 * self.row_stride + pixel.0 * CH;
-            lerp(at(i0)?, at(i0 + self.row_stride)?, ay)
-        } else {
-            let (x0, ax) = cell(px, self.x_last, self.x_cell);
-            let (y0, ay) = cell(py, self.y_last, self.y_cell);
-            let i00 = tap.start + y0 * self.row_stride + x0 * CH;
-            let i10 = i00 + self.row_stride;
-            let top = lerp(at(i00)?, at(i00 + CH)?, ax);
-            let bottom = lerp(at(i10)?, at(i10 + CH)?, ax);
-            lerp(top, bottom, ay)
-        })
+        let (x0, ax) = cell(px, self.x_last, self.x_cell);
+        let (y0, ay) = cell(py, self.y_last, self.y_cell);
+        let i00 = tap.start + y0 * self.row_stride + x0 * CH;
+        let i10 = i00 + self.row_stride;
+        let top = lerp(at(i00)?, at(i00 + CH)?, ax);
+        let bottom = lerp(at(i10)?, at(i10 + CH)?, ax);
+        Some(lerp(top, bottom, ay))
     }
 }

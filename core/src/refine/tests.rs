@@ -68,6 +68,28 @@ fn a_noisy_plane_is_pulled_to_the_truth() {
     }
 }
 
+#[test]
+fn many_views_and_oblique_views_pull_a_noisy_plane_to_the_truth() {
+    // A 17×17 grid has 32 views in its centre row and column: two chunks of the
+    // vectorised sampling; the diagonals take the bilinear path of oblique views.
+    for (grid, views) in [
+        (Grid::new(17, 17), ViewSet::Cross),
+        (Grid::new(9, 9), ViewSet::CrossDiagonals),
+        (Grid::new(5, 5), ViewSet::All),
+    ] {
+        let scene = strips(grid, 40, 36, 3, 0.35, &[]);
+        let input = perturbed(&scene, 0.3, 11);
+        let before = rms(&scene, &input, 10);
+        let refine = RefineParams {
+            views,
+            ..RefineParams::default()
+        };
+        let (d, _) = run(&scene, refine, &input);
+        let after = rms(&scene, &d, 10);
+        assert!(after < 0.01, "{grid:?} {views:?}: rms {before} -> {after}");
+    }
+}
+
 /// Share of pixels `margin` from every border within `tol` of the truth.
 fn share_within(scene: &Scene, d: &[f32], tol: f32, margin: usize) -> f32 {
     let (w, h) = (scene.layout.width, scene.layout.height);
