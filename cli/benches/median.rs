@@ -1,6 +1,7 @@
 //! Criterion benchmark of the edge-snapping weighted median (`median/…`): the default
 //! stage (four passes, radius 7, planar votes) on one thread over the disparity it really
-//! filters, the photometric refinement's output, of HCI cotton when `../shared/data` is
+//! filters, the photometric refinement's output after the geodesic refill (when the
+//! default parameters enable it, as the pipeline runs them), of HCI cotton when `../shared/data` is
 //! present, else of a synthetic 9×9×512×512 Mixed scene; passes after the first as the
 //! engine runs them (`filter_rows_again`) and in full (`filter`, as the serial pipeline
 //! and the page do). The reported times are the
@@ -16,7 +17,7 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, criterion_main, Criterion};
 use lfdepth::median::{self, MedianParams};
 use lfdepth::synth::{self, SceneKind, SynthSpec};
-use lfdepth::{epi, refine, Grid, Homography, Layout, LightField, Params, Plan};
+use lfdepth::{epi, geofill, refine, Grid, Homography, Layout, LightField, Params, Plan};
 use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
 
 /// The views and layout of the benchmark scene, and its name.
@@ -39,7 +40,8 @@ fn scene() -> (Vec<u8>, Layout, &'static str) {
     (views, layout, "synthetic")
 }
 
-/// The median's input in the default pipeline: EPI, then the photometric refinement.
+/// The median's input in the default pipeline: EPI, the photometric refinement, then the
+/// geodesic refill when enabled.
 fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
     let options = EstimateOptions {
         params: *plan.params(),
@@ -63,7 +65,20 @@ fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();
-    disparity
+    if !plan.params().geofill.enabled {
+        return disparity;
+    }
+    let mut filled = vec![0.0f32; plan.pixels()];
+    let mut scratch = vec![0.0f32; geofill::scratch_len(plan)];
+    geofill::fill(
+        plan,
+        &lf.center_view(),
+        &disparity,
+        &mut filled,
+        &mut scratch,
+    )
+    .unwrap();
+    filled
 }
 
 /// CPU time of the calling thread.
@@ -83,7 +98,10 @@ fn median_stage(c: &mut Criterion) {
     let plan = Plan::new(layout, Params::default()).unwrap();
     let start = Instant::now();
     let input = refined(&lf, &plan);
-    eprintln!("median input (EPI + refinement) in {:.1?}", start.elapsed());
+    eprintln!(
+        "median input (EPI, refinement, refill) in {:.1?}",
+        start.elapsed()
+    );
     let passes = MedianParams::default().passes;
     let guide = lf.center_view();
     let mut scratch = vec![0.0f32; median::scratch_len(&plan)];
