@@ -1,6 +1,7 @@
 //! Criterion benchmark of the edge-snapping weighted median (`median/…`): the default
 //! stage (four passes, radius 7, planar votes) on one thread over the disparity it really
-//! filters, the photometric refinement's output, of HCI cotton when `../shared/data` is
+//! filters, the photometric refinement's output after the geodesic refill (when the
+//! default parameters enable it, as the pipeline runs them), of HCI cotton when `../shared/data` is
 //! present, else of a synthetic 9×9×512×512 Mixed scene; passes after the first as the
 //! engine runs them (`filter_rows_again`) and in full (`filter`, as the serial pipeline
 //! and the page do). The reported times are the
@@ -16,7 +17,7 @@ use std::time::{Duration, Instant};
 use criterion::{criterion_group, criterion_main, Criterion};
 use lfdepth::median::{self, MedianParams};
 use lfdepth::synth::{self, SceneKind, SynthSpec};
-use lfdepth::{epi, refine, Grid, Homography, Layout, LightField, Params, Plan};
+use lfdepth::{epi, geofill, refine, Grid, Homography, Layout, LightField, Params, Plan};
 use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
 
 /// The views and layout of the benchmark scene, and its name.
@@ -39,7 +40,8 @@ fn scene() -> (Vec<u8>, Layout, &'static str) {
     (views, layout, "synthetic")
 }
 
-/// The median's input in the default pipeline: EPI, then the photometric refinement.
+/// The median's input in the default pipeline: EPI, the photometric refinement, then the
+/// geodesic refill when enabled.
 fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
     let options = EstimateOptions {
         params: *plan.params(),
@@ -63,7 +65,20 @@ fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();
-    disparity
+    if !plan.params().geofill.enabled {
+        return disparity;
+    }
+    let mut filled = vec![0.0f32; plan.pixels()];
+    let mut scratch = vec![0.0f32; geofill::scratch_len(plan)];
+    geofill::fill(
+        plan,
+        &lf.center_view(),
+        &disparity,
+        &mut filled,
+        &mut scratch,
+    )
+    .unwrap();
+    filled
 }
 
 /// CPU time of the calling thread.
@@ -77,18 +92,43 @@ fn thread_cpu() -> Duration {
     Duration::from_nanos(ns)
 }
 
+/// Every pass as the engine runs them: each pass after the first knows the one before's
+/// input (`a`), its own input (`b`) is that pass's output, its output goes to `next`.
+/// `maps` are three maps of the input's size, overwritten.
+fn engine_passes(
+    plan: &Plan,
+    lf: &LightField<'_, u8>,
+    input: &[f32],
+    maps: &mut [Vec<f32>; 3],
+    scratch: &mut [f32],
+) {
+    let guide = lf.center_view();
+    let height = plan.layout().height;
+    let [a, b, next] = maps;
+    median::filter(plan, &guide, input, b, scratch).unwrap();
+    a.copy_from_slice(input);
+    for _ in 1..plan.params().median.passes {
+        median::filter_rows_again(plan, &guide, b, a, 0..height, next, scratch).unwrap();
+        std::mem::swap(a, b);
+        std::mem::swap(b, next);
+    }
+}
+
 fn median_stage(c: &mut Criterion) {
     let (views, layout, name) = scene();
     let lf = LightField::new(&views, layout).unwrap();
     let plan = Plan::new(layout, Params::default()).unwrap();
     let start = Instant::now();
     let input = refined(&lf, &plan);
-    eprintln!("median input (EPI + refinement) in {:.1?}", start.elapsed());
+    eprintln!(
+        "median input (EPI, refinement, refill) in {:.1?}",
+        start.elapsed()
+    );
     let passes = MedianParams::default().passes;
     let guide = lf.center_view();
     let mut scratch = vec![0.0f32; median::scratch_len(&plan)];
-    let height = layout.height;
-    let (mut a, mut b, mut next) = (input.clone(), input.clone(), input.clone());
+    let (mut a, mut b) = (input.clone(), input.clone());
+    let mut maps = [input.clone(), input.clone(), input.clone()];
     let mut group = c.benchmark_group("median");
     group
         .sample_size(10)
@@ -98,24 +138,7 @@ fn median_stage(c: &mut Criterion) {
         bench.iter_custom(|iters| {
             let start = thread_cpu();
             for _ in 0..iters {
-                // As the engine runs it: each pass after the first knows the one before's
-                // input (a), its own input (b) is that pass's output, its output goes to `next`.
-                median::filter(&plan, &guide, &input, &mut b, &mut scratch).unwrap();
-                a.copy_from_slice(&input);
-                for _ in 1..passes {
-                    median::filter_rows_again(
-                        &plan,
-                        &guide,
-                        &b,
-                        &a,
-                        0..height,
-                        &mut next,
-                        &mut scratch,
-                    )
-                    .unwrap();
-                    std::mem::swap(&mut a, &mut b);
-                    std::mem::swap(&mut b, &mut next);
-                }
+                engine_passes(&plan, &lf, &input, &mut maps, &mut scratch);
             }
             thread_cpu() - start
         })
@@ -137,5 +160,40 @@ fn median_stage(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, median_stage);
+/// The engine's passes on HCI backgammon (many strong colour edges: most votes across
+/// them weigh zero), when `../shared/data` is present.
+fn median_backgammon(c: &mut Criterion) {
+    let dir = std::path::PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/data/hci/stratified/backgammon"
+    ));
+    if !dir.is_dir() {
+        eprintln!("SKIPPED: ../shared/data not found: no median/backgammon bench");
+        return;
+    }
+    let (views, layout) = tv_support::load_hci(&dir);
+    let lf = LightField::new(&views, layout).unwrap();
+    let plan = Plan::new(layout, Params::default()).unwrap();
+    let input = refined(&lf, &plan);
+    let passes = plan.params().median.passes;
+    let mut scratch = vec![0.0f32; median::scratch_len(&plan)];
+    let mut maps = [input.clone(), input.clone(), input.clone()];
+    let mut group = c.benchmark_group("median");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10))
+        .warm_up_time(Duration::from_secs(1));
+    group.bench_function(format!("backgammon_{passes}passes_1t"), |bench| {
+        bench.iter_custom(|iters| {
+            let start = thread_cpu();
+            for _ in 0..iters {
+                engine_passes(&plan, &lf, &input, &mut maps, &mut scratch);
+            }
+            thread_cpu() - start
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, median_stage, median_backgammon);
 criterion_main!(benches);

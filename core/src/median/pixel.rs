@@ -177,8 +177,13 @@ impl<S: Sample> Window<'_, '_, S> {
             let (Some(lanes), true) = (lanes, below | above != 0) else {
                 continue;
             };
-            *d2 = distances(lanes, &centre);
+            let live;
+            (*d2, live) = distances_live(lanes, &centre, self.weights.zero_from());
             measured |= 1 << i;
+            // Across a strong colour edge every outside vote of a row may weigh zero.
+            if (below | above) & live == 0 {
+                continue;
+            }
             weight_below += self.weigh(below, d2);
             weight_above += self.weigh(above, d2);
         }
@@ -377,6 +382,23 @@ fn votes(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32) -> [f32; LANES] {
         votes[k] = lanes.values[k] + lanes.gx[k] * dxs[k] + lanes.gy[k] * dy;
     }
     votes
+}
+
+/// [`distances`], and bit k set where the distance is below `zero_from` (the lanes of
+/// non-zero weight), from float compares as in [`classify`].
+#[inline(always)]
+fn distances_live(lanes: &Lanes<'_>, centre: &[f32; 3], zero_from: f32) -> ([u32; LANES], u16) {
+    const TWO_23: f32 = 8_388_608.0;
+    let mut d2 = [0u32; LANES];
+    let mut live = 0u32;
+    let [c0, c1, c2] = lanes.colours;
+    for k in 0..LANES {
+        let (a, b, c) = (c0[k] - centre[0], c1[k] - centre[1], c2[k] - centre[2]);
+        let sum = a * a + b * b + c * c;
+        d2[k] = (sum + TWO_23).to_bits() & 0x007F_FFFF;
+        live |= u32::from(sum < zero_from) << k;
+    }
+    (d2, live as u16)
 }
 
 /// Squared colour distances of a window row's lanes to the colour `centre`, equal to the

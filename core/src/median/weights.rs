@@ -7,6 +7,9 @@ use super::TABLE;
 pub(super) struct Weights {
     table: [u16; TABLE],
     shift: u32,
+    /// The smallest squared distance of weight zero: every larger one weighs zero too
+    /// (the table does not increase).
+    zero_from: u32,
 }
 
 impl Weights {
@@ -32,7 +35,19 @@ impl Weights {
         }
         // The pixel itself always counts fully.
         table[0] = table[0].max(1);
-        Weights { table, shift }
+        // exp decreases and rounding keeps the order, so the zeros are the table's tail.
+        let first_zero = table.iter().position(|&w| w == 0).unwrap_or(TABLE) as u32;
+        Weights {
+            table,
+            shift,
+            zero_from: first_zero << shift,
+        }
+    }
+
+    /// The smallest squared distance of weight zero, as `f32` (exact: below 2²⁴).
+    #[inline(always)]
+    pub(super) fn zero_from(&self) -> f32 {
+        self.zero_from.min(1 << 24) as f32
     }
 
     /// The weight of a squared colour distance (zero beyond the table).
@@ -41,5 +56,30 @@ impl Weights {
         self.table
             .get((d2 >> self.shift) as usize)
             .map_or(0, |&w| u32::from(w))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The median skips look-ups from `zero_from` on: that must be exactly where the
+    /// weights are zero, for any σ and every squared distance of 8-bit colours.
+    #[test]
+    fn weights_are_zero_exactly_from_zero_from() {
+        for sigma in [0.005, 0.01, 0.02, 0.04, 0.1, 0.25, 0.5] {
+            let weights = Weights::new(sigma);
+            let limit = weights.zero_from();
+            let mut zeros = 0;
+            for d2 in 0..=3 * 255 * 255u32 {
+                let zero = weights.get(d2) == 0;
+                assert_eq!(zero, d2 as f32 >= limit, "σ {sigma}, d² {d2}");
+                zeros += usize::from(zero);
+            }
+            // The small σ must reach zero within the colour range for the test to bite.
+            if sigma <= 0.1 {
+                assert!(zeros > 0, "σ {sigma}: no zero weight");
+            }
+        }
     }
 }
