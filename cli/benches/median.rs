@@ -14,7 +14,8 @@ mod tv_support;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::measurement::WallTime;
+use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use lfdepth::median::{self, MedianParams};
 use lfdepth::synth::{self, SceneKind, SynthSpec};
 use lfdepth::{epi, geofill, refine, Grid, Homography, Layout, LightField, Params, Plan};
@@ -114,6 +115,38 @@ fn engine_passes(
     }
 }
 
+/// The bench group both scenes report into.
+fn median_group(c: &mut Criterion) -> BenchmarkGroup<'_, WallTime> {
+    let mut group = c.benchmark_group("median");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10))
+        .warm_up_time(Duration::from_secs(1));
+    group
+}
+
+/// `{scene}_{passes}passes_1t`: the engine's passes on `input`, thread CPU time.
+fn bench_engine_passes(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    scene: &str,
+    plan: &Plan,
+    lf: &LightField<'_, u8>,
+    input: &[f32],
+) {
+    let passes = plan.params().median.passes;
+    let mut scratch = vec![0.0f32; median::scratch_len(plan)];
+    let mut maps = [input.to_vec(), input.to_vec(), input.to_vec()];
+    group.bench_function(format!("{scene}_{passes}passes_1t"), |bench| {
+        bench.iter_custom(|iters| {
+            let start = thread_cpu();
+            for _ in 0..iters {
+                engine_passes(plan, lf, input, &mut maps, &mut scratch);
+            }
+            thread_cpu() - start
+        })
+    });
+}
+
 fn median_stage(c: &mut Criterion) {
     let (views, layout, name) = scene();
     let lf = LightField::new(&views, layout).unwrap();
@@ -128,21 +161,8 @@ fn median_stage(c: &mut Criterion) {
     let guide = lf.center_view();
     let mut scratch = vec![0.0f32; median::scratch_len(&plan)];
     let (mut a, mut b) = (input.clone(), input.clone());
-    let mut maps = [input.clone(), input.clone(), input.clone()];
-    let mut group = c.benchmark_group("median");
-    group
-        .sample_size(10)
-        .measurement_time(Duration::from_secs(10))
-        .warm_up_time(Duration::from_secs(1));
-    group.bench_function(format!("{name}_{passes}passes_1t"), |bench| {
-        bench.iter_custom(|iters| {
-            let start = thread_cpu();
-            for _ in 0..iters {
-                engine_passes(&plan, &lf, &input, &mut maps, &mut scratch);
-            }
-            thread_cpu() - start
-        })
-    });
+    let mut group = median_group(c);
+    bench_engine_passes(&mut group, name, &plan, &lf, &input);
     // As the serial core pipeline and the page's workers run it: every pass in full.
     group.bench_function(format!("{name}_{passes}passes_full_1t"), |bench| {
         bench.iter_custom(|iters| {
@@ -175,23 +195,8 @@ fn median_backgammon(c: &mut Criterion) {
     let lf = LightField::new(&views, layout).unwrap();
     let plan = Plan::new(layout, Params::default()).unwrap();
     let input = refined(&lf, &plan);
-    let passes = plan.params().median.passes;
-    let mut scratch = vec![0.0f32; median::scratch_len(&plan)];
-    let mut maps = [input.clone(), input.clone(), input.clone()];
-    let mut group = c.benchmark_group("median");
-    group
-        .sample_size(10)
-        .measurement_time(Duration::from_secs(10))
-        .warm_up_time(Duration::from_secs(1));
-    group.bench_function(format!("backgammon_{passes}passes_1t"), |bench| {
-        bench.iter_custom(|iters| {
-            let start = thread_cpu();
-            for _ in 0..iters {
-                engine_passes(&plan, &lf, &input, &mut maps, &mut scratch);
-            }
-            thread_cpu() - start
-        })
-    });
+    let mut group = median_group(c);
+    bench_engine_passes(&mut group, "backgammon", &plan, &lf, &input);
     group.finish();
 }
 

@@ -562,6 +562,25 @@ impl<'s, S: Scalar> Graph<'s, S> {
         }
     }
 
+    /// Node `i`'s flows `(fh, fv)` (unscaled) as the start of every PPXA copy and of
+    /// `F`, so that `F = ½y₁ + ¼y₂ + ¼y₃` holds from the first iteration.
+    fn start_dual_at(&mut self, i: usize, fh: f32, fv: f32) {
+        let to_g = 1.0 / self.factor(i);
+        let (fh, fv) = (S::from_f32(to_g * fh), S::from_f32(to_g * fv));
+        for (buf, v) in [
+            (&mut *self.y1h, fh),
+            (&mut *self.own_h, fh),
+            (&mut *self.other_h, fh),
+            (&mut *self.y1v, fv),
+            (&mut *self.own_v, fv),
+            (&mut *self.other_v, fv),
+        ] {
+            if let Some(b) = buf.get_mut(i) {
+                *b = v;
+            }
+        }
+    }
+
     /// The cold start: every PPXA copy and `F` set to the dual that the total variation
     /// of a Huber-smoothed TV would take at `x = D`, per node `F = g / max(ε, ‖g‖)` with
     /// `g` the node's forward differences of `D` (ℓ2: the pair's norm; ℓ1: each edge on
@@ -597,20 +616,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                     }
                     TvNorm::L1 => (gh / libm::fabsf(gh).max(eps), gv / libm::fabsf(gv).max(eps)),
                 };
-                let to_g = 1.0 / self.factor(i);
-                let (fh, fv) = (S::from_f32(to_g * fh), S::from_f32(to_g * fv));
-                for (buf, v) in [
-                    (&mut *self.y1h, fh),
-                    (&mut *self.own_h, fh),
-                    (&mut *self.other_h, fh),
-                    (&mut *self.y1v, fv),
-                    (&mut *self.own_v, fv),
-                    (&mut *self.other_v, fv),
-                ] {
-                    if let Some(b) = buf.get_mut(i) {
-                        *b = v;
-                    }
-                }
+                self.start_dual_at(i, fh, fv);
             }
         }
     }
@@ -740,20 +746,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 } else {
                     (0.0, 0.0)
                 };
-                let to_g = 1.0 / self.factor(i);
-                let (fh, fv) = (S::from_f32(to_g * fh), S::from_f32(to_g * fv));
-                for (buf, v) in [
-                    (&mut *self.y1h, fh),
-                    (&mut *self.own_h, fh),
-                    (&mut *self.other_h, fh),
-                    (&mut *self.y1v, fv),
-                    (&mut *self.own_v, fv),
-                    (&mut *self.other_v, fv),
-                ] {
-                    if let Some(b) = buf.get_mut(i) {
-                        *b = v;
-                    }
-                }
+                self.start_dual_at(i, fh, fv);
             }
         }
     }
