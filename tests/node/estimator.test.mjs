@@ -104,8 +104,8 @@ test("bands, fused, then refineAndRegularize are bit-identical to the full seria
   assert.throws(() => estimator.refineAndRegularize(d, c, min, max, () => false), /cancelled/);
 });
 
-/** The stages after EPI by parts (refine bands, median row bands pass after pass, TV
- * tiles in any order) put together as web/engine.js does. */
+/** The stages after EPI by parts (refine bands, the refill, median row bands pass after
+ * pass, TV tiles in any order) put together as web/engine.js does. */
 function byParts(estimator, d, c, min, max, bandLines) {
   const pixels = SIZE * SIZE;
   const shuffled = (n) => Array.from({ length: n }, (_, i) => i).reverse();
@@ -123,6 +123,11 @@ function byParts(estimator, d, c, min, max, bandLines) {
     }
     disparity = refined;
     confidence = refinedConfidence;
+  }
+  // The geodesic refill: one whole-map part, as web/engine.js runs it.
+  if (estimator.geofill) {
+    estimator.setMaps(disparity, confidence);
+    disparity = estimator.geofillMap();
   }
   const median = () => {
     // Passes after the first are told the map the pass before read (they recompute
