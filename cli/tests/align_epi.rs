@@ -889,3 +889,111 @@ fn final_stages() {
         }
     }
 }
+
+/// The refinement's own output (no refill, median or TV) from the EPI map of the same
+/// input: on the rectified scene; on the misaligned one read through the TRUE
+/// homographies (`refine_band_mapped`, one interpolation of the input, bilinear and
+/// Catmull–Rom); on its warped copy (true homographies, bilinear: two interpolations).
+/// Asserted: through the homographies with Catmull–Rom within the bounds measured
+/// (docs/bench-align.md, "Session 4b") and better than the warped copy.
+/// `cargo test --release -p lfdepth-cli --test align_epi refine_through_homographies -- --nocapture`
+#[test]
+fn refine_through_homographies() {
+    use lfdepth::{epi, refine, Plan};
+    if cfg!(debug_assertions) {
+        eprintln!("SKIPPED: heavy 384x384 test, run it with `cargo test --release`");
+        return;
+    }
+    let n = SIZE;
+    // Measured +13.2 % (planes) and +23.1 % (mixed).
+    for (scene, bound) in [(SceneKind::Planes, 1.20), (SceneKind::Mixed, 1.30)] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let name = scene.name();
+        let plan = Plan::new(spec.layout(), Params::default()).unwrap();
+        let epi_of = |data: &[f32]| {
+            let lf = LightField::new(data, spec.layout()).unwrap();
+            let (mut d, mut c) = (vec![0.0f32; n * n], vec![0.0f32; n * n]);
+            let mut scratch = vec![0.0f32; epi::scratch_len(&plan)];
+            let h = epi::estimate(&plan, &lf, &mut d, &mut c, &mut scratch).unwrap();
+            (d, (h.min(), h.max()))
+        };
+        let refine_of = |data: &[f32],
+                         maps: Option<(&[Homography], Interpolation)>,
+                         init: &(Vec<f32>, (f32, f32))| {
+            let lf = LightField::new(data, spec.layout()).unwrap();
+            let (mut d, mut c) = (vec![0.0f32; n * n], vec![0.0f32; n * n]);
+            let mut scratch = vec![0.0f32; refine::scratch_len(&plan)];
+            let start = std::time::Instant::now();
+            for b in 0..refine::band_count(&plan) {
+                let rows = refine::band_rows(&plan, b).unwrap();
+                let span = rows.start * n..rows.end * n;
+                let (d, c) = (&mut d[span.clone()], &mut c[span]);
+                match maps {
+                    None => {
+                        refine::refine_band(&plan, &lf, init.1, &init.0, rows, d, c, &mut scratch)
+                    }
+                    Some((maps, how)) => refine::refine_band_mapped(
+                        &plan,
+                        &lf,
+                        maps,
+                        how,
+                        init.1,
+                        &init.0,
+                        rows,
+                        d,
+                        c,
+                        &mut scratch,
+                    ),
+                }
+                .unwrap();
+            }
+            (badpix(&d, &gt, n), start.elapsed().as_secs_f64())
+        };
+        let ideal_f: Vec<f32> = ideal.iter().map(|&v| f32::from(v) / 255.0).collect();
+        let mis_f: Vec<f32> = misaligned.iter().map(|&v| f32::from(v) / 255.0).collect();
+        let lf = LightField::new(&misaligned[..], spec.layout()).unwrap();
+        let warped = warp_all(&lf, &truth, Interpolation::Bilinear);
+        let ident = vec![Homography::IDENTITY; truth.len()];
+        let (rect_init, warped_init) = (epi_of(&ideal_f), epi_of(&warped));
+        let (rect, rect_s) = refine_of(&ideal_f, None, &rect_init);
+        let rel = |v: f64| 100.0 * (v / rect - 1.0);
+        let mut line = format!("{name}: refine output, rectified {rect:.2} ({rect_s:.3} s)");
+        for how in [Interpolation::Bilinear, Interpolation::CatmullRom] {
+            let (id, _) = refine_of(&ideal_f, Some((&ident, how)), &rect_init);
+            line += &format!(
+                "; rectified through identities, {how:?} {id:.2} ({:+.1} %)",
+                rel(id)
+            );
+        }
+        let mut through = [0.0; 2];
+        for (k, how) in [Interpolation::Bilinear, Interpolation::CatmullRom]
+            .into_iter()
+            .enumerate()
+        {
+            let seconds;
+            (through[k], seconds) = refine_of(&mis_f, Some((&truth, how)), &warped_init);
+            let (from_rect, _) = refine_of(&mis_f, Some((&truth, how)), &rect_init);
+            line += &format!(
+                "; true H, through H {how:?} {:.2} ({:+.1} %, {seconds:.3} s; from the rectified EPI map {from_rect:.2}, {:+.1} %)",
+                through[k],
+                rel(through[k]),
+                rel(from_rect)
+            );
+        }
+        let (on_warped, _) = refine_of(&warped, None, &warped_init);
+        line += &format!(
+            "; true H, on the warped copy {on_warped:.2} ({:+.1} %)",
+            rel(on_warped)
+        );
+        eprintln!("{line}");
+        assert!(
+            through[1] <= bound * rect,
+            "{name}: {} vs rectified {rect}",
+            through[1]
+        );
+        assert!(
+            through[1] < on_warped && through[0] < on_warped,
+            "{name}: {through:?} vs {on_warped}"
+        );
+    }
+}

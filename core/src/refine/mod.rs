@@ -98,12 +98,14 @@ pub use params::{RefineParams, ViewSet};
 
 use core::ops::{ControlFlow, Range};
 
+use crate::align::Interpolation;
 use crate::error::{checked_product, Error, Result};
+use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample, GRID_MAX};
 use crate::pipeline::Progress;
 use crate::plan::Plan;
 use crate::scalar::Scalar;
-use photo::{Views, GROUPS, INTENSITY_SCALE, STATS};
+use photo::{Mapped, Photometric, Rectified, Views, GROUPS, INTENSITY_SCALE, STATS};
 
 /// Progress stage name.
 pub const STAGE: &str = "refine";
@@ -358,6 +360,84 @@ pub fn refine_band<T: Scalar, S: Sample>(
     scratch: &mut [T],
 ) -> Result<()> {
     check_inputs(plan, lf, range, disparity)?;
+    let photo = Rectified {
+        views: Views::<T>::new(plan.layout(), plan.params().refine.views),
+        data: lf.data(),
+    };
+    band(
+        plan, &photo, range, disparity, rows, out, confidence, scratch,
+    )
+}
+
+/// [`refine_band`] on an aligned array: `lf` holds the INPUT views and `homographies`
+/// (one per view, rectified → view pixels, as [`crate::align::warp_rows`] takes them)
+/// rectify them; every compared view (the centre one too) is sampled through its
+/// homography at the disparity-shifted position, one interpolation of the input instead
+/// of a second one of a warped copy (which spreads occlusion edges by a different
+/// amount in every view: docs/bench-align.md, "Session 4b"), with `interpolation`
+/// (Catmull–Rom keeps the texture's contrast at every sub-pixel phase, which the
+/// Gauss–Newton steps need: it loses much less to the misalignment than bilinear).
+/// Slower than the rectified path (three samples and three projections per view and
+/// pixel). Not yet used by the pipelines: the EPI stage and the others still read the
+/// warped copy.
+#[allow(clippy::too_many_arguments)]
+pub fn refine_band_mapped<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    homographies: &[Homography],
+    interpolation: Interpolation,
+    range: (f32, f32),
+    disparity: &[f32],
+    rows: Range<usize>,
+    out: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+) -> Result<()> {
+    check_inputs(plan, lf, range, disparity)?;
+    check_homographies(plan, homographies)?;
+    let photo = Mapped {
+        views: Views::<T>::new(plan.layout(), plan.params().refine.views),
+        data: lf.data(),
+        maps: homographies,
+        interpolation,
+    };
+    band(
+        plan, &photo, range, disparity, rows, out, confidence, scratch,
+    )
+}
+
+fn check_homographies(plan: &Plan, homographies: &[Homography]) -> Result<()> {
+    let views = plan.layout().grid.len();
+    if homographies.len() != views {
+        return Err(Error::OutputSize {
+            what: "the homography slice (one per view)",
+            needed: views,
+            got: homographies.len(),
+        });
+    }
+    if !homographies
+        .iter()
+        .all(|h| h.m.iter().all(|v| v.is_finite()))
+    {
+        return Err(Error::NonFinite {
+            what: "the homography",
+        });
+    }
+    Ok(())
+}
+
+/// The body of [`refine_band`] over the views `photo` compares.
+#[allow(clippy::too_many_arguments)]
+fn band<T: Scalar, P: Photometric<T>>(
+    plan: &Plan,
+    photo: &P,
+    range: (f32, f32),
+    disparity: &[f32],
+    rows: Range<usize>,
+    out: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+) -> Result<()> {
     let (width, height) = (plan.layout().width, plan.layout().height);
     if rows.start >= rows.end || rows.end > height {
         return Err(Error::OutOfRange {
@@ -428,14 +508,13 @@ pub fn refine_band<T: Scalar, S: Sample>(
     }
 
     let r = p.radius;
-    let views = Views::<T>::new(plan.layout(), p.views);
+    let views = photo.views();
     let area = ((2 * r + 1) * (2 * r + 1)) as f32;
     let (narrow, wide) = (
         Counts::<T>::new(&views.terms, area, 0),
         Counts::<T>::new(&views.terms, area, WIDE_SHIFT),
     );
     let wide_limit = T::MAX * T::from_f32(libm::ldexpf(1.0, -WIDE_LIMIT_SHIFT));
-    let data = lf.data();
     let k = Constants::<T>::new(&p, plan.layout().channels.min(3), range);
     let used = plan.layout().channels.min(3) as f32;
     let memberships = views.terms.iter().sum::<f32>() / used;
@@ -533,13 +612,13 @@ pub fn refine_band<T: Scalar, S: Sample>(
                     }
                     if stat[1] == unknown {
                         // Without a bar the cost is always returned.
-                        stat[0] = views
-                            .cost(data, x, first + y, own, cost_robust, None)
+                        stat[0] = photo
+                            .cost(x, first + y, own, cost_robust, None)
                             .unwrap_or(T::MAX);
                         stat[1] = known;
                     }
                     let limit = *bar.get_or_insert(stat[0] * k.accept);
-                    if let Some(c) = views.cost(data, x, first + y, d, cost_robust, Some(limit)) {
+                    if let Some(c) = photo.cost(x, first + y, d, cost_robust, Some(limit)) {
                         bar = Some(c);
                         stat[0] = c;
                         if let Some(current) = current.get_mut(i) {
@@ -580,7 +659,7 @@ pub fn refine_band<T: Scalar, S: Sample>(
                     continue;
                 }
                 let mut s = [T::ZERO; STATS];
-                views.pixel(data, x, first + y, now, stat_robust, &mut s);
+                photo.pixel(x, first + y, now, stat_robust, &mut s);
                 *stat = s;
             }
         }

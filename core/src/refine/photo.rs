@@ -13,6 +13,8 @@
 
 use core::any::Any;
 
+use crate::align::Interpolation;
+use crate::geometry::Homography;
 use crate::lightfield::{Layout, Sample, GRID_MAX};
 use crate::scalar::Scalar;
 
@@ -213,6 +215,7 @@ pub(crate) struct Views<T> {
     centre: usize,
     channels: usize,
     row_stride: usize,
+    view_stride: usize,
     /// Largest sample position along x and y.
     x_max: T,
     y_max: T,
@@ -350,6 +353,7 @@ impl<T: Scalar> Views<T> {
             centre: grid.index(r0, c0) * layout.view_stride,
             channels: layout.channels,
             row_stride: layout.row_stride,
+            view_stride: layout.view_stride,
             x_max: coordinate(layout.width.saturating_sub(1)),
             y_max: coordinate(layout.height.saturating_sub(1)),
             x_last,
@@ -773,6 +777,17 @@ impl<T: Scalar> Views<T> {
         &self,
         data: &[S],
         tap: &Tap<T>,
+        position: (T, T),
+    ) -> Option<[T; L]> {
+        self.bilinear_at::<S, CH, L>(data, tap.start, position)
+    }
+
+    /// [`Self::bilinear`] in the view whose first sample is `start`.
+    #[inline(always)]
+    fn bilinear_at<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        start: usize,
         (px, py): (T, T),
     ) -> Option<[T; L]> {
         let levels = &self.levels;
@@ -786,10 +801,294 @@ impl<T: Scalar> Views<T> {
         let at = |i: usize| lanes::<T, S, CH, L>(data, i, levels);
         let (x0, ax) = cell(px, self.x_last, self.x_cell);
         let (y0, ay) = cell(py, self.y_last, self.y_cell);
-        let i00 = tap.start + y0 * self.row_stride + x0 * CH;
+        let i00 = start + y0 * self.row_stride + x0 * CH;
         let i10 = i00 + self.row_stride;
         let top = lerp(at(i00)?, at(i00 + CH)?, ax);
         let bottom = lerp(at(i10)?, at(i10 + CH)?, ax);
         Some(lerp(top, bottom, ay))
+    }
+}
+
+/// Every compared view as an oblique tap (axis views included): the simple path of
+/// [`Mapped`], which samples each view through its homography.
+impl<T: Scalar> Views<T> {
+    fn all_taps(&self) -> impl Iterator<Item = Tap<T>> + '_ {
+        let axis = self.axis.get(..self.axis_len).unwrap_or_default();
+        axis.iter()
+            .map(|a| {
+                let h = 0.5 / (a.reach.max(1) as f32);
+                let (du, dv) = if a.in_row {
+                    (a.offset, T::ZERO)
+                } else {
+                    (T::ZERO, a.offset)
+                };
+                Tap {
+                    start: a.start,
+                    du,
+                    dv,
+                    h: T::from_f32(h),
+                    inv: T::from_f32(0.5 / h),
+                    group: a.group,
+                    second_group: None,
+                }
+            })
+            .chain(self.oblique_taps().iter().copied())
+    }
+
+    /// The sample of the raw view at `start` at rectified position `(px, py)` mapped by
+    /// `map` (rectified → view pixels, as the warp), bilinear or (`cubic`) Catmull–Rom:
+    /// one interpolation of the input. `None` outside the view.
+    #[inline(always)]
+    fn mapped<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        start: usize,
+        map: &Homography,
+        cubic: bool,
+        (px, py): (T, T),
+    ) -> Option<[T; L]> {
+        let (u, v) = map.apply(px.to_f32(), py.to_f32())?;
+        let (xm, ym) = (self.x_max.to_f32(), self.y_max.to_f32());
+        if !(u >= 0.0 && u <= xm && v >= 0.0 && v <= ym) {
+            return None;
+        }
+        if cubic {
+            return self.catmull_rom_at::<S, CH, L>(data, start, u, v);
+        }
+        self.bilinear_at::<S, CH, L>(data, start, (T::from_f32(u), T::from_f32(v)))
+    }
+
+    /// Catmull–Rom sample of the `L` lanes at `(u, v)` inside the view; taps past the
+    /// border repeat the border pixel.
+    #[inline(always)]
+    fn catmull_rom_at<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        start: usize,
+        u: f32,
+        v: f32,
+    ) -> Option<[T; L]> {
+        let weights = |t: f32| {
+            let (t2, t3) = (t * t, t * t * t);
+            [
+                0.5 * (-t3 + 2.0 * t2 - t),
+                0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+                0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+                0.5 * (t3 - t2),
+            ]
+        };
+        let (x0, y0) = ((u as i32).max(0), (v as i32).max(0));
+        let (wx, wy) = (weights(u - x0 as f32), weights(v - y0 as f32));
+        let xl = self.x_last as i32 + 1;
+        let yl = self.y_last as i32 + 1;
+        let mut out = [T::ZERO; L];
+        for (j, &wyj) in wy.iter().enumerate() {
+            let yy = (y0 + j as i32 - 1).clamp(0, yl) as usize;
+            let mut row = [T::ZERO; L];
+            for (i, &wxi) in wx.iter().enumerate() {
+                let xx = (x0 + i as i32 - 1).clamp(0, xl) as usize;
+                let at = lanes::<T, S, CH, L>(
+                    data,
+                    start + yy * self.row_stride + xx * CH,
+                    &self.levels,
+                )?;
+                let w = T::from_f32(wxi);
+                for c in 0..L {
+                    row[c] += w * at[c];
+                }
+            }
+            let w = T::from_f32(wyj);
+            for c in 0..L {
+                out[c] += w * row[c];
+            }
+        }
+        Some(out)
+    }
+
+    /// The homography of the view whose first sample is `start`.
+    #[inline(always)]
+    fn map_of<'m>(&self, maps: &'m [Homography], start: usize) -> Option<&'m Homography> {
+        maps.get(start.checked_div(self.view_stride)?)
+    }
+
+    /// The centre view's samples at `(x, y)` through its homography.
+    #[inline(always)]
+    fn mapped_centre<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        (maps, cubic): (&[Homography], bool),
+        (xf, yf): (T, T),
+    ) -> Option<[T; L]> {
+        let map = self.map_of(maps, self.centre)?;
+        self.mapped::<S, CH, L>(data, self.centre, map, cubic, (xf, yf))
+    }
+
+    /// The samples of a view through its homography at `d + h`, `d − h` and `d`.
+    #[inline(always)]
+    fn mapped_three<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        (maps, cubic): (&[Homography], bool),
+        tap: &Tap<T>,
+        (xf, yf): (T, T),
+        d: T,
+    ) -> Option<[[T; L]; 3]> {
+        let map = self.map_of(maps, tap.start)?;
+        let sample = |dd: T| {
+            let at = (xf - dd * tap.du, yf - dd * tap.dv);
+            self.mapped::<S, CH, L>(data, tap.start, map, cubic, at)
+        };
+        Some([sample(d + tap.h)?, sample(d - tap.h)?, sample(d)?])
+    }
+
+    fn pixel_mapped_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
+        &self,
+        data: &[S],
+        maps: (&[Homography], bool),
+        (x, y): (usize, usize),
+        d: T,
+        (robust, scaled): (T, T),
+        out: &mut [T; STATS],
+    ) {
+        *out = [T::ZERO; STATS];
+        let (xf, yf) = (T::from_i32(x as i32), T::from_i32(y as i32));
+        let Some(centre) = self.mapped_centre::<S, CH, L>(data, maps, (xf, yf)) else {
+            return;
+        };
+        for tap in self.all_taps() {
+            let Some([first, second, at]) =
+                self.mapped_three::<S, CH, L>(data, maps, &tap, (xf, yf), d)
+            else {
+                continue;
+            };
+            let (mut a, mut b, mut e) = (T::ZERO, T::ZERO, T::ZERO);
+            for c in 0..N.min(L) {
+                let g = (first[c] - second[c]) * tap.inv;
+                let r = at[c] - centre[c];
+                a += g * g;
+                b += g * (g * d - r);
+                e += r * r;
+            }
+            let w = scaled / (robust + e);
+            let (a, b, e) = (w * a, w * b, w * e);
+            let mut add = |g: usize| {
+                if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
+                    sums[0] += a;
+                    sums[1] += b;
+                    sums[2] += e;
+                }
+            };
+            add(tap.group);
+            if let Some(g) = tap.second_group {
+                add(g);
+            }
+        }
+    }
+
+    fn cost_mapped_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
+        &self,
+        data: &[S],
+        maps: (&[Homography], bool),
+        (x, y): (usize, usize),
+        d: T,
+        (robust, scaled): (T, T),
+        bar: Option<T>,
+    ) -> Option<T> {
+        let below = |c: T| bar.is_none_or(|bar| c < bar);
+        let (xf, yf) = (T::from_i32(x as i32), T::from_i32(y as i32));
+        let Some(centre) = self.mapped_centre::<S, CH, L>(data, maps, (xf, yf)) else {
+            return below(T::ZERO).then_some(T::ZERO);
+        };
+        let mut cost = T::ZERO;
+        for tap in self.all_taps() {
+            // The same views as the statistics: those whose three samples lie inside.
+            let Some([_, _, at]) = self.mapped_three::<S, CH, L>(data, maps, &tap, (xf, yf), d)
+            else {
+                continue;
+            };
+            let mut e = T::ZERO;
+            for c in 0..N.min(L) {
+                let r = at[c] - centre[c];
+                e += r * r;
+            }
+            let e = scaled / (robust + e) * e;
+            cost += e;
+            if tap.second_group.is_some() {
+                cost += e;
+            }
+            if !below(cost) {
+                return None;
+            }
+        }
+        below(cost).then_some(cost)
+    }
+}
+
+/// What the refinement compares: the statistics and the cost of a pixel at a disparity.
+pub(crate) trait Photometric<T> {
+    /// The compared views.
+    fn views(&self) -> &Views<T>;
+    /// See [`Views::pixel`].
+    fn pixel(&self, x: usize, y: usize, d: T, robust: (T, T), out: &mut [T; STATS]);
+    /// See [`Views::cost`].
+    fn cost(&self, x: usize, y: usize, d: T, robust: (T, T), bar: Option<T>) -> Option<T>;
+}
+
+/// Rectified views, read where they lie.
+pub(crate) struct Rectified<'a, T, S> {
+    pub views: Views<T>,
+    pub data: &'a [S],
+}
+
+impl<T: Scalar, S: Sample> Photometric<T> for Rectified<'_, T, S> {
+    #[inline(always)]
+    fn views(&self) -> &Views<T> {
+        &self.views
+    }
+    #[inline(always)]
+    fn pixel(&self, x: usize, y: usize, d: T, robust: (T, T), out: &mut [T; STATS]) {
+        self.views.pixel(self.data, x, y, d, robust, out);
+    }
+    #[inline(always)]
+    fn cost(&self, x: usize, y: usize, d: T, robust: (T, T), bar: Option<T>) -> Option<T> {
+        self.views.cost(self.data, x, y, d, robust, bar)
+    }
+}
+
+/// Input views of an aligned array, each read through its homography (rectified → view
+/// pixels, as the warp) at the disparity-shifted position: one interpolation of the
+/// input, where the warped copy would be interpolated a second time (its occlusion
+/// edges spread by a different amount in every view; docs/bench-align.md). Every view
+/// takes three samples (the derivative by a central difference) with `interpolation`.
+pub(crate) struct Mapped<'a, T, S> {
+    pub views: Views<T>,
+    pub data: &'a [S],
+    pub maps: &'a [Homography],
+    pub interpolation: Interpolation,
+}
+
+impl<T: Scalar, S: Sample> Photometric<T> for Mapped<'_, T, S> {
+    fn views(&self) -> &Views<T> {
+        &self.views
+    }
+    fn pixel(&self, x: usize, y: usize, d: T, robust: (T, T), out: &mut [T; STATS]) {
+        let v = &self.views;
+        let m = (self.maps, self.interpolation == Interpolation::CatmullRom);
+        match v.channels {
+            1 => v.pixel_mapped_channels::<S, 1, 1, 1>(self.data, m, (x, y), d, robust, out),
+            3 => v.pixel_mapped_channels::<S, 3, 3, 4>(self.data, m, (x, y), d, robust, out),
+            4 => v.pixel_mapped_channels::<S, 4, 3, 4>(self.data, m, (x, y), d, robust, out),
+            _ => *out = [T::ZERO; STATS],
+        }
+    }
+    fn cost(&self, x: usize, y: usize, d: T, robust: (T, T), bar: Option<T>) -> Option<T> {
+        let v = &self.views;
+        let m = (self.maps, self.interpolation == Interpolation::CatmullRom);
+        match v.channels {
+            1 => v.cost_mapped_channels::<S, 1, 1, 1>(self.data, m, (x, y), d, robust, bar),
+            3 => v.cost_mapped_channels::<S, 3, 3, 4>(self.data, m, (x, y), d, robust, bar),
+            4 => v.cost_mapped_channels::<S, 4, 3, 4>(self.data, m, (x, y), d, robust, bar),
+            _ => None,
+        }
     }
 }
