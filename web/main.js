@@ -242,14 +242,63 @@ function showResult() {
   const scores = $("scores");
   if (!state.groundTruth) return;
   const gt = state.groundTruth;
-  const error = disparity.map((d, i) => Math.abs(d - gt[i]));
-  drawMap($("error-map"), error, width, height, 0, 0.2, heat);
   const border = Math.min(15, Math.floor(Math.min(width, height) / 2) - 1);
-  const s = evaluate(disparity, gt, width, height, { border });
+  // After alignment the disparity is defined up to a plane no image can observe (the
+  // homographies can absorb any shift proportional to each view's baseline): score it
+  // after removing the best-fitting plane, and say so.
+  const aligned = $("align-info").dataset.align === "aligned";
+  const gauge = aligned ? fitDisparityPlane(disparity, gt, width, height, border) : null;
+  const scored = gauge ? disparity.map((d, i) => d - gauge.at(i % width, Math.floor(i / width))) : disparity;
+  const error = scored.map((d, i) => Math.abs(d - gt[i]));
+  drawMap($("error-map"), error, width, height, 0, 0.2, heat);
+  const s = evaluate(scored, gt, width, height, { border });
   scores.textContent = `BadPix(0.07) ${s.badpix007.toFixed(2)} %, BadPix(0.03) ${s.badpix003.toFixed(2)} %, ` +
-    `MSE×100 ${s.mse100.toFixed(3)} (border ${border} px; white = exact, dark red ≥ 0.2 px)`;
+    `MSE×100 ${s.mse100.toFixed(3)} (border ${border} px; white = exact, dark red ≥ 0.2 px)` +
+    (gauge ? `, after removing the disparity plane alignment cannot observe (offset ${gauge.offset.toFixed(3)} px at the centre)` : "");
   scores.dataset.badpix007 = s.badpix007;
   scores.dataset.mse100 = s.mse100;
+  if (gauge) scores.dataset.gaugeOffset = gauge.offset;
+  else delete scores.dataset.gaugeOffset;
+}
+
+/** Least-squares plane `a + b·x + c·y` through `disparity − gt` inside the border, fitted
+ * twice: the second time without the pixels more than 0.2 px off the first plane (depth
+ * edges), so that errors do not tilt it. `at(x, y)` evaluates it; `offset` is its value
+ * at the image centre. Null when too few pixels remain. */
+function fitDisparityPlane(disparity, gt, width, height, border) {
+  const fit = (keep) => {
+    // Normal equations in centred coordinates (better conditioned).
+    const [cx, cy] = [width / 2, height / 2];
+    const m = new Float64Array(9);
+    const v = new Float64Array(3);
+    let n = 0;
+    for (let y = border; y < height - border; y++) {
+      for (let x = border; x < width - border; x++) {
+        const i = y * width + x;
+        const r = disparity[i] - gt[i];
+        if (!Number.isFinite(r) || !keep(x, y, r)) continue;
+        const f = [1, x - cx, y - cy];
+        for (let j = 0; j < 3; j++) {
+          v[j] += f[j] * r;
+          for (let k = 0; k < 3; k++) m[3 * j + k] += f[j] * f[k];
+        }
+        n++;
+      }
+    }
+    if (n < 16) return null;
+    const p = solve3(m, v);
+    return p && { offset: p[0], at: (x, y) => p[0] + p[1] * (x - cx) + p[2] * (y - cy) };
+  };
+  const first = fit(() => true);
+  return first && (fit((x, y, r) => Math.abs(r - first.at(x, y)) <= 0.2) ?? first);
+}
+
+/** `m · p = v` for a 3×3 `m` (row-major) by Cramer's rule; null when singular. */
+function solve3(m, v) {
+  const det = (a) => a[0] * (a[4] * a[8] - a[5] * a[7]) - a[1] * (a[3] * a[8] - a[5] * a[6]) + a[2] * (a[3] * a[7] - a[4] * a[6]);
+  const d = det(m);
+  if (!(Math.abs(d) > 1e-12)) return null;
+  return [0, 1, 2].map((c) => det(m.map((x, i) => (i % 3 === c ? v[Math.floor(i / 3)] : x))) / d);
 }
 
 // ---------------------------------------------------------------- downloads

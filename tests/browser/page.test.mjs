@@ -184,6 +184,9 @@ test("the align control exists, reaches the workers' requests and aligns a misal
       error: document.getElementById("error").textContent,
       progress: document.getElementById("progress").value,
       mse: Number(document.getElementById("scores").dataset.mse100),
+      badpix: Number(document.getElementById("scores").dataset.badpix007),
+      gauge: document.getElementById("scores").dataset.gaugeOffset,
+      scores: document.getElementById("scores").textContent,
       align: document.getElementById("align-info").dataset.align,
       info: document.getElementById("align-info").textContent,
       timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
@@ -208,10 +211,16 @@ test("the align control exists, reaches the workers' requests and aligns a misal
   assert.equal(on.align, "aligned", on.info);
   assert.match(on.info, /Aligned: reprojection [\d.]+ px → 0\.0\d+ px/);
   assert.ok(on.timings.some((t) => t.startsWith("warp")), on.timings.join("; "));
-  // Measured (full pipeline, 5×5 of 128²): MSE×100 734 off, 19.6 on (much of what is
-  // left is the disparity offset no image can observe, see docs/bench-align.md).
+  // Aligned, the page scores after removing the disparity plane no image can observe
+  // (docs/bench-align.md) and says so; unaligned it scores the map as it is.
+  assert.equal(off.gauge, undefined);
+  assert.ok(Number.isFinite(Number(on.gauge)), on.scores);
+  assert.match(on.scores, /after removing the disparity plane alignment cannot observe/);
+  // Measured (full pipeline, 5×5 of 128²): MSE×100 734 off; on, BadPix(0.07) 99.7 % and
+  // MSE×100 19.6 before the plane was removed; after it 7.5 % and 8.2.
   assert.ok(off.mse > 100, `off: MSE×100 ${off.mse}`);
-  assert.ok(on.mse < 30 && on.mse < off.mse / 20, `on: MSE×100 ${on.mse}`);
+  assert.ok(on.mse < 15 && on.mse < off.mse / 20, `on: MSE×100 ${on.mse}`);
+  assert.ok(on.badpix < 20, `on: BadPix(0.07) ${on.badpix}`);
   mkdirSync(artifacts, { recursive: true });
   await page.screenshot({ path: join(artifacts, "page-aligned.png"), fullPage: true });
   await page.close();
