@@ -68,6 +68,27 @@ struct Tap<T> {
     second_group: Option<usize>,
 }
 
+impl<T: Scalar> Tap<T> {
+    /// Adds one view's normal-equation terms `(a, b, e)` to the sums of its groups
+    /// (`out[3g..3g + 3]`), Cauchy-weighted by its residual energy `e`:
+    /// `w = scaled / (robust + e)`.
+    fn add_weighted(&self, out: &mut [T], (a, b, e): (T, T, T), (robust, scaled): (T, T)) {
+        let w = scaled / (robust + e);
+        let (a, b, e) = (w * a, w * b, w * e);
+        let mut add = |g: usize| {
+            if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
+                sums[0] += a;
+                sums[1] += b;
+                sums[2] += e;
+            }
+        };
+        add(self.group);
+        if let Some(g) = self.second_group {
+            add(g);
+        }
+    }
+}
+
 /// A compared view in the centre row or column of the grid: its samples move along one
 /// image axis, and it belongs to one group.
 #[derive(Clone, Copy, Debug, Default)]
@@ -586,19 +607,7 @@ impl<T: Scalar> Views<T> {
                 b += gr[c];
                 e += rr[c];
             }
-            let w = scaled / (robust + e);
-            let (a, b, e) = (w * a, w * b, w * e);
-            let mut add = |g: usize| {
-                if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
-                    sums[0] += a;
-                    sums[1] += b;
-                    sums[2] += e;
-                }
-            };
-            add(tap.group);
-            if let Some(g) = tap.second_group {
-                add(g);
-            }
+            tap.add_weighted(out, (a, b, e), (robust, scaled));
         }
     }
 
@@ -969,19 +978,7 @@ impl<T: Scalar> Views<T> {
                 b += g * (g * d - r);
                 e += r * r;
             }
-            let w = scaled / (robust + e);
-            let (a, b, e) = (w * a, w * b, w * e);
-            let mut add = |g: usize| {
-                if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
-                    sums[0] += a;
-                    sums[1] += b;
-                    sums[2] += e;
-                }
-            };
-            add(tap.group);
-            if let Some(g) = tap.second_group {
-                add(g);
-            }
+            tap.add_weighted(out, (a, b, e), (robust, scaled));
         }
     }
 
