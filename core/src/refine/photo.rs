@@ -69,6 +69,23 @@ struct Tap<T> {
 }
 
 impl<T: Scalar> Tap<T> {
+    /// One view's Cauchy-weighted residual energy over the first `n` channels,
+    /// `scaled · e / (robust + e)`.
+    fn weighted_cost<const L: usize>(
+        &self,
+        at: &[T; L],
+        centre: &[T; L],
+        n: usize,
+        (robust, scaled): (T, T),
+    ) -> T {
+        let mut e = T::ZERO;
+        for c in 0..n.min(L) {
+            let r = at[c] - centre[c];
+            e += r * r;
+        }
+        scaled / (robust + e) * e
+    }
+
     /// Adds one view's normal-equation terms `(a, b, e)` to the sums of its groups
     /// (`out[3g..3g + 3]`), Cauchy-weighted by its residual energy `e`:
     /// `w = scaled / (robust + e)`.
@@ -651,12 +668,9 @@ impl<T: Scalar> Views<T> {
             else {
                 continue;
             };
-            let mut e = T::ZERO;
-            for c in 0..N.min(L) {
-                let r = at[c] - centre[c];
-                e += r * r;
-            }
-            let e = scaled / (robust + e) * e;
+            // Counted once per group the view belongs to (two separate sums: the same
+            // rounding as before).
+            let e = tap.weighted_cost(&at, &centre, N, (robust, scaled));
             cost += e;
             if tap.second_group.is_some() {
                 cost += e;
@@ -1003,12 +1017,9 @@ impl<T: Scalar> Views<T> {
             else {
                 continue;
             };
-            let mut e = T::ZERO;
-            for c in 0..N.min(L) {
-                let r = at[c] - centre[c];
-                e += r * r;
-            }
-            let e = scaled / (robust + e) * e;
+            // Counted once per group the view belongs to (two separate sums: the same
+            // rounding as before).
+            let e = tap.weighted_cost(&at, &centre, N, (robust, scaled));
             cost += e;
             if tap.second_group.is_some() {
                 cost += e;
