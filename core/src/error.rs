@@ -115,11 +115,49 @@ pub(crate) fn checked_product(factors: &[usize], what: &'static str) -> Result<u
     })
 }
 
+/// [`Error::ScratchTooSmall`] unless `got` scratch elements cover the `needed` ones: the
+/// check every stage makes before it touches its scratch.
+pub(crate) fn check_scratch(needed: usize, got: usize) -> Result<()> {
+    if got < needed {
+        return Err(Error::ScratchTooSmall { needed, got });
+    }
+    Ok(())
+}
+
+/// [`Error::OutputSize`] for the first of `maps` (name, length) whose length is not
+/// `needed`: the maps a stage reads and writes all hold one value per pixel.
+pub(crate) fn check_map_lengths(needed: usize, maps: &[(&'static str, usize)]) -> Result<()> {
+    for &(what, got) in maps {
+        if got != needed {
+            return Err(Error::OutputSize { what, needed, got });
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
     use super::*;
     use std::string::ToString;
+
+    #[test]
+    fn size_checks_name_the_first_bad_buffer() {
+        assert_eq!(check_scratch(4, 4), Ok(()));
+        assert_eq!(
+            check_scratch(5, 4),
+            Err(Error::ScratchTooSmall { needed: 5, got: 4 })
+        );
+        assert_eq!(check_map_lengths(3, &[("a", 3), ("b", 3)]), Ok(()));
+        assert_eq!(
+            check_map_lengths(3, &[("a", 3), ("b", 2), ("c", 1)]),
+            Err(Error::OutputSize {
+                what: "b",
+                needed: 3,
+                got: 2
+            })
+        );
+    }
 
     #[test]
     fn messages_say_what_to_change() {

@@ -30,7 +30,7 @@
 //! The sweeps run over the whole map in one order, so the stage is not banded: it is
 //! one serial call, bit-identical however the caller schedules the other stages.
 
-use crate::error::{checked_product, Error, Result};
+use crate::error::{check_map_lengths, check_scratch, checked_product, Error, Result};
 use crate::lightfield::{Sample, View};
 use crate::plan::Plan;
 
@@ -184,25 +184,15 @@ pub fn fill<S: Sample>(
             got: checked_product(&[guide.width(), guide.height()], "the guide view")?,
         });
     }
-    for (what, len) in [
-        ("the fill input", input.len()),
-        ("the fill output", out.len()),
-    ] {
-        if len != pixels {
-            return Err(Error::OutputSize {
-                what,
-                needed: pixels,
-                got: len,
-            });
-        }
-    }
+    check_map_lengths(
+        pixels,
+        &[
+            ("the fill input", input.len()),
+            ("the fill output", out.len()),
+        ],
+    )?;
     let needed = scratch_len(plan);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let p = plan.params().geofill;
     let short = Error::ScratchTooSmall {
         needed,

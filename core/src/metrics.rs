@@ -18,7 +18,7 @@
 //! the Python script in the last few bits (relative ~1e-15); all other scores are computed
 //! with the same IEEE operations in the same order and match exactly.
 
-use crate::error::{checked_product, Error, Result};
+use crate::error::{check_map_lengths, check_scratch, checked_product, Error, Result};
 
 /// The HCI toolkit's evaluation border in pixels (at ground-truth scale 1).
 pub const BORDER: usize = 15;
@@ -89,15 +89,10 @@ pub fn evaluate(
             what: "the disparity map to evaluate",
         });
     }
-    for (what, len) in [("the estimate", est.len()), ("the ground truth", gt.len())] {
-        if len != pixels {
-            return Err(Error::OutputSize {
-                what,
-                needed: pixels,
-                got: len,
-            });
-        }
-    }
+    check_map_lengths(
+        pixels,
+        &[("the estimate", est.len()), ("the ground truth", gt.len())],
+    )?;
     if let Some(mask) = options.mask {
         if mask.len() != pixels {
             return Err(Error::OutputSize {
@@ -107,12 +102,7 @@ pub fn evaluate(
             });
         }
     }
-    if scratch.len() < pixels {
-        return Err(Error::ScratchTooSmall {
-            needed: pixels,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(pixels, scratch.len())?;
     let border = options.border;
     let cols = border..width.saturating_sub(border);
     let rows = border..height.saturating_sub(border);

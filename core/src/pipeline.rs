@@ -9,7 +9,7 @@ use core::ops::ControlFlow;
 
 use crate::align::{self, AlignMode, AlignParams, AlignReport, AlignedViews, WarpSample};
 use crate::epi;
-use crate::error::{Error, Result};
+use crate::error::{check_map_lengths, check_scratch, Error, Result};
 use crate::geofill;
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample};
@@ -161,12 +161,7 @@ pub fn run<T: Scalar, S: Sample>(
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
     let needed = stage_scratch_len(plan, stages);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let hyps = epi::estimate_with_progress(plan, lf, disparity, confidence, scratch, progress)?;
     if stages == Stages::Epi {
         return Ok(());
@@ -201,32 +196,17 @@ pub fn regularize<T: Scalar, S: Sample>(
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
     let pixels = plan.pixels();
-    for (what, len) in [
-        ("the disparity", disparity.len()),
-        ("the confidence", confidence.len()),
-    ] {
-        if len != pixels {
-            return Err(Error::OutputSize {
-                what,
-                needed: pixels,
-                got: len,
-            });
-        }
-    }
+    check_map_lengths(
+        pixels,
+        &[
+            ("the disparity", disparity.len()),
+            ("the confidence", confidence.len()),
+        ],
+    )?;
     let needed = scratch_len(plan);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let needed = map_scratch_len(plan);
-    if maps.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: maps.len(),
-        });
-    }
+    check_scratch(needed, maps.len())?;
     let too_small = Error::ScratchTooSmall {
         needed,
         got: maps.len(),

@@ -28,7 +28,7 @@ use crate::align::AlignMode;
 use crate::epi::{
     clamp_f32, fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator,
 };
-use crate::error::{checked_product, Error, Result};
+use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::{Grid, Layout, Sample, View};
 use crate::plan::{Params, Plan};
 use crate::scalar::Scalar;
@@ -642,12 +642,7 @@ fn split_line<'s, T: Scalar>(
     n: usize,
 ) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
     let needed = estimator.line_work_len(n) + 2 * n;
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let short = Error::ScratchTooSmall {
         needed,
         got: scratch.len(),

@@ -51,7 +51,7 @@ mod warp;
 
 use heapless::Vec as FixedVec;
 
-use crate::error::{checked_product, Error, Result};
+use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
 
@@ -390,12 +390,7 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
         });
     }
     let needed = scratch_len(&layout, params)?;
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     homographies.fill(Homography::IDENTITY);
     let mut report = AlignReport::default();
     let set = match params.views {

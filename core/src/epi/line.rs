@@ -7,7 +7,7 @@ use super::hypotheses::Hypotheses;
 use super::kernels::{apply_pair, centre_weights, truncated_gaussian, Kernel};
 use super::planes::{shift, Planes, Sources};
 use super::{ColorMode, EpiParams, Search, INTENSITY_SCALE};
-use crate::error::{Error, Result};
+use crate::error::{check_scratch, Error, Result};
 use crate::lightfield::GRID_MAX;
 use crate::scalar::Scalar;
 use core::ops::Range;
@@ -331,12 +331,7 @@ impl<T: Scalar> LineEstimator<T> {
     ) -> Result<()> {
         let (k_n, c_n) = (self.views, self.channels);
         let needed = self.line_work_len(n);
-        if work.len() < needed {
-            return Err(Error::ScratchTooSmall {
-                needed,
-                got: work.len(),
-            });
-        }
+        check_scratch(needed, work.len())?;
         if disparity.len() < n || confidence.len() < n {
             return Err(Error::OutputSize {
                 what: "the line output",

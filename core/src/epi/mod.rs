@@ -19,7 +19,7 @@ pub use range::{estimate_range, RANGE_LINE_STEP};
 
 use core::ops::{ControlFlow, Range};
 
-use crate::error::{Error, Result};
+use crate::error::{check_scratch, Error, Result};
 use crate::lightfield::{LightField, Sample};
 use crate::pipeline::Progress;
 use crate::plan::Plan;
@@ -391,12 +391,7 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
     ) -> Result<(&'s mut [T], &'s mut [T], &'s mut [T])> {
         let n = self.n;
         let needed = self.estimator.line_work_len(n) + 2 * n;
-        if scratch.len() < needed {
-            return Err(Error::ScratchTooSmall {
-                needed,
-                got: scratch.len(),
-            });
-        }
+        check_scratch(needed, scratch.len())?;
         let too_small = Error::ScratchTooSmall {
             needed,
             got: scratch.len(),
@@ -564,12 +559,7 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
         });
     }
     let needed = scratch_len(plan);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let report =
         |progress: &mut dyn FnMut(Progress) -> ControlFlow<()>, stage, done, total| match progress(
             Progress {

@@ -4,7 +4,7 @@
 
 use super::hypotheses::Hypotheses;
 use super::{check_layout, scratch_len, BandEstimator, Direction};
-use crate::error::{Error, Result};
+use crate::error::{check_scratch, Result};
 use crate::lightfield::{LightField, Sample};
 use crate::plan::Plan;
 use crate::scalar::Scalar;
@@ -35,12 +35,7 @@ pub fn estimate_range<T: Scalar, S: Sample>(
 ) -> Result<(f32, f32)> {
     check_layout(plan, lf)?;
     let needed = scratch_len(plan);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let reach = PROBE_REACH + 1.0;
     let probe = Hypotheses::sheared(-PROBE_REACH, PROBE_REACH, 1.0, 1.0)?;
     let mut histogram = [0u32; BINS];

@@ -32,7 +32,7 @@ mod ring;
 mod select;
 mod weights;
 
-use crate::error::{Error, Result};
+use crate::error::{check_scratch, Error, Result};
 use crate::lightfield::{Sample, View};
 use crate::plan::Plan;
 
@@ -229,12 +229,7 @@ fn run<S: Sample>(
         });
     }
     let needed = scratch_len(plan);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let too_small = Error::ScratchTooSmall {
         needed,
         got: scratch.len(),

@@ -7,6 +7,7 @@ use core::ops::Range;
 use super::select::weighted_median;
 use super::weights::Weights;
 use super::*;
+use crate::error::check_scratch;
 use crate::lightfield::{Grid, Layout, LightField};
 use crate::plan::Params;
 
@@ -39,12 +40,7 @@ fn reference_rows<S: Sample>(
         });
     }
     let needed = scratch_len(plan);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let (column_steps, slopes) = scratch[..needed].split_at_mut(width);
     // Slopes of image row `yy` live in slot `yy % SLOPE_ROWS` (x then y, `width` each),
     // computed when the row first enters a window: each row once per call.

@@ -99,7 +99,7 @@ pub use params::{RefineParams, ViewSet};
 use core::ops::{ControlFlow, Range};
 
 use crate::align::Interpolation;
-use crate::error::{checked_product, Error, Result};
+use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample, GRID_MAX};
 use crate::pipeline::Progress;
@@ -478,12 +478,7 @@ fn band<T: Scalar, P: Photometric<T>>(
     let region = last - first;
     let pixels = region * width;
     let needed = pixels * (2 + STATS);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let input = disparity
         .get(first * width..last * width)
         .ok_or(Error::OutputSize {

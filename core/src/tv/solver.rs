@@ -33,7 +33,7 @@
 use core::ops::Range;
 
 use crate::epi::clamp_f32;
-use crate::error::{checked_product, Error, Result};
+use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::{Sample, View};
 use crate::scalar::Scalar;
 
@@ -278,12 +278,7 @@ pub fn solve<S: Scalar, P: Sample>(
         }
     }
     let needed = scratch_len_for(region.width, region.height);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     check_guide(maps, guide, region)?;
 
     let mut graph = Graph::split(&mut scratch[..needed], region.width, region.height);

@@ -3,7 +3,7 @@
 
 use core::ops::ControlFlow;
 
-use crate::error::{checked_product, Error, Result};
+use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::Sample;
 use crate::pipeline::Progress;
 use crate::plan::Plan;
@@ -187,12 +187,7 @@ pub fn refine_with_progress<S: Scalar, P: Sample>(
         });
     }
     let needed = scratch_len(plan);
-    if scratch.len() < needed {
-        return Err(Error::ScratchTooSmall {
-            needed,
-            got: scratch.len(),
-        });
-    }
+    check_scratch(needed, scratch.len())?;
     let needed = dual_len(plan);
     let short = Error::BufferTooSmall {
         what: "the outer sweeps' duals",
