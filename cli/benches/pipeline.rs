@@ -13,31 +13,11 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion};
 use lfdepth::refine::RefineParams;
 use lfdepth::synth::{self, SceneKind, SynthSpec};
-use lfdepth::{Grid, Homography, Layout, LightField, Params};
+use lfdepth::{Grid, Homography, LightField, Params};
 use lfdepth_cli::engine::{estimate, estimate_with, EstimateOptions, Precision, StageSelect};
 
-/// The views and layout of the benchmark scene, and its name.
-fn scene() -> (Vec<u8>, Layout, &'static str) {
-    let cotton = std::path::PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/data/hci/training/cotton"
-    ));
-    if cotton.is_dir() {
-        let (views, layout) = tv_support::load_hci(&cotton);
-        return (views, layout, "cotton");
-    }
-    eprintln!("../shared/data not found: benchmarking a synthetic Mixed scene instead");
-    let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), 512, 512);
-    let layout = spec.layout();
-    let mut views = vec![0u8; layout.validate().unwrap()];
-    let mut gt = vec![0.0f32; 512 * 512];
-    let mut homographies = vec![Homography::IDENTITY; 81];
-    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
-    (views, layout, "synthetic")
-}
-
 fn pipeline(c: &mut Criterion) {
-    let (views, layout, name) = scene();
+    let (views, layout, name) = tv_support::bench_scene();
     let lf = LightField::new(&views, layout).unwrap();
     let mut group = c.benchmark_group("pipeline");
     group

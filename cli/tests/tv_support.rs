@@ -156,3 +156,25 @@ pub fn cpu_seconds() -> f64 {
     // Fields 14 and 15 of stat (utime, stime), counted after the command name.
     (ticks(11) + ticks(12)) / 100.0
 }
+
+/// The benches' 9×9×512×512 scene: HCI cotton when `../shared/data` is present, else a
+/// synthetic Mixed one (said on stderr); its views, layout and name.
+pub fn bench_scene() -> (Vec<u8>, Layout, &'static str) {
+    let cotton = std::path::PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/data/hci/training/cotton"
+    ));
+    if cotton.is_dir() {
+        let (views, layout) = load_hci(&cotton);
+        return (views, layout, "cotton");
+    }
+    eprintln!("../shared/data not found: benchmarking a synthetic Mixed scene instead");
+    let spec =
+        lfdepth::synth::SynthSpec::new(lfdepth::synth::SceneKind::Mixed, Grid::new(9, 9), 512, 512);
+    let layout = spec.layout();
+    let mut views = vec![0u8; layout.validate().unwrap()];
+    let mut gt = vec![0.0f32; 512 * 512];
+    let mut homographies = vec![lfdepth::Homography::IDENTITY; 81];
+    lfdepth::synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
+    (views, layout, "synthetic")
+}
