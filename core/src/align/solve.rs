@@ -538,6 +538,43 @@ struct Points<'p> {
     solved: &'p [bool; MAX_FEATURES],
 }
 
+/// Which pyramid levels of a view to build.
+#[derive(Clone, Copy)]
+enum Levels {
+    All,
+    /// Full resolution only.
+    Base,
+}
+
+/// The pyramid of view `v`, built in `view_pyr`, paired with the centre view's.
+fn view_pair<'p, S: Sample>(
+    lf: &LightField<'_, S>,
+    pyramid: &'p Pyramid,
+    centre_pyr: &'p [f32],
+    view_pyr: &'p mut [f32],
+    v: usize,
+    levels: Levels,
+) -> Result<Pair<'p>> {
+    let got = view_pyr.len();
+    let view_pyr = view_pyr
+        .get_mut(..pyramid.len)
+        .ok_or(Error::ScratchTooSmall {
+            needed: pyramid.len,
+            got,
+        })?;
+    let (r, c) = row_col(lf.grid(), v);
+    let view = lf.view(r, c)?;
+    match levels {
+        Levels::All => pyramid.build(&view, view_pyr),
+        Levels::Base => pyramid.build_base(&view, view_pyr),
+    }
+    Ok(Pair {
+        pyramid,
+        center: centre_pyr,
+        view: view_pyr,
+    })
+}
+
 /// First-pass tracking of the corners into `task`'s view: the search starts where the
 /// `predicted` disparity puts each corner. Returns the number of corners found.
 fn track_first<S: Sample>(
@@ -549,24 +586,9 @@ fn track_first<S: Sample>(
     predicted: &[f32; MAX_FEATURES],
     task: &mut ViewTask<'_>,
 ) -> Result<usize> {
-    let grid = lf.grid();
     let v = task.view;
-    let got = view_pyr.len();
-    let view_pyr = view_pyr
-        .get_mut(..pyramid.len)
-        .ok_or(Error::ScratchTooSmall {
-            needed: pyramid.len,
-            got,
-        })?;
-    let (r, c) = row_col(grid, v);
-    let view = lf.view(r, c)?;
-    pyramid.build(&view, view_pyr);
-    let pair = Pair {
-        pyramid,
-        center: centre_pyr,
-        view: view_pyr,
-    };
-    let b = baseline(grid, v);
+    let pair = view_pair(lf, pyramid, centre_pyr, view_pyr, v, Levels::All)?;
+    let b = baseline(lf.grid(), v);
     let mut found = 0;
     for ((i, c), &d) in corners.iter().enumerate().zip(predicted) {
         let guess = (c.x - d * b.0, c.y - d * b.1);
@@ -595,13 +617,6 @@ fn track_second<S: Sample>(
     let (width, height) = (lf.width(), lf.height());
     let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
     let v = task.view;
-    let got = view_pyr.len();
-    let view_pyr = view_pyr
-        .get_mut(..pyramid.len)
-        .ok_or(Error::ScratchTooSmall {
-            needed: pyramid.len,
-            got,
-        })?;
     let h_v = model::from_homography(hs.get(v).ok_or(Error::OutOfRange {
         what: "view",
         index: v,
@@ -609,15 +624,8 @@ fn track_second<S: Sample>(
     })?);
     let centre_to_view = h_v * to_rect;
     let shape = jacobian(&centre_to_view, o).unwrap_or(track::IDENTITY);
-    let (r, c) = row_col(grid, v);
-    let view = lf.view(r, c)?;
     // The second pass matches at full resolution only.
-    pyramid.build_base(&view, view_pyr);
-    let pair = Pair {
-        pyramid,
-        center: centre_pyr,
-        view: view_pyr,
-    };
+    let pair = view_pair(lf, pyramid, centre_pyr, view_pyr, v, Levels::Base)?;
     let b = baseline(grid, v);
     let mut found = 0;
     for (i, c) in corners.iter().enumerate() {
