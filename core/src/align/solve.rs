@@ -58,6 +58,23 @@ impl Tracks {
     }
 }
 
+/// Views handed to the `ViewMap` at once. The task table lives on the stack: one for a
+/// whole 17×17 grid took ≈ 20–30 KB of frame (docs/EMBEDDED.md); 16 views still keep 16
+/// threads busy. The views of a batch are independent, so the result does not depend
+/// on it.
+const TASK_BATCH: usize = 16;
+
+/// The views `0..len` for which `wanted` holds, in index order (the order in which
+/// their tasks are checked, so that errors name the same view however they are batched).
+fn views_where(len: usize, wanted: impl Fn(usize) -> bool) -> FixedVec<usize, MAX_VIEWS> {
+    let mut out = FixedVec::new();
+    for v in (0..len.min(MAX_VIEWS)).filter(|&v| wanted(v)) {
+        // At most `MAX_VIEWS` candidates: the push never fails (`collect` would panic).
+        let _ = out.push(v);
+    }
+    out
+}
+
 /// Corners the auto mode's probe ([`ViewSet::Probe`]) tracks (at most
 /// `align.features`, at least `align.min_inliers`).
 const PROBE_FEATURES: usize = 64;
@@ -420,30 +437,32 @@ pub fn run<S: Sample, M: ViewMap>(
             }
         }
         let corners = &state.corners;
-        let mut tasks: FixedVec<ViewTask<'_>, MAX_VIEWS> = FixedVec::new();
-        for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
-            if ring(v) == k && order.contains(&v) {
-                let _ = tasks.push(ViewTask::new(v, chunk));
-            }
-        }
+        let ring_views = views_where(grid.len(), |v| ring(v) == k && order.contains(&v));
         let job = |task: &mut ViewTask<'_>, view_pyr: &mut [f32]| {
             task.outcome = track_first(
                 lf, &pyramid, centre_pyr, view_pyr, corners, &predicted, task,
             );
         };
-        map.map(&mut tasks, view_pyr, &job);
-        for task in &tasks {
-            let v = task.view;
-            let found = task.outcome?;
-            if found < params.min_inliers {
-                return Err(Error::Alignment {
-                    view: v,
-                    reason: "too few corners of the centre view were found in this view: it is textureless or too different from the centre view",
-                });
+        for batch in ring_views.chunks(TASK_BATCH) {
+            let mut tasks: FixedVec<ViewTask<'_>, TASK_BATCH> = FixedVec::new();
+            for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
+                if batch.contains(&v) {
+                    let _ = tasks.push(ViewTask::new(v, chunk));
+                }
+            }
+            map.map(&mut tasks, view_pyr, &job);
+            for task in &tasks {
+                let v = task.view;
+                let found = task.outcome?;
+                if found < params.min_inliers {
+                    return Err(Error::Alignment {
+                        view: v,
+                        reason: "too few corners of the centre view were found in this view: it is textureless or too different from the centre view",
+                    });
+                }
             }
         }
-        drop(tasks);
-        for v in (0..grid.len()).filter(|&v| ring(v) == k && order.contains(&v)) {
+        for &v in &ring_views {
             let b = baseline(grid, v);
             for (i, (num, den)) in d_num.iter_mut().zip(&mut d_den).enumerate().take(n) {
                 let q = state.ob(v, i);
@@ -484,20 +503,22 @@ pub fn run<S: Sample, M: ViewMap>(
         };
         let corners = &state.corners;
         let hs = &*homographies;
-        let mut tasks: FixedVec<ViewTask<'_>, MAX_VIEWS> = FixedVec::new();
-        for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
-            if order.contains(&v) {
-                let _ = tasks.push(ViewTask::new(v, chunk));
-            }
-        }
         let job = |task: &mut ViewTask<'_>, view_pyr: &mut [f32]| {
             task.outcome = track_second(
                 lf, &pyramid, centre_pyr, view_pyr, corners, &points, &to_rect, hs, task,
             );
         };
-        map.map(&mut tasks, view_pyr, &job);
-        for task in &tasks {
-            task.outcome?;
+        for batch in views_where(grid.len(), |v| order.contains(&v)).chunks(TASK_BATCH) {
+            let mut tasks: FixedVec<ViewTask<'_>, TASK_BATCH> = FixedVec::new();
+            for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
+                if batch.contains(&v) {
+                    let _ = tasks.push(ViewTask::new(v, chunk));
+                }
+            }
+            map.map(&mut tasks, view_pyr, &job);
+            for task in &tasks {
+                task.outcome?;
+            }
         }
     }
     for &v in &order {
@@ -517,6 +538,43 @@ struct Points<'p> {
     solved: &'p [bool; MAX_FEATURES],
 }
 
+/// Which pyramid levels of a view to build.
+#[derive(Clone, Copy)]
+enum Levels {
+    All,
+    /// Full resolution only.
+    Base,
+}
+
+/// The pyramid of view `v`, built in `view_pyr`, paired with the centre view's.
+fn view_pair<'p, S: Sample>(
+    lf: &LightField<'_, S>,
+    pyramid: &'p Pyramid,
+    centre_pyr: &'p [f32],
+    view_pyr: &'p mut [f32],
+    v: usize,
+    levels: Levels,
+) -> Result<Pair<'p>> {
+    let got = view_pyr.len();
+    let view_pyr = view_pyr
+        .get_mut(..pyramid.len)
+        .ok_or(Error::ScratchTooSmall {
+            needed: pyramid.len,
+            got,
+        })?;
+    let (r, c) = row_col(lf.grid(), v);
+    let view = lf.view(r, c)?;
+    match levels {
+        Levels::All => pyramid.build(&view, view_pyr),
+        Levels::Base => pyramid.build_base(&view, view_pyr),
+    }
+    Ok(Pair {
+        pyramid,
+        center: centre_pyr,
+        view: view_pyr,
+    })
+}
+
 /// First-pass tracking of the corners into `task`'s view: the search starts where the
 /// `predicted` disparity puts each corner. Returns the number of corners found.
 fn track_first<S: Sample>(
@@ -528,24 +586,9 @@ fn track_first<S: Sample>(
     predicted: &[f32; MAX_FEATURES],
     task: &mut ViewTask<'_>,
 ) -> Result<usize> {
-    let grid = lf.grid();
     let v = task.view;
-    let got = view_pyr.len();
-    let view_pyr = view_pyr
-        .get_mut(..pyramid.len)
-        .ok_or(Error::ScratchTooSmall {
-            needed: pyramid.len,
-            got,
-        })?;
-    let (r, c) = row_col(grid, v);
-    let view = lf.view(r, c)?;
-    pyramid.build(&view, view_pyr);
-    let pair = Pair {
-        pyramid,
-        center: centre_pyr,
-        view: view_pyr,
-    };
-    let b = baseline(grid, v);
+    let pair = view_pair(lf, pyramid, centre_pyr, view_pyr, v, Levels::All)?;
+    let b = baseline(lf.grid(), v);
     let mut found = 0;
     for ((i, c), &d) in corners.iter().enumerate().zip(predicted) {
         let guess = (c.x - d * b.0, c.y - d * b.1);
@@ -574,13 +617,6 @@ fn track_second<S: Sample>(
     let (width, height) = (lf.width(), lf.height());
     let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
     let v = task.view;
-    let got = view_pyr.len();
-    let view_pyr = view_pyr
-        .get_mut(..pyramid.len)
-        .ok_or(Error::ScratchTooSmall {
-            needed: pyramid.len,
-            got,
-        })?;
     let h_v = model::from_homography(hs.get(v).ok_or(Error::OutOfRange {
         what: "view",
         index: v,
@@ -588,15 +624,8 @@ fn track_second<S: Sample>(
     })?);
     let centre_to_view = h_v * to_rect;
     let shape = jacobian(&centre_to_view, o).unwrap_or(track::IDENTITY);
-    let (r, c) = row_col(grid, v);
-    let view = lf.view(r, c)?;
     // The second pass matches at full resolution only.
-    pyramid.build_base(&view, view_pyr);
-    let pair = Pair {
-        pyramid,
-        center: centre_pyr,
-        view: view_pyr,
-    };
+    let pair = view_pair(lf, pyramid, centre_pyr, view_pyr, v, Levels::Base)?;
     let b = baseline(grid, v);
     let mut found = 0;
     for (i, c) in corners.iter().enumerate() {
@@ -713,6 +742,12 @@ fn common_mode_derivatives(px: f64, py: f64) -> [[f64; 2]; COMMON_MODES] {
 /// relative BadPix). Here the three non-gauge modes are fitted jointly by linear least
 /// squares on the residuals, each point's own unknowns `(X, d)` projected out, and
 /// every map is corrected. `None` (maps untouched) when the system is degenerate.
+///
+/// The projection is applied through inner products, `⟨Pz, Pw⟩ = ⟨z, w⟩ −
+/// (Fᵀz)ᵀ(FᵀF)⁻¹(Fᵀw)` (`P` the projector onto the complement of the point's columns
+/// `F`), so each observation is added to a few sums and no per-view table is kept:
+/// the stack frame stays small enough for a microcontroller (it held ≈ 60 KB of
+/// tables before, docs/EMBEDDED.md).
 fn correct_common_distortion(
     state: &State<'_>,
     maps: &mut [Homography],
@@ -723,24 +758,23 @@ fn correct_common_distortion(
     let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
     let mut ata = SMatrix::<f64, COMMON_MODES, COMMON_MODES>::zeros();
     let mut atb = SVector::<f64, COMMON_MODES>::zeros();
-    let mut mats: FixedVec<Mat, MAX_VIEWS> = FixedVec::new();
-    for map in maps.iter().take(grid.len()) {
-        let _ = mats.push(model::from_homography(map));
-    }
-    // Per observation: baseline, mode derivatives (3 × 2) and residual (2), in f64.
-    type Obs = ((f64, f64), [[f64; 2]; COMMON_MODES], [f64; 2]);
-    let mut rows: FixedVec<Obs, MAX_VIEWS> = FixedVec::new();
+    // The stacked vectors of one point: the three mode derivatives and the residual.
+    const STACKED: usize = COMMON_MODES + 1;
     for i in 0..state.corners.len().min(MAX_FEATURES) {
         if !state.is_solved(i) {
             continue;
         }
-        rows.clear();
-        for (v, m) in mats.iter().enumerate() {
+        // Per point: the Gram matrix of the stacked vectors, their products with the
+        // point's columns `F` (per observation (1, 0), (0, 1), −b) and `FᵀF`.
+        let mut gram = SMatrix::<f64, STACKED, STACKED>::zeros();
+        let mut ftz = [Vector3::<f64>::zeros(); STACKED];
+        let (mut n, mut sbx, mut sby, mut sbb) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for (v, map) in maps.iter().enumerate().take(grid.len()) {
             if !state.is_tracked(v) || !state.inlier(v, i) {
                 continue;
             }
             let Some(q) = state.ob(v, i) else { continue };
-            let Some(u) = model::apply(m, q.0, q.1) else {
+            let Some(u) = model::apply(&model::from_homography(map), q.0, q.1) else {
                 continue;
             };
             let b = baseline(grid, v);
@@ -750,50 +784,35 @@ fn correct_common_distortion(
                 f64::from(u.0 - (state.x[i] - state.d[i] * b.0)),
                 f64::from(u.1 - (state.y[i] - state.d[i] * b.1)),
             ];
-            let _ = rows.push(((f64::from(b.0), f64::from(b.1)), a, r));
-        }
-        if rows.len() < 3 {
-            continue;
-        }
-        // The point's own unknowns: columns (1, 0), (0, 1), −b per observation.
-        let (mut n, mut sbx, mut sby, mut sbb) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-        for (b, _, _) in rows.iter() {
+            let z = [a[0], a[1], a[2], r];
+            let (bx, by) = (f64::from(b.0), f64::from(b.1));
+            for p in 0..STACKED {
+                ftz[p] += Vector3::new(z[p][0], z[p][1], -(bx * z[p][0] + by * z[p][1]));
+                for q in 0..STACKED {
+                    gram[(p, q)] += z[p][0] * z[q][0] + z[p][1] * z[q][1];
+                }
+            }
             n += 1.0;
-            sbx += b.0;
-            sby += b.1;
-            sbb += b.0 * b.0 + b.1 * b.1;
+            sbx += bx;
+            sby += by;
+            sbb += bx * bx + by * by;
+        }
+        if n < 3.0 {
+            continue;
         }
         let ftf = Matrix3::new(n, 0.0, -sbx, 0.0, n, -sby, -sbx, -sby, sbb);
         let Some(ftf_inv) = ftf.try_inverse() else {
             continue;
         };
-        // Projection of a stacked vector `z` onto the complement of the point's columns.
-        let project = |z: &dyn Fn(&Obs) -> [f64; 2]| -> FixedVec<[f64; 2], MAX_VIEWS> {
-            let mut ftz = Vector3::<f64>::zeros();
-            for row in rows.iter() {
-                let (b, e) = (row.0, z(row));
-                ftz += Vector3::new(e[0], e[1], -(b.0 * e[0] + b.1 * e[1]));
-            }
-            let c = ftf_inv * ftz;
-            let mut out = FixedVec::new();
-            for row in rows.iter() {
-                let (b, e) = (row.0, z(row));
-                let _ = out.push([e[0] - c[0] + c[2] * b.0, e[1] - c[1] + c[2] * b.1]);
-            }
-            out
+        let projected = |p: usize, q: usize| match (gram.get((p, q)), ftz.get(p), ftz.get(q)) {
+            (Some(g), Some(zp), Some(zq)) => g - zp.dot(&(ftf_inv * zq)),
+            // Indices below `STACKED`: never taken.
+            _ => 0.0,
         };
-        let r = project(&|row| row.2);
-        let a: [FixedVec<[f64; 2], MAX_VIEWS>; COMMON_MODES] =
-            core::array::from_fn(|k| project(&|row| row.1[k]));
-        // `r` and every `a[k]` have one entry per row: the skips never happen.
-        for (j, rj) in r.iter().enumerate() {
-            for k in 0..COMMON_MODES {
-                let Some(ak) = a[k].get(j) else { continue };
-                atb[k] += ak[0] * rj[0] + ak[1] * rj[1];
-                for l in 0..COMMON_MODES {
-                    let Some(al) = a[l].get(j) else { continue };
-                    ata[(k, l)] += ak[0] * al[0] + ak[1] * al[1];
-                }
+        for k in 0..COMMON_MODES {
+            atb[k] += projected(k, COMMON_MODES);
+            for l in 0..COMMON_MODES {
+                ata[(k, l)] += projected(k, l);
             }
         }
     }
@@ -817,17 +836,26 @@ fn correct_common_distortion(
         0.0,
         1.0,
     );
-    let mut corrected: FixedVec<Homography, MAX_VIEWS> = FixedVec::new();
-    for (v, (m, map)) in mats.iter().zip(maps.iter()).enumerate() {
-        let h = if state.is_tracked(v) {
-            model::to_homography(&(c * m))?
+    let corrected = |v: usize, map: &Homography| {
+        if state.is_tracked(v) {
+            model::to_homography(&(c * model::from_homography(map)))
         } else {
-            *map
-        };
-        let _ = corrected.push(h);
+            Some(*map)
+        }
+    };
+    // Every map or none: check them all before writing any (no table of the results).
+    if !maps
+        .iter()
+        .enumerate()
+        .take(grid.len())
+        .all(|(v, map)| corrected(v, map).is_some())
+    {
+        return None;
     }
-    for (map, h) in maps.iter_mut().zip(&corrected) {
-        *map = *h;
+    for (v, map) in maps.iter_mut().enumerate().take(grid.len()) {
+        if let Some(h) = corrected(v, map) {
+            *map = h;
+        }
     }
     Some(())
 }
@@ -941,10 +969,6 @@ fn alternate<M: ViewMap>(
         // other views (RANSAC seeded per view), so `map` may spread it.
         {
             let st = &*state;
-            let mut tasks: FixedVec<ViewTask<'_>, MAX_VIEWS> = FixedVec::new();
-            for v in (0..grid.len()).filter(|&v| st.is_tracked(v)) {
-                let _ = tasks.push(ViewTask::new(v, &mut []));
-            }
             let job = |task: &mut ViewTask<'_>, _: &mut [f32]| {
                 let v = task.view();
                 let b = baseline(grid, v);
@@ -963,19 +987,25 @@ fn alternate<M: ViewMap>(
                 };
                 task.homography = fitted.and_then(|m| model::to_homography(&m));
             };
-            map.map(&mut tasks, &mut [], &job);
-            for task in &tasks {
-                let v = task.view();
-                let len = maps.len();
-                let slot = maps.get_mut(v).ok_or(Error::OutOfRange {
-                    what: "view",
-                    index: v,
-                    len,
-                })?;
-                *slot = task.homography.ok_or(Error::Alignment {
-                    view: v,
-                    reason: "no homography fits the matches of this view: it is too different from the centre view",
-                })?;
+            for batch in views_where(grid.len(), |v| st.is_tracked(v)).chunks(TASK_BATCH) {
+                let mut tasks: FixedVec<ViewTask<'_>, TASK_BATCH> = FixedVec::new();
+                for &v in batch {
+                    let _ = tasks.push(ViewTask::new(v, &mut []));
+                }
+                map.map(&mut tasks, &mut [], &job);
+                for task in &tasks {
+                    let v = task.view();
+                    let len = maps.len();
+                    let slot = maps.get_mut(v).ok_or(Error::OutOfRange {
+                        what: "view",
+                        index: v,
+                        len,
+                    })?;
+                    *slot = task.homography.ok_or(Error::Alignment {
+                        view: v,
+                        reason: "no homography fits the matches of this view: it is too different from the centre view",
+                    })?;
+                }
             }
         }
         fix_gauge(state, maps, width, height, params.reference).ok_or(Error::Alignment {
