@@ -165,28 +165,16 @@ pub fn reprojection_rms(
             let y = (0.5 + (k / 8) as f32) * height as f32 / 8.0;
             // Rectified positions according to the estimate, and their least-squares
             // rectified-array fit: d' = −cov(b, e)/var(b), X' = mean(e) + d'·mean(b).
-            let (mut n, mut sb, mut se, mut sbb, mut sbe) =
-                (0.0f32, [0.0f32; 2], [0.0f32; 2], 0.0f32, 0.0f32);
             let project = |v: usize| -> Option<(f32, f32)> {
                 let b = baseline(v);
                 let q = truth[v].apply(x - d * b.0, y - d * b.1)?;
                 estimate[v].inverse()?.apply(q.0, q.1)
             };
+            let mut fit = super::model::ParallaxFit::default();
             for v in 0..grid.len() {
-                let e = project(v)?;
-                let b = baseline(v);
-                n += 1.0;
-                sb[0] += b.0;
-                sb[1] += b.1;
-                se[0] += e.0;
-                se[1] += e.1;
-                sbb += b.0 * b.0 + b.1 * b.1;
-                sbe += b.0 * e.0 + b.1 * e.1;
+                fit.add(baseline(v), project(v)?);
             }
-            let var = sbb - (sb[0] * sb[0] + sb[1] * sb[1]) / n;
-            let dd = -(sbe - (sb[0] * se[0] + sb[1] * se[1]) / n) / var;
-            let xx = (se[0] + dd * sb[0]) / n;
-            let yy = (se[1] + dd * sb[1]) / n;
+            let (xx, yy, dd) = fit.solution();
             for v in 0..grid.len() {
                 let e = project(v)?;
                 let b = baseline(v);

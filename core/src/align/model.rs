@@ -256,6 +256,50 @@ pub fn lu_solve<T: RealField + Copy, const N: usize>(
     Some(SVector::from_fn(|r, _| x[r]))
 }
 
+/// Least-squares fit of one point seen across a rectified array: each view `v` sees it at
+/// `u_v = X − d·b_v` (baseline `b_v`), and `d = −cov(b, u)/var(b)`, `X = mean(u) +
+/// d·mean(b)`. The sums are added one observation at a time, so no table is kept.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ParallaxFit {
+    /// Observations added.
+    pub n: f32,
+    sb: [f32; 2],
+    su: [f32; 2],
+    sbb: f32,
+    sbu: f32,
+}
+
+impl ParallaxFit {
+    /// Adds the observation `u` of a view with baseline `b`.
+    #[inline]
+    pub fn add(&mut self, b: (f32, f32), u: (f32, f32)) {
+        self.n += 1.0;
+        self.sb[0] += b.0;
+        self.sb[1] += b.1;
+        self.su[0] += u.0;
+        self.su[1] += u.1;
+        self.sbb += b.0 * b.0 + b.1 * b.1;
+        self.sbu += b.0 * u.0 + b.1 * u.1;
+    }
+
+    /// `n·var(b)`: how well the baselines pin `d` down (zero for a single baseline).
+    pub fn spread(&self) -> f32 {
+        self.sbb - (self.sb[0] * self.sb[0] + self.sb[1] * self.sb[1]) / self.n.max(1.0)
+    }
+
+    /// `(X, Y, d)`; non-finite when the spread is zero.
+    pub fn solution(&self) -> (f32, f32, f32) {
+        let n = self.n;
+        let cov = self.sbu - (self.sb[0] * self.su[0] + self.sb[1] * self.su[1]) / n;
+        let d = -cov / self.spread();
+        (
+            (self.su[0] + d * self.sb[0]) / n,
+            (self.su[1] + d * self.sb[1]) / n,
+            d,
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -249,8 +249,7 @@ impl State<'_> {
         i: usize,
         map_of: impl Fn(usize) -> Option<Mat>,
     ) -> Option<(f32, f32, f32)> {
-        let (mut n, mut sb, mut su, mut sbb, mut sbu) =
-            (0.0f32, [0.0f32; 2], [0.0f32; 2], 0.0f32, 0.0f32);
+        let mut fit = model::ParallaxFit::default();
         for v in 0..self.grid.len() {
             if !self.is_tracked(v) || !self.inlier(v, i) {
                 continue;
@@ -260,23 +259,12 @@ impl State<'_> {
             let Some(u) = model::apply(&m, q.0, q.1) else {
                 continue;
             };
-            let b = baseline(self.grid, v);
-            n += 1.0;
-            sb[0] += b.0;
-            sb[1] += b.1;
-            su[0] += u.0;
-            su[1] += u.1;
-            sbb += b.0 * b.0 + b.1 * b.1;
-            sbu += b.0 * u.0 + b.1 * u.1;
+            fit.add(baseline(self.grid, v), u);
         }
-        // d = −cov(b, u) / var(b); X = mean(u) + d · mean(b).
-        let var = sbb - (sb[0] * sb[0] + sb[1] * sb[1]) / n.max(1.0);
-        if n < 3.0 || var < 0.5 {
+        if fit.n < 3.0 || fit.spread() < 0.5 {
             return None;
         }
-        let cov = sbu - (sb[0] * su[0] + sb[1] * su[1]) / n;
-        let d = -cov / var;
-        Some(((su[0] + d * sb[0]) / n, (su[1] + d * sb[1]) / n, d))
+        Some(fit.solution())
     }
 
     /// Plane-patch step (paper Eq. 4–5): the disparity of each patch of the centre view
@@ -457,25 +445,15 @@ pub fn run<S: Sample, M: ViewMap>(
                 lf, &pyramid, centre_pyr, view_pyr, corners, &predicted, task,
             );
         };
-        for batch in ring_views.chunks(TASK_BATCH) {
-            let mut tasks: FixedVec<ViewTask<'_>, TASK_BATCH> = FixedVec::new();
-            for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
-                if batch.contains(&v) {
-                    let _ = tasks.push(ViewTask::new(v, chunk));
-                }
+        track_batches(state.obs, &ring_views, view_pyr, map, &job, |task| {
+            if task.outcome? < params.min_inliers {
+                return Err(Error::Alignment {
+                    view: task.view,
+                    reason: "too few corners of the centre view were found in this view: it is textureless or too different from the centre view",
+                });
             }
-            map.map(&mut tasks, view_pyr, &job);
-            for task in &tasks {
-                let v = task.view;
-                let found = task.outcome?;
-                if found < params.min_inliers {
-                    return Err(Error::Alignment {
-                        view: v,
-                        reason: "too few corners of the centre view were found in this view: it is textureless or too different from the centre view",
-                    });
-                }
-            }
-        }
+            Ok(())
+        })?;
         for &v in &ring_views {
             let b = baseline(grid, v);
             for (i, (num, den)) in d_num.iter_mut().zip(&mut d_den).enumerate().take(n) {
@@ -522,18 +500,10 @@ pub fn run<S: Sample, M: ViewMap>(
                 lf, &pyramid, centre_pyr, view_pyr, corners, &points, &to_rect, hs, task,
             );
         };
-        for batch in views_where(grid.len(), |v| order.contains(&v)).chunks(TASK_BATCH) {
-            let mut tasks: FixedVec<ViewTask<'_>, TASK_BATCH> = FixedVec::new();
-            for (v, chunk) in state.obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
-                if batch.contains(&v) {
-                    let _ = tasks.push(ViewTask::new(v, chunk));
-                }
-            }
-            map.map(&mut tasks, view_pyr, &job);
-            for task in &tasks {
-                task.outcome?;
-            }
-        }
+        let views = views_where(grid.len(), |v| order.contains(&v));
+        track_batches(state.obs, &views, view_pyr, map, &job, |task| {
+            task.outcome.map(|_| ())
+        })?;
     }
     for &v in &order {
         for i in 0..n {
@@ -542,6 +512,36 @@ pub fn run<S: Sample, M: ViewMap>(
         }
     }
     alternate(&mut state, params, homographies, width, height, map)
+}
+
+/// Runs the tracking `job` for `views` (in index order) through `map`, [`TASK_BATCH`]
+/// at a time, each task writing its view's row of the observation table `obs`; `check`
+/// sees every finished task in order and stops at the first error.
+fn track_batches<M, J>(
+    obs: &mut [f32],
+    views: &[usize],
+    view_pyr: &mut [f32],
+    map: &mut M,
+    job: &J,
+    mut check: impl FnMut(&ViewTask<'_>) -> Result<()>,
+) -> Result<()>
+where
+    M: ViewMap,
+    J: Fn(&mut ViewTask<'_>, &mut [f32]) + Sync,
+{
+    for batch in views.chunks(TASK_BATCH) {
+        let mut tasks: FixedVec<ViewTask<'_>, TASK_BATCH> = FixedVec::new();
+        for (v, chunk) in obs.chunks_exact_mut(2 * MAX_FEATURES).enumerate() {
+            if batch.contains(&v) {
+                let _ = tasks.push(ViewTask::new(v, chunk));
+            }
+        }
+        map.map(&mut tasks, view_pyr, job);
+        for task in &tasks {
+            check(task)?;
+        }
+    }
+    Ok(())
 }
 
 /// The per-corner unknowns the second pass predicts from.
