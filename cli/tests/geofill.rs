@@ -2,32 +2,15 @@
 //! error no higher than without it. (That the rayon engine runs it bit for bit as the
 //! serial core pipeline does is checked in `pipeline_synth.rs`, on a scene it changes.)
 
+mod synth_support;
+
 use lfdepth::geofill::GeoFillParams;
 use lfdepth::refine::RefineParams;
-use lfdepth::synth::{self, SceneKind, SynthSpec};
+use lfdepth::synth::SceneKind;
 use lfdepth::tv::TvParams;
-use lfdepth::{Grid, Homography, LightField, Params};
-use lfdepth_cli::engine::{estimate, Estimate, EstimateOptions, StageSelect};
-
-struct Scene {
-    spec: SynthSpec,
-    views: Vec<u8>,
-    gt: Vec<f32>,
-}
-
-fn scene(kind: SceneKind, size: usize) -> Scene {
-    let spec = SynthSpec {
-        noise_sigma: 1.0,
-        seed: 5,
-        ..SynthSpec::new(kind, Grid::new(9, 9), size, size)
-    };
-    let layout = spec.layout();
-    let mut views = vec![0u8; layout.validate().unwrap()];
-    let mut gt = vec![0.0f32; size * size];
-    let mut homographies = vec![Homography::IDENTITY; 81];
-    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
-    Scene { spec, views, gt }
-}
+use lfdepth::Params;
+use lfdepth_cli::engine::StageSelect;
+use synth_support::{errors, run, scene};
 
 fn params(fill: bool) -> Params {
     Params {
@@ -49,31 +32,6 @@ fn params(fill: bool) -> Params {
     }
 }
 
-fn run(s: &Scene, params: Params, threads: usize) -> Estimate {
-    let lf = LightField::new(&s.views, s.spec.layout()).unwrap();
-    let options = EstimateOptions {
-        params,
-        stage: StageSelect::Full,
-        threads: Some(threads),
-    };
-    estimate(&lf, &options, &mut |_, _, _| {}).unwrap()
-}
-
-/// (Share of pixels off by more than 0.07 px, RMS error) inside a 6-pixel border.
-fn errors(s: &Scene, d: &[f32]) -> (f64, f64) {
-    let n = s.spec.width;
-    let (mut bad, mut se, mut count) = (0usize, 0.0f64, 0usize);
-    for y in 6..n - 6 {
-        for x in 6..n - 6 {
-            let e = (d[y * n + x] - s.gt[y * n + x]) as f64;
-            bad += usize::from(e.abs() > 0.07);
-            se += e * e;
-            count += 1;
-        }
-    }
-    (bad as f64 / count as f64, (se / count as f64).sqrt())
-}
-
 /// The refill moves depth steps that lie inside uniform colour: on the low-texture scene
 /// (weakly textured surfaces, where the refinement fattens edges) it lowers BadPix0.07
 /// clearly; on the scenes whose depth steps sit on colour edges it changes little
@@ -92,8 +50,8 @@ fn refill_fixes_low_texture_edges_and_spares_the_others() {
         SceneKind::Mixed,
     ] {
         let s = scene(kind, 64);
-        let with = errors(&s, &run(&s, params(true), 2).disparity);
-        let without = errors(&s, &run(&s, params(false), 2).disparity);
+        let with = errors(&s, &run(&s, params(true), StageSelect::Full, 2).disparity);
+        let without = errors(&s, &run(&s, params(false), StageSelect::Full, 2).disparity);
         eprintln!(
             "{}: refill bad {:.4} rms {:.4}, none bad {:.4} rms {:.4}",
             kind.name(),

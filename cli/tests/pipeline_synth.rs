@@ -2,35 +2,18 @@
 //! leaves the range or produces NaN, and the rayon engine is bit-identical for any thread
 //! count and agrees with the serial core pipeline.
 
+mod synth_support;
+
 use std::ops::ControlFlow;
 
 use lfdepth::median::MedianParams;
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::refine::RefineParams;
-use lfdepth::synth::{self, SceneKind, SynthSpec};
+use lfdepth::synth::SceneKind;
 use lfdepth::tv::TvParams;
-use lfdepth::{Grid, Homography, LightField, Params, Plan};
-use lfdepth_cli::engine::{estimate, Estimate, EstimateOptions, StageSelect};
-
-struct Scene {
-    spec: SynthSpec,
-    views: Vec<u8>,
-    gt: Vec<f32>,
-}
-
-fn scene(kind: SceneKind, size: usize) -> Scene {
-    let spec = SynthSpec {
-        noise_sigma: 1.0,
-        seed: 5,
-        ..SynthSpec::new(kind, Grid::new(9, 9), size, size)
-    };
-    let layout = spec.layout();
-    let mut views = vec![0u8; layout.validate().unwrap()];
-    let mut gt = vec![0.0f32; size * size];
-    let mut homographies = vec![Homography::IDENTITY; 81];
-    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
-    Scene { spec, views, gt }
-}
+use lfdepth::{LightField, Params, Plan};
+use lfdepth_cli::engine::StageSelect;
+use synth_support::{errors, run, scene, Scene};
 
 fn params() -> Params {
     Params {
@@ -46,31 +29,6 @@ fn params() -> Params {
         },
         ..Params::default()
     }
-}
-
-fn run(s: &Scene, params: Params, stage: StageSelect, threads: usize) -> Estimate {
-    let lf = LightField::new(&s.views, s.spec.layout()).unwrap();
-    let options = EstimateOptions {
-        params,
-        stage,
-        threads: Some(threads),
-    };
-    estimate(&lf, &options, &mut |_, _, _| {}).unwrap()
-}
-
-/// (Share of pixels off by more than 0.07 px, RMS error) inside a 6-pixel border.
-fn errors(s: &Scene, d: &[f32]) -> (f64, f64) {
-    let n = s.spec.width;
-    let (mut bad, mut se, mut count) = (0usize, 0.0f64, 0usize);
-    for y in 6..n - 6 {
-        for x in 6..n - 6 {
-            let e = (d[y * n + x] - s.gt[y * n + x]) as f64;
-            bad += usize::from(e.abs() > 0.07);
-            se += e * e;
-            count += 1;
-        }
-    }
-    (bad as f64 / count as f64, (se / count as f64).sqrt())
 }
 
 #[test]
