@@ -244,6 +244,29 @@ impl Estimator {
 }
 
 impl Estimator {
+    /// An estimator over `views` (validated against `layout` by the caller).
+    pub(crate) fn with_views(views: Vec<u8>, layout: Layout, plan: Plan, stages: Stages) -> Self {
+        Estimator {
+            views,
+            layout,
+            plan,
+            stages,
+            aligned: None,
+            maps: None,
+            previous: None,
+        }
+    }
+
+    /// The views the stages read from (rectified once aligned), packed.
+    pub(crate) fn views_bytes(&self) -> &[u8] {
+        &self.views
+    }
+
+    /// How far `estimate` goes.
+    pub(crate) fn stages(&self) -> Stages {
+        self.stages
+    }
+
     pub(crate) fn light_field(&self) -> Result<LightField<'_, u8>, JsError> {
         LightField::new(&self.views, self.layout).map_err(error)
     }
@@ -271,15 +294,7 @@ impl Estimator {
         let plan = Plan::new(layout, params::params(&object)?).map_err(error)?;
         let views = js::bytes(&views, "views")?;
         LightField::new(&views, layout).map_err(error)?;
-        Ok(Estimator {
-            views,
-            layout,
-            plan,
-            stages,
-            aligned: None,
-            maps: None,
-            previous: None,
-        })
+        Ok(Estimator::with_views(views, layout, plan, stages))
     }
 
     /// View width.
