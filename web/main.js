@@ -75,6 +75,8 @@ function setLightField(lightField, groundTruth, name) {
   $("run").disabled = false;
   $("align-info").textContent = "";
   delete $("align-info").dataset.align;
+  $("load-info").textContent = "";
+  delete $("load-info").dataset.transport;
   for (const b of document.querySelectorAll("[data-download]")) b.disabled = true;
   for (const id of ["disparity", "confidence", "error-map"]) {
     const c = $(id);
@@ -191,6 +193,7 @@ async function run() {
     const p = params();
     const result = await estimate(await pool(), state.lightField, p, { stages, onProgress, signal: controller.signal });
     showAlignment(result.align);
+    showTransport(result.transport);
     const total = performance.now() - start;
     state.result = { ...result, params: p };
     setProgress(100, `done in ${(total / 1000).toFixed(2)} s — 100 %`);
@@ -215,6 +218,18 @@ async function run() {
     $("run").disabled = false;
     $("cancel").disabled = true;
   }
+}
+
+/** How the views reached the workers, in words and as data attributes (for tests). */
+function showTransport({ shared, views, of, bytesPerWorker }) {
+  const info = $("load-info");
+  info.dataset.transport = shared ? "shared" : "transfer";
+  info.dataset.views = views;
+  const which = `${views} of ${of} views (the ones the stages read, ${(bytesPerWorker / 2 ** 20).toFixed(1)} MB)`;
+  info.textContent = shared
+    ? `Views to the workers: ${which}, read from memory shared with the page (cross-origin isolated).`
+    : `Views to the workers: ${which}, one copy per worker, transferred (the page is not cross-origin isolated, so it cannot share memory).`;
+  console.info(`lfdepth: ${info.textContent}`);
 }
 
 /** What the alignment did, in words and as data attributes (for tests). */

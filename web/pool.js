@@ -2,7 +2,7 @@
 // go to an idle worker, or, while many are queued, to a worker with fewer than `DEPTH`
 // in flight (a worker answers one request at a time: the next waits in its message
 // queue, so the worker does not idle while its reply travels back and a new request
-// comes); `all` sends one request to every worker. A worker may send
+// comes); `all` sends one request to every worker, `to` one to a given worker. A worker may send
 // `{ id, progress }` reports before its reply; they go to the request's `onProgress`.
 
 /** Requests in flight per worker. */
@@ -58,6 +58,16 @@ export class WorkerPool {
   run(request, transfer = [], onProgress = undefined) {
     return new Promise((resolve, reject) => {
       this.queue.push({ request, transfer, onProgress, resolve, reject });
+      this.#dispatch();
+    });
+  }
+
+  /** Runs `request` on worker `index` (0 ≤ index < size), queue or not. */
+  to(index, request, transfer = [], onProgress = undefined) {
+    const worker = this.workers[index];
+    worker.inFlight++;
+    return this.#send(worker, request, transfer, onProgress).finally(() => {
+      worker.inFlight--;
       this.#dispatch();
     });
   }

@@ -18,10 +18,13 @@ const executablePath = process.env.CHROMIUM_PATH ?? "/usr/bin/chromium";
 let server, context, profile;
 const consoleErrors = [];
 const foreign = [];
+/** The page's own servers (the plain one and the cross-origin-isolated one). */
+const origins = [];
 
 before(async () => {
   assert.ok(existsSync(join(web, "pkg/lfdepth_wasm_bg.wasm")), "web/pkg is missing: run wasm-pack build wasm --target web --out-dir ../web/pkg");
   server = await serve(web);
+  origins.push(server.origin);
   profile = mkdtempSync(join(tmpdir(), "lfdepth-chromium-"));
   context = await chromium.launchPersistentContext(profile, {
     executablePath,
@@ -31,7 +34,7 @@ before(async () => {
   });
   context.on("request", (request) => {
     const url = request.url();
-    if (!url.startsWith(server.origin + "/") && !url.startsWith("blob:") && !url.startsWith("data:")) foreign.push(url);
+    if (!origins.some((o) => url.startsWith(o + "/")) && !url.startsWith("blob:") && !url.startsWith("data:")) foreign.push(url);
   });
   context.on("console", (message) => {
     if (message.type() === "error") consoleErrors.push(message.text());
@@ -70,8 +73,16 @@ test("a synthetic scene runs end to end in workers and is accurate", async () =>
     timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
     iterations: Number(document.getElementById("residuals").dataset.iterations),
     downloads: [...document.querySelectorAll("[data-download]")].every((b) => !b.disabled),
+    transport: document.getElementById("load-info").dataset.transport,
+    views: Number(document.getElementById("load-info").dataset.views),
+    loadInfo: document.getElementById("load-info").textContent,
   }));
   console.log("page report:", JSON.stringify(report));
+  // Served without COOP/COEP the page cannot share memory: each worker gets a copy of
+  // the 17 views the stages read (of 81), and the page says so.
+  assert.equal(report.transport, "transfer");
+  assert.equal(report.views, 17);
+  assert.match(report.loadInfo, /17 of 81 views .* transferred \(the page is not cross-origin isolated/);
   assert.equal(report.state, "done", report.error);
   assert.equal(report.progress, 100);
   assert.match(report.progressText, /100 %/);
@@ -153,6 +164,72 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
   }
   assert.equal(results.length, 8);
   await page.close();
+});
+
+test("cross-origin isolated, the workers read the views from memory shared with the page: same bits", async () => {
+  const isolated = await serve(web, { isolated: true });
+  origins.push(isolated.origin);
+  try {
+    const page = await context.newPage();
+    page.on("pageerror", (e) => consoleErrors.push(e.message));
+    await page.goto(`${isolated.origin}/`);
+    await page.waitForFunction(() => document.body.dataset.state === "idle");
+    const results = await page.evaluate(async () => {
+      const lf = await import("./pkg/lfdepth_wasm.js");
+      const { WorkerPool } = await import("./pool.js");
+      const engine = await import("./engine.js");
+      const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
+      lf.initSync({ module });
+      const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
+      const occlusion = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
+      const bent = { scene: "mixed", rows: 5, cols: 5, width: 96, height: 96, channels: 3, seed: 4, misalign: true };
+      const out = [];
+      // Defaults (auto finds the array rectified), and a misaligned array aligned by
+      // auto (the other workers reload the rectified views) and by on.
+      for (const [spec, params] of [[occlusion, {}], [bent, { align: "auto", iterations: 60 }], [bent, { align: "on", iterations: 60 }]]) {
+        const { rows, cols, width, height, channels } = spec;
+        const shape = { rows, cols, width, height, channels };
+        const plain = lf.synthesize(spec).views;
+        const views = engine.viewBytes(plain.length);
+        views.set(plain);
+        const serial = new lf.Estimator(plain, shape, params).estimate();
+        for (const size of [2, 3]) {
+          const pool = await WorkerPool.create(module, size);
+          const r = await engine.estimate(pool, { views, shape }, params, { stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal });
+          pool.terminate();
+          out.push({
+            spec: spec.scene,
+            params: JSON.stringify(params),
+            workers: size,
+            isolated: crossOriginIsolated,
+            shared: r.transport.shared && views.buffer instanceof SharedArrayBuffer,
+            aligned: r.align?.skipped === false,
+            bits: same(r.disparity, serial.disparity) && same(r.confidence, serial.confidence) && same(r.residuals, serial.residuals),
+          });
+        }
+      }
+      return out;
+    });
+    for (const r of results) assert.ok(r.isolated && r.shared && r.bits, JSON.stringify(r));
+    assert.deepEqual(results.map((r) => r.aligned), [false, false, true, true, true, true]);
+    // The page itself: its views live in shared memory, and it says so.
+    await page.goto(`${isolated.origin}/?scene=planes&size=128&grid=9&workers=2&run`);
+    await settled(page);
+    const report = await page.evaluate(() => ({
+      state: document.body.dataset.state,
+      error: document.getElementById("error").textContent,
+      transport: document.getElementById("load-info").dataset.transport,
+      loadInfo: document.getElementById("load-info").textContent,
+      badpix: Number(document.getElementById("scores").dataset.badpix007),
+    }));
+    assert.equal(report.state, "done", report.error);
+    assert.equal(report.transport, "shared");
+    assert.match(report.loadInfo, /17 of 81 views .* shared with the page \(cross-origin isolated\)/);
+    assert.ok(report.badpix < 5, `BadPix(0.07) ${report.badpix}`);
+    await page.close();
+  } finally {
+    await isolated.close();
+  }
 });
 
 test("the align control exists, reaches the workers' requests and aligns a misaligned scene", async () => {
