@@ -323,8 +323,11 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
     // they are while worker 0 aligns.
     const early = mode === "auto" ? loadAll(others, null, () => aligned) : null;
     early?.catch(() => {});
+    // The alignment reads views outside the read set: the whole light field, shared, or
+    // one copy moved to the aligner (a structured clone would copy it twice).
+    const whole = shared ? views : views.slice();
     const reply = await race(
-      pool.to(0, { op: "align", views, shape, params: { ...params, refineBandRows: loaded.refineBandRows }, keep: true }, [], ({ stage, done, total }) => {
+      pool.to(0, { op: "align", views: whole, shape, params: { ...params, refineBandRows: loaded.refineBandRows }, keep: true }, shared ? [] : [whole.buffer], ({ stage, done, total }) => {
         onProgress(stage, total ? done / total : 1);
       }),
     );
