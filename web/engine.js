@@ -214,8 +214,8 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     const { residuals } = await pool.run({ op: "residuals", histories }, [histories.buffer]);
     check();
     if (plan.medianPasses > 0 && !plan.medianBeforeTv) await median();
-    // Free the per-worker copies of the views and maps.
-    pool.all({ op: "unload" });
+    // Free the per-worker maps; the views stay for the next estimate (`handOver`).
+    pool.all({ op: "clearMaps" });
     return {
       disparity,
       confidence,
@@ -273,7 +273,11 @@ export async function synthesize(pool, spec, onProgress) {
  * gets its own packed copy of the read views, transferred, not cloned ("transfer").
  * Stage timings: the aligner's (`align`, `warp`) and `load`, the rest of this hand-over's
  * wall time (sending and copying the views, not computing).
- * @returns {Promise<{align: object | null, timings: {stage: string, ms: number}[], transport: {shared: boolean, views: number, of: number, bytesPerWorker: number}}>}
+ *
+ * The next estimate of the same light field (same `views` array, same align mode, same
+ * views read) sends nothing: the workers keep their estimators between estimates
+ * (`pool.held`) and only take the new parameters (`reused`).
+ * @returns {Promise<{align: object | null, timings: {stage: string, ms: number}[], transport: {shared: boolean, views: number, of: number, bytesPerWorker: number, reused: boolean}}>}
  */
 async function handOver(pool, lightField, params, loaded, { onProgress, race, check }) {
   const start = performance.now();
@@ -282,6 +286,21 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   const shared = typeof SharedArrayBuffer === "function" && views.buffer instanceof SharedArrayBuffer;
   const { read } = await race(pool.run({ op: "readViews", shape, params: loaded }));
   check();
+  const mode = params.align ?? "auto";
+  // The workers still hold these views from the last estimate (aligned as this one
+  // would align them: same light field, same align mode, same views read): new
+  // parameters only.
+  const held = pool.held;
+  if (held && held.views === views && held.mode === mode && held.read === read.join()) {
+    await race(pool.all({ op: "setParams", params: loaded }));
+    check();
+    return {
+      align: held.align,
+      timings: [{ stage: "load", ms: performance.now() - start }],
+      transport: { ...held.transport, reused: true },
+    };
+  }
+  pool.held = null;
   // A load request per worker. `packed`: the read views one after the other (the
   // aligner's rectified ones); null: those of the light field itself.
   const requests = (packed, count) => {
@@ -312,7 +331,6 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
       ),
     );
   const others = Array.from({ length: pool.size - 1 }, (_, i) => i + 1);
-  const mode = params.align ?? "auto";
   let align = null;
   const timings = [];
   if (mode === "off") {
@@ -347,7 +365,9 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   check();
   const computing = timings.reduce((sum, t) => sum + t.ms, 0);
   timings.push({ stage: "load", ms: Math.max(0, performance.now() - start - computing) });
-  return { align, timings, transport: { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen } };
+  const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen, reused: false };
+  pool.held = { views, mode, read: read.join(), align, transport };
+  return { align, timings, transport };
 }
 
 /** The views at grid indices `read` of `views`, packed one after the other (a copy). */

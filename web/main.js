@@ -221,12 +221,14 @@ async function run() {
 }
 
 /** How the views reached the workers, in words and as data attributes (for tests). */
-function showTransport({ shared, views, of, bytesPerWorker }) {
+function showTransport({ shared, views, of, bytesPerWorker, reused }) {
   const info = $("load-info");
-  info.dataset.transport = shared ? "shared" : "transfer";
+  info.dataset.transport = reused ? "reused" : shared ? "shared" : "transfer";
   info.dataset.views = views;
   const which = `${views} of ${of} views (the ones the stages read, ${(bytesPerWorker / 2 ** 20).toFixed(1)} MB)`;
-  info.textContent = shared
+  info.textContent = reused
+    ? `Views to the workers: none sent, they still hold ${which} from the last estimate of this light field.`
+    : shared
     ? `Views to the workers: ${which}, read from memory shared with the page (cross-origin isolated).`
     : `Views to the workers: ${which}, one copy per worker, transferred (the page is not cross-origin isolated, so it cannot share memory).`;
   console.info(`lfdepth: ${info.textContent}`);

@@ -40,6 +40,9 @@ export class WorkerPool {
     });
     this.queue = [];
     this.nextId = 1;
+    /** What every worker's estimator holds after the last complete hand-over of views
+     * (set by engine.js), so that the next estimate of the same light field sends none. */
+    this.held = null;
   }
 
   get size() {
@@ -102,6 +105,7 @@ export class WorkerPool {
   }
 
   terminate() {
+    this.held = null;
     for (const w of this.workers) w.terminate();
   }
 }

@@ -133,6 +133,15 @@ const handlers = {
     const gt = renderGroundTruth(spec);
     return { groundTruth: gt, transfer: [gt.buffer] };
   },
+  /** New parameters over the views this worker's estimator holds (see engine.js). */
+  setParams({ params }) {
+    requireEstimator().setParams(params);
+    return {};
+  },
+  clearMaps() {
+    estimator?.clearMaps();
+    return {};
+  },
   unload() {
     replace(null);
     return {};

@@ -117,7 +117,8 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
     const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
     lf.initSync({ module });
     const spec = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
-    const scenes = { occlusion: lf.synthesize(spec), lowTexture: lf.synthesize({ ...spec, scene: "low-texture" }) };
+    // (`views` of a SyntheticLightField is a new copy at each read: read it once.)
+    const scenes = { occlusion: { views: lf.synthesize(spec).views }, lowTexture: { views: lf.synthesize({ ...spec, scene: "low-texture" }).views } };
     const shape = { rows: 7, cols: 7, width: 80, height: 64, channels: 3 };
     const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
     const out = [];
@@ -131,16 +132,17 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
       [{ refineBandRows: 20, tvTile: 40, medianBeforeTv: false, iterations: 80 }, "occlusion"],
       [{ tvTile: 32 }, "lowTexture"],
     ];
-    for (const [params, name] of runs) {
-      const scene = scenes[name];
-      const serial = new lf.Estimator(scene.views, shape, params).estimate();
-      for (const size of [1, 3]) {
-        const pool = await WorkerPool.create(module, size);
+    // One pool per worker count for all the runs: the runs after the first on a scene
+    // reuse the views the workers hold (new parameters only).
+    for (const size of [1, 3]) {
+      const pool = await WorkerPool.create(module, size);
+      for (const [params, name] of runs) {
+        const scene = scenes[name];
+        const serial = new lf.Estimator(scene.views, shape, params).estimate();
         const stages = new Set();
         const r = await engine.estimate(pool, { views: scene.views, shape }, params, {
           stages: lf.stageNames(), onProgress: (stage) => stages.add(stage), signal: new AbortController().signal,
         });
-        pool.terminate();
         out.push({
           params: JSON.stringify(params),
           workers: size,
@@ -149,8 +151,10 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
           residuals: same(r.residuals, serial.residuals) && r.residuals.length > 0,
           stages: ["refine", "median", "tv"].every((s) => stages.has(s)),
           timings: r.timings.map((t) => t.stage).filter((s) => ["refine", "geofill", "median", "tv"].includes(s)).join(),
+          transport: r.transport.reused ? "reused" : r.transport.shared ? "shared" : "transfer",
         });
       }
+      pool.terminate();
     }
     return out;
   });
@@ -163,6 +167,8 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
     assert.equal(r.timings, order, JSON.stringify(r));
   }
   assert.equal(results.length, 8);
+  // Not cross-origin isolated: copies transferred, then reused on the same scene.
+  assert.deepEqual(results.map((r) => r.transport), ["transfer", "reused", "reused", "transfer", "transfer", "reused", "reused", "transfer"]);
   await page.close();
 });
 
@@ -196,6 +202,9 @@ test("cross-origin isolated, the workers read the views from memory shared with 
         for (const size of [2, 3]) {
           const pool = await WorkerPool.create(module, size);
           const r = await engine.estimate(pool, { views, shape }, params, { stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal });
+          // A second estimate with other TV parameters: the workers reuse what they hold.
+          const again = await engine.estimate(pool, { views, shape }, { ...params, lambda: 1 }, { stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal });
+          const serialAgain = new lf.Estimator(plain, shape, { ...params, lambda: 1 }).estimate();
           pool.terminate();
           out.push({
             spec: spec.scene,
@@ -205,12 +214,14 @@ test("cross-origin isolated, the workers read the views from memory shared with 
             shared: r.transport.shared && views.buffer instanceof SharedArrayBuffer,
             aligned: r.align?.skipped === false,
             bits: same(r.disparity, serial.disparity) && same(r.confidence, serial.confidence) && same(r.residuals, serial.residuals),
+            reused: again.transport.reused && !r.transport.reused && again.align?.skipped === r.align?.skipped,
+            bitsAgain: same(again.disparity, serialAgain.disparity) && same(again.confidence, serialAgain.confidence),
           });
         }
       }
       return out;
     });
-    for (const r of results) assert.ok(r.isolated && r.shared && r.bits, JSON.stringify(r));
+    for (const r of results) assert.ok(r.isolated && r.shared && r.bits && r.reused && r.bitsAgain, JSON.stringify(r));
     assert.deepEqual(results.map((r) => r.aligned), [false, false, true, true, true, true]);
     // The page itself: its views live in shared memory, and it says so.
     await page.goto(`${isolated.origin}/?scene=planes&size=128&grid=9&workers=2&run`);
@@ -331,11 +342,17 @@ test("the median control exists, is on by default and reaches the workers", asyn
       error: document.getElementById("error").textContent,
       medians: window.__medians,
       timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
+      transport: document.getElementById("load-info").dataset.transport,
+      loadInfo: document.getElementById("load-info").textContent,
     }));
   };
   const on = await runWith(true);
   const off = await runWith(false);
   for (const r of [on, off]) assert.equal(r.state, "done", r.error);
+  // The second estimate of the same light field sends no views: the workers hold them.
+  assert.equal(on.transport, "transfer");
+  assert.equal(off.transport, "reused");
+  assert.match(off.loadInfo, /none sent, they still hold 9 of 25 views/);
   assert.ok(on.medians.length > 0 && on.medians.every((m) => m === true), JSON.stringify(on.medians));
   assert.ok(off.medians.length > 0 && off.medians.every((m) => m === false), JSON.stringify(off.medians));
   // The median is a stage of its own only when it ran.

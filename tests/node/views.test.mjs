@@ -75,6 +75,40 @@ test("the aligner's rectified read views give the aligned estimate", () => {
   assert.ok(same(loaded.disparity, serial.disparity) && same(loaded.confidence, serial.confidence));
 });
 
+test("setParams runs new parameters over the views held, with the bits of a new estimator", () => {
+  const spec = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, seed: 5 };
+  const shape = { rows: 7, cols: 7, width: 80, height: 64, channels: 3 };
+  const len = 80 * 64 * 3;
+  const { views } = lf.synthesize(spec);
+  const first = { align: "off" };
+  const read = Array.from(lf.readViews(shape, first));
+  const held = lf.Estimator.fromReadViews(read.map((v) => views.subarray(v * len, (v + 1) * len)), shape, first);
+  held.estimate();
+  for (const next of [{ align: "off", refineBandRows: 24, tvTile: 32, medianBeforeTv: false, iterations: 80 }, { align: "off", lambda: 1, median: false }]) {
+    held.setParams(next);
+    const r = held.estimate();
+    const fresh = new lf.Estimator(views, shape, next).estimate();
+    assert.ok(same(r.disparity, fresh.disparity) && same(r.confidence, fresh.confidence) && same(r.residuals, fresh.residuals), JSON.stringify(next));
+  }
+  // The maps of setMaps are forgotten (they belonged to the old parameters).
+  held.setMaps(new Float32Array(80 * 64), new Float32Array(80 * 64));
+  held.setParams(first);
+  assert.throws(() => held.tvTile(0), /no maps set/);
+  assert.throws(() => held.setParams({ align: "auto" }), /pass params\.align "off"/);
+  assert.throws(() => held.setParams({ align: "off", lambda: -1 }), /lambda|λ/i);
+  // An aligned estimator keeps its rectified views: no second alignment.
+  const small = { rows: 5, cols: 5, width: 96, height: 96, channels: 3 };
+  const bent = lf.synthesize({ scene: "mixed", ...small, seed: 4, misalign: true });
+  const aligner = new lf.Estimator(bent.views, small, { align: "on", iterations: 60 });
+  assert.equal(aligner.align().skipped, false);
+  aligner.setParams({ align: "off", iterations: 60, lambda: 1 });
+  const r = aligner.estimate();
+  assert.equal(r.align.skipped, false, "the alignment's report is kept");
+  assert.ok(!r.timings.some((t) => t.stage === "align"), "and it did not run again");
+  const serial = new lf.Estimator(bent.views, small, { align: "on", iterations: 60, lambda: 1 }).estimate();
+  assert.ok(same(r.disparity, serial.disparity) && same(r.confidence, serial.confidence));
+});
+
 test("fromReadViews rejects what it cannot hold, saying what to change", () => {
   const shape = { rows: 3, cols: 3, width: 16, height: 16, channels: 1 };
   const view = () => new Uint8Array(16 * 16);

@@ -95,7 +95,45 @@ impl Estimator {
             })?;
         }
         LightField::new(&all, layout).map_err(error)?;
-        Ok(Estimator::with_views(all, layout, plan, stages))
+        Ok(Estimator::with_views(all, layout, plan, stages, true))
+    }
+
+    /// New parameters for the views this estimator holds, without copying them (the
+    /// page's next estimate of the same light field): as `new Estimator(views, shape,
+    /// params)` over the same views, with the maps of `setMaps` forgotten and the
+    /// alignment, if it ran, kept (the views stay rectified). An estimator from
+    /// `fromReadViews`, or one whose views were rectified, takes only parameters whose
+    /// stages read no other view (the others are absent or not rectified); one from
+    /// `fromReadViews` also needs `align: "off"`.
+    #[wasm_bindgen(js_name = setParams)]
+    pub fn set_params(
+        &mut self,
+        #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
+    ) -> Result<(), JsError> {
+        let object = params.unwrap_or(JsValue::UNDEFINED);
+        let stages = params::stages(&object)?;
+        let plan = Plan::new(*self.layout(), params::params(&object)?).map_err(error)?;
+        if self.partial && plan.params().align.mode != AlignMode::Off {
+            return Err(message(
+                "this estimator holds only the views its stages read, and the alignment \
+                 reads others: pass params.align \"off\"",
+            ));
+        }
+        // Views outside the old read set are absent (fromReadViews) or not rectified.
+        if self.partial || self.warped() {
+            let held = read_indices(&self.plan, self.stages());
+            if let Some(missing) = read_indices(&plan, stages)
+                .into_iter()
+                .find(|v| !held.contains(v))
+            {
+                return Err(message(&format!(
+                    "these parameters read view {missing}, which this estimator does not hold \
+                     (or did not rectify): make a new one"
+                )));
+            }
+        }
+        self.replan(plan, stages);
+        Ok(())
     }
 
     /// The views the stages read (`readViews(shape, params)` of this estimator's
