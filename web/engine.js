@@ -342,8 +342,10 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
     const early = mode === "auto" ? loadAll(others, null, () => aligned) : null;
     early?.catch(() => {});
     // The alignment reads views outside the read set: the whole light field, shared, or
-    // one copy moved to the aligner (a structured clone would copy it twice).
-    const whole = shared ? views : views.slice();
+    // one copy moved to the aligner (a structured clone would copy it twice), copied in
+    // chunks so that the page's thread never stalls for the whole copy.
+    const whole = shared ? views : await race(copyInChunks(views));
+    check();
     const reply = await race(
       pool.to(0, { op: "align", views: whole, shape, params: { ...params, refineBandRows: loaded.refineBandRows }, keep: true }, shared ? [] : [whole.buffer], ({ stage, done, total }) => {
         onProgress(stage, total ? done / total : 1);
@@ -368,6 +370,20 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen, reused: false };
   pool.held = { views, mode, read: read.join(), align, transport };
   return { align, timings, transport };
+}
+
+/** Bytes copied between two yields of the page's thread. */
+export const COPY_CHUNK = 8 << 20;
+
+/** A copy of `bytes`, made `COPY_CHUNK` bytes at a time with a yield to the page's event
+ * loop between chunks. */
+async function copyInChunks(bytes) {
+  const out = new Uint8Array(bytes.length);
+  for (let offset = 0; offset < bytes.length; offset += COPY_CHUNK) {
+    out.set(bytes.subarray(offset, offset + COPY_CHUNK), offset);
+    await new Promise((resolve) => setTimeout(resolve, 0));
+  }
+  return out;
 }
 
 /** The views at grid indices `read` of `views`, packed one after the other (a copy). */

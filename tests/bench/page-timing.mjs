@@ -5,8 +5,9 @@
 // serves the page with COOP/COEP (cross-origin isolated: the workers read the views from
 // a SharedArrayBuffer); `transport` says which path ran (absent on pages before session 5),
 // `unaccounted_ms` the estimate's time outside every stage row, `estimate_cpu_ms` the CPU
-// time all the browser's processes spent while it estimated (Linux /proc).
-//   node tests/bench/page-timing.mjs [size] [grid] [workers] [isolated]
+// time all the browser's processes spent while it estimated (Linux /proc); `again` also
+// times a second estimate of the same scene with another λ (`second`).
+//   node tests/bench/page-timing.mjs [size] [grid] [workers] [plain|isolated] [again]
 import { gzipSync } from "node:zlib";
 import { readFileSync, readdirSync, mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
@@ -43,7 +44,7 @@ function browserCpuMs() {
   }
 }
 
-const [size = "512", grid = "9", workers = "", mode = ""] = process.argv.slice(2);
+const [size = "512", grid = "9", workers = "", mode = "plain", again = ""] = process.argv.slice(2);
 const web = join(root, "web");
 const wasm = readFileSync(join(web, "pkg/lfdepth_wasm_bg.wasm"));
 const server = await serve(web, { isolated: mode === "isolated" });
@@ -94,8 +95,24 @@ try {
     longest_main_thread_gap_ms: Math.max(0, ...Object.values(window.__gaps)),
     longest_gap_by_stage_ms: window.__gaps,
   }));
+  // `again`: a second estimate of the same light field with another λ (a user tuning
+  // the parameters).
+  let second;
+  if (again === "again") {
+    await page.fill("#tv-lambda", "0.5");
+    const cpu = browserCpuMs();
+    await page.evaluate(() => (document.body.dataset.state = "clicked"));
+    await page.click("#run");
+    await page.waitForFunction(() => ["done", "error"].includes(document.body.dataset.state), null, { timeout: 600_000 });
+    second = await page.evaluate(() => ({
+      estimate_ms: Number(document.getElementById("timings").dataset.totalMs),
+      stages: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
+      transport: document.getElementById("load-info")?.dataset.transport,
+    }));
+    second.estimate_cpu_ms = browserCpuMs() - cpu;
+  }
   console.log(JSON.stringify({ size: Number(size), grid: Number(grid), load_generate_estimate_ms: wall, estimate_cpu_ms: estimateCpuMs, ...report,
-    wasm_bytes: wasm.length, wasm_gzip_bytes: gzipSync(wasm, { level: 9 }).length }));
+    wasm_bytes: wasm.length, wasm_gzip_bytes: gzipSync(wasm, { level: 9 }).length, second }));
 } finally {
   await context.close();
   await server.close();
