@@ -320,7 +320,7 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   };
   let loadedWorkers = 0;
   const loadAll = (indices, packed, report) =>
-    race(
+    indices.length === 0 ? Promise.resolve() : race(
       Promise.all(
         requests(packed, indices.length).map(([request, transfer], i) =>
           pool.to(indices[i], request, transfer).then(() => {
