@@ -67,6 +67,9 @@ function params() {
 
 function setLightField(lightField, groundTruth, name) {
   state.lightField = lightField;
+  // The workers' estimators belong to the previous light field: the next estimate loads
+  // this one (and the previous views can be collected).
+  if (state.pool) state.pool.held = null;
   state.groundTruth = groundTruth;
   state.result = null;
   state.name = name;

@@ -42,6 +42,9 @@ const handlers = {
    * (packed; none when the alignment left the views as they were). With `keep` this
    * worker then estimates with the aligned estimator (it needs no `load`). */
   align({ id, views, shape, params, keep }) {
+    // Free the estimator this one replaces first: its memory is then reused (faster
+    // than fresh wasm pages).
+    if (keep) replace(null);
     const aligner = new Estimator(views, shape, params);
     let kept = false;
     try {
