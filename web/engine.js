@@ -319,17 +319,17 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
     });
   };
   let loadedWorkers = 0;
-  const loadAll = (indices, packed, report) =>
-    indices.length === 0 ? Promise.resolve() : race(
-      Promise.all(
-        requests(packed, indices.length).map(([request, transfer], i) =>
-          pool.to(indices[i], request, transfer).then(() => {
-            loadedWorkers++;
-            if (report()) onProgress("load", loadedWorkers / pool.size);
-          }),
-        ),
-      ),
+  // Loads workers `indices`; `report()` says whether to show their progress yet.
+  const loadAll = async (indices, packed, report) => {
+    if (!indices.length) return;
+    const loads = requests(packed, indices.length).map(([request, transfer], i) =>
+      pool.to(indices[i], request, transfer).then(() => {
+        loadedWorkers++;
+        if (report()) onProgress("load", loadedWorkers / pool.size);
+      }),
     );
+    await race(Promise.all(loads));
+  };
   const others = Array.from({ length: pool.size - 1 }, (_, i) => i + 1);
   let align = null;
   const timings = [];

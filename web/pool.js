@@ -2,8 +2,9 @@
 // go to an idle worker, or, while many are queued, to a worker with fewer than `DEPTH`
 // in flight (a worker answers one request at a time: the next waits in its message
 // queue, so the worker does not idle while its reply travels back and a new request
-// comes); `all` sends one request to every worker, `to` one to a given worker. A worker may send
-// `{ id, progress }` reports before its reply; they go to the request's `onProgress`.
+// comes); `all` sends one request to every worker, `to` one to a given worker. A worker
+// may send `{ id, progress }` reports before its reply; they go to the request's
+// `onProgress`.
 
 /** Requests in flight per worker. */
 export const DEPTH = 2;

@@ -1,6 +1,7 @@
 // A module worker: receives the compiled WebAssembly.Module once, then answers requests
-// (alignment, EPI bands, ranges, synthetic views, fusion, refine bands, median rows,
-// TV tiles) one at a time. Every request
+// (alignment, the views the stages read, EPI bands, ranges, synthetic views, fusion,
+// refine bands, median rows, TV tiles) one at a time. Its estimator stays between
+// estimates (engine.js reuses it for the same light field). Every request
 // carries an `id` and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
 // `{ id, ok: false, message }`; a long request may first send `{ id, progress }` reports.
 import { initSync, Estimator, readViews, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
@@ -143,10 +144,6 @@ const handlers = {
   },
   clearMaps() {
     estimator?.clearMaps();
-    return {};
-  },
-  unload() {
-    replace(null);
     return {};
   },
 };

@@ -79,7 +79,9 @@ impl Estimator {
                 indices.len()
             )));
         }
-        // Zeroed (fresh wasm pages, not written): only the read views are filled.
+        // The other views stay zero. The allocator writes every byte of this buffer (on a
+        // fresh worker that is most of this call's time: the page keeps its workers'
+        // estimators between estimates).
         let mut all = vec![0u8; layout.validate().map_err(error)?];
         let len = view_len(&layout);
         for (i, (value, &index)) in views.iter().zip(&indices).enumerate() {
