@@ -172,6 +172,61 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
   await page.close();
 });
 
+/** In `page`: the engine over 2 and 3 workers against the serial estimator, on a
+ * rectified scene and a misaligned one (auto: the other workers reload the rectified
+ * views; on), each estimated a second time with another λ (the views reused). */
+function transportCases(page) {
+  return page.evaluate(async () => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { WorkerPool } = await import("./pool.js");
+    const engine = await import("./engine.js");
+    const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
+    lf.initSync({ module });
+    const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
+    const occlusion = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
+    const bent = { scene: "mixed", rows: 5, cols: 5, width: 96, height: 96, channels: 3, seed: 4, misalign: true };
+    const options = () => ({ stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal });
+    const out = [];
+    for (const [spec, params] of [[occlusion, {}], [bent, { align: "auto", iterations: 60 }], [bent, { align: "on", iterations: 60 }]]) {
+      const { rows, cols, width, height, channels } = spec;
+      const shape = { rows, cols, width, height, channels };
+      const plain = lf.synthesize(spec).views;
+      // Where the page keeps a light field's views: shared memory when isolated.
+      const views = engine.viewBytes(plain.length);
+      views.set(plain);
+      const serial = new lf.Estimator(plain, shape, params).estimate();
+      const serialAgain = new lf.Estimator(plain, shape, { ...params, lambda: 1 }).estimate();
+      for (const size of [2, 3]) {
+        const pool = await WorkerPool.create(module, size);
+        const r = await engine.estimate(pool, { views, shape }, params, options());
+        const again = await engine.estimate(pool, { views, shape }, { ...params, lambda: 1 }, options());
+        pool.terminate();
+        out.push({
+          spec: spec.scene,
+          params: JSON.stringify(params),
+          workers: size,
+          isolated: crossOriginIsolated,
+          shared: r.transport.shared && views.buffer instanceof SharedArrayBuffer,
+          aligned: r.align?.skipped === false,
+          bits: same(r.disparity, serial.disparity) && same(r.confidence, serial.confidence) && same(r.residuals, serial.residuals),
+          reused: again.transport.reused && !r.transport.reused && again.align?.skipped === r.align?.skipped,
+          bitsAgain: same(again.disparity, serialAgain.disparity) && same(again.confidence, serialAgain.confidence),
+        });
+      }
+    }
+    return out;
+  });
+}
+
+test("views copied and transferred (plain host): same bits, aligned or not, and reused", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  const results = await transportCases(page);
+  for (const r of results) assert.ok(!r.isolated && !r.shared && r.bits && r.reused && r.bitsAgain, JSON.stringify(r));
+  assert.deepEqual(results.map((r) => r.aligned), [false, false, true, true, true, true]);
+  await page.close();
+});
+
 test("cross-origin isolated, the workers read the views from memory shared with the page: same bits", async () => {
   const isolated = await serve(web, { isolated: true });
   origins.push(isolated.origin);
@@ -180,47 +235,7 @@ test("cross-origin isolated, the workers read the views from memory shared with 
     page.on("pageerror", (e) => consoleErrors.push(e.message));
     await page.goto(`${isolated.origin}/`);
     await page.waitForFunction(() => document.body.dataset.state === "idle");
-    const results = await page.evaluate(async () => {
-      const lf = await import("./pkg/lfdepth_wasm.js");
-      const { WorkerPool } = await import("./pool.js");
-      const engine = await import("./engine.js");
-      const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
-      lf.initSync({ module });
-      const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
-      const occlusion = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
-      const bent = { scene: "mixed", rows: 5, cols: 5, width: 96, height: 96, channels: 3, seed: 4, misalign: true };
-      const out = [];
-      // Defaults (auto finds the array rectified), and a misaligned array aligned by
-      // auto (the other workers reload the rectified views) and by on.
-      for (const [spec, params] of [[occlusion, {}], [bent, { align: "auto", iterations: 60 }], [bent, { align: "on", iterations: 60 }]]) {
-        const { rows, cols, width, height, channels } = spec;
-        const shape = { rows, cols, width, height, channels };
-        const plain = lf.synthesize(spec).views;
-        const views = engine.viewBytes(plain.length);
-        views.set(plain);
-        const serial = new lf.Estimator(plain, shape, params).estimate();
-        for (const size of [2, 3]) {
-          const pool = await WorkerPool.create(module, size);
-          const r = await engine.estimate(pool, { views, shape }, params, { stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal });
-          // A second estimate with other TV parameters: the workers reuse what they hold.
-          const again = await engine.estimate(pool, { views, shape }, { ...params, lambda: 1 }, { stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal });
-          const serialAgain = new lf.Estimator(plain, shape, { ...params, lambda: 1 }).estimate();
-          pool.terminate();
-          out.push({
-            spec: spec.scene,
-            params: JSON.stringify(params),
-            workers: size,
-            isolated: crossOriginIsolated,
-            shared: r.transport.shared && views.buffer instanceof SharedArrayBuffer,
-            aligned: r.align?.skipped === false,
-            bits: same(r.disparity, serial.disparity) && same(r.confidence, serial.confidence) && same(r.residuals, serial.residuals),
-            reused: again.transport.reused && !r.transport.reused && again.align?.skipped === r.align?.skipped,
-            bitsAgain: same(again.disparity, serialAgain.disparity) && same(again.confidence, serialAgain.confidence),
-          });
-        }
-      }
-      return out;
-    });
+    const results = await transportCases(page);
     for (const r of results) assert.ok(r.isolated && r.shared && r.bits && r.reused && r.bitsAgain, JSON.stringify(r));
     assert.deepEqual(results.map((r) => r.aligned), [false, false, true, true, true, true]);
     // The page itself: its views live in shared memory, and it says so.
