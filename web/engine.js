@@ -67,12 +67,7 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
   };
   signal.addEventListener("abort", onAbort);
   try {
-    // Refine bands: one per worker. The core's refinement is bit-identical for any
-    // banding (each band is computed with a halo that covers the reach of its result),
-    // so this changes only the speed: fewer, larger bands recompute fewer halo rows, and
-    // every worker gets one.
-    const loaded = { ...params, align: "off" };
-    loaded.refineBandRows ??= Math.ceil(lightField.shape.height / pool.size);
+    const loaded = loadedParams(pool, lightField, params);
     const { align, timings: alignTimings, transport } = await handOver(pool, lightField, params, loaded, { onProgress, race: (p) => Promise.race([aborted, p]), check });
     timings.push(...alignTimings);
     check();
@@ -259,6 +254,44 @@ export async function synthesize(pool, spec, onProgress) {
   return { views, groundTruth, shape: { rows, cols, width, height, channels } };
 }
 
+/** The parameters of the workers' estimators: no alignment (worker 0 aligns once, see
+ * `handOver`) and, unless given, one refine band per worker. The core's refinement is
+ * bit-identical for any banding (each band is computed with a halo that covers the reach
+ * of its result), so this changes only the speed: fewer, larger bands recompute fewer
+ * halo rows, and every worker gets one. */
+function loadedParams(pool, lightField, params) {
+  const loaded = { ...params, align: "off" };
+  loaded.refineBandRows ??= Math.ceil(lightField.shape.height / pool.size);
+  return loaded;
+}
+
+/**
+ * Hands `lightField` to the pool's workers ahead of an estimate with `params`, as the
+ * estimate would (`handOver`): the page calls it when a light field is loaded, so that
+ * the first estimate finds the views there. An estimate started meanwhile waits for it;
+ * preparations run one after the other. Resolves when done; a failure leaves nothing
+ * held (the estimate then loads the views itself and reports the error).
+ */
+export function prepare(pool, lightField, params) {
+  const task = (pool.preparing ?? Promise.resolve()).then(() =>
+    handOver(pool, lightField, params, loadedParams(pool, lightField, params), {
+      onProgress: () => {},
+      race: (p) => p,
+      check: () => {},
+      prepared: true,
+    }),
+  );
+  const settled = task.then(
+    () => {},
+    () => {},
+  );
+  pool.preparing = settled;
+  settled.then(() => {
+    if (pool.preparing === settled) pool.preparing = null;
+  });
+  return task.then(() => {});
+}
+
 /**
  * Gives every worker an estimator over the views the stages read (`readViews`: the
  * centre row and column of the grid with the default parameters, 17 of 81 views on 9×9),
@@ -276,11 +309,16 @@ export async function synthesize(pool, spec, onProgress) {
  *
  * The next estimate of the same light field (same `views` array, same align mode, same
  * views read) sends nothing: the workers keep their estimators between estimates
- * (`pool.held`) and only take the new parameters (`reused`).
- * @returns {Promise<{align: object | null, timings: {stage: string, ms: number}[], transport: {shared: boolean, views: number, of: number, bytesPerWorker: number, reused: boolean}}>}
+ * (`pool.held`) and only take the new parameters (`reused`; `prepared` when they were
+ * handed over by `prepare`, not by an earlier estimate).
+ * @returns {Promise<{align: object | null, timings: {stage: string, ms: number}[], transport: {shared: boolean, views: number, of: number, bytesPerWorker: number, reused: boolean, prepared: boolean}}>}
  */
-async function handOver(pool, lightField, params, loaded, { onProgress, race, check }) {
+async function handOver(pool, lightField, params, loaded, { onProgress, race, check, prepared = false }) {
   const start = performance.now();
+  // A preparation in flight (`prepare`) finishes first: it may be handing over these
+  // very views.
+  if (pool.preparing && !prepared) await race(pool.preparing);
+  check();
   const { views, shape } = lightField;
   const viewLen = shape.width * shape.height * shape.channels;
   const shared = typeof SharedArrayBuffer === "function" && views.buffer instanceof SharedArrayBuffer;
@@ -294,11 +332,11 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   if (held && held.views === views && held.mode === mode && held.read === read.join()) {
     await race(pool.all({ op: "setParams", params: loaded }));
     check();
-    return {
-      align: held.align,
-      timings: [{ stage: "load", ms: performance.now() - start }],
-      transport: { ...held.transport, reused: true },
-    };
+    // The first estimate after `prepare` got them when the light field was loaded; any
+    // later one from an earlier estimate.
+    const transport = { ...held.transport, reused: true, prepared: held.prepared };
+    if (!prepared) held.prepared = false;
+    return { align: held.align, timings: [{ stage: "load", ms: performance.now() - start }], transport };
   }
   pool.held = null;
   // A load request per worker. `packed`: the read views one after the other (the
@@ -367,8 +405,8 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   check();
   const computing = timings.reduce((sum, t) => sum + t.ms, 0);
   timings.push({ stage: "load", ms: Math.max(0, performance.now() - start - computing) });
-  const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen, reused: false };
-  pool.held = { views, mode, read: read.join(), align, transport };
+  const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen, reused: false, prepared: false };
+  pool.held = { views, mode, read: read.join(), align, transport, prepared };
   return { align, timings, transport };
 }
 

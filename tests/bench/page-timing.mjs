@@ -6,8 +6,10 @@
 // a SharedArrayBuffer); `transport` says which path ran (absent on pages before session 5),
 // `unaccounted_ms` the estimate's time outside every stage row, `estimate_cpu_ms` the CPU
 // time all the browser's processes spent while it estimated (Linux /proc); `again` also
-// times a second estimate of the same scene with another λ (`second`).
-//   node tests/bench/page-timing.mjs [size] [grid] [workers] [plain|isolated] [again]
+// times a second estimate of the same scene with another λ (`second`); `settled` clicks
+// Estimate only once the page has handed the views to its workers (else at once, and
+// the estimate waits for that hand-over).
+//   node tests/bench/page-timing.mjs [size] [grid] [workers] [plain|isolated] [again] [settled]
 import { gzipSync } from "node:zlib";
 import { readFileSync, readdirSync, mkdtempSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
@@ -44,10 +46,10 @@ function browserCpuMs() {
   }
 }
 
-const [size = "512", grid = "9", workers = "", mode = "plain", again = ""] = process.argv.slice(2);
+const [size = "512", grid = "9", workers = "", ...flags] = process.argv.slice(2);
 const web = join(root, "web");
 const wasm = readFileSync(join(web, "pkg/lfdepth_wasm_bg.wasm"));
-const server = await serve(web, { isolated: mode === "isolated" });
+const server = await serve(web, { isolated: flags.includes("isolated") });
 const profile = mkdtempSync(join(tmpdir(), "lfdepth-bench-"));
 const context = await chromium.launchPersistentContext(profile, {
   executablePath: process.env.CHROMIUM_PATH ?? "/usr/bin/chromium",
@@ -73,6 +75,11 @@ try {
   const start = Date.now();
   await page.goto(`${server.origin}/${query}`);
   await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 600_000 });
+  // `settled`: click only once the page has handed the views to its workers (as a user
+  // who looks at the light field first; pages before session 5 have no such step).
+  if (flags.includes("settled")) {
+    await page.waitForFunction(() => ["done", "failed", undefined].includes(document.getElementById("load-info")?.dataset.prepared), null, { timeout: 600_000 });
+  }
   // CPU time of the browser's processes (all its threads: page, workers) over the
   // estimate alone: steadier than wall time on a loaded machine.
   const cpuBefore = browserCpuMs();
@@ -91,6 +98,7 @@ try {
         [...document.querySelectorAll("#timings tr")].filter((r) => !r.textContent.startsWith("total")).reduce((sum, r) => sum + parseFloat(r.cells[1].textContent), 0),
     ),
     transport: document.getElementById("load-info")?.dataset.transport,
+    when: document.getElementById("load-info")?.dataset.when,
     badpix007: Number(document.getElementById("scores").dataset.badpix007),
     longest_main_thread_gap_ms: Math.max(0, ...Object.values(window.__gaps)),
     longest_gap_by_stage_ms: window.__gaps,
@@ -98,7 +106,7 @@ try {
   // `again`: a second estimate of the same light field with another λ (a user tuning
   // the parameters).
   let second;
-  if (again === "again") {
+  if (flags.includes("again")) {
     await page.fill("#tv-lambda", "0.5");
     const cpu = browserCpuMs();
     await page.evaluate(() => (document.body.dataset.state = "clicked"));
