@@ -1,5 +1,6 @@
 // Runs the pipeline over a WorkerPool: the alignment (unless `params.align` is "off")
-// on one worker, whose rectified views every worker then loads; the disparity range on one worker, then the
+// on one worker, every worker holding only the views the stages read (`handOver`:
+// shared, or copied and transferred); the disparity range on one worker, then the
 // horizontal and vertical EPI bands spread over all of them, then the fusion, then the
 // refine bands, the weighted-median row bands (pass after pass) and the TV tiles, each
 // stage spread over all of them too. Every part is the core's own band/tile function,
@@ -9,8 +10,15 @@
 /** Lines per band: small enough to balance the workers and to cancel quickly. */
 export const BAND_LINES = 16;
 
-/** Bytes of views sent to the workers per message. */
-export const LOAD_CHUNK = 8 << 20;
+/** True when this page may share memory with its workers (it is cross-origin
+ * isolated: served with COOP `same-origin` and COEP `require-corp`). */
+export const canShare = () => globalThis.crossOriginIsolated === true && typeof SharedArrayBuffer === "function";
+
+/** A zeroed byte array for a light field's views: in a `SharedArrayBuffer` when the page
+ * can share memory (the workers then read the page's one copy), else a plain one. */
+export function viewBytes(length) {
+  return new Uint8Array(canShare() ? new SharedArrayBuffer(length) : length);
+}
 
 export class Cancelled extends Error {
   constructor() {
@@ -26,8 +34,9 @@ export class Cancelled extends Error {
  * @param {{stages: string[], onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
  *   `stages`: the stage names of `stageNames()` (the EPI ones, starting with "epi", are
  *   range, horizontal and vertical in that order).
- * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], timings: {stage: string, ms: number}[], align: object | null}>}
+ * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], timings: {stage: string, ms: number}[], align: object | null, transport: object}>}
  *   `align`: `{ skipped, warning, rms, identityRms }` of the alignment, null when "off".
+ *   `transport`: how the views reached the workers (see `handOver`).
  */
 export async function estimate(pool, lightField, params, { stages, onProgress: report, signal }) {
   // Bands still in flight when cancelled finish in their workers; say nothing of them.
@@ -58,44 +67,9 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
   };
   signal.addEventListener("abort", onAbort);
   try {
-    // Alignment once, on one worker; the others load its rectified views and do not align
-    // again.
-    let align = null;
-    let views = lightField.views;
-    if ((params.align ?? "auto") !== "off") {
-      const reply = await Promise.race([
-        aborted,
-        pool.run({ op: "align", views: lightField.views, shape: lightField.shape, params }, [], ({ stage, done, total }) => {
-          onProgress(stage, total ? done / total : 1);
-        }),
-      ]);
-      timings.push(...reply.timings);
-      align = reply.align;
-      if (reply.views) views = reply.views;
-    }
-    check();
-    // Refine bands: one per worker. The core's refinement is bit-identical for any
-    // banding (each band is computed with a halo that covers the reach of its result),
-    // so this changes only the speed: fewer, larger bands recompute fewer halo rows, and
-    // every worker gets one.
-    const loaded = { ...params, align: "off" };
-    loaded.refineBandRows ??= Math.ceil(lightField.shape.height / pool.size);
-    // Every worker gets its own copy of the views, cloned on this thread: chunk by chunk,
-    // yielding between chunks, so the page's thread is never held for more than one
-    // chunk's copy (the workers take the chunks in while the next ones are cloned).
-    await timed("load", async () => {
-      const received = [];
-      for (let offset = 0; offset < views.length; offset += LOAD_CHUNK) {
-        const chunk = views.slice(offset, offset + LOAD_CHUNK);
-        const end = Math.min(views.length, offset + LOAD_CHUNK);
-        received.push(pool.all({ op: "views", length: views.length, offset, chunk }).then(() => onProgress("load", end / views.length)));
-        await Promise.race([aborted, new Promise((resolve) => setTimeout(resolve, 0))]);
-        check();
-      }
-      await Promise.race([aborted, Promise.all(received)]);
-      check();
-      await pool.all({ op: "load", shape: lightField.shape, params: loaded });
-    });
+    const loaded = loadedParams(pool, lightField, params);
+    const { align, timings: alignTimings, transport } = await handOver(pool, lightField, params, loaded, { onProgress, race: (p) => Promise.race([aborted, p]), check });
+    timings.push(...alignTimings);
     check();
     const { range } = await timed(rangeStage, () => pool.run({ op: "range" }));
     check();
@@ -235,8 +209,8 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     const { residuals } = await pool.run({ op: "residuals", histories }, [histories.buffer]);
     check();
     if (plan.medianPasses > 0 && !plan.medianBeforeTv) await median();
-    // Free the per-worker copies of the views and maps.
-    pool.all({ op: "unload" });
+    // Free the per-worker maps; the views stay for the next estimate (`handOver`).
+    pool.all({ op: "clearMaps" });
     return {
       disparity,
       confidence,
@@ -244,6 +218,7 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       range,
       timings,
       align,
+      transport,
     };
   } catch (e) {
     if (signal.aborted) throw new Cancelled();
@@ -260,7 +235,7 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
 export async function synthesize(pool, spec, onProgress) {
   const { rows, cols, width, height, channels } = spec;
   const viewLen = width * height * channels;
-  const views = new Uint8Array(rows * cols * viewLen);
+  const views = viewBytes(rows * cols * viewLen);
   let done = 0;
   const jobs = [];
   for (let row = 0; row < rows; row++) {
@@ -277,4 +252,181 @@ export async function synthesize(pool, spec, onProgress) {
   await Promise.all(jobs);
   const { groundTruth } = await gt;
   return { views, groundTruth, shape: { rows, cols, width, height, channels } };
+}
+
+/** The parameters of the workers' estimators: no alignment (worker 0 aligns once, see
+ * `handOver`) and, unless given, one refine band per worker. The core's refinement is
+ * bit-identical for any banding (each band is computed with a halo that covers the reach
+ * of its result), so this changes only the speed: fewer, larger bands recompute fewer
+ * halo rows, and every worker gets one. */
+function loadedParams(pool, lightField, params) {
+  const loaded = { ...params, align: "off" };
+  loaded.refineBandRows ??= Math.ceil(lightField.shape.height / pool.size);
+  return loaded;
+}
+
+/**
+ * Hands `lightField` to the pool's workers ahead of an estimate with `params`, as the
+ * estimate would (`handOver`): the page calls it when a light field is loaded, so that
+ * the first estimate finds the views there. An estimate started meanwhile waits for it;
+ * preparations run one after the other. Resolves when done; a failure leaves nothing
+ * held (the estimate then loads the views itself and reports the error).
+ */
+export function prepare(pool, lightField, params) {
+  const task = (pool.preparing ?? Promise.resolve()).then(() =>
+    handOver(pool, lightField, params, loadedParams(pool, lightField, params), {
+      onProgress: () => {},
+      race: (p) => p,
+      check: () => {},
+      prepared: true,
+    }),
+  );
+  const settled = task.then(
+    () => {},
+    () => {},
+  );
+  pool.preparing = settled;
+  settled.then(() => {
+    if (pool.preparing === settled) pool.preparing = null;
+  });
+  return task.then(() => {});
+}
+
+/**
+ * Gives every worker an estimator over the views the stages read (`readViews`: the
+ * centre row and column of the grid with the default parameters, 17 of 81 views on 9×9),
+ * after the alignment when `params.align` is not "off". The alignment runs on worker 0
+ * over the whole light field and that worker keeps its aligned estimator; the other
+ * workers load the read views meanwhile ("auto": most arrays are found rectified, and
+ * they reload the rectified views only when they were not).
+ *
+ * How the bytes travel: when `lightField.views` lies in a `SharedArrayBuffer` (a
+ * cross-origin-isolated page, see `viewBytes`), every worker copies the views it needs
+ * straight from the page's one copy into its wasm memory ("shared"); else each worker
+ * gets its own packed copy of the read views, transferred, not cloned ("transfer").
+ * Stage timings: the aligner's (`align`, `warp`) and `load`, the rest of this hand-over's
+ * wall time (sending and copying the views, not computing).
+ *
+ * The next estimate of the same light field (same `views` array, same align mode, same
+ * views read) sends nothing: the workers keep their estimators between estimates
+ * (`pool.held`) and only take the new parameters (`reused`; `prepared` when they were
+ * handed over by `prepare`, not by an earlier estimate).
+ * @returns {Promise<{align: object | null, timings: {stage: string, ms: number}[], transport: {shared: boolean, views: number, of: number, bytesPerWorker: number, reused: boolean, prepared: boolean}}>}
+ */
+async function handOver(pool, lightField, params, loaded, { onProgress, race, check, prepared = false }) {
+  const start = performance.now();
+  // A preparation in flight (`prepare`) finishes first: it may be handing over these
+  // very views.
+  if (pool.preparing && !prepared) await race(pool.preparing);
+  check();
+  const { views, shape } = lightField;
+  const viewLen = shape.width * shape.height * shape.channels;
+  const shared = typeof SharedArrayBuffer === "function" && views.buffer instanceof SharedArrayBuffer;
+  const { read } = await race(pool.run({ op: "readViews", shape, params: loaded }));
+  check();
+  const mode = params.align ?? "auto";
+  // The workers still hold these views from the last estimate (aligned as this one
+  // would align them: same light field, same align mode, same views read): new
+  // parameters only.
+  const held = pool.held;
+  if (held && held.views === views && held.mode === mode && held.read === read.join()) {
+    await race(pool.all({ op: "setParams", params: loaded }));
+    check();
+    // The first estimate after `prepare` got them when the light field was loaded; any
+    // later one from an earlier estimate.
+    const transport = { ...held.transport, reused: true, prepared: held.prepared };
+    if (!prepared) held.prepared = false;
+    return { align: held.align, timings: [{ stage: "load", ms: performance.now() - start }], transport };
+  }
+  pool.held = null;
+  // A load request per worker. `packed`: the read views one after the other (the
+  // aligner's rectified ones); null: those of the light field itself.
+  const requests = (packed, count) => {
+    if (shared) {
+      let source = views;
+      if (packed) {
+        source = new Uint8Array(new SharedArrayBuffer(packed.length));
+        source.set(packed);
+      }
+      return Array.from({ length: count }, () => [{ op: "load", views: source, indices: packed ? null : read, shape, params: loaded }, []]);
+    }
+    const one = packed ?? pack(views, read, viewLen);
+    return Array.from({ length: count }, (_, i) => {
+      const copy = i === count - 1 ? one : one.slice();
+      return [{ op: "load", views: copy, indices: null, shape, params: loaded }, [copy.buffer]];
+    });
+  };
+  let loadedWorkers = 0;
+  // Loads workers `indices`; `report()` says whether to show their progress yet.
+  const loadAll = async (indices, packed, report) => {
+    if (!indices.length) return;
+    const loads = requests(packed, indices.length).map(([request, transfer], i) =>
+      pool.to(indices[i], request, transfer).then(() => {
+        loadedWorkers++;
+        if (report()) onProgress("load", loadedWorkers / pool.size);
+      }),
+    );
+    await race(Promise.all(loads));
+  };
+  const others = Array.from({ length: pool.size - 1 }, (_, i) => i + 1);
+  let align = null;
+  const timings = [];
+  if (mode === "off") {
+    await loadAll([0, ...others], null, () => true);
+  } else {
+    let aligned = false;
+    // "auto" usually finds the array rectified: the other workers load the views as
+    // they are while worker 0 aligns.
+    const early = mode === "auto" ? loadAll(others, null, () => aligned) : null;
+    early?.catch(() => {});
+    // The alignment reads views outside the read set: the whole light field, shared, or
+    // one copy moved to the aligner (a structured clone would copy it twice), copied in
+    // chunks so that the page's thread never stalls for the whole copy.
+    const whole = shared ? views : await race(copyInChunks(views));
+    check();
+    const reply = await race(
+      pool.to(0, { op: "align", views: whole, shape, params: { ...params, refineBandRows: loaded.refineBandRows }, keep: true }, shared ? [] : [whole.buffer], ({ stage, done, total }) => {
+        onProgress(stage, total ? done / total : 1);
+      }),
+    );
+    check();
+    timings.push(...reply.timings);
+    align = reply.align;
+    aligned = true;
+    loadedWorkers++;
+    if (early) await early;
+    check();
+    if (reply.views || !early) {
+      loadedWorkers = 1;
+      await loadAll(others, reply.views ?? null, () => true);
+    }
+    onProgress("load", 1);
+  }
+  check();
+  const computing = timings.reduce((sum, t) => sum + t.ms, 0);
+  timings.push({ stage: "load", ms: Math.max(0, performance.now() - start - computing) });
+  const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen, reused: false, prepared: false };
+  pool.held = { views, mode, read: read.join(), align, transport, prepared };
+  return { align, timings, transport };
+}
+
+/** Bytes copied between two yields of the page's thread. */
+export const COPY_CHUNK = 8 << 20;
+
+/** A copy of `bytes`, made `COPY_CHUNK` bytes at a time with a yield to the page's event
+ * loop between chunks. */
+async function copyInChunks(bytes) {
+  const out = new Uint8Array(bytes.length);
+  for (let offset = 0; offset < bytes.length; offset += COPY_CHUNK) {
+    out.set(bytes.subarray(offset, offset + COPY_CHUNK), offset);
+    await new Promise((resolve) => setTimeout(resolve, 0));
+  }
+  return out;
+}
+
+/** The views at grid indices `read` of `views`, packed one after the other (a copy). */
+function pack(views, read, viewLen) {
+  const out = new Uint8Array(read.length * viewLen);
+  read.forEach((v, i) => out.set(views.subarray(v * viewLen, (v + 1) * viewLen), i * viewLen));
+  return out;
 }

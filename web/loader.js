@@ -1,5 +1,6 @@
 // Turns dropped or picked files into a light field: view images ordered by their names,
 // decoded locally, packed as RGB bytes in row-major grid order.
+import { viewBytes } from "./engine.js";
 
 const HCI = /^input_Cam(\d{3})\.(png|jpe?g|bmp|webp)$/i;
 const ROW_COL = /_(\d+)_(\d+)\.(png|jpe?g|bmp|webp)$/i;
@@ -65,7 +66,7 @@ export async function decodeViews(files, rows, cols, onProgress) {
     const bitmap = await createImageBitmap(files[i], { colorSpaceConversion: "none", premultiplyAlpha: "none" });
     if (i === 0) {
       ({ width, height } = bitmap);
-      views = new Uint8Array(files.length * width * height * 3);
+      views = viewBytes(files.length * width * height * 3);
     } else if (bitmap.width !== width || bitmap.height !== height) {
       throw new Error(`${files[i].name} is ${bitmap.width}x${bitmap.height} but the first view is ${width}x${height}: all views must have one size`);
     }

@@ -3,7 +3,7 @@
 // only requests are for the page's own files.
 import { initSync, stageNames, sceneNames, evaluate, version } from "./pkg/lfdepth_wasm.js";
 import { WorkerPool } from "./pool.js";
-import { estimate, synthesize, Cancelled } from "./engine.js";
+import { estimate, prepare, synthesize, Cancelled } from "./engine.js";
 import { filesFromDrop, arrange, decodeViews } from "./loader.js";
 import { parsePfm, writePfm, writePng16, writePly } from "./formats.js";
 import { drawMap, drawRgb, drawEpis, drawLegend, drawResiduals, viridis, grays, heat } from "./render.js";
@@ -38,8 +38,13 @@ async function compile() {
   }
 }
 
+/** The number of workers the form asks for. */
+function workerCount() {
+  return Math.max(1, Math.min(32, Number($("workers").value) || navigator.hardwareConcurrency || 4));
+}
+
 async function pool() {
-  const size = Math.max(1, Math.min(32, Number($("workers").value) || navigator.hardwareConcurrency || 4));
+  const size = workerCount();
   if (state.pool?.size !== size) {
     state.pool?.terminate();
     state.pool = await WorkerPool.create(state.module, size);
@@ -67,6 +72,9 @@ function params() {
 
 function setLightField(lightField, groundTruth, name) {
   state.lightField = lightField;
+  // The workers' estimators belong to the previous light field: the next estimate loads
+  // this one (and the previous views can be collected).
+  if (state.pool) state.pool.held = null;
   state.groundTruth = groundTruth;
   state.result = null;
   state.name = name;
@@ -75,6 +83,10 @@ function setLightField(lightField, groundTruth, name) {
   $("run").disabled = false;
   $("align-info").textContent = "";
   delete $("align-info").dataset.align;
+  $("load-info").textContent = "";
+  delete $("load-info").dataset.transport;
+  delete $("load-info").dataset.when;
+  delete $("load-info").dataset.prepared;
   for (const b of document.querySelectorAll("[data-download]")) b.disabled = true;
   for (const id of ["disparity", "confidence", "error-map"]) {
     const c = $(id);
@@ -144,6 +156,7 @@ async function decodePending(rows, cols) {
   setProgress(0, "idle");
   const folder = files[0].webkitRelativePath?.split("/")[0] || files[0].name.replace(/\.[^.]*$/, "");
   setLightField(lightField, groundTruth, folder);
+  prepareWorkers();
 }
 
 async function generate(scene, size, grid, misalign = false) {
@@ -156,10 +169,38 @@ async function generate(scene, size, grid, misalign = false) {
   );
   setProgress(0, `rendered in ${((performance.now() - start) / 1000).toFixed(2)} s`);
   setLightField({ views, shape }, groundTruth, `synthetic “${scene}”` + (misalign ? " (misaligned)" : ""));
+  prepareWorkers();
   setStatus("idle");
 }
 
 // ---------------------------------------------------------------- estimation
+
+/** Hands the light field's views to the workers now, while the user looks at it and sets
+ * the parameters: the first estimate then finds them there (unless the align mode
+ * changed). Not while an estimate runs (its workers are busy with the old light field:
+ * the next estimate hands the new one over itself). */
+function prepareWorkers() {
+  if (!$("cancel").disabled || !state.lightField) return;
+  const lightField = state.lightField;
+  const p = params();
+  const info = $("load-info");
+  const say = (status, text) => {
+    info.dataset.prepared = status;
+    info.textContent = text;
+  };
+  say("pending", "Handing the views to the workers …");
+  const current = () => state.lightField === lightField && info.dataset.prepared === "pending";
+  // Synchronously when the pool exists, so that an estimate started right after waits
+  // for this hand-over instead of making its own.
+  const go = (workers) =>
+    prepare(workers, lightField, p).then(
+      () => current() && say("done", "The views are with the workers."),
+      // The estimate hands them over itself and reports what went wrong.
+      () => current() && say("failed", ""),
+    );
+  if (state.pool?.size === workerCount()) go(state.pool);
+  else pool().then(go, () => {});
+}
 
 async function run() {
   if (!state.lightField) return;
@@ -191,6 +232,7 @@ async function run() {
     const p = params();
     const result = await estimate(await pool(), state.lightField, p, { stages, onProgress, signal: controller.signal });
     showAlignment(result.align);
+    showTransport(result.transport);
     const total = performance.now() - start;
     state.result = { ...result, params: p };
     setProgress(100, `done in ${(total / 1000).toFixed(2)} s — 100 %`);
@@ -215,6 +257,26 @@ async function run() {
     $("run").disabled = false;
     $("cancel").disabled = true;
   }
+}
+
+/** How the views reached the workers, in words and as data attributes (for tests). */
+function showTransport({ shared, views, of, bytesPerWorker, reused, prepared }) {
+  const info = $("load-info");
+  delete info.dataset.prepared;
+  // How the views travelled, and when: with this estimate, when the light field was
+  // loaded (`prepare`), or with an earlier estimate.
+  info.dataset.transport = shared ? "shared" : "transfer";
+  info.dataset.when = prepared ? "light-field" : reused ? "earlier-estimate" : "estimate";
+  info.dataset.views = views;
+  const which = `${views} of ${of} views (the ones the stages read, ${(bytesPerWorker / 2 ** 20).toFixed(1)} MB)`;
+  const how = shared
+    ? "read from memory shared with the page (cross-origin isolated)"
+    : "one copy per worker, transferred (the page is not cross-origin isolated, so it cannot share memory)";
+  info.textContent =
+    reused && !prepared
+      ? `Views to the workers: none sent, they still hold ${which} from the last estimate of this light field.`
+      : `Views to the workers: ${which}, ${how}${prepared ? ", when the light field was loaded" : ""}.`;
+  console.info(`lfdepth: ${info.textContent}`);
 }
 
 /** What the alignment did, in words and as data attributes (for tests). */

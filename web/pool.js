@@ -2,8 +2,9 @@
 // go to an idle worker, or, while many are queued, to a worker with fewer than `DEPTH`
 // in flight (a worker answers one request at a time: the next waits in its message
 // queue, so the worker does not idle while its reply travels back and a new request
-// comes); `all` sends one request to every worker. A worker may send
-// `{ id, progress }` reports before its reply; they go to the request's `onProgress`.
+// comes); `all` sends one request to every worker, `to` one to a given worker. A worker
+// may send `{ id, progress }` reports before its reply; they go to the request's
+// `onProgress`.
 
 /** Requests in flight per worker. */
 export const DEPTH = 2;
@@ -40,6 +41,9 @@ export class WorkerPool {
     });
     this.queue = [];
     this.nextId = 1;
+    /** What every worker's estimator holds after the last complete hand-over of views
+     * (set by engine.js), so that the next estimate of the same light field sends none. */
+    this.held = null;
   }
 
   get size() {
@@ -58,6 +62,16 @@ export class WorkerPool {
   run(request, transfer = [], onProgress = undefined) {
     return new Promise((resolve, reject) => {
       this.queue.push({ request, transfer, onProgress, resolve, reject });
+      this.#dispatch();
+    });
+  }
+
+  /** Runs `request` on worker `index` (0 ≤ index < size), queue or not. */
+  to(index, request, transfer = [], onProgress = undefined) {
+    const worker = this.workers[index];
+    worker.inFlight++;
+    return this.#send(worker, request, transfer, onProgress).finally(() => {
+      worker.inFlight--;
       this.#dispatch();
     });
   }
@@ -92,6 +106,7 @@ export class WorkerPool {
   }
 
   terminate() {
+    this.held = null;
     for (const w of this.workers) w.terminate();
   }
 }

@@ -1,37 +1,53 @@
 // A module worker: receives the compiled WebAssembly.Module once, then answers requests
-// (alignment, EPI bands, ranges, synthetic views, fusion, refine bands, median rows,
-// TV tiles) one at a time. Every request
+// (alignment, the views the stages read, EPI bands, ranges, synthetic views, fusion,
+// refine bands, median rows, TV tiles) one at a time. Its estimator stays between
+// estimates (engine.js reuses it for the same light field). Every request
 // carries an `id` and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
 // `{ id, ok: false, message }`; a long request may first send `{ id, progress }` reports.
-import { initSync, Estimator, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
+import { initSync, Estimator, readViews, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
 
 let estimator = null;
-/** The views being received in chunks (`views` requests), until `load`. */
-let incoming = null;
+
+/** One `Uint8Array` per view `fromReadViews` takes: the views at grid `indices` of a
+ * whole light field (a `SharedArrayBuffer` the page shares), or, without `indices`, the
+ * views packed one after the other. */
+function viewList(views, indices, shape) {
+  const len = shape.width * shape.height * shape.channels;
+  const at = indices ?? Array.from({ length: Math.floor(views.length / len) }, (_, i) => i);
+  return at.map((v, i) => {
+    const start = (indices ? v : i) * len;
+    return views.subarray(start, start + len);
+  });
+}
+
+function replace(next) {
+  estimator?.free();
+  estimator = next;
+}
 
 const handlers = {
   init({ module }) {
     initSync({ module });
     return {};
   },
-  views({ length, offset, chunk }) {
-    if (offset === 0 || incoming?.length !== length) incoming = new Uint8Array(length);
-    incoming.set(chunk, offset);
+  readViews({ shape, params }) {
+    return { read: Array.from(readViews(shape, params)) };
+  },
+  /** Holds only the views the stages read (see `viewList`), copied once into wasm memory. */
+  load({ views, indices, shape, params }) {
+    replace(null);
+    replace(Estimator.fromReadViews(viewList(views, indices, shape), shape, params));
     return {};
   },
-  load({ shape, params }) {
-    if (!incoming) throw new Error("no views received: send them with `views` requests first");
-    estimator?.free();
-    estimator = null;
-    try {
-      estimator = new Estimator(incoming, shape, params);
-    } finally {
-      incoming = null;
-    }
-    return {};
-  },
-  align({ id, views, shape, params }) {
+  /** Aligns the whole light field; replies with the rectified views the stages read
+   * (packed; none when the alignment left the views as they were). With `keep` this
+   * worker then estimates with the aligned estimator (it needs no `load`). */
+  align({ id, views, shape, params, keep }) {
+    // Free the estimator this one replaces first: its memory is then reused (faster
+    // than fresh wasm pages).
+    if (keep) replace(null);
     const aligner = new Estimator(views, shape, params);
+    let kept = false;
     try {
       const result = aligner.align((progress) => {
         self.postMessage({ id, progress: { stage: progress.stage, done: progress.done, total: progress.total } });
@@ -43,10 +59,14 @@ const handlers = {
         return timing;
       });
       result.free();
-      const rectified = align.skipped ? null : aligner.views;
+      const rectified = align.skipped ? null : aligner.readViews;
+      if (keep) {
+        replace(aligner);
+        kept = true;
+      }
       return { align, timings, views: rectified, transfer: rectified ? [rectified.buffer] : [] };
     } finally {
-      aligner.free();
+      if (!kept) aligner.free();
     }
   },
   range() {
@@ -117,9 +137,13 @@ const handlers = {
     const gt = renderGroundTruth(spec);
     return { groundTruth: gt, transfer: [gt.buffer] };
   },
-  unload() {
-    estimator?.free();
-    estimator = null;
+  /** New parameters over the views this worker's estimator holds (see engine.js). */
+  setParams({ params }) {
+    requireEstimator().setParams(params);
+    return {};
+  },
+  clearMaps() {
+    estimator?.clearMaps();
     return {};
   },
 };

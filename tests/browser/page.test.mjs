@@ -18,10 +18,13 @@ const executablePath = process.env.CHROMIUM_PATH ?? "/usr/bin/chromium";
 let server, context, profile;
 const consoleErrors = [];
 const foreign = [];
+/** The page's own servers (the plain one and the cross-origin-isolated one). */
+const origins = [];
 
 before(async () => {
   assert.ok(existsSync(join(web, "pkg/lfdepth_wasm_bg.wasm")), "web/pkg is missing: run wasm-pack build wasm --target web --out-dir ../web/pkg");
   server = await serve(web);
+  origins.push(server.origin);
   profile = mkdtempSync(join(tmpdir(), "lfdepth-chromium-"));
   context = await chromium.launchPersistentContext(profile, {
     executablePath,
@@ -31,7 +34,7 @@ before(async () => {
   });
   context.on("request", (request) => {
     const url = request.url();
-    if (!url.startsWith(server.origin + "/") && !url.startsWith("blob:") && !url.startsWith("data:")) foreign.push(url);
+    if (!origins.some((o) => url.startsWith(o + "/")) && !url.startsWith("blob:") && !url.startsWith("data:")) foreign.push(url);
   });
   context.on("console", (message) => {
     if (message.type() === "error") consoleErrors.push(message.text());
@@ -70,8 +73,19 @@ test("a synthetic scene runs end to end in workers and is accurate", async () =>
     timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
     iterations: Number(document.getElementById("residuals").dataset.iterations),
     downloads: [...document.querySelectorAll("[data-download]")].every((b) => !b.disabled),
+    transport: document.getElementById("load-info").dataset.transport,
+    when: document.getElementById("load-info").dataset.when,
+    views: Number(document.getElementById("load-info").dataset.views),
+    loadInfo: document.getElementById("load-info").textContent,
   }));
   console.log("page report:", JSON.stringify(report));
+  // Served without COOP/COEP the page cannot share memory: each worker gets a copy of
+  // the 17 views the stages read (of 81), and the page says so; they went to the workers
+  // as soon as the scene was rendered (the estimate waited for that hand-over).
+  assert.equal(report.transport, "transfer");
+  assert.equal(report.when, "light-field");
+  assert.equal(report.views, 17);
+  assert.match(report.loadInfo, /17 of 81 views .* transferred \(the page is not cross-origin isolated, .*\), when the light field was loaded\.$/);
   assert.equal(report.state, "done", report.error);
   assert.equal(report.progress, 100);
   assert.match(report.progressText, /100 %/);
@@ -106,7 +120,8 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
     const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
     lf.initSync({ module });
     const spec = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
-    const scenes = { occlusion: lf.synthesize(spec), lowTexture: lf.synthesize({ ...spec, scene: "low-texture" }) };
+    // (`views` of a SyntheticLightField is a new copy at each read: read it once.)
+    const scenes = { occlusion: { views: lf.synthesize(spec).views }, lowTexture: { views: lf.synthesize({ ...spec, scene: "low-texture" }).views } };
     const shape = { rows: 7, cols: 7, width: 80, height: 64, channels: 3 };
     const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
     const out = [];
@@ -120,16 +135,17 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
       [{ refineBandRows: 20, tvTile: 40, medianBeforeTv: false, iterations: 80 }, "occlusion"],
       [{ tvTile: 32 }, "lowTexture"],
     ];
-    for (const [params, name] of runs) {
-      const scene = scenes[name];
-      const serial = new lf.Estimator(scene.views, shape, params).estimate();
-      for (const size of [1, 3]) {
-        const pool = await WorkerPool.create(module, size);
+    // One pool per worker count for all the runs: the runs after the first on a scene
+    // reuse the views the workers hold (new parameters only).
+    for (const size of [1, 3]) {
+      const pool = await WorkerPool.create(module, size);
+      for (const [params, name] of runs) {
+        const scene = scenes[name];
+        const serial = new lf.Estimator(scene.views, shape, params).estimate();
         const stages = new Set();
         const r = await engine.estimate(pool, { views: scene.views, shape }, params, {
           stages: lf.stageNames(), onProgress: (stage) => stages.add(stage), signal: new AbortController().signal,
         });
-        pool.terminate();
         out.push({
           params: JSON.stringify(params),
           workers: size,
@@ -138,8 +154,10 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
           residuals: same(r.residuals, serial.residuals) && r.residuals.length > 0,
           stages: ["refine", "median", "tv"].every((s) => stages.has(s)),
           timings: r.timings.map((t) => t.stage).filter((s) => ["refine", "geofill", "median", "tv"].includes(s)).join(),
+          transport: r.transport.reused ? "reused" : r.transport.shared ? "shared" : "transfer",
         });
       }
+      pool.terminate();
     }
     return out;
   });
@@ -152,7 +170,98 @@ test("the page's result is bit-identical to the serial estimator, for 1 and 3 wo
     assert.equal(r.timings, order, JSON.stringify(r));
   }
   assert.equal(results.length, 8);
+  // Not cross-origin isolated: copies transferred, then reused on the same scene.
+  assert.deepEqual(results.map((r) => r.transport), ["transfer", "reused", "reused", "transfer", "transfer", "reused", "reused", "transfer"]);
   await page.close();
+});
+
+/** In `page`: the engine over 2 and 3 workers against the serial estimator, on a
+ * rectified scene and a misaligned one (auto: the other workers reload the rectified
+ * views; on), each estimated a second time with another λ (the views reused). */
+function transportCases(page) {
+  return page.evaluate(async () => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { WorkerPool } = await import("./pool.js");
+    const engine = await import("./engine.js");
+    const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
+    lf.initSync({ module });
+    const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
+    const occlusion = { scene: "occlusion", rows: 7, cols: 7, width: 80, height: 64, channels: 3, seed: 5 };
+    const bent = { scene: "mixed", rows: 5, cols: 5, width: 96, height: 96, channels: 3, seed: 4, misalign: true };
+    const options = () => ({ stages: lf.stageNames(), onProgress: () => {}, signal: new AbortController().signal });
+    const out = [];
+    for (const [spec, params] of [[occlusion, {}], [bent, { align: "auto", iterations: 60 }], [bent, { align: "on", iterations: 60 }]]) {
+      const { rows, cols, width, height, channels } = spec;
+      const shape = { rows, cols, width, height, channels };
+      const plain = lf.synthesize(spec).views;
+      // Where the page keeps a light field's views: shared memory when isolated.
+      const views = engine.viewBytes(plain.length);
+      views.set(plain);
+      const serial = new lf.Estimator(plain, shape, params).estimate();
+      const serialAgain = new lf.Estimator(plain, shape, { ...params, lambda: 1 }).estimate();
+      for (const size of [2, 3]) {
+        const pool = await WorkerPool.create(module, size);
+        // With 3 workers the views are handed over ahead (as the page does when a light
+        // field is loaded); the estimate, started at once, waits for that.
+        if (size === 3) engine.prepare(pool, { views, shape }, params);
+        const r = await engine.estimate(pool, { views, shape }, params, options());
+        const again = await engine.estimate(pool, { views, shape }, { ...params, lambda: 1 }, options());
+        pool.terminate();
+        out.push({
+          spec: spec.scene,
+          params: JSON.stringify(params),
+          workers: size,
+          isolated: crossOriginIsolated,
+          shared: r.transport.shared && views.buffer instanceof SharedArrayBuffer,
+          aligned: r.align?.skipped === false,
+          bits: same(r.disparity, serial.disparity) && same(r.confidence, serial.confidence) && same(r.residuals, serial.residuals),
+          reused: again.transport.reused && !again.transport.prepared && r.transport.reused === (size === 3) && r.transport.prepared === (size === 3) && again.align?.skipped === r.align?.skipped,
+          bitsAgain: same(again.disparity, serialAgain.disparity) && same(again.confidence, serialAgain.confidence),
+        });
+      }
+    }
+    return out;
+  });
+}
+
+test("views copied and transferred (plain host): same bits, aligned or not, and reused", async () => {
+  const page = await open("");
+  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  const results = await transportCases(page);
+  for (const r of results) assert.ok(!r.isolated && !r.shared && r.bits && r.reused && r.bitsAgain, JSON.stringify(r));
+  assert.deepEqual(results.map((r) => r.aligned), [false, false, true, true, true, true]);
+  await page.close();
+});
+
+test("cross-origin isolated, the workers read the views from memory shared with the page: same bits", async () => {
+  const isolated = await serve(web, { isolated: true });
+  origins.push(isolated.origin);
+  try {
+    const page = await context.newPage();
+    page.on("pageerror", (e) => consoleErrors.push(e.message));
+    await page.goto(`${isolated.origin}/`);
+    await page.waitForFunction(() => document.body.dataset.state === "idle");
+    const results = await transportCases(page);
+    for (const r of results) assert.ok(r.isolated && r.shared && r.bits && r.reused && r.bitsAgain, JSON.stringify(r));
+    assert.deepEqual(results.map((r) => r.aligned), [false, false, true, true, true, true]);
+    // The page itself: its views live in shared memory, and it says so.
+    await page.goto(`${isolated.origin}/?scene=planes&size=128&grid=9&workers=2&run`);
+    await settled(page);
+    const report = await page.evaluate(() => ({
+      state: document.body.dataset.state,
+      error: document.getElementById("error").textContent,
+      transport: document.getElementById("load-info").dataset.transport,
+      loadInfo: document.getElementById("load-info").textContent,
+      badpix: Number(document.getElementById("scores").dataset.badpix007),
+    }));
+    assert.equal(report.state, "done", report.error);
+    assert.equal(report.transport, "shared");
+    assert.match(report.loadInfo, /17 of 81 views .* shared with the page \(cross-origin isolated\)/);
+    assert.ok(report.badpix < 5, `BadPix(0.07) ${report.badpix}`);
+    await page.close();
+  } finally {
+    await isolated.close();
+  }
 });
 
 test("the align control exists, reaches the workers' requests and aligns a misaligned scene", async () => {
@@ -168,7 +277,9 @@ test("the align control exists, reaches the workers' requests and aligns a misal
     };
   });
   await page.goto(`${server.origin}/?scene=mixed&size=128&grid=5&misalign&workers=2`);
-  await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
+  // Rendered, and its views handed to the workers (with the default align mode, auto).
+  await page.waitForFunction(() => document.body.dataset.state === "idle" && document.getElementById("load-info").dataset.prepared === "done", null, { timeout: 120_000 });
+  assert.equal(await page.textContent("#load-info"), "The views are with the workers.");
   assert.match(await page.textContent("#lf-info"), /misaligned/);
   const options = await page.$$eval("#align option", (o) => o.map((x) => x.value));
   assert.deepEqual(options.sort(), ["auto", "off", "on"]);
@@ -238,7 +349,7 @@ test("the median control exists, is on by default and reaches the workers", asyn
     };
   });
   await page.goto(`${server.origin}/?scene=occlusion&size=96&grid=5&workers=2`);
-  await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
+  await page.waitForFunction(() => document.body.dataset.state === "idle" && document.getElementById("load-info").dataset.prepared === "done", null, { timeout: 120_000 });
   assert.equal(await page.isChecked("#median"), true);
   const runWith = async (on) => {
     await page.setChecked("#median", on);
@@ -254,11 +365,20 @@ test("the median control exists, is on by default and reaches the workers", asyn
       error: document.getElementById("error").textContent,
       medians: window.__medians,
       timings: [...document.querySelectorAll("#timings tr")].map((r) => r.textContent),
+      transport: document.getElementById("load-info").dataset.transport,
+      when: document.getElementById("load-info").dataset.when,
+      loadInfo: document.getElementById("load-info").textContent,
     }));
   };
   const on = await runWith(true);
   const off = await runWith(false);
   for (const r of [on, off]) assert.equal(r.state, "done", r.error);
+  // The views went to the workers when the scene was rendered; the second estimate of
+  // the same light field sends none either: the workers hold them.
+  assert.equal(on.transport, "transfer");
+  assert.equal(on.when, "light-field");
+  assert.equal(off.when, "earlier-estimate");
+  assert.match(off.loadInfo, /none sent, they still hold 9 of 25 views/);
   assert.ok(on.medians.length > 0 && on.medians.every((m) => m === true), JSON.stringify(on.medians));
   assert.ok(off.medians.length > 0 && off.medians.every((m) => m === false), JSON.stringify(off.medians));
   // The median is a stage of its own only when it ran.

@@ -1,5 +1,8 @@
 // A static server for web/ on 127.0.0.1 (random port) for the browser tests: only files
-// under the root, correct MIME types (application/wasm for the module).
+// under the root, correct MIME types (application/wasm for the module). With
+// `{ isolated: true }` it also sends the COOP/COEP headers that make the page
+// cross-origin isolated (SharedArrayBuffer available: the page shares the views with its
+// workers instead of copying them).
 import { createServer } from "node:http";
 import { readFile } from "node:fs/promises";
 import { extname, join, normalize, sep } from "node:path";
@@ -16,7 +19,10 @@ const TYPES = {
   ".ts": "text/plain; charset=utf-8",
 };
 
-export async function serve(root) {
+/** The headers that make a page cross-origin isolated. */
+export const ISOLATION_HEADERS = { "cross-origin-opener-policy": "same-origin", "cross-origin-embedder-policy": "require-corp" };
+
+export async function serve(root, { isolated = false } = {}) {
   const requests = [];
   const server = createServer(async (req, res) => {
     const path = decodeURIComponent(new URL(req.url, "http://x").pathname);
@@ -28,7 +34,11 @@ export async function serve(root) {
     }
     try {
       const body = await readFile(file);
-      res.writeHead(200, { "content-type": TYPES[extname(file)] ?? "application/octet-stream", "cache-control": "no-store" });
+      res.writeHead(200, {
+        "content-type": TYPES[extname(file)] ?? "application/octet-stream",
+        "cache-control": "no-store",
+        ...(isolated ? ISOLATION_HEADERS : {}),
+      });
       res.end(body);
     } catch {
       res.writeHead(404).end("not found");

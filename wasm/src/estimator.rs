@@ -195,6 +195,9 @@ pub struct Estimator {
     pub(crate) maps: Option<(Vec<f32>, Vec<f32>)>,
     /// The map the previous median pass read (see `setPreviousDisparity`).
     pub(crate) previous: Option<Vec<f32>>,
+    /// True when only the views the stages read are held (`fromReadViews`; the others
+    /// are zero).
+    pub(crate) partial: bool,
 }
 
 impl Estimator {
@@ -244,6 +247,55 @@ impl Estimator {
 }
 
 impl Estimator {
+    /// An estimator over `views` (validated against `layout` by the caller); `partial`:
+    /// only the views `stages` read are filled.
+    pub(crate) fn with_views(
+        views: Vec<u8>,
+        layout: Layout,
+        plan: Plan,
+        stages: Stages,
+        partial: bool,
+    ) -> Self {
+        Estimator {
+            views,
+            layout,
+            plan,
+            stages,
+            aligned: None,
+            maps: None,
+            previous: None,
+            partial,
+        }
+    }
+
+    /// Replaces the plan and stages (same layout, same views) and forgets the maps.
+    pub(crate) fn replan(&mut self, plan: Plan, stages: Stages) {
+        self.plan = plan;
+        self.stages = stages;
+        self.maps = None;
+        self.previous = None;
+    }
+
+    /// True when the alignment rectified the views (only those the stages read).
+    pub(crate) fn warped(&self) -> bool {
+        self.aligned.as_ref().is_some_and(|a| !a.report.skipped)
+    }
+
+    /// The layout of the views.
+    pub(crate) fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// The views the stages read from (rectified once aligned), packed.
+    pub(crate) fn views_bytes(&self) -> &[u8] {
+        &self.views
+    }
+
+    /// How far `estimate` goes.
+    pub(crate) fn stages(&self) -> Stages {
+        self.stages
+    }
+
     pub(crate) fn light_field(&self) -> Result<LightField<'_, u8>, JsError> {
         LightField::new(&self.views, self.layout).map_err(error)
     }
@@ -271,15 +323,7 @@ impl Estimator {
         let plan = Plan::new(layout, params::params(&object)?).map_err(error)?;
         let views = js::bytes(&views, "views")?;
         LightField::new(&views, layout).map_err(error)?;
-        Ok(Estimator {
-            views,
-            layout,
-            plan,
-            stages,
-            aligned: None,
-            maps: None,
-            previous: None,
-        })
+        Ok(Estimator::with_views(views, layout, plan, stages, false))
     }
 
     /// View width.

@@ -9,6 +9,8 @@
 //!   result — or, to spread those over workers too, `parts` runs them by refine band,
 //!   median row band and TV tile ([`Estimator::refine_band`], [`Estimator::median_rows`],
 //!   [`Estimator::tv_tile`]).
+//! * [`read_views`] and `Estimator.fromReadViews`: an estimator holding only the views
+//!   its stages read (what the page sends each worker).
 //! * [`synthesize`], [`render_view`], [`render_ground_truth`]: the core's synthetic scenes.
 //! * [`evaluate`]: the HCI benchmark metrics.
 //!
@@ -21,11 +23,13 @@ mod metrics;
 mod params;
 mod parts;
 mod synth;
+mod views;
 
 pub use estimator::{fuse_bands, stage_names, Band, EstimateResult, Estimator, StageTiming};
 pub use metrics::{evaluate, Scores};
 pub use parts::TvTile;
 pub use synth::{render_ground_truth, render_view, scene_names, synthesize, SyntheticLightField};
+pub use views::read_views;
 
 use wasm_bindgen::prelude::*;
 

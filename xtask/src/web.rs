@@ -4,7 +4,10 @@
 //! The server is std-only and deliberately small: GET and HEAD of files under `web/`
 //! only (no listing, no `..`, no symlink escapes), `application/wasm` for the module so
 //! `WebAssembly.compileStreaming` works, `Cache-Control: no-store` so a rebuild shows at
-//! once. One thread per connection, one request per connection.
+//! once. One thread per connection, one request per connection. Every response carries
+//! the COOP/COEP headers that make the page cross-origin isolated, so the page can share
+//! the views with its workers in one `SharedArrayBuffer` instead of copying them (the
+//! page needs nothing from other origins).
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::{TcpListener, TcpStream};
@@ -127,6 +130,10 @@ pub fn serve(listener: TcpListener, web: PathBuf) {
     }
 }
 
+/// The headers that make the page cross-origin isolated (`SharedArrayBuffer` available).
+pub const ISOLATION_HEADERS: &str =
+    "Cross-Origin-Opener-Policy: same-origin\r\nCross-Origin-Embedder-Policy: require-corp\r\n";
+
 /// A response: status line, content type and body.
 #[derive(Debug, PartialEq, Eq)]
 pub struct Response {
@@ -158,7 +165,7 @@ fn answer(mut stream: TcpStream, web: &Path) -> std::io::Result<()> {
     let (method, response) = respond(&request_line, web);
     write!(
         stream,
-        "HTTP/1.1 {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\n",
+        "HTTP/1.1 {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nX-Content-Type-Options: nosniff\r\n{ISOLATION_HEADERS}Connection: close\r\n\r\n",
         response.status,
         response.content_type,
         response.body.len()
@@ -352,6 +359,8 @@ mod tests {
         let text = String::from_utf8_lossy(&reply);
         assert!(text.starts_with("HTTP/1.1 200 OK\r\n"), "{text}");
         assert!(text.contains("Content-Type: application/wasm\r\n"));
+        assert!(text.contains("Cross-Origin-Opener-Policy: same-origin\r\n"));
+        assert!(text.contains("Cross-Origin-Embedder-Policy: require-corp\r\n"));
         assert!(reply.ends_with(&[0, 97, 115, 109]));
         std::fs::remove_dir_all(&web).unwrap();
     }
