@@ -165,7 +165,8 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
 
     /// Adds the Gauss–Newton statistics of the first `n` taps (gathered with `J` = 3)
     /// at `d` to their groups in `out` (see [`Views::pixel`]). Every lane is computed
-    /// (the loop has a fixed length); lanes from `n` on are not added.
+    /// (the loop has a fixed length); lanes from `n` on are not added. `regular`: all
+    /// [`CHUNK`] lanes are taken and lane `v` belongs to group `regular[v % GROUPS]`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn statistics(
@@ -176,6 +177,7 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
         d: T,
         half: T,
         (robust, scaled): (T, T),
+        regular: Option<&[usize; GROUPS]>,
         out: &mut [T; STATS],
     ) {
         let [t0, t1, t2] = self.scaled::<3>(levels);
@@ -202,6 +204,32 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
             // hardly counts.
             let w = scaled / (robust + rr);
             (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
+        }
+        if let Some(groups) = regular {
+            // Lane `v` belongs to group `groups[v % GROUPS]`: each group's sums take its
+            // lanes in the same order as the loop below, four groups side by side.
+            let mut sums = [[T::ZERO; GROUPS]; 3];
+            for (slot, &g) in groups.iter().enumerate() {
+                if let Some(s) = out.get(3 * g..3 * g + 3) {
+                    for (k, sum) in sums.iter_mut().enumerate() {
+                        sum[slot] = s[k];
+                    }
+                }
+            }
+            for (v, ((&a, &b), &e)) in sa.iter().zip(&sb).zip(&se).enumerate() {
+                let slot = v % GROUPS;
+                sums[0][slot] += a;
+                sums[1][slot] += b;
+                sums[2][slot] += e;
+            }
+            for (slot, &g) in groups.iter().enumerate() {
+                if let Some(s) = out.get_mut(3 * g..3 * g + 3) {
+                    for (k, sum) in sums.iter().enumerate() {
+                        s[k] = sum[slot];
+                    }
+                }
+            }
+            return;
         }
         for v in 0..n.min(CHUNK) {
             let g = self.group[v];
@@ -242,9 +270,25 @@ fn used<T: Scalar, const L: usize, const N: usize>(lanes: &[T; L]) -> [T; N] {
 pub(crate) struct Views<T> {
     /// The views in the centre row and column, the farthest first (they tell
     /// disparities apart best, so a propagation candidate's cost reaches its bar
-    /// sooner), left, right, up, down among equally far ones.
+    /// sooner), in grid order (up, left, right, down) among equally far ones.
     axis: [AxisTap<T>; MAX_AXIS],
     axis_len: usize,
+    /// There are [`CHUNK`] axis taps and tap `i` belongs to the group of tap
+    /// `i % GROUPS`, the first [`GROUPS`] taps to the four groups (the 9×9 cross: up,
+    /// left, right, down at each distance).
+    regular: bool,
+    /// For a regular set: the group of taps `i` with `i % GROUPS = s`, per `s`.
+    regular_groups: [usize; GROUPS],
+    /// For a regular set, per axis tap: offset, first sample, whether it lies in the
+    /// centre row, the position's factors of `x` and `y` (one of them one, the other
+    /// zero), its largest value and the number of samples along the axis.
+    regular_offset: [T; CHUNK],
+    regular_start: [usize; CHUNK],
+    regular_in_row: [bool; CHUNK],
+    regular_x: [T; CHUNK],
+    regular_y: [T; CHUNK],
+    regular_max: [T; CHUNK],
+    regular_samples: [usize; CHUNK],
     /// The other views.
     taps: [Tap<T>; MAX_VIEWS],
     len: usize,
@@ -385,6 +429,15 @@ impl<T: Scalar> Views<T> {
         let mut views = Views {
             axis: [AxisTap::default(); MAX_AXIS],
             axis_len: 0,
+            regular: false,
+            regular_groups: [0; GROUPS],
+            regular_offset: [T::ZERO; CHUNK],
+            regular_start: [0; CHUNK],
+            regular_in_row: [false; CHUNK],
+            regular_x: [T::ZERO; CHUNK],
+            regular_y: [T::ZERO; CHUNK],
+            regular_max: [T::ZERO; CHUNK],
+            regular_samples: [0; CHUNK],
             taps: [Tap::default(); MAX_VIEWS],
             len: 0,
             terms: [0.0; GROUPS],
@@ -456,6 +509,38 @@ impl<T: Scalar> Views<T> {
                 axis.swap(j - 1, j);
                 j -= 1;
             }
+        }
+        let first = views
+            .axis
+            .first_chunk::<GROUPS>()
+            .map(|t| t.map(|t| t.group));
+        if let (Some(groups), true) = (first, views.axis_len == CHUNK) {
+            let mut seen = [false; GROUPS];
+            for &g in &groups {
+                if let Some(s) = seen.get_mut(g) {
+                    *s = true;
+                }
+            }
+            views.regular = seen == [true; GROUPS]
+                && (views.axis.iter().take(CHUNK).enumerate())
+                    .all(|(i, tap)| Some(&tap.group) == groups.get(i % GROUPS));
+            views.regular_groups = groups;
+        }
+        for (i, tap) in views.axis.iter().take(CHUNK).enumerate() {
+            views.regular_offset[i] = tap.offset;
+            views.regular_start[i] = tap.start;
+            views.regular_in_row[i] = tap.in_row;
+            let (along, across) = (T::ONE, T::ZERO);
+            (
+                views.regular_x[i],
+                views.regular_y[i],
+                views.regular_max[i],
+                views.regular_samples[i],
+            ) = if tap.in_row {
+                (along, across, views.x_max, views.x_last + 2)
+            } else {
+                (across, along, views.y_max, views.y_last + 2)
+            };
         }
         views
     }
@@ -589,6 +674,19 @@ impl<T: Scalar> Views<T> {
         let mut chunk = Chunk::<T, S, N>::new();
         let mut cursor = 0;
         let centre_used = used::<T, L, N>(&centre);
+        if self.regular && self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk) {
+            chunk.statistics(
+                CHUNK,
+                &self.levels,
+                &centre_used,
+                d,
+                self.half,
+                (robust, scaled),
+                Some(&self.regular_groups),
+                out,
+            );
+            cursor = CHUNK;
+        }
         loop {
             let n = self.fill::<S, CH, N, 3>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
             if n == 0 {
@@ -601,6 +699,7 @@ impl<T: Scalar> Views<T> {
                 d,
                 self.half,
                 (robust, scaled),
+                None,
                 out,
             );
         }
@@ -647,6 +746,16 @@ impl<T: Scalar> Views<T> {
         let mut chunk = Chunk::<T, S, N>::new();
         let mut cursor = 0;
         let centre_used = used::<T, L, N>(&centre);
+        if self.regular && self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk) {
+            let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+            for e in energies {
+                cost += e;
+            }
+            if !below(cost) {
+                return None;
+            }
+            cursor = CHUNK;
+        }
         loop {
             let n = self.fill::<S, CH, N, 2>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
             if n == 0 {
@@ -772,6 +881,115 @@ impl<T: Scalar> Views<T> {
             n += 1;
         }
         n
+    }
+
+    /// [`Self::fill`] of all [`CHUNK`] axis taps of a regular set at once, when every
+    /// tap sees the pixel and none needs the border's clamped samples (the positions
+    /// and cells of the sixteen taps in fixed-length loops, then the copies): the same
+    /// chunk as `fill` from cursor 0. `false` otherwise (the chunk is then partly
+    /// written; `fill` rewrites every lane it returns).
+    #[inline(always)]
+    fn fill_regular<S: Sample, const CH: usize, const N: usize, const J: usize>(
+        &self,
+        data: &[S],
+        (x, y): (usize, usize),
+        (xf, yf): (T, T),
+        d: T,
+        chunk: &mut Chunk<T, S, N>,
+    ) -> bool {
+        let mut cells = [0usize; CHUNK];
+        if !self.regular_cells::<J>((xf, yf), d, &mut cells, &mut chunk.fraction) {
+            return false;
+        }
+        let (row, column) = (y * self.row_stride, x * CH);
+        let rs = self.row_stride;
+        for (v, (&k, &start)) in cells.iter().zip(&self.regular_start).enumerate() {
+            if self.regular_in_row[v] {
+                // The J texels lie side by side in the row.
+                let start = start + row + k * CH;
+                let Some(run) = data.get(start..start.wrapping_add((J - 1) * CH + N)) else {
+                    return false;
+                };
+                for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                    for (c, channel) in texel.iter_mut().enumerate() {
+                        channel[v] = run[j * CH + c];
+                    }
+                }
+            } else {
+                // One texel per row, `rs` apart.
+                let start = start + column + k * rs;
+                for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                    let at = start.wrapping_add(j * rs);
+                    let Some(run) = data.get(at..at.wrapping_add(N)) else {
+                        return false;
+                    };
+                    for (c, channel) in texel.iter_mut().enumerate() {
+                        channel[v] = run[c];
+                    }
+                }
+            }
+        }
+        chunk.offset = self.regular_offset;
+        true
+    }
+
+    /// The cells (first texel index along the axis) and fractions of the regular axis
+    /// taps at `d`, as [`Self::fill`] splits them (`J` = 3: of `p − ½`, `J` = 2: of
+    /// `p`); whether every tap sees the pixel and none needs the border's clamped
+    /// samples. For `f32` in one loop without branches, which the compiler vectorises.
+    #[inline(always)]
+    fn regular_cells<const J: usize>(
+        &self,
+        (xf, yf): (T, T),
+        d: T,
+        cells: &mut [usize; CHUNK],
+        fractions: &mut [T; CHUNK],
+    ) -> bool {
+        let half = self.half;
+        // Resolved at compile time for each scalar type.
+        let f32s = (
+            (&xf as &dyn Any).downcast_ref::<f32>(),
+            (&yf as &dyn Any).downcast_ref::<f32>(),
+            (&d as &dyn Any).downcast_ref::<f32>(),
+            (&self.regular_x as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
+            (&self.regular_y as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
+            (&self.regular_offset as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
+            (&self.regular_max as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
+            (fractions as &mut dyn Any).downcast_mut::<[f32; CHUNK]>(),
+        );
+        if let (Some(&xf), Some(&yf), Some(&d), Some(rx), Some(ry), Some(off), Some(max), Some(f)) =
+            f32s
+        {
+            let mut inside = [false; CHUNK];
+            let mut whole = [0i32; CHUNK];
+            for v in 0..CHUNK {
+                // `xf · 1 + yf · 0` is `xf` exactly (and the other way round).
+                let p = (xf * rx[v] + yf * ry[v]) - d * off[v];
+                let q = if J == 3 { p - 0.5 } else { p };
+                // The truncation is the floor of a position inside the image (`split`).
+                whole[v] = q as i32;
+                f[v] = q - whole[v] as f32;
+                inside[v] = (p - 0.5 >= 0.0) & (p + 0.5 <= max[v]);
+            }
+            let mut all = true;
+            for v in 0..CHUNK {
+                let k = whole[v].max(0) as usize;
+                cells[v] = k;
+                all &= inside[v] & (k + J <= self.regular_samples[v]);
+            }
+            return all;
+        }
+        let mut all = true;
+        for v in 0..CHUNK {
+            let p = (xf * self.regular_x[v] + yf * self.regular_y[v]) - d * self.regular_offset[v];
+            let (k, f) = split(if J == 3 { p - half } else { p });
+            all &= p - half >= T::ZERO
+                && p + half <= self.regular_max[v]
+                && k + J <= self.regular_samples[v];
+            cells[v] = k;
+            fractions[v] = f;
+        }
+        all
     }
 
     /// The samples of an oblique view: bilinear at `d + h`, `d − h` and `d`, with the
