@@ -123,6 +123,10 @@ struct AxisTap<T> {
     reach: usize,
 }
 
+/// `1.5 · 2^23`: added to an `f32` of magnitude below `2^22`, it leaves the value
+/// rounded to an integer in the low bits of the sum.
+const MAGIC: f32 = 12_582_912.0;
+
 /// Most views in the centre row and column of a grid.
 const MAX_AXIS: usize = 2 * (GRID_MAX - 1);
 
@@ -966,10 +970,17 @@ impl<T: Scalar> Views<T> {
                 // `xf · 1 + yf · 0` is `xf` exactly (and the other way round).
                 let p = (xf * rx[v] + yf * ry[v]) - d * off[v];
                 let q = if J == 3 { p - 0.5 } else { p };
-                // The truncation is the floor of a position inside the image (`split`).
-                whole[v] = q as i32;
-                f[v] = q - whole[v] as f32;
-                inside[v] = (p - 0.5 >= 0.0) & (p + 0.5 <= max[v]);
+                // The floor of `0 ≤ q < 2^22` (a position inside the image) without a
+                // saturating conversion: `q + 1.5·2^23` rounds `q` to an integer in
+                // the low bits of the sum; one less where that rounded up. The same
+                // cell and fraction as `split`. (Outside that range the cell is wrong,
+                // and `inside` is false.)
+                let rounded = q + MAGIC;
+                let mut k = (rounded.to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32);
+                k -= i32::from(rounded - MAGIC > q);
+                whole[v] = k;
+                f[v] = q - k as f32;
+                inside[v] = (p - 0.5 >= 0.0) & (p + 0.5 <= max[v]) & (q < 4194304.0);
             }
             let mut all = true;
             for v in 0..CHUNK {
