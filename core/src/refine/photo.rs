@@ -1329,3 +1329,63 @@ impl<T: Scalar, S: Sample> Photometric<T> for Mapped<'_, T, S> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use std::vec::Vec;
+
+    use super::*;
+    use crate::epi::test_scenes::{noise, strips};
+    use crate::lightfield::Grid;
+    use crate::scalar::Q16;
+
+    /// The 9×9 cross's taps in one pass (`fill_regular`, the group sums side by side)
+    /// against tap by tap (`fill`): the same bits for every pixel, disparity and bar,
+    /// borders (where the one pass gives way) included.
+    fn regular_matches_tap_by_tap<T: Scalar>() {
+        let scene = strips(Grid::new(9, 9), 40, 36, 3, 0.6, &[1.8]);
+        let regular = Views::<T>::new(&scene.layout, ViewSet::Cross);
+        assert!(regular.regular, "the 9×9 cross is regular");
+        let mut by_tap = Views::<T>::new(&scene.layout, ViewSet::Cross);
+        by_tap.regular = false;
+        let robust = 0.01f32 * 0.01 * 3.0 * INTENSITY_SCALE * INTENSITY_SCALE;
+        let stat_robust = (T::from_f32(robust), T::from_f32(4.0 * robust));
+        let cost_robust = (T::from_f32(robust), T::from_f32(4096.0 * robust));
+        let (w, h) = (scene.layout.width, scene.layout.height);
+        let shifts = noise(w * h, 11);
+        let mut costs = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let d = T::from_f32(6.0 * shifts[y * w + x] - 3.0);
+                let (mut a, mut b) = ([T::ZERO; STATS], [T::ZERO; STATS]);
+                regular.pixel(&scene.data, x, y, d, stat_robust, &mut a);
+                by_tap.pixel(&scene.data, x, y, d, stat_robust, &mut b);
+                assert!(a == b, "statistics differ at ({x}, {y}): {a:?} vs {b:?}");
+                let full = regular.cost(&scene.data, x, y, d, cost_robust, None);
+                assert_eq!(full, by_tap.cost(&scene.data, x, y, d, cost_robust, None));
+                let full = full.unwrap_or(T::ZERO);
+                costs.push(full);
+                for bar in [full, full + T::from_f32(1.0e-3), full * T::from_f32(0.5)] {
+                    assert_eq!(
+                        regular.cost(&scene.data, x, y, d, cost_robust, Some(bar)),
+                        by_tap.cost(&scene.data, x, y, d, cost_robust, Some(bar)),
+                        "cost below {bar:?} at ({x}, {y})"
+                    );
+                }
+            }
+        }
+        // The comparison saw real costs, not only empty ones.
+        assert!(costs.iter().filter(|&&c| c > T::ZERO).count() > w * h / 2);
+    }
+
+    #[test]
+    fn the_regular_cross_gives_the_same_f32_statistics_and_costs_as_tap_by_tap() {
+        regular_matches_tap_by_tap::<f32>();
+    }
+
+    #[test]
+    fn the_regular_cross_gives_the_same_q16_statistics_and_costs_as_tap_by_tap() {
+        regular_matches_tap_by_tap::<Q16>();
+    }
+}
