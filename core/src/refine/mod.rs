@@ -698,9 +698,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                 if iteration > 0 && (now - before).abs() < k.settled {
                     continue;
                 }
-                let mut s = [T::ZERO; STATS];
-                photo.pixel(x, first + y, now, stat_robust, &mut s);
-                *stat = s;
+                photo.pixel(x, first + y, now, stat_robust, stat);
             }
         }
         let span = measured.start * width..measured.end * width;

@@ -142,7 +142,8 @@ struct Chunk<T, S, const N: usize> {
     fraction: [T; CHUNK],
     /// The tap's offset along its axis: the derivative's factor.
     offset: [T; CHUNK],
-    group: [usize; CHUNK],
+    /// Each tap's group (below [`GROUPS`]).
+    group: [u8; CHUNK],
 }
 
 impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
@@ -236,7 +237,7 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
             return;
         }
         for v in 0..n.min(CHUNK) {
-            let g = self.group[v];
+            let g = usize::from(self.group[v]);
             if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
                 sums[0] += sa[v];
                 sums[1] += sb[v];
@@ -880,7 +881,9 @@ impl<T: Scalar> Views<T> {
                 chunk.offset.get_mut(n),
                 chunk.group.get_mut(n),
             ) {
-                (*fraction, *offset, *to) = (f, tap.offset, tap.group);
+                // Groups are below `GROUPS`: the default never happens.
+                let group = u8::try_from(tap.group).unwrap_or(u8::MAX);
+                (*fraction, *offset, *to) = (f, tap.offset, group);
             }
             n += 1;
         }
