@@ -341,9 +341,9 @@ fn window_sum<T: Scalar>(
             ) else {
                 return window_sum_each(stats, previous, width, ys, xs, d, gate, scale);
             };
-            for (n, &p) in ds.iter().enumerate() {
+            for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
                 let outside = (p - d).abs() > gate;
-                let terms = sum.iter_mut().zip(&ss[n * STATS..(n + 1) * STATS]);
+                let terms = sum.iter_mut().zip(s);
                 match scale {
                     None => terms.for_each(|(s, &v)| *s += if outside { T::ZERO } else { v }),
                     Some(f) => {
@@ -379,7 +379,10 @@ fn window_sum_each<T: Scalar>(
             if (p - d).abs() > gate {
                 continue;
             }
-            let terms = sum.iter_mut().zip(&stats[j * STATS..(j + 1) * STATS]);
+            let Some(stat) = stats.get(j * STATS..(j + 1) * STATS) else {
+                continue;
+            };
+            let terms = sum.iter_mut().zip(stat);
             match scale {
                 None => terms.for_each(|(s, &v)| *s += v),
                 Some(f) => terms.for_each(|(s, &v)| *s += v * f),

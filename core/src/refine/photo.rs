@@ -213,25 +213,22 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
         if let Some(groups) = regular {
             // Lane `v` belongs to group `groups[v % GROUPS]`: each group's sums take its
             // lanes in the same order as the loop below, four groups side by side.
-            let mut sums = [[T::ZERO; GROUPS]; 3];
-            for (slot, &g) in groups.iter().enumerate() {
-                if let Some(s) = out.get(3 * g..3 * g + 3) {
-                    for (k, sum) in sums.iter_mut().enumerate() {
-                        sum[slot] = s[k];
-                    }
+            let mut sums = [[T::ZERO; 3]; GROUPS];
+            for (sum, &g) in sums.iter_mut().zip(groups) {
+                if let Some(s) = out.get(3 * g..).and_then(|s| s.first_chunk::<3>()) {
+                    *sum = *s;
                 }
             }
             for (v, ((&a, &b), &e)) in sa.iter().zip(&sb).zip(&se).enumerate() {
-                let slot = v % GROUPS;
-                sums[0][slot] += a;
-                sums[1][slot] += b;
-                sums[2][slot] += e;
+                if let Some([sa, sb, se]) = sums.get_mut(v % GROUPS) {
+                    *sa += a;
+                    *sb += b;
+                    *se += e;
+                }
             }
-            for (slot, &g) in groups.iter().enumerate() {
-                if let Some(s) = out.get_mut(3 * g..3 * g + 3) {
-                    for (k, sum) in sums.iter().enumerate() {
-                        s[k] = sum[slot];
-                    }
+            for (sum, &g) in sums.iter().zip(groups) {
+                if let Some(s) = out.get_mut(3 * g..).and_then(|s| s.first_chunk_mut::<3>()) {
+                    *s = *sum;
                 }
             }
             return;
@@ -531,21 +528,25 @@ impl<T: Scalar> Views<T> {
                     .all(|(i, tap)| Some(&tap.group) == groups.get(i % GROUPS));
             views.regular_groups = groups;
         }
+        let (along, across) = (T::ONE, T::ZERO);
+        let (row_frame, column_frame) = (
+            (along, across, views.x_max, views.x_last + 2),
+            (across, along, views.y_max, views.y_last + 2),
+        );
         for (i, tap) in views.axis.iter().take(CHUNK).enumerate() {
-            views.regular_offset[i] = tap.offset;
-            views.regular_start[i] = tap.start;
-            views.regular_in_row[i] = tap.in_row;
-            let (along, across) = (T::ONE, T::ZERO);
-            (
-                views.regular_x[i],
-                views.regular_y[i],
-                views.regular_max[i],
-                views.regular_samples[i],
-            ) = if tap.in_row {
-                (along, across, views.x_max, views.x_last + 2)
-            } else {
-                (across, along, views.y_max, views.y_last + 2)
-            };
+            let frame = if tap.in_row { row_frame } else { column_frame };
+            if let (Some(o), Some(s), Some(r), Some(x), Some(y), Some(m), Some(n)) = (
+                views.regular_offset.get_mut(i),
+                views.regular_start.get_mut(i),
+                views.regular_in_row.get_mut(i),
+                views.regular_x.get_mut(i),
+                views.regular_y.get_mut(i),
+                views.regular_max.get_mut(i),
+                views.regular_samples.get_mut(i),
+            ) {
+                (*o, *s, *r) = (tap.offset, tap.start, tap.in_row);
+                (*x, *y, *m, *n) = frame;
+            }
         }
         views
     }
@@ -918,8 +919,11 @@ impl<T: Scalar> Views<T> {
                     return false;
                 };
                 for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
-                    for (c, channel) in texel.iter_mut().enumerate() {
-                        channel[v] = run[j * CH + c];
+                    let texel_run = run.get(j * CH..).unwrap_or_default();
+                    for (channel, &sample) in texel.iter_mut().zip(texel_run) {
+                        if let Some(lane) = channel.get_mut(v) {
+                            *lane = sample;
+                        }
                     }
                 }
             } else {
@@ -930,8 +934,10 @@ impl<T: Scalar> Views<T> {
                     let Some(run) = data.get(at..at.wrapping_add(N)) else {
                         return false;
                     };
-                    for (c, channel) in texel.iter_mut().enumerate() {
-                        channel[v] = run[c];
+                    for (channel, &sample) in texel.iter_mut().zip(run) {
+                        if let Some(lane) = channel.get_mut(v) {
+                            *lane = sample;
+                        }
                     }
                 }
             }
