@@ -47,8 +47,10 @@ pub(super) struct Lanes<'a> {
     pub(super) values: &'a [f32; LANES],
     pub(super) gx: &'a [f32; LANES],
     pub(super) gy: &'a [f32; LANES],
-    pub(super) colours: [&'a [f32; LANES]; 3],
 }
+
+/// The guide's colour levels (three channels) of one window row of a pixel.
+pub(super) type ColourLanes<'a> = [&'a [f32; LANES]; 3];
 
 impl<'a> RowRing<'a> {
     /// `rows` needs [`ring_len`] elements.
@@ -119,8 +121,10 @@ impl<'a> RowRing<'a> {
             return;
         };
         left.fill(f32::NAN);
+        // Non-finite values as NaN: a vote is then finite exactly when it equals itself,
+        // and NaN votes fall in neither class (one compare per lane instead of three).
         for (v, &d) in inside.iter_mut().zip(row) {
-            *v = d;
+            *v = if d.is_finite() { d } else { f32::NAN };
         }
         right.fill(f32::NAN);
         sx.fill(0.0);
@@ -136,27 +140,50 @@ impl<'a> RowRing<'a> {
         self.slot_row[slot] = yy;
     }
 
-    /// Window row `yy` (which must be loaded) of the pixel in column `x`, from column
-    /// `x − radius` on.
+    /// Where image row `yy` lives in the ring: the argument of [`Self::lanes_at`].
     #[inline(always)]
-    pub(super) fn lanes(&self, yy: usize, x: usize, radius: usize) -> Option<Lanes<'_>> {
-        let start = PLANES * (yy % RING_ROWS) * self.stride + (x + PAD_LEFT).checked_sub(radius)?;
-        let read = |offset: usize| -> Option<&[f32; LANES]> {
-            self.rows
-                .get(start + offset..start + offset + LANES)?
-                .try_into()
-                .ok()
-        };
+    pub(super) fn base(&self, yy: usize) -> usize {
+        PLANES * (yy % RING_ROWS) * self.stride
+    }
+
+    /// [`LANES`] elements from `at`: one bounds check.
+    #[inline(always)]
+    fn read(&self, at: usize) -> Option<&[f32; LANES]> {
+        self.rows.get(at..)?.first_chunk()
+    }
+
+    /// Where the lanes of the pixel in column `x` start in the row at `base`.
+    #[inline(always)]
+    fn start(base: usize, x: usize, radius: usize) -> Option<usize> {
+        Some(base.wrapping_add((x + PAD_LEFT).checked_sub(radius)?))
+    }
+
+    /// Window row at `base` ([`Self::base`] of a loaded row) of the pixel in column
+    /// `x`, from column `x − radius` on: values and slopes.
+    #[inline(always)]
+    pub(super) fn lanes_at(&self, base: usize, x: usize, radius: usize) -> Option<Lanes<'_>> {
+        let start = Self::start(base, x, radius)?;
         Some(Lanes {
-            values: read(0)?,
-            gx: read(self.stride)?,
-            gy: read(2 * self.stride)?,
-            colours: [
-                read(3 * self.stride)?,
-                read(4 * self.stride)?,
-                read(5 * self.stride)?,
-            ],
+            values: self.read(start)?,
+            gx: self.read(start.wrapping_add(self.stride))?,
+            gy: self.read(start.wrapping_add(2 * self.stride))?,
         })
+    }
+
+    /// The colour levels of the lanes of [`Self::lanes_at`].
+    #[inline(always)]
+    pub(super) fn colours_at(
+        &self,
+        base: usize,
+        x: usize,
+        radius: usize,
+    ) -> Option<ColourLanes<'_>> {
+        let start = Self::start(base, x, radius)?;
+        Some([
+            self.read(start.wrapping_add(3 * self.stride))?,
+            self.read(start.wrapping_add(4 * self.stride))?,
+            self.read(start.wrapping_add(5 * self.stride))?,
+        ])
     }
 
     /// The x and y slope at column `xx` of image row `yy` (which must be loaded).
