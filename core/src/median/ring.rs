@@ -133,9 +133,7 @@ impl<'a> RowRing<'a> {
             let (Some(sx), Some(sy)) = (sx.get_mut(columns.clone()), sy.get_mut(columns)) else {
                 return;
             };
-            for (xx, (gx, gy)) in sx.iter_mut().zip(sy).enumerate() {
-                (*gx, *gy) = slope(map, width, height, xx, yy, gate);
-            }
+            row_slopes(map, width, height, yy, gate, sx, sy);
         }
         self.slot_row[slot] = yy;
     }
@@ -204,6 +202,71 @@ impl<'a> RowRing<'a> {
             get(at + 4 * self.stride),
             get(at + 5 * self.stride),
         ]
+    }
+}
+
+/// One side-aware central difference, as [`slope`] takes it, from the backward and
+/// forward differences `back` and `fwd` of sides that exist (`has_back`, `has_fwd`)
+/// and the gate `limit`: branch-free selects, so a row of them is vector code. A
+/// difference within the limit is finite (the limit is), so `|d| ≤ limit` is
+/// [`slope`]'s test.
+#[inline(always)]
+fn central(back: f32, fwd: f32, has_back: bool, has_fwd: bool, limit: f32) -> f32 {
+    let ok_back = has_back & (back.abs() <= limit);
+    let ok_fwd = has_fwd & (fwd.abs() <= limit);
+    let both = 0.5 * (back + fwd);
+    let one = if ok_back { back } else { fwd };
+    if ok_back & ok_fwd {
+        both
+    } else if ok_back | ok_fwd {
+        one
+    } else {
+        0.0
+    }
+}
+
+/// [`slope`] of every column of row `yy` into `sx` and `sy` (`width` each): the
+/// interior columns' x slopes and every y slope as vector code, the two end columns'
+/// x slopes by [`slope`].
+fn row_slopes(
+    map: &[f32],
+    width: usize,
+    height: usize,
+    yy: usize,
+    gate: f32,
+    sx: &mut [f32],
+    sy: &mut [f32],
+) {
+    let limit = gate.max(1e-6);
+    let Some(row) = map.get(yy * width..(yy + 1) * width) else {
+        return;
+    };
+    // A missing row above or below: the row itself, whose differences are not used.
+    let (has_up, has_down) = (yy > 0, yy + 1 < height);
+    let up = if has_up {
+        map.get((yy - 1) * width..yy * width).unwrap_or(row)
+    } else {
+        row
+    };
+    let down = if has_down {
+        map.get((yy + 1) * width..(yy + 2) * width).unwrap_or(row)
+    } else {
+        row
+    };
+    for (gy, ((&v, &u), &d)) in sy.iter_mut().zip(row.iter().zip(up).zip(down)) {
+        *gy = central(v - u, d - v, has_up, has_down, limit);
+    }
+    if width >= 3 {
+        let (left, middle, right) = (&row[..width - 2], &row[1..width - 1], &row[2..]);
+        let inner = sx.get_mut(1..width - 1).unwrap_or_default();
+        for (gx, ((&l, &v), &r)) in inner.iter_mut().zip(left.iter().zip(middle).zip(right)) {
+            *gx = central(v - l, r - v, true, true, limit);
+        }
+    }
+    for xx in [0, width.saturating_sub(1)] {
+        if let Some(gx) = sx.get_mut(xx) {
+            *gx = slope(map, width, height, xx, yy, gate).0;
+        }
     }
 }
 
