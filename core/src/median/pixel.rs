@@ -291,7 +291,7 @@ impl<S: Sample> Window<'_, '_, S> {
                 bits &= bits - 1;
                 let w = self.weights.at(indices[k]);
                 if let (true, Some(&vote), Some(slot)) = (w > 0, votes.get(k), keys.get_mut(n)) {
-                    *slot = key(vote, w);
+                    *slot = key(vote, w, n);
                     n += 1;
                 }
             }
