@@ -39,10 +39,12 @@ pub(super) fn count_steps(
     ) else {
         return;
     };
-    for (x, ((count, &v), &down)) in counts.iter_mut().zip(row).zip(below).enumerate() {
-        if right_step(row, x, gate) || (down - v).abs() > gate {
-            *count += delta;
-        }
+    // Branch-free over the row (vector code): the last column has no right step.
+    let rights = row.iter().skip(1).map(Some).chain([None]);
+    for (((count, &v), &down), right) in counts.iter_mut().zip(row).zip(below).zip(rights) {
+        let right_step = right.is_some_and(|&right| (right - v).abs() > gate);
+        let step = right_step | ((down - v).abs() > gate);
+        *count += if step { delta } else { 0.0 };
     }
 }
 
@@ -64,9 +66,11 @@ pub(super) fn count_changes(
         return;
     };
     for ((count, a), b) in counts.iter_mut().zip(now).zip(before) {
-        if a.to_bits() != b.to_bits() {
-            *count += delta;
-        }
+        *count += if a.to_bits() != b.to_bits() {
+            delta
+        } else {
+            0.0
+        };
     }
 }
 

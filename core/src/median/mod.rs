@@ -284,6 +284,13 @@ fn run<S: Sample>(
         let mut changed_column =
             LastFlagged::new(reach, width, |c| previous.is_none() || changes.any(c));
         let mut loaded = false;
+        // Per window row: where it lives in the ring, and `y − yy`.
+        let mut bases = [0usize; pixel::SPAN];
+        let mut dys = [0.0f32; pixel::SPAN];
+        for ((base, dy), yy) in bases.iter_mut().zip(dys.iter_mut()).zip(ys.clone()) {
+            *base = ring.base(yy);
+            *dy = y as f32 - yy as f32;
+        }
         for (x, (o, &own)) in o.iter_mut().zip(row).enumerate() {
             let has_step = step_column.step(x, width, |c| gated && column_has_step(c));
             let changed = changed_column.step(x, width, |c| previous.is_none() || changes.any(c));
@@ -303,6 +310,8 @@ fn run<S: Sample>(
                 height,
                 guide,
                 rows: &ring,
+                bases: &bases,
+                dys: &dys,
                 offsets,
                 weights: &weights,
                 params: p,

@@ -14,14 +14,14 @@
 
 use core::ops::Range;
 
-use super::ring::{Lanes, RowRing, LANES};
+use super::ring::{ColourLanes, Lanes, RowRing, LANES};
 use super::select::{key, weighted_median, weighted_median_of_keys};
 use super::weights::Weights;
 use super::{MedianParams, MAX_RADIUS, MAX_TAPS};
 use crate::lightfield::{Sample, View};
 
 /// Most columns (and rows) of a window.
-const SPAN: usize = 2 * MAX_RADIUS + 1;
+pub(super) const SPAN: usize = 2 * MAX_RADIUS + 1;
 /// Columns below which `x as f32 − xx as f32` is exact: 2²⁴ less the widest reach.
 const EXACT_COLUMNS: usize = (1 << 24) - 2 * LANES;
 
@@ -48,6 +48,10 @@ pub(super) struct Window<'a, 'g, S: Sample> {
     pub(super) height: usize,
     pub(super) guide: &'a View<'g, S>,
     pub(super) rows: &'a RowRing<'a>,
+    /// Per window row (top first), where it lives in the ring ([`RowRing::base`]).
+    pub(super) bases: &'a [usize; SPAN],
+    /// Per window row, `y − yy` as `f32`.
+    pub(super) dys: &'a [f32; SPAN],
     /// `r − k` for lane k: a pixel's offsets to its window columns.
     pub(super) offsets: [f32; LANES],
     pub(super) weights: &'a Weights,
@@ -91,15 +95,15 @@ impl<S: Sample> Window<'_, '_, S> {
         Some(self.weights.get(d2))
     }
 
-    /// The weight of the lanes `bits` of a window row whose squared colour distances
-    /// to the pixel are `d2`.
+    /// The weight of the lanes `bits` of a window row whose weight table indices
+    /// ([`Weights::index`]) are `indices`.
     #[inline(always)]
-    fn weigh(&self, mut bits: u16, d2: &[u32; LANES]) -> u64 {
+    fn weigh(&self, mut bits: u16, indices: &[u32; LANES]) -> u64 {
         let mut sum = 0u64;
         while bits != 0 {
-            let k = bits.trailing_zeros() as usize;
+            let k = bits.trailing_zeros() as usize & (LANES - 1);
             bits &= bits - 1;
-            sum += u64::from(self.weights.get(d2.get(k).copied().unwrap_or(u32::MAX)));
+            sum += u64::from(self.weights.at(indices[k]));
         }
         sum
     }
@@ -131,6 +135,7 @@ impl<S: Sample> Window<'_, '_, S> {
     /// there.
     fn decide(&self, x: usize, y: usize, own: f32) -> Option<Side> {
         let (ys, _) = self.rows_and_columns(x, y);
+        let rows = ys.len().min(SPAN);
         let r = self.params.radius;
         let (lo, hi) = (own - self.params.snap, own + self.params.snap);
         // Lane k is column x − r + k.
@@ -141,51 +146,57 @@ impl<S: Sample> Window<'_, '_, S> {
         let mut above = [0u16; SPAN];
         let mut inside = [0u16; SPAN];
         let mut outside = 0u16;
-        let mut row_lanes: [Option<Lanes<'_>>; SPAN] = [const { None }; SPAN];
-        let rows_out = row_lanes
+        let per_row = self.bases.iter().zip(self.dys);
+        let masks = below
             .iter_mut()
-            .zip(below.iter_mut())
             .zip(above.iter_mut().zip(inside.iter_mut()));
-        for (yy, ((slot, below), (above, inside))) in ys.clone().zip(rows_out) {
-            let Some(lanes) = self.rows.lanes(yy, x, r) else {
+        for ((&base, &dy), (below, (above, inside))) in per_row.zip(masks).take(rows) {
+            let Some(lanes) = self.rows.lanes_at(base, x, r) else {
                 continue;
             };
-            let (b, a, f) = classify(&lanes, &dxs, y as f32 - yy as f32, lo, hi);
+            let (b, a, f) = classify(&lanes, &dxs, dy, lo, hi);
             let (b, a, f) = (
-                (b & lanes_in_window) as u16,
-                (a & lanes_in_window) as u16,
-                (f & lanes_in_window) as u16,
+                b & lanes_in_window,
+                a & lanes_in_window,
+                f & lanes_in_window,
             );
-            *below = b;
-            *above = a;
-            *inside = f & !(b | a);
-            outside |= b | a;
-            *slot = Some(lanes);
+            *below = b as u16;
+            *above = a as u16;
+            *inside = (f & !(b | a)) as u16;
+            outside |= (b | a) as u16;
         }
         if outside == 0 {
             return None;
         }
         let centre = self.rows.colour_at(y, x);
-        // Squared colour distances of the rows weighed so far (bit i: row i).
-        let mut d2s = [[0u32; LANES]; SPAN];
+        // Weight table indices of the rows measured so far (bit i: row i).
+        let mut indices = [[0u32; LANES]; SPAN];
         let mut measured = 0u16;
         let (mut weight_below, mut weight_above) = (0u64, 0u64);
-        let rows_in = row_lanes.iter().zip(d2s.iter_mut());
-        for (i, ((lanes, d2), (&below, &above))) in
-            rows_in.zip(below.iter().zip(&above)).enumerate()
+        let sides = below.iter().zip(&above);
+        for (i, ((&base, row), (&below, &above))) in self
+            .bases
+            .iter()
+            .zip(indices.iter_mut())
+            .zip(sides)
+            .enumerate()
+            .take(rows)
         {
-            let (Some(lanes), true) = (lanes, below | above != 0) else {
+            if below | above == 0 {
+                continue;
+            }
+            let Some(colours) = self.rows.colours_at(base, x, r) else {
                 continue;
             };
             let live;
-            (*d2, live) = distances_live(lanes, &centre, self.weights.zero_from());
+            (*row, live) = indices_live(&colours, &centre, self.weights);
             measured |= 1 << i;
             // Across a strong colour edge every outside vote of a row may weigh zero.
             if (below | above) & live == 0 {
                 continue;
             }
-            weight_below += self.weigh(below, d2);
-            weight_above += self.weigh(above, d2);
+            weight_below += self.weigh(below, row);
+            weight_above += self.weigh(above, row);
         }
         // With I the inside weight and T = I + B + A the total, the selection moves the
         // pixel iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both
@@ -194,7 +205,6 @@ impl<S: Sample> Window<'_, '_, S> {
             weight_below < weight_inside + weight_above
                 && weight_above <= weight_inside + weight_below
         };
-        let rows = ys.len().min(SPAN);
         let centre_row = y - ys.start;
         let mut weight_inside = 0u64;
         // Rows by distance from the pixel's own: their colours are likeliest alike.
@@ -208,8 +218,8 @@ impl<S: Sample> Window<'_, '_, S> {
             let Some(i) = i else {
                 continue;
             };
-            let (Some(&bits), Some(Some(lanes)), Some(d2)) =
-                (inside.get(i), row_lanes.get(i), d2s.get_mut(i))
+            let (Some(&bits), Some(&base), Some(row)) =
+                (inside.get(i), self.bases.get(i), indices.get_mut(i))
             else {
                 continue;
             };
@@ -217,9 +227,12 @@ impl<S: Sample> Window<'_, '_, S> {
                 continue;
             }
             if measured >> i & 1 == 0 {
-                *d2 = distances(lanes, &centre);
+                let Some(colours) = self.rows.colours_at(base, x, r) else {
+                    continue;
+                };
+                *row = table_indices(&colours, &centre, self.weights);
             }
-            weight_inside += self.weigh(bits, d2);
+            weight_inside += self.weigh(bits, row);
             if kept(weight_inside) {
                 return None;
             }
@@ -259,22 +272,26 @@ impl<S: Sample> Window<'_, '_, S> {
         let centre = self.rows.colour_at(y, x);
         let mut keys = [0u64; MAX_TAPS];
         let mut n = 0;
-        for (yy, &bits) in ys.clone().zip(&side.lanes) {
+        let per_row = self.bases.iter().zip(self.dys);
+        for ((&base, &dy), &bits) in per_row.zip(&side.lanes).take(ys.len()) {
             let mut bits = bits;
             if bits == 0 {
                 continue;
             }
-            let Some(lanes) = self.rows.lanes(yy, x, r) else {
+            let (Some(lanes), Some(colours)) = (
+                self.rows.lanes_at(base, x, r),
+                self.rows.colours_at(base, x, r),
+            ) else {
                 continue;
             };
-            let votes = votes(&lanes, &dxs, y as f32 - yy as f32);
-            let d2 = distances(&lanes, &centre);
+            let votes = votes(&lanes, &dxs, dy);
+            let indices = table_indices(&colours, &centre, self.weights);
             while bits != 0 {
-                let k = bits.trailing_zeros() as usize;
+                let k = bits.trailing_zeros() as usize & (LANES - 1);
                 bits &= bits - 1;
-                let w = self.weights.get(d2.get(k).copied().unwrap_or(u32::MAX));
+                let w = self.weights.at(indices[k]);
                 if let (true, Some(&vote), Some(slot)) = (w > 0, votes.get(k), keys.get_mut(n)) {
-                    *slot = key(vote, w);
+                    *slot = key(vote, w, n);
                     n += 1;
                 }
             }
@@ -365,10 +382,12 @@ fn classify(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32, lo: f32, hi: f32) ->
         let v = lanes.values[k];
         // The same expression as the selection's, so the classes agree bit for bit.
         let vote = v + lanes.gx[k] * dxs[k] + lanes.gy[k] * dy;
-        let ok = v.abs() < f32::INFINITY;
-        finite |= u32::from(ok) << k;
-        below |= u32::from(ok & (vote < lo)) << k;
-        above |= u32::from(ok & (vote > hi)) << k;
+        // The ring holds non-finite values as NaN, and a finite value's vote is finite
+        // (slopes are at most 16, offsets at most 7): NaN votes are in no class,
+        // and a vote is finite exactly when it is not NaN.
+        finite |= u32::from(!vote.is_nan()) << k;
+        below |= u32::from(vote < lo) << k;
+        above |= u32::from(vote > hi) << k;
     }
     (below, above, finite)
 }
@@ -384,36 +403,38 @@ fn votes(lanes: &Lanes<'_>, dxs: &[f32; LANES], dy: f32) -> [f32; LANES] {
     votes
 }
 
-/// [`distances`], and bit k set where the distance is below `zero_from` (the lanes of
-/// non-zero weight), from float compares as in [`classify`].
+/// [`table_indices`], and bit k set where the weight is not zero (the distance is
+/// below [`Weights::zero_from`]), from float compares as in [`classify`].
 #[inline(always)]
-fn distances_live(lanes: &Lanes<'_>, centre: &[f32; 3], zero_from: f32) -> ([u32; LANES], u16) {
-    const TWO_23: f32 = 8_388_608.0;
-    let mut d2 = [0u32; LANES];
+fn indices_live(
+    colours: &ColourLanes<'_>,
+    centre: &[f32; 3],
+    weights: &Weights,
+) -> ([u32; LANES], u16) {
+    let mut indices = [0u32; LANES];
     let mut live = 0u32;
-    let [c0, c1, c2] = lanes.colours;
+    let zero_from = weights.zero_from();
+    let [c0, c1, c2] = colours;
     for k in 0..LANES {
         let (a, b, c) = (c0[k] - centre[0], c1[k] - centre[1], c2[k] - centre[2]);
         let sum = a * a + b * b + c * c;
-        d2[k] = (sum + TWO_23).to_bits() & 0x007F_FFFF;
+        indices[k] = weights.index(sum);
         live |= u32::from(sum < zero_from) << k;
     }
-    (d2, live as u16)
+    (indices, live as u16)
 }
 
-/// Squared colour distances of a window row's lanes to the colour `centre`, equal to the
-/// integer sum of squared level differences: in `f32` the levels, their differences,
-/// squares and sum (at most 3 · 255²) are whole numbers below 2²³, so every step is
-/// exact, and adding 2²³ puts the sum in the low mantissa bits (no float-to-integer
-/// conversion, whose saturation costs compares in every lane).
+/// Weight table indices ([`Weights::index`]) of a window row's lanes for the colour
+/// `centre`: the squared colour distance is the integer sum of squared level
+/// differences, and in `f32` the levels, their differences, squares and sum (at most
+/// 3 · 255²) are whole numbers below 2²³, so every step is exact.
 #[inline(always)]
-fn distances(lanes: &Lanes<'_>, centre: &[f32; 3]) -> [u32; LANES] {
-    const TWO_23: f32 = 8_388_608.0;
-    let mut d2 = [0u32; LANES];
-    let [c0, c1, c2] = lanes.colours;
+fn table_indices(colours: &ColourLanes<'_>, centre: &[f32; 3], weights: &Weights) -> [u32; LANES] {
+    let mut indices = [0u32; LANES];
+    let [c0, c1, c2] = colours;
     for k in 0..LANES {
         let (a, b, c) = (c0[k] - centre[0], c1[k] - centre[1], c2[k] - centre[2]);
-        d2[k] = (a * a + b * b + c * c + TWO_23).to_bits() & 0x007F_FFFF;
+        indices[k] = weights.index(a * a + b * b + c * c);
     }
-    d2
+    indices
 }

@@ -47,8 +47,10 @@ pub(super) struct Lanes<'a> {
     pub(super) values: &'a [f32; LANES],
     pub(super) gx: &'a [f32; LANES],
     pub(super) gy: &'a [f32; LANES],
-    pub(super) colours: [&'a [f32; LANES]; 3],
 }
+
+/// The guide's colour levels (three channels) of one window row of a pixel.
+pub(super) type ColourLanes<'a> = [&'a [f32; LANES]; 3];
 
 impl<'a> RowRing<'a> {
     /// `rows` needs [`ring_len`] elements.
@@ -119,8 +121,10 @@ impl<'a> RowRing<'a> {
             return;
         };
         left.fill(f32::NAN);
+        // Non-finite values as NaN: a vote is then finite exactly when it equals itself,
+        // and NaN votes fall in neither class (one compare per lane instead of three).
         for (v, &d) in inside.iter_mut().zip(row) {
-            *v = d;
+            *v = if d.is_finite() { d } else { f32::NAN };
         }
         right.fill(f32::NAN);
         sx.fill(0.0);
@@ -129,34 +133,55 @@ impl<'a> RowRing<'a> {
             let (Some(sx), Some(sy)) = (sx.get_mut(columns.clone()), sy.get_mut(columns)) else {
                 return;
             };
-            for (xx, (gx, gy)) in sx.iter_mut().zip(sy).enumerate() {
-                (*gx, *gy) = slope(map, width, height, xx, yy, gate);
-            }
+            row_slopes(map, width, height, yy, gate, sx, sy);
         }
         self.slot_row[slot] = yy;
     }
 
-    /// Window row `yy` (which must be loaded) of the pixel in column `x`, from column
-    /// `x − radius` on.
+    /// Where image row `yy` lives in the ring: the argument of [`Self::lanes_at`].
     #[inline(always)]
-    pub(super) fn lanes(&self, yy: usize, x: usize, radius: usize) -> Option<Lanes<'_>> {
-        let start = PLANES * (yy % RING_ROWS) * self.stride + (x + PAD_LEFT).checked_sub(radius)?;
-        let read = |offset: usize| -> Option<&[f32; LANES]> {
-            self.rows
-                .get(start + offset..start + offset + LANES)?
-                .try_into()
-                .ok()
-        };
+    pub(super) fn base(&self, yy: usize) -> usize {
+        PLANES * (yy % RING_ROWS) * self.stride
+    }
+
+    /// [`LANES`] elements from `at`: one bounds check.
+    #[inline(always)]
+    fn read(&self, at: usize) -> Option<&[f32; LANES]> {
+        self.rows.get(at..)?.first_chunk()
+    }
+
+    /// Where the lanes of the pixel in column `x` start in the row at `base`.
+    #[inline(always)]
+    fn start(base: usize, x: usize, radius: usize) -> Option<usize> {
+        Some(base.wrapping_add((x + PAD_LEFT).checked_sub(radius)?))
+    }
+
+    /// Window row at `base` ([`Self::base`] of a loaded row) of the pixel in column
+    /// `x`, from column `x − radius` on: values and slopes.
+    #[inline(always)]
+    pub(super) fn lanes_at(&self, base: usize, x: usize, radius: usize) -> Option<Lanes<'_>> {
+        let start = Self::start(base, x, radius)?;
         Some(Lanes {
-            values: read(0)?,
-            gx: read(self.stride)?,
-            gy: read(2 * self.stride)?,
-            colours: [
-                read(3 * self.stride)?,
-                read(4 * self.stride)?,
-                read(5 * self.stride)?,
-            ],
+            values: self.read(start)?,
+            gx: self.read(start.wrapping_add(self.stride))?,
+            gy: self.read(start.wrapping_add(2 * self.stride))?,
         })
+    }
+
+    /// The colour levels of the lanes of [`Self::lanes_at`].
+    #[inline(always)]
+    pub(super) fn colours_at(
+        &self,
+        base: usize,
+        x: usize,
+        radius: usize,
+    ) -> Option<ColourLanes<'_>> {
+        let start = Self::start(base, x, radius)?;
+        Some([
+            self.read(start.wrapping_add(3 * self.stride))?,
+            self.read(start.wrapping_add(4 * self.stride))?,
+            self.read(start.wrapping_add(5 * self.stride))?,
+        ])
     }
 
     /// The x and y slope at column `xx` of image row `yy` (which must be loaded).
@@ -177,6 +202,71 @@ impl<'a> RowRing<'a> {
             get(at + 4 * self.stride),
             get(at + 5 * self.stride),
         ]
+    }
+}
+
+/// One side-aware central difference, as [`slope`] takes it, from the backward and
+/// forward differences `back` and `fwd` of sides that exist (`has_back`, `has_fwd`)
+/// and the gate `limit`: branch-free selects, so a row of them is vector code. A
+/// difference within the limit is finite (the limit is), so `|d| ≤ limit` is
+/// [`slope`]'s test.
+#[inline(always)]
+fn central(back: f32, fwd: f32, has_back: bool, has_fwd: bool, limit: f32) -> f32 {
+    let ok_back = has_back & (back.abs() <= limit);
+    let ok_fwd = has_fwd & (fwd.abs() <= limit);
+    let both = 0.5 * (back + fwd);
+    let one = if ok_back { back } else { fwd };
+    if ok_back & ok_fwd {
+        both
+    } else if ok_back | ok_fwd {
+        one
+    } else {
+        0.0
+    }
+}
+
+/// [`slope`] of every column of row `yy` into `sx` and `sy` (`width` each): the
+/// interior columns' x slopes and every y slope as vector code, the two end columns'
+/// x slopes by [`slope`].
+fn row_slopes(
+    map: &[f32],
+    width: usize,
+    height: usize,
+    yy: usize,
+    gate: f32,
+    sx: &mut [f32],
+    sy: &mut [f32],
+) {
+    let limit = gate.max(1e-6);
+    let Some(row) = map.get(yy * width..(yy + 1) * width) else {
+        return;
+    };
+    // A missing row above or below: the row itself, whose differences are not used.
+    let (has_up, has_down) = (yy > 0, yy + 1 < height);
+    let up = if has_up {
+        map.get((yy - 1) * width..yy * width).unwrap_or(row)
+    } else {
+        row
+    };
+    let down = if has_down {
+        map.get((yy + 1) * width..(yy + 2) * width).unwrap_or(row)
+    } else {
+        row
+    };
+    for (gy, ((&v, &u), &d)) in sy.iter_mut().zip(row.iter().zip(up).zip(down)) {
+        *gy = central(v - u, d - v, has_up, has_down, limit);
+    }
+    if width >= 3 {
+        let (left, middle, right) = (&row[..width - 2], &row[1..width - 1], &row[2..]);
+        let inner = sx.get_mut(1..width - 1).unwrap_or_default();
+        for (gx, ((&l, &v), &r)) in inner.iter_mut().zip(left.iter().zip(middle).zip(right)) {
+            *gx = central(v - l, r - v, true, true, limit);
+        }
+    }
+    for xx in [0, width.saturating_sub(1)] {
+        if let Some(gx) = sx.get_mut(xx) {
+            *gx = slope(map, width, height, xx, yy, gate).0;
+        }
     }
 }
 

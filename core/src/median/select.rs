@@ -63,17 +63,26 @@ pub(super) fn weighted_median(values: &mut [f32], weights: &mut [u32], half: u64
     values.iter().copied().fold(f32::MIN, f32::max)
 }
 
-/// A finite value and its weight as one sort key: the value's bits mapped so that
-/// integer order is the value order (−0 just below +0), the weight below them.
+/// A finite value, its weight (below 2¹⁶) and a number unique among the keys of one
+/// selection (below 2¹⁶) as one sort key: the value's bits mapped so that integer
+/// order is the value order (−0 just below +0), the number and the weight below them,
+/// so no two keys of a selection are equal.
 #[inline(always)]
-pub(super) fn key(value: f32, weight: u32) -> u64 {
+pub(super) fn key(value: f32, weight: u32, unique: usize) -> u64 {
     let bits = value.to_bits();
     let ordered = if bits >> 31 == 1 {
         !bits
     } else {
         bits | 0x8000_0000
     };
-    (u64::from(ordered) << 32) | u64::from(weight)
+    let low = ((unique as u32 & 0xFFFF) << 16) | (weight & 0xFFFF);
+    (u64::from(ordered) << 32) | u64::from(low)
+}
+
+/// The weight of a [`key`].
+#[inline(always)]
+fn weight_of(key: u64) -> u64 {
+    key & 0xFFFF
 }
 
 /// The value of [`key`].
@@ -87,63 +96,62 @@ fn value_of(key: u64) -> f32 {
     })
 }
 
-/// [`weighted_median`] of the finite values in `keys` (made by [`key`]; reordered
-/// here): the smallest value whose weight of values `≤` it reaches `target`, `None` when
-/// the total falls short. The answer is that of sorting the keys and scanning them (the
-/// key order is total, `−0` below `+0`), found by a weighted quickselect on the keys:
-/// fewer compares than a sort for the few dozen votes of one side of a window, and no
-/// panic path (core's `sort_unstable` keeps one for orders that are not total, which
-/// the firmware's link check counts).
+/// [`weighted_median`] of the distinct keys `keys` (made by [`key`]; reordered here):
+/// the value of the smallest key whose weight of keys `≤` it reaches `target`, `None`
+/// when the total falls short. The answer is that of sorting the keys and scanning
+/// them, found by a weighted quickselect: a median-of-three pivot and a branch-free
+/// two-way partition (keys are distinct, so the pivot alone is neither side), fewer
+/// compares than a sort for the few dozen votes of one side of a window and no
+/// mispredicted branch per key. Every access is checked (no panic path; core's
+/// `sort_unstable` keeps one, which the firmware's link check counts).
 pub(super) fn weighted_median_of_keys(keys: &mut [u64], target: u64) -> Option<f32> {
-    let weight = |k: u64| k & 0xFFFF_FFFF;
     if target == 0 {
         // The first key of the sorted scan.
         return keys.iter().copied().min().map(value_of);
     }
-    let n = keys.len();
-    // As in [`weighted_median`]: `lo ≤ lt ≤ i < gt ≤ hi ≤ n`, each access checked.
-    let (mut lo, mut hi) = (0usize, n);
+    let mut rest = keys;
     let mut below = 0u64;
-    while hi > lo {
-        let (Some(&a), Some(&b), Some(&c)) =
-            (keys.get(lo), keys.get(lo + (hi - lo) / 2), keys.get(hi - 1))
-        else {
-            break;
+    while let Some(last) = rest.len().checked_sub(1) {
+        // Median of three, moved to the end.
+        let mid = last / 2;
+        let (a, b, c) = (*rest.first()?, *rest.get(mid)?, *rest.last()?);
+        let pick = if (a < b) == (b < c) {
+            b
+        } else if (b < a) == (a < c) {
+            a
+        } else {
+            c
         };
-        let pivot = a.max(b).min(a.min(b).max(c));
-        // Dutch-flag partition of [lo, hi): < pivot | == pivot | > pivot.
-        let (mut lt, mut i, mut gt) = (lo, lo, hi);
-        while i < gt {
-            let Some(&k) = keys.get(i) else { break };
-            if k < pivot {
-                if lt >= n {
-                    break;
-                }
-                keys.swap(i, lt);
-                lt += 1;
-                i += 1;
-            } else if k > pivot {
-                gt -= 1;
-                if gt >= n {
-                    break;
-                }
-                keys.swap(i, gt);
-            } else {
-                i += 1;
-            }
+        let (front, end) = rest.split_at_mut(last);
+        let pivot_slot = end.first_mut()?;
+        // The pivot goes to the end; the key it leaves is where the pivot was.
+        if pick == a {
+            *front.first_mut().unwrap_or(pivot_slot) = c;
+        } else if pick == b {
+            *front.get_mut(mid).unwrap_or(pivot_slot) = c;
         }
-        let sum = |range: core::ops::Range<usize>| -> u64 {
-            let part = keys.get(range).unwrap_or_default();
-            part.iter().map(|&k| weight(k)).sum()
-        };
-        let (w_less, w_equal) = (sum(lo..lt), sum(lt..gt));
-        if below + w_less >= target {
-            hi = lt;
-        } else if below + w_less + w_equal >= target {
+        *pivot_slot = pick;
+        let pivot = pick;
+        // Lomuto without branches: keys below the pivot gather at the front.
+        let mut lt = 0usize;
+        let mut weight_less = 0u64;
+        for i in 0..front.len() {
+            let k = front[i];
+            let less = k < pivot;
+            let at = lt.min(i);
+            front[i] = front[at];
+            front[at] = k;
+            lt += usize::from(less);
+            weight_less += if less { weight_of(k) } else { 0 };
+        }
+        if below + weight_less >= target {
+            rest = front.get_mut(..lt)?;
+        } else if below + weight_less + weight_of(pivot) >= target {
             return Some(value_of(pivot));
         } else {
-            below += w_less + w_equal;
-            lo = gt;
+            below += weight_less + weight_of(pivot);
+            // The keys above the pivot.
+            rest = front.get_mut(lt..)?;
         }
     }
     None
@@ -197,7 +205,7 @@ mod tests {
             let total: u64 = w[..n].iter().map(|&x| u64::from(x)).sum();
             let mut keys = [0u64; 64];
             for i in 0..n {
-                keys[i] = key(v[i], w[i]);
+                keys[i] = key(v[i], w[i], i);
             }
             let sorted = weighted_median_of_keys(&mut keys[..n], total.div_ceil(2));
             let got = weighted_median(&mut v[..n], &mut w[..n], total.div_ceil(2));
@@ -217,17 +225,17 @@ mod tests {
         for trial in 0..2000 {
             let n = trial % 70;
             let mut keys = [0u64; 70];
-            for k in keys.iter_mut().take(n) {
+            for (i, k) in keys.iter_mut().take(n).enumerate() {
                 let v = values[next() as usize % values.len()];
-                *k = key(v, next() % 4);
+                *k = key(v, next() % 4, i);
             }
-            let total: u64 = keys[..n].iter().map(|&k| k & 0xFFFF_FFFF).sum();
+            let total: u64 = keys[..n].iter().map(|&k| weight_of(k)).sum();
             let target = u64::from(next()) % (total + 2);
             let mut sorted = keys;
             sorted[..n].sort_unstable();
             let mut sum = 0;
             let expected = sorted[..n].iter().find_map(|&k| {
-                sum += k & 0xFFFF_FFFF;
+                sum += weight_of(k);
                 (sum >= target).then(|| value_of(k))
             });
             let got = weighted_median_of_keys(&mut keys[..n], target);

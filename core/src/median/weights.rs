@@ -2,14 +2,21 @@
 
 use super::TABLE;
 
+/// Entries of the padded table: [`TABLE`] weights, then zeros, so that every index up
+/// to [`Weights::cap`]` >> shift` = `TABLE` reads a weight without a bounds check
+/// (indices are masked to this power of two).
+const PADDED: usize = 2 * TABLE;
+
 /// Colour-distance weights: `table[d² >> shift]` for the squared 8-bit colour distance
 /// `d²`, in units of 1/65535.
 pub(super) struct Weights {
-    table: [u16; TABLE],
+    table: [u16; PADDED],
     shift: u32,
     /// The smallest squared distance of weight zero: every larger one weighs zero too
     /// (the table does not increase).
     zero_from: u32,
+    /// Where [`Self::index`] clamps distances: `min(TABLE << shift, 2²²)`.
+    cap: f32,
 }
 
 impl Weights {
@@ -22,8 +29,8 @@ impl Weights {
         while ((TABLE as f32) * (1u32 << shift) as f32) < reach && shift < 20 {
             shift += 1;
         }
-        let mut table = [0u16; TABLE];
-        for (i, w) in table.iter_mut().enumerate() {
+        let mut table = [0u16; PADDED];
+        for (i, w) in table.iter_mut().enumerate().take(TABLE) {
             // The bin's mid value, so the table is unbiased within a bin.
             let d2 = if shift == 0 {
                 i as f32
@@ -41,6 +48,7 @@ impl Weights {
             table,
             shift,
             zero_from: first_zero << shift,
+            cap: ((TABLE as u32) << shift).min(1 << 22) as f32,
         }
     }
 
@@ -57,11 +65,43 @@ impl Weights {
             .get((d2 >> self.shift) as usize)
             .map_or(0, |&w| u32::from(w))
     }
+
+    /// The table index of a squared colour distance `d2` (a whole number below 2²²
+    /// in `f32`, as the median computes them in vector lanes), clamped to `TABLE`: the
+    /// argument of [`Self::at`]. Clamped at `TABLE << shift`, whose entry, like every
+    /// one beyond the table, is zero (or at 2²², above every distance of 8-bit colours,
+    /// where `shift` ≥ 14 keeps the index below 12), then moved into the low mantissa
+    /// bits by adding 2²³ (exact; no float-to-integer conversion).
+    #[inline(always)]
+    pub(super) fn index(&self, d2: f32) -> u32 {
+        const TWO_23: f32 = 8_388_608.0;
+        ((d2.min(self.cap) + TWO_23).to_bits() & 0x007F_FFFF) >> self.shift
+    }
+
+    /// The weight of a table index from [`Self::index`]: equal to [`Self::get`] of the
+    /// distance, without a bounds check (the index is at most `TABLE`).
+    #[inline(always)]
+    pub(super) fn at(&self, index: u32) -> u32 {
+        u32::from(self.table[index as usize & (PADDED - 1)])
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The vector loops look weights up by [`Weights::index`] and [`Weights::at`]:
+    /// equal to [`Weights::get`] for every distance of 8-bit colours and every σ.
+    #[test]
+    fn indexed_weights_equal_the_table() {
+        for sigma in [0.005, 0.01, 0.02, 0.04, 0.0437, 0.1, 0.25, 0.3, 0.5] {
+            let weights = Weights::new(sigma);
+            for d2 in 0..=3 * 255 * 255u32 {
+                let at = weights.at(weights.index(d2 as f32));
+                assert_eq!(at, weights.get(d2), "σ {sigma}, d² {d2}");
+            }
+        }
+    }
 
     /// The median skips look-ups from `zero_from` on: that must be exactly where the
     /// weights are zero, for any σ and every squared distance of 8-bit colours.
