@@ -78,8 +78,9 @@ pub enum Search {
     /// A gray pass at four times the shear step (at most 2 px) estimates every sample
     /// first; then only the hypotheses within `(1 + margin)·shear_step` of that estimate
     /// are tested in full colour: the two that bracket it, and a neighbour when it lies
-    /// within `margin` steps of one of them. Samples the gray pass cannot place inside a
-    /// window are tested at every hypothesis.
+    /// within `margin` steps of one of them; an estimate within 0.15 steps of a hypothesis
+    /// is tested at that one only (and those within `0.5 + margin` steps). Samples the
+    /// gray pass cannot place inside a window are tested at every hypothesis.
     CoarseToFine {
         /// Extra reach, in shear steps, 0…2.
         margin: f32,
