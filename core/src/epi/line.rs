@@ -559,6 +559,7 @@ impl<T: Scalar> LineEstimator<T> {
             T::from_f32(h.shear(h.count().saturating_sub(1))),
         );
         let single = T::from_f32(SINGLE);
+        let inverse_step = 1.0 / h.step();
         for ((d, reach), &score) in state
             .best_d
             .iter_mut()
@@ -566,9 +567,11 @@ impl<T: Scalar> LineEstimator<T> {
             .zip(state.score.iter())
         {
             *d = d.clamp(first, last);
-            // Steps from the first fine shear; its nearest shear is `round(steps)`.
-            let steps = (d.to_f32() - h.shear(0)) / h.step();
-            let near = libm::fabsf(steps - libm::roundf(steps)) < NEAR;
+            // Steps from the first fine shear (≥ 0 after the clamp); the nearest shear is
+            // `steps` rounded, here by truncation after adding ½ (a tie is never near).
+            let steps = ((d.to_f32() - h.shear(0)) * inverse_step).max(0.0);
+            let nearest = (steps + 0.5) as u32 as f32;
+            let near = libm::fabsf(steps - nearest) < NEAR;
             *reach = if score < single {
                 T::MAX
             } else if near {
