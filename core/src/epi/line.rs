@@ -120,9 +120,9 @@ const COARSE_VIEWS: usize = 2;
 /// A sample whose coarse estimate lies within this many shear steps of a fine shear is
 /// tested at that shear only (its residual there is small, and so is the residual's
 /// slope-proportional bias the zero crossing cancels): 31 % / 37 % of the samples of HCI
-/// cotton / backgammon, ≈ −5 % CPU,
-/// and both HCI scenes a little better, stage and pipeline; 0.2 and 0.25 cost cotton's
-/// pipeline MSE +0.03 / +0.08 (docs/bench-epi.md, session 5).
+/// cotton / backgammon, ≈ −5 % CPU, and both HCI scenes a little better, stage and
+/// pipeline; 0.2 and 0.25 cost cotton's pipeline MSE +0.03 / +0.08 (docs/bench-epi.md,
+/// session 5).
 const NEAR: f32 = 0.15;
 /// The tensor of one hypothesis: raw sums over views (`jxx`, `jxk`, `jkk`, whole blocks)
 /// and smoothed along the line (`sxx`, `sxk`, `skk`).
