@@ -78,8 +78,9 @@ pub enum Search {
     /// A gray pass at four times the shear step (at most 2 px) estimates every sample
     /// first; then only the hypotheses within `(1 + margin)·shear_step` of that estimate
     /// are tested in full colour: the two that bracket it, and a neighbour when it lies
-    /// within `margin` steps of one of them. Samples the gray pass cannot place inside a
-    /// window are tested at every hypothesis.
+    /// within `margin` steps of one of them; an estimate within 0.15 steps of a hypothesis
+    /// is tested at that one only (and those within `0.5 + margin` steps). Samples the
+    /// gray pass cannot place inside a window are tested at every hypothesis.
     CoarseToFine {
         /// Extra reach, in shear steps, 0…2.
         margin: f32,
@@ -357,6 +358,29 @@ pub(crate) struct BandEstimator<'p, 'a, T: Scalar, S: Sample> {
     direction: Direction,
     n: usize,
     color: ColorMode,
+    /// The scaled intensity of every 8-bit level, when the samples are `u8` and the
+    /// channels enter the tensor one by one (see [`Levels`]).
+    levels: Option<Levels<T>>,
+}
+
+/// The kernels' input of every 8-bit level, `T::from_f32(level.to_unit() · INTENSITY_SCALE)`:
+/// loading a `u8` sample becomes one table look-up, bit-identical to the conversion.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Levels<T>([T; 256]);
+
+impl<T: Scalar> Levels<T> {
+    /// The table for samples of type `S` (`None` unless `S` is `u8`, whose `level()` is
+    /// the sample itself).
+    fn new<S: Sample>() -> Option<Self> {
+        if core::any::TypeId::of::<S>() != core::any::TypeId::of::<u8>() {
+            return None;
+        }
+        let mut table = [T::ZERO; 256];
+        for (level, v) in (0..=u8::MAX).zip(table.iter_mut()) {
+            *v = T::from_f32(level.to_unit() * INTENSITY_SCALE);
+        }
+        Some(Levels(table))
+    }
 }
 
 impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
@@ -380,6 +404,10 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             direction,
             n: direction.line_len(plan),
             color: params.color,
+            levels: match params.color {
+                ColorMode::Tensor => Levels::new::<S>(),
+                ColorMode::Gray => None,
+            },
         }
     }
 
@@ -426,18 +454,31 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
         let n = self.n;
         // All channels of a view in one pass over its pixels (a vertical line strides
         // through the image: one pass instead of one per channel).
+        let levels = self.levels.as_ref();
         let load = |k: usize, out: &mut [T]| -> Result<()> {
             let (start, step) = locate(k);
-            load_line(
-                data,
-                "the light-field buffer",
-                start,
-                step,
-                ch_n,
-                n,
-                color,
-                out,
-            )
+            match levels {
+                Some(levels) if ch_n >= 3 => load_levels(
+                    data,
+                    "the light-field buffer",
+                    start,
+                    step,
+                    ch_n,
+                    n,
+                    levels,
+                    out,
+                ),
+                _ => load_line(
+                    data,
+                    "the light-field buffer",
+                    start,
+                    step,
+                    ch_n,
+                    n,
+                    color,
+                    out,
+                ),
+            }
         };
         self.estimator.estimate(n, load, work, d, c)
     }
@@ -512,6 +553,59 @@ pub(crate) fn load_line<T: Scalar, S: Sample>(
                 let sum: f32 = px.iter().take(used).map(|s| s.to_unit()).sum();
                 *o = T::from_f32(sum * scale);
             }
+        }
+    }
+    Ok(())
+}
+
+/// [`load_line`] of the first three channels in [`ColorMode::Tensor`] (`channels ≥ 3`)
+/// through the level table of `u8` samples: the same values. Horizontal lines (`step ==
+/// channels`) read their pixels as contiguous chunks.
+#[allow(clippy::too_many_arguments)]
+fn load_levels<T: Scalar, S: Sample>(
+    data: &[S],
+    what: &'static str,
+    start: usize,
+    step: usize,
+    channels: usize,
+    n: usize,
+    levels: &Levels<T>,
+    out: &mut [T],
+) -> Result<()> {
+    let step = step.max(channels).max(1);
+    let end = n
+        .saturating_sub(1)
+        .checked_mul(step)
+        .and_then(|span| span.checked_add(start))
+        .and_then(|last| last.checked_add(channels))
+        .unwrap_or(usize::MAX);
+    let src = data.get(start..end).ok_or(Error::BufferTooSmall {
+        what,
+        needed: end,
+        got: data.len(),
+    })?;
+    let (first, rest) = out.split_at_mut(n.min(out.len()));
+    let (second, third) = rest.split_at_mut(n.min(rest.len()));
+    let table = &levels.0;
+    let planes = first
+        .iter_mut()
+        .zip(second.iter_mut())
+        .zip(third.iter_mut());
+    let put = |((o0, o1), o2): ((&mut T, &mut T), &mut T), px: &[S]| {
+        if let [r, g, b, ..] = *px {
+            *o0 = table[usize::from(r.level())];
+            *o1 = table[usize::from(g.level())];
+            *o2 = table[usize::from(b.level())];
+        }
+    };
+    if step == channels {
+        for (o, px) in planes.zip(src.chunks_exact(step)) {
+            put(o, px);
+        }
+        // `src` ends `channels` after the last pixel's start: the last chunk is whole.
+    } else {
+        for (o, px) in planes.zip(src.chunks(step)) {
+            put(o, px);
         }
     }
     Ok(())

@@ -3,10 +3,10 @@
 //! keep the outermost 0.3 px windows holding at least 1 % of them, padded.
 
 use super::hypotheses::Hypotheses;
-use super::{check_layout, scratch_len, BandEstimator, Direction};
+use super::{check_layout, scratch_len, BandEstimator, ColorMode, Direction, EpiParams};
 use crate::error::{check_scratch, Result};
 use crate::lightfield::{LightField, Sample};
-use crate::plan::Plan;
+use crate::plan::{Params, Plan};
 use crate::scalar::Scalar;
 
 /// Every how many lines the range probe looks (16 rather than 8: a third of the probe's
@@ -40,8 +40,20 @@ pub fn estimate_range<T: Scalar, S: Sample>(
     let probe = Hypotheses::sheared(-PROBE_REACH, PROBE_REACH, 1.0, 1.0)?;
     let mut histogram = [0u32; BINS];
     let mut total = 0u64;
+    // The probe runs on the gray mean of the channels (a third of the work of the colour
+    // tensor; the range ends are padded histogram windows, docs/bench-epi.md).
+    let gray = Plan::new(
+        *plan.layout(),
+        Params {
+            epi: EpiParams {
+                color: ColorMode::Gray,
+                ..plan.params().epi
+            },
+            ..*plan.params()
+        },
+    )?;
     for direction in [Direction::Horizontal, Direction::Vertical] {
-        let band = BandEstimator::new(plan, probe, lf, direction);
+        let band = BandEstimator::new(&gray, probe, lf, direction);
         let (d, c, work) = band.split_scratch(scratch)?;
         let n = direction.line_len(plan);
         let margin = if n > 4 * MARGIN { MARGIN } else { 0 };

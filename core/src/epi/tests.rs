@@ -403,3 +403,60 @@ fn the_scratch_bound_covers_every_estimator_the_parameters_make() {
     );
     assert!(3 * default < 2 * any_step, "{default} vs {any_step}");
 }
+
+/// The level table gives the values `load_line` converts, bit for bit, along rows
+/// (contiguous pixels) and columns (strided), for 3 and 4 channels, in f32 and Q16.
+fn levels_match_the_conversion<T: Scalar>() {
+    assert!(
+        Levels::<T>::new::<f32>().is_none(),
+        "only u8 samples have a table"
+    );
+    let levels = Levels::<T>::new::<u8>().unwrap();
+    for channels in [3usize, 4] {
+        let (width, height) = (11usize, 7usize);
+        let data: Vec<u8> = (0..width * height * channels)
+            .map(|i| (i * 97 % 256) as u8)
+            .collect();
+        let row_stride = width * channels;
+        // (start, step, n): a row, and a column.
+        for (start, step, n) in [
+            (2 * row_stride, channels, width),
+            (3 * channels, row_stride, height),
+        ] {
+            let mut want = vec![T::ZERO; 3 * n];
+            let mut got = vec![T::ONE; 3 * n];
+            load_line(
+                &data,
+                "test",
+                start,
+                step,
+                channels,
+                n,
+                ColorMode::Tensor,
+                &mut want,
+            )
+            .unwrap();
+            load_levels(&data, "test", start, step, channels, n, &levels, &mut got).unwrap();
+            assert_eq!(got, want, "channels {channels}, step {step}");
+        }
+        // A line past the buffer's end is an error, as for `load_line`.
+        let mut out = vec![T::ZERO; 3 * height];
+        assert!(load_levels(
+            &data,
+            "t",
+            4 * channels,
+            row_stride,
+            channels,
+            height + 1,
+            &levels,
+            &mut out
+        )
+        .is_err());
+    }
+}
+
+#[test]
+fn the_level_table_loads_u8_samples_bit_for_bit() {
+    levels_match_the_conversion::<f32>();
+    levels_match_the_conversion::<Q16>();
+}
