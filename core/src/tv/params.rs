@@ -32,9 +32,9 @@ pub struct TvParams {
     pub norm: TvNorm,
     /// Most PPXA iterations per tile.
     pub max_iterations: usize,
-    /// Stop a tile when the relative dual residual `‖Fₙ − Fₙ₋₁‖ / ‖Fₙ‖` drops below this
-    /// (`‖Fₙ‖` floored at an RMS of 0.1 per node; measured on the iterated variable, i.e.
-    /// a pair that the solver's per-node metric scales by `1/s` counts scaled).
+    /// Stop a tile when one iteration moves the primal by less than this, RMS over the
+    /// tile's region in pixels: `‖xₙ − xₙ₋₁‖ / √n` with `x = D − λA⁻¹WᵀF` (checked every
+    /// fourth iteration). Zero runs every iteration.
     pub tolerance: f32,
     /// PPXA step γ.
     pub step: f32,
@@ -63,7 +63,7 @@ impl Default for TvParams {
             edge_floor: 0.05,
             norm: TvNorm::L2,
             max_iterations: 300,
-            tolerance: 6e-3,
+            tolerance: 4e-4,
             step: 4.0,
             relaxation: 1.9,
             tile: 128,
@@ -130,7 +130,7 @@ impl TvParams {
             "tv.tolerance",
             self.tolerance,
             self.tolerance >= 0.0,
-            "must be zero (run every iteration) or positive",
+            "must be zero (run every iteration) or a positive change in pixels",
         )?;
         finite_in(
             "tv.step",
