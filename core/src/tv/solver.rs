@@ -431,10 +431,29 @@ impl<'s, S: Scalar> Graph<'s, S> {
         let (w, h) = (self.width, self.height);
         for y in 0..h {
             let gy = region.y + y;
+            // The guide's rows are fetched once per row, not per pixel (setup was a fifth
+            // of a default solve once the iterations were few).
+            let view_rows = match guide {
+                Guide::View(view) => Some((
+                    view.row(gy).unwrap_or_default(),
+                    view.row(gy + 1).unwrap_or_default(),
+                    view.channels(),
+                )),
+                Guide::Weights { .. } => None,
+            };
             for x in 0..w {
                 let gx = region.x + x;
                 let i = y * w + x;
-                let (eh, ev) = edge_weights(maps, guide, params, gx, gy);
+                let (eh, ev) = match view_rows {
+                    Some((row, below, ch)) => {
+                        let (eh, ev) = row_weights(row, below, ch, gx, params);
+                        (
+                            if gx + 1 < maps.width { eh } else { 0.0 },
+                            if gy + 1 < maps.height { ev } else { 0.0 },
+                        )
+                    }
+                    None => edge_weights(maps, guide, params, gx, gy),
+                };
                 // Without a previous dual the region's border edges are cut; with one,
                 // every edge owned by a node of the last column or row is held fixed
                 // (see `external_flow`), and is therefore not a variable here.
@@ -981,9 +1000,26 @@ fn view_weights<P: Sample>(
     y: usize,
     params: &TvParams,
 ) -> (f32, f32) {
-    let ch = view.channels();
+    row_weights(
+        view.row(y).unwrap_or(&[]),
+        view.row(y + 1).unwrap_or(&[]),
+        view.channels(),
+        x,
+        params,
+    )
+}
+
+/// [`view_weights`] of pixel `x` of image row `row` (`ch` channels per pixel), `below`
+/// the next row (empty on the last).
+#[inline(always)]
+fn row_weights<P: Sample>(
+    row: &[P],
+    below: &[P],
+    ch: usize,
+    x: usize,
+    params: &TvParams,
+) -> (f32, f32) {
     let used = ch.min(3);
-    let row = view.row(y).unwrap_or(&[]);
     let here = row.get(x * ch..x * ch + ch).unwrap_or(&[]);
     let weight = |other: &[P]| {
         if other.is_empty() {
@@ -997,10 +1033,7 @@ fn view_weights<P: Sample>(
         }
     };
     let right = row.get((x + 1) * ch..(x + 2) * ch).unwrap_or(&[]);
-    let below = view
-        .row(y + 1)
-        .and_then(|r| r.get(x * ch..x * ch + ch))
-        .unwrap_or(&[]);
+    let below = below.get(x * ch..x * ch + ch).unwrap_or(&[]);
     (weight(right), weight(below))
 }
 
