@@ -40,7 +40,9 @@ pub struct TvParams {
     pub step: f32,
     /// PPXA relaxation (in (0, 2)).
     pub relaxation: f32,
-    /// Side of a tile's core in pixels.
+    /// Side of a tile's core in pixels. 256 (+ 16 halo) does a fifth fewer node-iterations
+    /// than 128 + 16 on a 512² map (the halo adds 27 % nodes instead of 56 %) and agrees
+    /// better with an untiled solve; each tile's solver state is then ≈ 3.6 MB of `f32`.
     pub tile: usize,
     /// Pixels of context around each core.
     pub halo: usize,
@@ -66,7 +68,7 @@ impl Default for TvParams {
             tolerance: 4e-4,
             step: 4.0,
             relaxation: 1.9,
-            tile: 128,
+            tile: 256,
             halo: 16,
             sweeps: 0,
         }
