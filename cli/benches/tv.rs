@@ -51,7 +51,7 @@ fn inputs() -> Inputs {
     }
 }
 
-fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> usize {
+fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> tv::RefineReport {
     let plan = Plan::new(
         inputs.plan_layout,
         Params {
@@ -76,7 +76,7 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> usize
         &mut vec![0.0; tv::dual_len(&plan)],
     )
     .unwrap();
-    report.total_iterations
+    report
 }
 
 fn scratch_for<S: Scalar>(inputs: &Inputs, params: TvParams) -> Vec<S> {
@@ -99,9 +99,10 @@ fn bench(c: &mut Criterion) {
 
     let default = TvParams::default();
     let mut scratch = scratch_for::<f32>(&inputs, default);
+    let report = run(&inputs, default, &mut scratch);
     eprintln!(
-        "tv/refine_512_default: {} tile-iterations over 16 tiles",
-        run(&inputs, default, &mut scratch)
+        "tv/refine_512_default: {} tile-iterations over {} tiles of {} + {}",
+        report.total_iterations, report.tiles, default.tile, default.halo
     );
     group.bench_function("refine_512_default_f32", |b| {
         b.iter(|| run(&inputs, default, &mut scratch))
