@@ -66,7 +66,7 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> tv::R
     let guide = Guide::View(lf.center_view());
     let mut out = vec![0.0f32; w * h];
     let mut history = vec![0.0f32; params.max_iterations];
-    let report = tv::refine(
+    tv::refine(
         &plan,
         &maps,
         &guide,
@@ -75,8 +75,7 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> tv::R
         scratch,
         &mut vec![0.0; tv::dual_len(&plan)],
     )
-    .unwrap();
-    report
+    .unwrap()
 }
 
 fn scratch_for<S: Scalar>(inputs: &Inputs, params: TvParams) -> Vec<S> {
