@@ -32,9 +32,10 @@ pub struct TvParams {
     pub norm: TvNorm,
     /// Most PPXA iterations per tile.
     pub max_iterations: usize,
-    /// Stop a tile when one iteration moves the primal by less than this, RMS over the
-    /// tile's region in pixels: `‖xₙ − xₙ₋₁‖ / √n` with `x = D − λA⁻¹WᵀF` (checked every
-    /// fourth iteration). Zero runs every iteration.
+    /// Stop a tile when one iteration moves the primal by less than this, in pixels, RMS
+    /// over the tile's region with each pixel weighted by its data weight `a_i` (≤ 1 + ℸ):
+    /// `√(Σ a_i (xₙ − xₙ₋₁)_i² / n)` with `x = D − λA⁻¹WᵀF` (checked every fourth
+    /// iteration). Zero runs every iteration.
     pub tolerance: f32,
     /// PPXA step γ.
     pub step: f32,

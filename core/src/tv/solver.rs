@@ -658,11 +658,13 @@ impl<'s, S: Scalar> Graph<'s, S> {
             norm: params.norm,
         };
         // The stopping rule is on the primal, the map the stage returns: an iteration's
-        // dual update moves pixel `i` by `λ/a_i · (WᵀΔF)_i`, so confident pixels (small
-        // `λ/a`) stop mattering early, while weakly confident ones, where the primal
-        // amplifies the dual up to `λ/ℸ`, keep a tile running (a relative dual rule was
-        // blind to both: it ran the default pipeline's confident inputs 2× longer and
-        // stopped the paper's EPI input earlier, further from the minimiser).
+        // dual update moves pixel `i` by `λ/a_i · (WᵀΔF)_i`, weighed here by the data
+        // weight `a_i` (the energy of the data term), i.e. `λ(WᵀΔF)_i/√a_i`. Confident
+        // pixels (small `λ/a`) stop mattering early, weakly confident ones keep a tile
+        // running longer (a relative dual rule was blind to both: it ran the default
+        // pipeline's confident input 2× longer and stopped the paper's EPI input further
+        // from the minimiser). Unweighted (`λ/a_i`), scattered outliers of confidence ≈ 0
+        // held tiles for 40 % more iterations on the synthetic bench for no accuracy.
         let nodes = self.y1h.len().max(1) as f32;
         let tol2 = params.tolerance * params.tolerance * nodes;
         let mut report = SolveReport::default();
@@ -707,7 +709,8 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// so computing them before row `y` is combined keeps every read on the previous
     /// iterate while each buffer is walked once (no full-size temporaries).
     /// Returns `‖ΔF‖²` in the scaled units when `RECORD` (for the residual history), and
-    /// when `CHECK` the squared primal change `‖xₙ − xₙ₋₁‖²` in pixels² (stopping rule).
+    /// when `CHECK` the weighted squared primal change `Σ a_i (xₙ − xₙ₋₁)_i²` in pixels²
+    /// (stopping rule).
     fn sweep<const RECORD: bool, const CHECK: bool>(
         &mut self,
         c: &Constants<S>,
@@ -1078,7 +1081,7 @@ impl PrimalScale<'_> {
     }
 }
 
-/// `Σ Δx_i²` over region row `y` for the dual update `ΔF` of one iteration:
+/// `Σ a_i Δx_i²` over region row `y` for the dual update `ΔF` of one iteration:
 /// `Δx = λA⁻¹WᵀΔF` (unscaled). `weights` and `update` are the row's `[h, v]`, `above` the
 /// row above's vertical weights and updates (`None` on the first row); `div` is room for
 /// one row.
@@ -1123,12 +1126,13 @@ fn primal_change_row<S: Scalar>(
         let a = scale.data_weights(c);
         for ((sum, &u), &a) in sums.iter_mut().zip(u).zip(&a) {
             let dx = factor * u.to_f32() / a;
-            *sum += dx * dx;
+            *sum += a * dx * dx;
         }
     }
     for (&u, &c) in rest.iter().zip(conf_rest) {
-        let dx = factor * u.to_f32() / data_weight(c, scale.params);
-        sums[0] += dx * dx;
+        let a = data_weight(c, scale.params);
+        let dx = factor * u.to_f32() / a;
+        sums[0] += a * dx * dx;
     }
     sums.iter().sum()
 }
