@@ -1112,10 +1112,13 @@ fn primal_change_row<S: Scalar>(
     let full = n - n % LANES;
     let factor = scale.params.lambda / DUAL_SCALE;
     let mut sums = [0.0f32; LANES];
-    let (Some(lanes), Some(rest)) = (div.get(..full), div.get(full..n)) else {
+    // `full ≤ n` ≤ both lengths, so the checked splits never fail.
+    let (Some((lanes, rest)), Some((conf_lanes, conf_rest))) = (
+        div.get(..n).and_then(|d| d.split_at_checked(full)),
+        confidence.split_at_checked(full),
+    ) else {
         return 0.0;
     };
-    let (conf_lanes, conf_rest) = confidence.split_at(full.min(confidence.len()));
     for (u, c) in lanes
         .chunks_exact(LANES)
         .zip(conf_lanes.chunks_exact(LANES))
