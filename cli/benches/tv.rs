@@ -51,7 +51,7 @@ fn inputs() -> Inputs {
     }
 }
 
-fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> usize {
+fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> tv::RefineReport {
     let plan = Plan::new(
         inputs.plan_layout,
         Params {
@@ -66,7 +66,7 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> usize
     let guide = Guide::View(lf.center_view());
     let mut out = vec![0.0f32; w * h];
     let mut history = vec![0.0f32; params.max_iterations];
-    let report = tv::refine(
+    tv::refine(
         &plan,
         &maps,
         &guide,
@@ -75,8 +75,7 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> usize
         scratch,
         &mut vec![0.0; tv::dual_len(&plan)],
     )
-    .unwrap();
-    report.total_iterations
+    .unwrap()
 }
 
 fn scratch_for<S: Scalar>(inputs: &Inputs, params: TvParams) -> Vec<S> {
@@ -99,9 +98,10 @@ fn bench(c: &mut Criterion) {
 
     let default = TvParams::default();
     let mut scratch = scratch_for::<f32>(&inputs, default);
+    let report = run(&inputs, default, &mut scratch);
     eprintln!(
-        "tv/refine_512_default: {} tile-iterations over 16 tiles",
-        run(&inputs, default, &mut scratch)
+        "tv/refine_512_default: {} tile-iterations over {} tiles of {} + {}",
+        report.total_iterations, report.tiles, default.tile, default.halo
     );
     group.bench_function("refine_512_default_f32", |b| {
         b.iter(|| run(&inputs, default, &mut scratch))

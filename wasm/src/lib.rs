@@ -87,7 +87,7 @@ export interface EstimateParams {
   refineBandRows?: number;
   /** Run the median between refine and TV (true, the default) or after TV (false). */
   medianBeforeTv?: boolean;
-  /** Side of a TV tile in pixels, 8…4096 (default 128): the unit `tvTile` works on. */
+  /** Side of a TV tile in pixels, 8…4096 (default 256): the unit `tvTile` works on. */
   tvTile?: number;
   /** Align the views by per-view homographies first: "off", "on", or "auto" (the
    * default: only when the array is found not to be rectified). */

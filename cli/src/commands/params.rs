@@ -141,8 +141,9 @@ pub struct ParamArgs {
     /// TV refinement: most PPXA iterations per tile (default from the core).
     #[arg(long, value_name = "N")]
     pub tv_iterations: Option<usize>,
-    /// TV refinement: stopping tolerance on the relative dual update, 0 to run every
-    /// iteration (default from the core; smaller = closer to the exact minimiser).
+    /// TV refinement: stopping tolerance, the RMS change of the refined disparity over one
+    /// iteration in pixels, 0 to run every iteration (default from the core; smaller =
+    /// closer to the exact minimiser).
     #[arg(long, value_name = "F")]
     pub tv_tolerance: Option<f32>,
     /// TV refinement: side of a tile's core in pixels (default from the core).

@@ -32,15 +32,18 @@ pub struct TvParams {
     pub norm: TvNorm,
     /// Most PPXA iterations per tile.
     pub max_iterations: usize,
-    /// Stop a tile when the relative dual residual `‖Fₙ − Fₙ₋₁‖ / ‖Fₙ‖` drops below this
-    /// (`‖Fₙ‖` floored at an RMS of 0.1 per node; measured on the iterated variable, i.e.
-    /// a pair that the solver's per-node metric scales by `1/s` counts scaled).
+    /// Stop a tile when one iteration moves the primal by less than this, in pixels, RMS
+    /// over the tile's region with each pixel weighted by its data weight `a_i` (≤ 1 + ℸ):
+    /// `√(Σ a_i (xₙ − xₙ₋₁)_i² / n)` with `x = D − λA⁻¹WᵀF` (checked every fourth
+    /// iteration). Zero runs every iteration.
     pub tolerance: f32,
     /// PPXA step γ.
     pub step: f32,
     /// PPXA relaxation (in (0, 2)).
     pub relaxation: f32,
-    /// Side of a tile's core in pixels.
+    /// Side of a tile's core in pixels. 256 (+ 16 halo) does a fifth fewer node-iterations
+    /// than 128 + 16 on a 512² map (the halo adds 27 % nodes instead of 56 %) and agrees
+    /// better with an untiled solve; each tile's solver state is then ≈ 3.6 MB of `f32`.
     pub tile: usize,
     /// Pixels of context around each core.
     pub halo: usize,
@@ -63,10 +66,10 @@ impl Default for TvParams {
             edge_floor: 0.05,
             norm: TvNorm::L2,
             max_iterations: 300,
-            tolerance: 6e-3,
+            tolerance: 4e-4,
             step: 4.0,
             relaxation: 1.9,
-            tile: 128,
+            tile: 256,
             halo: 16,
             sweeps: 0,
         }
@@ -130,7 +133,7 @@ impl TvParams {
             "tv.tolerance",
             self.tolerance,
             self.tolerance >= 0.0,
-            "must be zero (run every iteration) or positive",
+            "must be zero (run every iteration) or a positive change in pixels",
         )?;
         finite_in(
             "tv.step",
