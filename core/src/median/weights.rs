@@ -75,7 +75,12 @@ impl Weights {
     #[inline(always)]
     pub(super) fn index(&self, d2: f32) -> u32 {
         const TWO_23: f32 = 8_388_608.0;
-        ((d2.min(self.cap) + TWO_23).to_bits() & 0x007F_FFFF) >> self.shift
+        // A compare and select, not `f32::min`: the same value for every input (NaN
+        // included: both give `cap`), but `min`'s NaN rule has no single wasm SIMD
+        // instruction, and its lowering there made the median 2× slower in the browser
+        // (docs/bench-median.md, session 5).
+        let clamped = if d2 < self.cap { d2 } else { self.cap };
+        ((clamped + TWO_23).to_bits() & 0x007F_FFFF) >> self.shift
     }
 
     /// The weight of a table index from [`Self::index`]: equal to [`Self::get`] of the
