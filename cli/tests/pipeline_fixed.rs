@@ -3,6 +3,7 @@
 //! pipeline; `--scalar` on the command line; and (release only) agreement with `f32` on
 //! the shared HCI scenes.
 
+mod synth_support;
 #[path = "tv_support.rs"]
 mod tv_support;
 
@@ -13,24 +14,15 @@ use std::process::Command;
 use lfdepth::median::MedianParams;
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::refine::{self, RefineParams};
-use lfdepth::synth::{self, SceneKind, SynthSpec};
+use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::tv::{self, Guide, Maps};
-use lfdepth::{Grid, Homography, LightField, Params, Plan, Scalar, Q16};
+use lfdepth::{LightField, Params, Plan, Scalar, Q16};
 use lfdepth_cli::engine::{estimate_with, Estimate, EstimateOptions, Precision, StageSelect};
 use tv_support::{cpu_seconds, load_hci, read_pfm, scores, shared_data};
 
 fn synthetic(kind: SceneKind, size: usize) -> (Vec<u8>, SynthSpec) {
-    let spec = SynthSpec {
-        noise_sigma: 1.0,
-        seed: 9,
-        ..SynthSpec::new(kind, Grid::new(9, 9), size, size)
-    };
-    let layout = spec.layout();
-    let mut views = vec![0u8; layout.validate().unwrap()];
-    let mut gt = vec![0.0f32; size * size];
-    let mut homographies = vec![Homography::IDENTITY; 81];
-    synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
-    (views, spec)
+    let s = synth_support::scene_seeded(kind, size, 9);
+    (s.views, s.spec)
 }
 
 fn params() -> Params {

@@ -317,10 +317,7 @@ impl Estimator {
         #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,
         #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
     ) -> Result<Estimator, JsError> {
-        let layout = params::layout(&shape)?;
-        let object = params.unwrap_or(JsValue::UNDEFINED);
-        let stages = params::stages(&object)?;
-        let plan = Plan::new(layout, params::params(&object)?).map_err(error)?;
+        let (layout, plan, stages) = params::plan(&shape, params)?;
         let views = js::bytes(&views, "views")?;
         LightField::new(&views, layout).map_err(error)?;
         Ok(Estimator::with_views(views, layout, plan, stages, false))

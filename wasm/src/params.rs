@@ -3,10 +3,10 @@
 use lfdepth::align::AlignMode;
 use lfdepth::epi::{ColorMode, DisparityRange, Fusion};
 use lfdepth::pipeline::Stages;
-use lfdepth::{Grid, Layout, Params};
+use lfdepth::{Grid, Layout, Params, Plan};
 use wasm_bindgen::prelude::*;
 
-use crate::js::{message, Fields};
+use crate::js::{error, message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
 const PARAM_KEYS: [&str; 19] = [
@@ -159,4 +159,14 @@ pub fn stages(object: &JsValue) -> Result<Stages, JsError> {
             "params.stage `{v}` is unknown: use \"full\" or \"epi\""
         ))),
     }
+}
+
+/// The layout of `shape`, the plan of `params` (absent: the defaults) for it, and how far
+/// the estimate goes: what every constructor of an `Estimator` checks first.
+pub fn plan(shape: &JsValue, params: Option<JsValue>) -> Result<(Layout, Plan, Stages), JsError> {
+    let layout = layout(shape)?;
+    let object = params.unwrap_or(JsValue::UNDEFINED);
+    let stages = stages(&object)?;
+    let plan = Plan::new(layout, self::params(&object)?).map_err(error)?;
+    Ok((layout, plan, stages))
 }

@@ -14,9 +14,14 @@ pub struct Scene {
 
 /// A 9×9 render of `kind`, `size`² pixels, 8-bit with noise σ 1 (seed 5).
 pub fn scene(kind: SceneKind, size: usize) -> Scene {
+    scene_seeded(kind, size, 5)
+}
+
+/// [`scene`] with the noise of `seed`.
+pub fn scene_seeded(kind: SceneKind, size: usize, seed: u64) -> Scene {
     let spec = SynthSpec {
         noise_sigma: 1.0,
-        seed: 5,
+        seed,
         ..SynthSpec::new(kind, Grid::new(9, 9), size, size)
     };
     let layout = spec.layout();

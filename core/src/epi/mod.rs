@@ -503,17 +503,7 @@ pub(crate) fn load_line<T: Scalar, S: Sample>(
 ) -> Result<()> {
     // Every pixel starts `step ≥ channels ≥ 1` elements after the previous one.
     let step = step.max(1);
-    let end = n
-        .saturating_sub(1)
-        .checked_mul(step)
-        .and_then(|span| span.checked_add(start))
-        .and_then(|last| last.checked_add(channels))
-        .unwrap_or(usize::MAX);
-    let src = data.get(start..end).ok_or(Error::BufferTooSmall {
-        what,
-        needed: end,
-        got: data.len(),
-    })?;
+    let src = line_span(data, what, start, step, channels, n)?;
     let pixels = src.chunks(step).take(n);
     let used = channels.min(3);
     match color {
@@ -558,6 +548,29 @@ pub(crate) fn load_line<T: Scalar, S: Sample>(
     Ok(())
 }
 
+/// The elements of `data` that `n` pixels of `channels` samples, `step` apart from
+/// `start` on, occupy; `BufferTooSmall` naming `what` when `data` ends before them.
+fn line_span<'d, S>(
+    data: &'d [S],
+    what: &'static str,
+    start: usize,
+    step: usize,
+    channels: usize,
+    n: usize,
+) -> Result<&'d [S]> {
+    let end = n
+        .saturating_sub(1)
+        .checked_mul(step)
+        .and_then(|span| span.checked_add(start))
+        .and_then(|last| last.checked_add(channels))
+        .unwrap_or(usize::MAX);
+    data.get(start..end).ok_or(Error::BufferTooSmall {
+        what,
+        needed: end,
+        got: data.len(),
+    })
+}
+
 /// [`load_line`] of the first three channels in [`ColorMode::Tensor`] (`channels ≥ 3`)
 /// through the level table of `u8` samples: the same values. Horizontal lines (`step ==
 /// channels`) read their pixels as contiguous chunks.
@@ -573,17 +586,7 @@ fn load_levels<T: Scalar, S: Sample>(
     out: &mut [T],
 ) -> Result<()> {
     let step = step.max(channels).max(1);
-    let end = n
-        .saturating_sub(1)
-        .checked_mul(step)
-        .and_then(|span| span.checked_add(start))
-        .and_then(|last| last.checked_add(channels))
-        .unwrap_or(usize::MAX);
-    let src = data.get(start..end).ok_or(Error::BufferTooSmall {
-        what,
-        needed: end,
-        got: data.len(),
-    })?;
+    let src = line_span(data, what, start, step, channels, n)?;
     let (first, rest) = out.split_at_mut(n.min(out.len()));
     let (second, third) = rest.split_at_mut(n.min(rest.len()));
     let table = &levels.0;

@@ -1140,6 +1140,23 @@ fn primal_change_row<S: Scalar>(
     sums.iter().sum()
 }
 
+/// `put(out, ½y₁ + ¼y₂ + ¼y₃)` over `range` (one row).
+#[inline(always)]
+fn average_row_with<S: Scalar>(
+    y1: &[S],
+    y2: &[S],
+    y3: &[S],
+    range: Range<usize>,
+    c: &Constants<S>,
+    out: &mut [S],
+    put: impl Fn(&mut S, S),
+) {
+    let ys = part(y2, range.clone()).iter().zip(part(y3, range.clone()));
+    for ((o, &a), (&b, &d)) in out.iter_mut().zip(part(y1, range)).zip(ys) {
+        put(o, average(c, a, b, d));
+    }
+}
+
 /// `out = ½y₁ + ¼y₂ + ¼y₃` over `range` (one row): `F` of the row.
 fn average_row<S: Scalar>(
     y1: &[S],
@@ -1149,10 +1166,7 @@ fn average_row<S: Scalar>(
     c: &Constants<S>,
     out: &mut [S],
 ) {
-    let ys = part(y2, range.clone()).iter().zip(part(y3, range.clone()));
-    for ((o, &a), (&b, &d)) in out.iter_mut().zip(part(y1, range)).zip(ys) {
-        *o = average(c, a, b, d);
-    }
+    average_row_with(y1, y2, y3, range, c, out, |o, f| *o = f);
 }
 
 /// `out = ½y₁ + ¼y₂ + ¼y₃ − out` over `range`: the change of `F` since [`average_row`].
@@ -1164,10 +1178,7 @@ fn average_change_row<S: Scalar>(
     c: &Constants<S>,
     out: &mut [S],
 ) {
-    let ys = part(y2, range.clone()).iter().zip(part(y3, range.clone()));
-    for ((o, &a), (&b, &d)) in out.iter_mut().zip(part(y1, range)).zip(ys) {
-        *o = average(c, a, b, d) - *o;
-    }
+    average_row_with(y1, y2, y3, range, c, out, |o, f| *o = f - *o);
 }
 
 /// Constants of the PPXA combination step.
