@@ -228,22 +228,21 @@ impl State<'_> {
     /// `maps` (view → rectified).
     fn solve_points(&mut self, maps: &[Homography]) {
         for i in 0..self.corners.len().min(MAX_FEATURES) {
+            // An unsolved point's unknowns are never read (every reader checks
+            // `solved`), so they keep whatever they held.
             let solution = self.solve_point(i, |v| maps.get(v).map(model::from_homography));
-            match solution {
-                Some((x, y, d)) => {
-                    self.x[i] = x;
-                    self.y[i] = y;
-                    self.d[i] = d;
-                    self.solved[i] = d.is_finite() && x.is_finite() && y.is_finite();
-                }
-                None => self.solved[i] = false,
+            if let Some((x, y, d)) = solution {
+                self.x[i] = x;
+                self.y[i] = y;
+                self.d[i] = d;
             }
+            self.solved[i] = solution.is_some();
         }
     }
 
     /// `(X_i, Y_i, d_i)` of corner `i` from its inlier observations mapped by `map_of(v)`
-    /// (view → rectified); `None` when too few views (or baselines too short) see it.
-    /// The result may be non-finite.
+    /// (view → rectified); `None` when too few views (or baselines too short) see it, or
+    /// the fit is not finite.
     fn solve_point(
         &self,
         i: usize,
@@ -264,7 +263,8 @@ impl State<'_> {
         if fit.n < 3.0 || fit.spread() < 0.5 {
             return None;
         }
-        Some(fit.solution())
+        let (x, y, d) = fit.solution();
+        (x.is_finite() && y.is_finite() && d.is_finite()).then_some((x, y, d))
     }
 
     /// Plane-patch step (paper Eq. 4–5): the disparity of each patch of the centre view
@@ -331,12 +331,24 @@ impl State<'_> {
         }
         let q = self.ob(v, i)?;
         let u = model::apply(m, q.0, q.1)?;
-        let b = baseline(self.grid, v);
-        let (ex, ey) = (
-            u.0 - (self.x[i] - self.d[i] * b.0),
-            u.1 - (self.y[i] - self.d[i] * b.1),
-        );
-        Some(libm::sqrtf(ex * ex + ey * ey))
+        let point = (self.x[i], self.y[i], self.d[i]);
+        Some(reprojection_error(u, point, baseline(self.grid, v)))
+    }
+}
+
+/// Distance between the rectified observation `u` of a view with baseline `b` and the
+/// point `(X, Y, d)`'s position there, `X − d·b`.
+fn reprojection_error(u: (f32, f32), (x, y, d): (f32, f32, f32), b: (f32, f32)) -> f32 {
+    let (ex, ey) = (u.0 - (x - d * b.0), u.1 - (y - d * b.1));
+    libm::sqrtf(ex * ex + ey * ey)
+}
+
+/// `sqrt(total / count)`, infinite without observations.
+fn root_mean(total: f32, count: usize) -> f32 {
+    if count == 0 {
+        f32::INFINITY
+    } else {
+        libm::sqrtf(total / count as f32)
     }
 }
 
@@ -906,11 +918,7 @@ fn rms(
         }
         let _ = per_view.push(rep);
     }
-    if count == 0 {
-        f32::INFINITY
-    } else {
-        libm::sqrtf(total / count as f32)
-    }
+    root_mean(total, count)
 }
 
 /// Median residual of the current inliers, from a 256-bin histogram over `[0, cap]`.
@@ -1171,12 +1179,9 @@ fn identity_rms(state: &State<'_>) -> f32 {
     let mut sums = [0.0f32; MAX_VIEWS];
     let mut counts = [0u32; MAX_VIEWS];
     for i in 0..state.corners.len().min(MAX_FEATURES) {
-        let Some((x, y, d)) = state.solve_point(i, |_| Some(identity)) else {
+        let Some(point) = state.solve_point(i, |_| Some(identity)) else {
             continue;
         };
-        if !(d.is_finite() && x.is_finite() && y.is_finite()) {
-            continue;
-        }
         for (v, (sum, count)) in sums.iter_mut().zip(&mut counts).enumerate() {
             if v >= state.grid.len() || !state.is_tracked(v) || !state.inlier(v, i) {
                 continue;
@@ -1185,9 +1190,7 @@ fn identity_rms(state: &State<'_>) -> f32 {
             let Some(u) = model::apply(&identity, q.0, q.1) else {
                 continue;
             };
-            let b = baseline(state.grid, v);
-            let (ex, ey) = (u.0 - (x - d * b.0), u.1 - (y - d * b.1));
-            let r = libm::sqrtf(ex * ex + ey * ey);
+            let r = reprojection_error(u, point, baseline(state.grid, v));
             *sum += r * r;
             *count += 1;
         }
@@ -1197,9 +1200,5 @@ fn identity_rms(state: &State<'_>) -> f32 {
         total += sum;
         count += k as usize;
     }
-    if count == 0 {
-        f32::INFINITY
-    } else {
-        libm::sqrtf(total / count as f32)
-    }
+    root_mean(total, count)
 }
