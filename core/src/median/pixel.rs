@@ -427,14 +427,9 @@ fn indices_live(
 /// Weight table indices ([`Weights::index`]) of a window row's lanes for the colour
 /// `centre`: the squared colour distance is the integer sum of squared level
 /// differences, and in `f32` the levels, their differences, squares and sum (at most
-/// 3 · 255²) are whole numbers below 2²³, so every step is exact.
+/// 3 · 255²) are whole numbers below 2²³, so every step is exact. ([`indices_live`]
+/// without the mask, which the inlined loop then drops.)
 #[inline(always)]
 fn table_indices(colours: &ColourLanes<'_>, centre: &[f32; 3], weights: &Weights) -> [u32; LANES] {
-    let mut indices = [0u32; LANES];
-    let [c0, c1, c2] = colours;
-    for k in 0..LANES {
-        let (a, b, c) = (c0[k] - centre[0], c1[k] - centre[1], c2[k] - centre[2]);
-        indices[k] = weights.index(a * a + b * b + c * c);
-    }
-    indices
+    indices_live(colours, centre, weights).0
 }
