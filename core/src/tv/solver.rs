@@ -1093,20 +1093,8 @@ fn primal_change_row<S: Scalar>(
     y: usize,
     div: &mut [S],
 ) -> f32 {
-    let [wh, wv] = weights;
-    let [dh, dv] = update;
-    // `(WᵀΔF)_i`, row by row as in `divergence_row`.
-    for (((o, &a), &b), (&c, &d)) in div.iter_mut().zip(wh).zip(wv).zip(dh.iter().zip(dv)) {
-        *o = -(a * c + b * d);
-    }
-    for ((o, &a), &c) in div.iter_mut().skip(1).zip(wh).zip(dh) {
-        *o += a * c;
-    }
-    if let Some((wa, da)) = above {
-        for ((o, &b), &d) in div.iter_mut().zip(wa).zip(da) {
-            *o += b * d;
-        }
-    }
+    // `(WᵀΔF)_i`.
+    divergence_of_row(weights, update, above, div);
     let confidence = scale.row(y);
     let n = confidence.len().min(div.len());
     let full = n - n % LANES;
@@ -1395,21 +1383,37 @@ fn divergence_row<S: Scalar>(
     out: &mut [S],
 ) {
     let r = y * width..(y + 1) * width;
-    let (whr, wvr, fhr, fvr) = (
-        part(wh, r.clone()),
-        part(wv, r.clone()),
-        part(fh, r.clone()),
-        part(fv, r),
+    let above = (y > 0).then(|| {
+        let p = (y - 1) * width..y * width;
+        (part(wv, p.clone()), part(fv, p))
+    });
+    divergence_of_row(
+        [part(wh, r.clone()), part(wv, r.clone())],
+        [part(fh, r.clone()), part(fv, r)],
+        above,
+        out,
     );
-    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(fhr.iter().zip(fvr)) {
+}
+
+/// [`divergence_row`] from the row's own weights and flows `[h, v]` and the row above's
+/// vertical weights and flows (`None` on the first row).
+#[inline(always)]
+fn divergence_of_row<S: Scalar>(
+    weights: [&[S]; 2],
+    flows: [&[S]; 2],
+    above: Option<(&[S], &[S])>,
+    out: &mut [S],
+) {
+    let [wh, wv] = weights;
+    let [fh, fv] = flows;
+    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(wh).zip(wv).zip(fh.iter().zip(fv)) {
         *o = -(a * c + b * d);
     }
-    for ((o, &a), &c) in out.iter_mut().skip(1).zip(whr).zip(fhr) {
+    for ((o, &a), &c) in out.iter_mut().skip(1).zip(wh).zip(fh) {
         *o += a * c;
     }
-    if y > 0 {
-        let p = (y - 1) * width..y * width;
-        for ((o, &b), &d) in out.iter_mut().zip(part(wv, p.clone())).zip(part(fv, p)) {
+    if let Some((wa, fa)) = above {
+        for ((o, &b), &d) in out.iter_mut().zip(wa).zip(fa) {
             *o += b * d;
         }
     }
