@@ -132,13 +132,21 @@ pub fn now_ms() -> f64 {
 
 /// The bytes of a `Uint8Array` or `Uint8ClampedArray`.
 pub fn bytes(value: &JsValue, what: &str) -> Result<Vec<u8>, JsError> {
+    u8_array(value)
+        .map(|a| a.to_vec())
+        .ok_or_else(|| message(&format!("{what} must be a Uint8Array or Uint8ClampedArray")))
+}
+
+/// `value` as a `Uint8Array`: itself, or a `Uint8ClampedArray` viewed over the same
+/// bytes (no copy); `None` for anything else.
+pub fn u8_array(value: &JsValue) -> Option<js_sys::Uint8Array> {
     if let Some(a) = value.dyn_ref::<js_sys::Uint8Array>() {
-        return Ok(a.to_vec());
+        return Some(a.clone());
     }
-    if let Some(a) = value.dyn_ref::<js_sys::Uint8ClampedArray>() {
-        return Ok(a.to_vec());
-    }
-    Err(message(&format!(
-        "{what} must be a Uint8Array or Uint8ClampedArray"
-    )))
+    let a = value.dyn_ref::<js_sys::Uint8ClampedArray>()?;
+    Some(js_sys::Uint8Array::new_with_byte_offset_and_length(
+        &a.buffer(),
+        a.byte_offset(),
+        a.length(),
+    ))
 }

@@ -10,7 +10,7 @@ use lfdepth::{Layout, LightField, Plan};
 use wasm_bindgen::prelude::*;
 
 use crate::estimator::Estimator;
-use crate::js::{error, message};
+use crate::js::{self, error, message};
 use crate::params;
 
 /// The grid indices (row-major) of the views `plan`'s `stages` read, ascending.
@@ -34,9 +34,8 @@ pub fn read_views(
     #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,
     #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
 ) -> Result<Vec<u32>, JsError> {
-    let object = params.unwrap_or(JsValue::UNDEFINED);
-    let plan = Plan::new(params::layout(&shape)?, params::params(&object)?).map_err(error)?;
-    read_indices(&plan, params::stages(&object)?)
+    let (_, plan, stages) = params::plan(&shape, params)?;
+    read_indices(&plan, stages)
         .into_iter()
         .map(|v| u32::try_from(v).map_err(|_| message("the grid has too many views")))
         .collect()
@@ -157,19 +156,10 @@ impl Estimator {
 /// Copies a `Uint8Array` or `Uint8ClampedArray` of exactly `out.len()` bytes into `out`;
 /// else says what `value` is.
 fn copy_view(value: &JsValue, out: &mut [u8]) -> Result<(), String> {
-    if let Some(a) = value.dyn_ref::<js_sys::Uint8Array>() {
-        if a.length() as usize == out.len() {
-            a.copy_to(out);
-            return Ok(());
-        }
+    let a = js::u8_array(value).ok_or_else(|| "another type".to_string())?;
+    if a.length() as usize != out.len() {
         return Err(format!("{} bytes", a.length()));
     }
-    if let Some(a) = value.dyn_ref::<js_sys::Uint8ClampedArray>() {
-        if a.length() as usize == out.len() {
-            a.copy_to(out);
-            return Ok(());
-        }
-        return Err(format!("{} bytes", a.length()));
-    }
-    Err("another type".to_string())
+    a.copy_to(out);
+    Ok(())
 }
