@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! cargo xtask test [--quick]   every check CI runs (fmt, clippy, tests, no_std, wasm, docs, JS)
-//! cargo xtask bench [FILTER]   the criterion benches of lfdepth-cli
+//! cargo xtask bench [--cpu NAME] [FILTER]   the criterion benches of lfdepth-cli
 //! cargo xtask fuzz [SECONDS]   each cargo-fuzz target in fuzz/ for SECONDS (default 60)
 //! cargo xtask web [--port N] [--no-build]   build web/pkg and serve the page (see [`web`])
 //! ```
@@ -32,8 +32,11 @@ use std::process::ExitCode;
 enum Command {
     /// Run every check; `quick` leaves out release tests and everything wasm.
     Test { quick: bool },
-    /// Run the criterion benches, optionally filtered.
-    Bench { filter: Option<String> },
+    /// Run the criterion benches, optionally filtered, optionally built for one CPU.
+    Bench {
+        filter: Option<String>,
+        cpu: Option<String>,
+    },
     /// Run each fuzz target for this many seconds.
     Fuzz { seconds: u64 },
     /// Build the wasm package and serve the page.
@@ -47,7 +50,10 @@ usage: cargo xtask <command>
 
 commands:
   test [--quick]    run every check CI runs; --quick skips release tests and wasm/JS steps
-  bench [FILTER]    run the criterion benches (cargo bench -p lfdepth-cli); results go in docs/BENCHMARKS.md
+  bench [--cpu NAME] [FILTER]
+                    run the criterion benches (cargo bench -p lfdepth-cli); results go in
+                    docs/BENCHMARKS.md; --cpu builds them for one CPU (rustc -C target-cpu=NAME,
+                    e.g. x86-64-v3 or native) in target/cpu-NAME
   fuzz [SECONDS]    run each fuzz target in fuzz/ for SECONDS (default 60); see docs/FUZZING.md
   web [--port N] [--no-build]
                     build the wasm package into web/pkg and serve web/ on 127.0.0.1
@@ -71,11 +77,7 @@ fn parse_args(args: &[String]) -> Result<Command, String> {
             "`test` takes only --quick, not {}",
             other.join(" ")
         )),
-        ("bench", []) => Ok(Command::Bench { filter: None }),
-        ("bench", [filter]) => Ok(Command::Bench {
-            filter: Some((*filter).to_string()),
-        }),
-        ("bench", _) => Err("`bench` takes at most one FILTER".to_string()),
+        ("bench", options) => parse_bench(options),
         ("fuzz", []) => Ok(Command::Fuzz {
             seconds: DEFAULT_FUZZ_SECONDS,
         }),
@@ -88,6 +90,26 @@ fn parse_args(args: &[String]) -> Result<Command, String> {
         ("fuzz", _) => Err("`fuzz` takes at most one SECONDS".to_string()),
         ("web", options) => web::parse(options).map(Command::Web),
         (other, _) => Err(format!("unknown command `{other}`")),
+    }
+}
+
+/// `bench [--cpu NAME] [FILTER]`.
+fn parse_bench(options: &[&str]) -> Result<Command, String> {
+    let (cpu, rest) = match options {
+        ["--cpu", name, rest @ ..] => (Some((*name).to_string()), rest),
+        ["--cpu"] => return Err("`--cpu` needs a CPU name, e.g. x86-64-v3".to_string()),
+        rest => (None, rest),
+    };
+    match rest {
+        [] => Ok(Command::Bench { filter: None, cpu }),
+        [filter] if !filter.starts_with('-') => Ok(Command::Bench {
+            filter: Some((*filter).to_string()),
+            cpu,
+        }),
+        _ => Err(format!(
+            "`bench` takes [--cpu NAME] [FILTER], not `{}`",
+            options.join(" ")
+        )),
     }
 }
 
@@ -116,7 +138,7 @@ fn main() -> ExitCode {
             true
         }
         Command::Test { quick } => steps::run_all(&root, quick),
-        Command::Bench { filter } => bench::run(&root, filter.as_deref()),
+        Command::Bench { filter, cpu } => bench::run(&root, filter.as_deref(), cpu.as_deref()),
         Command::Fuzz { seconds } => fuzz::run(&root, seconds),
         Command::Web(options) => web::run(&root, &options),
     };
@@ -145,11 +167,25 @@ mod tests {
             parse(&["test", "--quick"]),
             Ok(Command::Test { quick: true })
         );
-        assert_eq!(parse(&["bench"]), Ok(Command::Bench { filter: None }));
+        assert_eq!(
+            parse(&["bench"]),
+            Ok(Command::Bench {
+                filter: None,
+                cpu: None
+            })
+        );
         assert_eq!(
             parse(&["bench", "epi"]),
             Ok(Command::Bench {
-                filter: Some("epi".into())
+                filter: Some("epi".into()),
+                cpu: None
+            })
+        );
+        assert_eq!(
+            parse(&["bench", "--cpu", "x86-64-v3", "cotton_default"]),
+            Ok(Command::Bench {
+                filter: Some("cotton_default".into()),
+                cpu: Some("x86-64-v3".into())
             })
         );
         assert_eq!(
@@ -165,6 +201,8 @@ mod tests {
     fn bad_arguments_are_reported() {
         assert!(parse(&["test", "--slow"]).unwrap_err().contains("--slow"));
         assert!(parse(&["bench", "a", "b"]).is_err());
+        assert!(parse(&["bench", "--cpu"]).unwrap_err().contains("CPU name"));
+        assert!(parse(&["bench", "--fast"]).unwrap_err().contains("--fast"));
         assert!(parse(&["fuzz", "0"]).unwrap_err().contains("positive"));
         assert!(parse(&["fuzz", "ten"]).unwrap_err().contains("ten"));
         assert!(parse(&["build"]).unwrap_err().contains("build"));
