@@ -35,14 +35,28 @@ function byParts() {
     [disparity, confidence] = [rd, rc];
   }
   times.refine = performance.now() - t;
+  // The geodesic refill, one whole-map part (web/engine.js does the same).
+  if (e.geofill) {
+    t = performance.now();
+    e.setMaps(disparity, confidence);
+    disparity = e.geofillMap();
+    times.geofill = performance.now() - t;
+  }
   const median = () => {
     t = performance.now();
+    // From the second pass on, the map the pass before read goes along, as the page's
+    // workers get it (same values, less work).
+    let previous = null;
     for (let pass = 0; pass < e.medianPasses; pass++) {
       e.setMaps(disparity, confidence);
+      if (previous) e.setPreviousDisparity(previous);
+      else e.clearPreviousDisparity();
       const filtered = new Float32Array(n * n);
       for (let start = 0; start < n; start += medianRows) filtered.set(e.medianRows(start, Math.min(n, start + medianRows)), start * n);
+      previous = disparity;
       disparity = filtered;
     }
+    e.clearPreviousDisparity();
     times.median = performance.now() - t;
   };
   if (e.medianBeforeTv) median();
