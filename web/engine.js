@@ -2,7 +2,7 @@
 // on one worker, every worker holding only the views the stages read (`handOver`:
 // shared, or copied and transferred); the disparity range on one worker, then the
 // horizontal and vertical EPI bands spread over all of them, then the fusion, then the
-// refine bands, the weighted-median row bands (pass after pass) and the TV tiles, each
+// refine bands, the weighted-median row bands (every pass at once) and the TV tiles, each
 // stage spread over all of them too. Every part is the core's own band/tile function,
 // put together as the serial core does (TV histories summed in tile order), so the
 // result is bit-identical to `Estimator.estimate()` whatever the number of workers.
@@ -165,28 +165,22 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
       );
       disparity = filled;
     }
-    // Each pass filters the whole previous map, cut into row bands: about four per
-    // worker (a band recomputes the slopes of the window rows around it, so bands much
-    // smaller than that cost more than they balance).
-    const medianRows = Math.max(BAND_LINES, Math.ceil(height / (4 * pool.size)));
+    // Every pass in one part per row band (wasm `medianAllPassesRows`): a band filters,
+    // pass after pass, the rows a later pass reads, so no map travels between passes
+    // (a copy of the whole map to every worker and a round trip per band for each pass
+    // cost more than the band's halo rows). One band per worker, at least BAND_LINES rows.
+    const medianRows = Math.max(BAND_LINES, Math.ceil(height / pool.size));
     const median = () =>
       timed(medianStage, async () => {
-        const rowBands = Math.ceil(height / medianRows);
-        // From the second pass on, the workers also get the map the pass before read,
-        // so they recompute only near the pixels that moved (same values).
-        let previous = null;
-        for (let pass = 0; pass < plan.medianPasses; pass++) {
-          const filtered = new Float32Array(width * height);
-          await parts(
-            previous ? { disparity, confidence, previous } : { disparity, confidence },
-            rowBands,
-            (index) => ({ op: "medianRows", start: index * medianRows, end: Math.min(height, (index + 1) * medianRows) }),
-            (index, reply) => filtered.set(reply.disparity, index * medianRows * width),
-            (fraction) => onProgress(medianStage, (pass + fraction) / plan.medianPasses),
-          );
-          previous = disparity;
-          disparity = filtered;
-        }
+        const filtered = new Float32Array(width * height);
+        await parts(
+          { disparity, confidence },
+          Math.ceil(height / medianRows),
+          (index) => ({ op: "medianAllPassesRows", start: index * medianRows, end: Math.min(height, (index + 1) * medianRows) }),
+          (index, reply) => filtered.set(reply.disparity, index * medianRows * width),
+          (fraction) => onProgress(medianStage, fraction),
+        );
+        disparity = filtered;
       });
     if (plan.medianPasses > 0 && plan.medianBeforeTv) await median();
     const regularized = new Float32Array(width * height);

@@ -1,6 +1,6 @@
 // A module worker: receives the compiled WebAssembly.Module once, then answers requests
 // (alignment, the views the stages read, EPI bands, ranges, synthetic views, fusion,
-// refine bands, median rows, TV tiles) one at a time. Its estimator stays between
+// refine bands, median row bands, TV tiles) one at a time. Its estimator stays between
 // estimates (engine.js reuses it for the same light field). Every request
 // carries an `id` and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
 // `{ id, ok: false, message }`; a long request may first send `{ id, progress }` reports.
@@ -132,12 +132,8 @@ const handlers = {
       tvIterations: e.tvIterations,
     };
   },
-  maps({ disparity, confidence, previous }) {
-    const e = requireEstimator();
-    e.setMaps(disparity, confidence);
-    // A median pass after the first also gets the map the pass before it read.
-    if (previous) e.setPreviousDisparity(previous);
-    else e.clearPreviousDisparity();
+  maps({ disparity, confidence }) {
+    requireEstimator().setMaps(disparity, confidence);
     return {};
   },
   refineBand({ index, min, max }) {
@@ -151,8 +147,8 @@ const handlers = {
     const disparity = requireEstimator().geofillMap();
     return { disparity, transfer: [disparity.buffer] };
   },
-  medianRows({ start, end }) {
-    const disparity = requireEstimator().medianRows(start, end);
+  medianAllPassesRows({ start, end }) {
+    const disparity = requireEstimator().medianAllPassesRows(start, end);
     return { disparity, transfer: [disparity.buffer] };
   },
   tvTile({ index }) {

@@ -413,12 +413,12 @@ for (const stage of ["refine", "tv"]) {
       window.__parts = [];
       const post = Worker.prototype.postMessage;
       Worker.prototype.postMessage = function (message, ...rest) {
-        if (["refineBand", "medianRows", "tvTile"].includes(message?.op)) window.__parts.push(message.op);
+        if (["refineBand", "medianAllPassesRows", "tvTile"].includes(message?.op)) window.__parts.push(message.op);
         return post.call(this, message, ...rest);
       };
     });
-    // 512² views over 2 workers: 2 refine bands (one per worker), then 4 median passes of
-    // 8 row bands and 16 TV tiles, so parts are still to come when Cancel comes.
+    // 512² views over 2 workers: 2 refine bands (one per worker), then 2 median row bands
+    // and 16 TV tiles, so parts are still to come when Cancel comes.
     await page.goto(`${server.origin}/?scene=slanted&size=512&grid=9&workers=2`);
     await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
     await page.click("#run");
@@ -437,7 +437,7 @@ for (const stage of ["refine", "tv"]) {
     await page.waitForTimeout(1500);
     const after = await page.evaluate(() => window.__parts);
     assert.equal(after.length, sent, after.join());
-    if (stage === "refine") assert.ok(!after.includes("medianRows") && !after.includes("tvTile"), after.join());
+    if (stage === "refine") assert.ok(!after.includes("medianAllPassesRows") && !after.includes("tvTile"), after.join());
     else assert.ok(after.filter((op) => op === "tvTile").length < 16, after.join());
     assert.equal(await page.isDisabled("#run"), false);
     assert.equal(await page.isDisabled("#cancel"), true);

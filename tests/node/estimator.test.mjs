@@ -130,6 +130,7 @@ function byParts(estimator, d, c, min, max, bandLines) {
     disparity = estimator.geofillMap();
   }
   const median = () => {
+    const input = disparity;
     // Passes after the first are told the map the pass before read (they recompute
     // only near what moved): the result must not change.
     let previous = null;
@@ -145,6 +146,13 @@ function byParts(estimator, d, c, min, max, bandLines) {
       disparity = filtered;
     }
     estimator.clearPreviousDisparity();
+    // Every pass at once per row band, as web/engine.js runs it: the same map.
+    estimator.setMaps(input, confidence);
+    const allPasses = new Float32Array(pixels);
+    for (let start = 0; start < SIZE; start += bandLines) {
+      allPasses.set(estimator.medianAllPassesRows(start, Math.min(SIZE, start + bandLines)), start * SIZE);
+    }
+    assert.deepEqual(new Uint8Array(allPasses.buffer), new Uint8Array(disparity.buffer));
   };
   if (estimator.medianBeforeTv) median();
   estimator.setMaps(disparity, confidence);
@@ -209,6 +217,8 @@ test("stage parts report how the stages are cut and reject bad requests", () => 
   assert.throws(() => estimator.refineBand(6, -1, 1), /refine band/);
   assert.throws(() => estimator.tvTile(16), /tile/);
   assert.throws(() => estimator.medianRows(10, 200), /median band end row/);
+  assert.throws(() => estimator.medianAllPassesRows(10, 200), /median rows 10\.\.200: need start ≤ end ≤ the height, 128/);
+  assert.throws(() => estimator.medianAllPassesRows(20, 10), /median rows 20\.\.10/);
   assert.throws(() => estimator.setPreviousDisparity(zeros.subarray(2)), /previous disparity has 16382 values/);
   assert.throws(() => estimator.tvResiduals(new Float32Array(3)), /histories has 3 values/);
   assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /tv.tile/);

@@ -242,6 +242,60 @@ impl Estimator {
         Ok(out)
     }
 
+    /// Every median pass over image rows `start..end`, from the disparity of `setMaps`
+    /// (the map before the first pass): `(end − start) · width` values, row-major, the
+    /// same as `medianPasses` calls of `medianRows` over the whole map. A pixel's value
+    /// after one pass depends only on the input within `radius + 1` rows of it, so pass
+    /// `k` (of `n`) filters the rows within `(n − 1 − k) · (radius + 1)` of the band and
+    /// no map travels between passes: one call per band instead of a copy of the whole
+    /// map to every worker and a round trip per band for each pass.
+    #[wasm_bindgen(js_name = medianAllPassesRows)]
+    pub fn median_all_passes_rows(&self, start: usize, end: usize) -> Result<Vec<f32>, JsError> {
+        let (input, _) = self.stage_maps()?;
+        let lf = self.light_field()?;
+        let layout = self.plan.layout();
+        let (width, height) = (layout.width, layout.height);
+        if start > end || end > height {
+            return Err(message(&format!(
+                "median rows {start}..{end}: need start ≤ end ≤ the height, {height}"
+            )));
+        }
+        let passes = self.median_passes();
+        if passes == 0 {
+            return Ok(input[start * width..end * width].to_vec());
+        }
+        let reach = self.plan.params().median.radius + 1;
+        let guide = lf.center_view();
+        let mut scratch = vec![0.0f32; median::scratch_len(&self.plan)];
+        // The input of the pass about to run, the input of the pass before it, and the
+        // output; only the rows a later pass reads are ever filled.
+        let mut current = input.to_vec();
+        let mut before: Option<Vec<f32>> = None;
+        let mut next = vec![0.0f32; input.len()];
+        for pass in 0..passes {
+            let grow = (passes - 1 - pass) * reach;
+            let rows = start.saturating_sub(grow)..(end + grow).min(height);
+            let out = &mut next[rows.start * width..rows.end * width];
+            match &before {
+                Some(previous) => median::filter_rows_again(
+                    &self.plan,
+                    &guide,
+                    &current,
+                    previous,
+                    rows,
+                    out,
+                    &mut scratch,
+                ),
+                None => median::filter_rows(&self.plan, &guide, &current, rows, out, &mut scratch),
+            }
+            .map_err(error)?;
+            // next → current → before; the oldest map becomes the next output.
+            let oldest = before.replace(core::mem::replace(&mut current, next));
+            next = oldest.unwrap_or_else(|| vec![0.0f32; input.len()]);
+        }
+        Ok(current[start * width..end * width].to_vec())
+    }
+
     /// Number of TV tiles (row-major).
     #[wasm_bindgen(getter, js_name = tvTiles)]
     pub fn tv_tiles(&self) -> usize {
