@@ -1,6 +1,7 @@
 //! `--preset`: a named set of estimator parameters. `fast` must give exactly the map its
 //! knobs give when spelled out, differ from `default`, and yield to explicit flags; an
-//! unknown name must fail cleanly, listing the names.
+//! unknown name must fail cleanly, listing the names; and on the shared HCI scenes (release
+//! only) it must still beat SPO.
 
 mod common;
 
@@ -121,4 +122,50 @@ fn unknown_preset_names_fail_cleanly_listing_the_names() {
         );
     }
     assert!(!out.exists(), "nothing is written on a usage error");
+}
+
+#[test]
+#[cfg_attr(
+    debug_assertions,
+    ignore = "512x512 scenes: run with cargo test --release"
+)]
+fn fast_preset_still_beats_spo_on_the_shared_hci_scenes() {
+    let Some(data) = common::shared_data("fast_preset_still_beats_spo_on_the_shared_hci_scenes")
+    else {
+        return;
+    };
+    let out = lfdepth(&[
+        "eval",
+        "--dataset",
+        data.join("hci").to_str().unwrap(),
+        "--preset",
+        "fast",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // What the preset promises (Preset::Fast): below SPO on both scenes. Measured at
+    // session 6 (docs/bench-pipeline.md): backgammon 2.258 % / 3.140, cotton 2.364 % /
+    // 1.154 (BadPix0.07 / MSE×100).
+    let spo = [
+        ("stratified/backgammon", 2.55, 3.24),
+        ("training/cotton", 2.59, 1.31),
+    ];
+    let scenes = v["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), spo.len(), "{v}");
+    for (s, (name, bad_max, mse_max)) in scenes.iter().zip(spo) {
+        assert_eq!(s["scene"].as_str(), Some(name));
+        let bad = s["badpix007"].as_f64().unwrap();
+        let mse = s["mse100"].as_f64().unwrap();
+        eprintln!("{name}: --preset fast {bad:.3} % / {mse:.3} (BadPix0.07 / MSE×100)");
+        assert!(
+            bad < bad_max,
+            "{name}: BadPix0.07 {bad:.3} % ≥ SPO's {bad_max}"
+        );
+        assert!(mse < mse_max, "{name}: MSE×100 {mse:.3} ≥ SPO's {mse_max}");
+    }
 }
