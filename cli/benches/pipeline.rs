@@ -1,7 +1,7 @@
 //! Criterion benchmarks of the whole pipeline (engine, `StageSelect::Full`) on a
 //! 9×9×512×512 light field: HCI cotton when `../shared/data` is present, else a synthetic
-//! Mixed scene; 1 and 2 threads; the default pipeline (EPI → refine → TV), the refinement
-//! without propagation, and the paper's pipeline (EPI → TV). Group `scalar`: the default
+//! Mixed scene; 1 and 2 threads; the default pipeline (EPI → refine → TV), the `fast`
+//! preset, the refinement without propagation, and the paper's pipeline (EPI → TV). Group `scalar`: the default
 //! pipeline computing in `f32` and in Q16.16 fixed point, one thread, on a smaller
 //! synthetic scene (9×9×192×192 Mixed) so that the Q16.16 case stays under two minutes.
 
@@ -11,6 +11,7 @@ mod tv_support;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use lfdepth::plan::Preset;
 use lfdepth::refine::RefineParams;
 use lfdepth::synth::{self, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, LightField, Params};
@@ -26,6 +27,7 @@ fn pipeline(c: &mut Criterion) {
         .warm_up_time(Duration::from_secs(2));
     let variants = [
         ("default", Params::default()),
+        ("fast", Params::preset(Preset::Fast)),
         (
             "no_propagation",
             Params {

@@ -68,6 +68,64 @@ impl Params {
             geofill: GeoFillParams::off(),
         }
     }
+
+    /// The parameters of a named preset (alignment off, as [`Params::default`]).
+    pub fn preset(preset: Preset) -> Self {
+        let default = Params::default();
+        match preset {
+            Preset::Default => default,
+            // Each knob is one the CLI exposes; docs/bench-pipeline.md ("Session 6")
+            // has what each costs and saves.
+            Preset::Fast => Params {
+                refine: RefineParams {
+                    iterations: 1,
+                    propagation: 3,
+                    ..default.refine
+                },
+                median: MedianParams {
+                    gate: 0.3,
+                    passes: 3,
+                    ..default.median
+                },
+                tv: TvParams {
+                    tolerance: 2e-3,
+                    ..default.tv
+                },
+                ..default
+            },
+        }
+    }
+}
+
+/// A named set of [`Params`] on the speed/accuracy frontier (docs/bench-pipeline.md,
+/// "Session 6"). The names are what the CLI's and the page's `--preset` accept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    /// [`Params::default`]: the most accurate settings.
+    Default,
+    /// About 1.3× less CPU than [`Preset::Default`] on the HCI scenes (one thread) for
+    /// a lower accuracy that still beats SPO on backgammon and cotton: one Gauss–Newton
+    /// iteration after three propagation rounds, the median gated at 0.3 px with three
+    /// passes, TV stopping at 2e-3 px. Chosen on those two scenes only.
+    Fast,
+}
+
+impl Preset {
+    /// Every preset, in the order the CLI lists them.
+    pub const ALL: [Preset; 2] = [Preset::Default, Preset::Fast];
+
+    /// The preset's name (lower case, as the CLI spells it).
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Default => "default",
+            Preset::Fast => "fast",
+        }
+    }
+
+    /// The preset called `name` (exact, lower case), if any.
+    pub fn from_name(name: &str) -> Option<Preset> {
+        Preset::ALL.into_iter().find(|p| p.name() == name)
+    }
 }
 
 /// Validated dimensions and parameters of one estimation.
@@ -114,6 +172,19 @@ mod tests {
     use super::*;
     use crate::lightfield::Grid;
     use crate::Error;
+
+    #[test]
+    fn presets_are_valid_and_named() {
+        assert_eq!(Params::preset(Preset::Default), Params::default());
+        assert_ne!(Params::preset(Preset::Fast), Params::default());
+        let layout = Layout::packed(Grid::new(9, 9), 64, 48, 3);
+        for preset in Preset::ALL {
+            Plan::new(layout, Params::preset(preset)).unwrap();
+            assert_eq!(Preset::from_name(preset.name()), Some(preset));
+        }
+        assert_eq!(Preset::from_name("Fast"), None);
+        assert_eq!(Preset::from_name(""), None);
+    }
 
     #[test]
     fn plan_validates_layout() {

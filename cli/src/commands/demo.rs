@@ -5,11 +5,12 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
+use lfdepth::plan::Preset;
 use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::{Grid, LightField, Params};
 
 use super::estimate::write_colour_png;
-use super::params::{print_alignment, AlignChoice, AlignInterp, AlignViewsChoice};
+use super::params::{parse_preset, print_alignment, AlignChoice, AlignInterp, AlignViewsChoice};
 use super::synth::{default_misalignment, parse_scene, render};
 use super::{create_dir, CliError, ScalarArg, Stage};
 use crate::colormap;
@@ -42,6 +43,10 @@ pub struct DemoArgs {
     /// Random seed of the scene's texture.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
+    /// Estimator parameters: `default` (the most accurate) or `fast`
+    /// (docs/bench-pipeline.md, "Session 6").
+    #[arg(long, value_name = "NAME", default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
     /// Misalign the views by small random homographies (what `lfdepth synth --misalign`
     /// writes), to see the alignment at work.
     #[arg(long)]
@@ -72,7 +77,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let layout = spec.layout();
     let lf = LightField::new(&rendered.views, layout)
         .map_err(|e| CliError::core("building the synthetic light field", e))?;
-    let mut params = Params::default();
+    let mut params = Params::preset(args.preset);
     params.align.mode = args.align.into();
     params.align.interpolation = args.align_interp.into();
     params.align.views = args.align_views.into();

@@ -2,7 +2,8 @@
 
 use clap::{Args, ValueEnum};
 use lfdepth::align::{AlignMode, AlignReport, AlignedViews, Interpolation};
-use lfdepth::epi::DisparityRange;
+use lfdepth::epi::{ColorMode, DisparityRange};
+use lfdepth::plan::Preset;
 use lfdepth::Params;
 
 use super::{parse_range, CliError, Range};
@@ -27,6 +28,32 @@ pub fn parse_range_choice(text: &str) -> Result<RangeChoice, String> {
         _ => parse_range(text)
             .map(RangeChoice::Fixed)
             .map_err(|e| format!("{e}, or `auto`, or `cfg`")),
+    }
+}
+
+/// A preset by its name (`--preset`); the error lists every name.
+pub fn parse_preset(text: &str) -> Result<Preset, String> {
+    Preset::from_name(text).ok_or_else(|| {
+        let names: Vec<&str> = Preset::ALL.iter().map(|p| p.name()).collect();
+        format!("unknown preset `{text}`: use one of {}", names.join(", "))
+    })
+}
+
+/// Colour handling of the EPI stage (`--epi-color`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EpiColor {
+    /// One structure tensor summed over the R, G, B channels.
+    Tensor,
+    /// The mean of the channels first: about a third of the tensor work.
+    Gray,
+}
+
+impl From<EpiColor> for ColorMode {
+    fn from(choice: EpiColor) -> Self {
+        match choice {
+            EpiColor::Tensor => ColorMode::Tensor,
+            EpiColor::Gray => ColorMode::Gray,
+        }
     }
 }
 
@@ -124,6 +151,11 @@ pub fn print_alignment(report: Option<&AlignReport>) {
 /// Estimator flags shared by `estimate` and `eval --dataset`.
 #[derive(Clone, Debug, Args)]
 pub struct ParamArgs {
+    /// Start from a named set of parameters: `default` (the most accurate) or `fast`
+    /// (docs/bench-pipeline.md, "Session 6"). Every other estimator flag overrides the
+    /// preset's value, wherever it stands on the command line.
+    #[arg(long, value_name = "NAME", default_value = "default", value_parser = parse_preset)]
+    pub preset: Preset,
     /// Disparity search range: MIN..MAX in pixels between neighbouring views (e.g.
     /// -2..2), `auto` (estimated from the views) or `cfg` (disp_min..disp_max from the
     /// scene's parameters.cfg).
@@ -134,6 +166,27 @@ pub struct ParamArgs {
     /// hypotheses over the range.
     #[arg(long)]
     pub no_shear: bool,
+    /// EPI stage: distance between shear hypotheses in px, 0.1…2 (default from the core;
+    /// larger = fewer hypotheses, faster, coarser).
+    #[arg(long, value_name = "F")]
+    pub epi_shear_step: Option<f32>,
+    /// EPI stage: `tensor` (one structure tensor over R, G, B) or `gray` (the channels'
+    /// mean first, a third of the tensor work) (default from the core).
+    #[arg(long, value_enum, value_name = "MODE")]
+    pub epi_color: Option<EpiColor>,
+    /// Photometric refinement of the EPI disparity: 1 on, 0 off (default from the core).
+    #[arg(long, value_name = "0|1")]
+    pub refine: Option<u8>,
+    /// Refinement: Gauss–Newton iterations, 1…16 (default from the core).
+    #[arg(long, value_name = "N")]
+    pub refine_iterations: Option<usize>,
+    /// Refinement: rounds of propagation before the iterations, 0…4 (jumps of 8, 4, 2,
+    /// 1 px, the last N of them; default from the core).
+    #[arg(long, value_name = "N")]
+    pub refine_propagation: Option<usize>,
+    /// Refinement: radius of the aggregation window in px, 0…4 (default from the core).
+    #[arg(long, value_name = "N")]
+    pub refine_radius: Option<usize>,
     /// TV refinement: weight λ of the total variation against the EPI data term
     /// (larger = smoother; default from the core).
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
@@ -235,8 +288,15 @@ pub struct ParamArgs {
 impl Default for ParamArgs {
     fn default() -> Self {
         ParamArgs {
+            preset: Preset::Default,
             disparity_range: RangeChoice::Auto,
             no_shear: false,
+            epi_shear_step: None,
+            epi_color: None,
+            refine: None,
+            refine_iterations: None,
+            refine_propagation: None,
+            refine_radius: None,
             lambda: None,
             tv_iterations: None,
             tv_tolerance: None,
@@ -267,12 +327,33 @@ impl Default for ParamArgs {
 impl ParamArgs {
     /// The parameters these flags ask for; `config` is the scene's parameters.cfg.
     pub fn params(&self, config: Option<&SceneConfig>) -> Result<Params, CliError> {
-        let mut params = Params::default();
+        let mut params = Params::preset(self.preset);
         params.align.mode = self.align.into();
         params.align.interpolation = self.align_interp.into();
         params.align.views = self.align_views.into();
         if self.no_shear {
             params.epi = lfdepth::epi::EpiParams::paper();
+        }
+        if let Some(step) = self.epi_shear_step {
+            params.epi.shear_step = step;
+        }
+        if let Some(color) = self.epi_color {
+            params.epi.color = color.into();
+        }
+        match self.refine {
+            Some(0) => params.refine.enabled = false,
+            Some(1) => params.refine.enabled = true,
+            Some(_) => return Err(CliError::Usage("--refine takes 0 (off) or 1 (on)".into())),
+            None => {}
+        }
+        if let Some(n) = self.refine_iterations {
+            params.refine.iterations = n;
+        }
+        if let Some(n) = self.refine_propagation {
+            params.refine.propagation = n;
+        }
+        if let Some(r) = self.refine_radius {
+            params.refine.radius = r;
         }
         if let Some(lambda) = self.lambda {
             params.tv.lambda = lambda;
@@ -342,6 +423,10 @@ impl ParamArgs {
         }
         // Out-of-range values are reported here, before any view is decoded.
         params
+            .refine
+            .validate()
+            .map_err(|e| CliError::core("checking the --refine flags", e))?;
+        params
             .tv
             .validate()
             .map_err(|e| CliError::core("checking the TV flags", e))?;
@@ -375,7 +460,7 @@ impl ParamArgs {
         params
             .epi
             .validate()
-            .map_err(|e| CliError::core("checking --disparity-range", e))?;
+            .map_err(|e| CliError::core("checking --disparity-range and the --epi flags", e))?;
         Ok(params)
     }
 }
@@ -413,6 +498,51 @@ mod tests {
                 max: 0.5
             }
         );
+    }
+
+    #[test]
+    fn preset_flags() {
+        assert_eq!(parse_preset("fast"), Ok(Preset::Fast));
+        let err = parse_preset("turbo").unwrap_err();
+        assert!(
+            err.contains("turbo") && err.contains("default, fast"),
+            "{err}"
+        );
+        let fast = ParamArgs {
+            preset: Preset::Fast,
+            ..ParamArgs::default()
+        };
+        let expected = Params {
+            align: fast.params(None).unwrap().align,
+            ..Params::preset(Preset::Fast)
+        };
+        assert_eq!(fast.params(None).unwrap(), expected);
+        let overridden = ParamArgs {
+            refine_iterations: Some(5),
+            median_passes: Some(4),
+            epi_color: Some(EpiColor::Gray),
+            ..fast
+        };
+        let p = overridden.params(None).unwrap();
+        assert_eq!((p.refine.iterations, p.median.passes), (5, 4));
+        assert_eq!(p.epi.color, ColorMode::Gray);
+        assert_eq!(p.refine.propagation, expected.refine.propagation);
+        for bad in [
+            ParamArgs {
+                refine: Some(2),
+                ..ParamArgs::default()
+            },
+            ParamArgs {
+                refine_iterations: Some(0),
+                ..ParamArgs::default()
+            },
+            ParamArgs {
+                epi_shear_step: Some(5.0),
+                ..ParamArgs::default()
+            },
+        ] {
+            assert!(bad.params(None).is_err());
+        }
     }
 
     #[test]
