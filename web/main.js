@@ -55,6 +55,7 @@ async function pool() {
 function params() {
   const manual = document.querySelector("input[name=range]:checked").value === "manual";
   const p = {
+    preset: $("preset").value,
     innerSigma: Number($("inner-sigma").value),
     outerSigma: Number($("outer-sigma").value),
     shearStep: Number($("shear-step").value),

@@ -34,5 +34,5 @@ pub mod tv;
 pub use error::{Error, Result};
 pub use geometry::Homography;
 pub use lightfield::{Epi, Grid, Layout, LightField, Sample, View};
-pub use plan::{Params, Plan};
+pub use plan::{Params, Plan, Preset};
 pub use scalar::{Scalar, Q16};

@@ -222,6 +222,21 @@ test("stage parts report how the stages are cut and reject bad requests", () => 
   assert.throws(() => estimator.setPreviousDisparity(zeros.subarray(2)), /previous disparity has 16382 values/);
   assert.throws(() => estimator.tvResiduals(new Float32Array(3)), /histories has 3 values/);
   assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /tv.tile/);
+  assert.throws(() => new lf.Estimator(scene.views, shape, { preset: "quick" }), /params.preset `quick` is unknown: use one of "default", "fast"/);
+});
+
+test("params.preset: \"default\" is the defaults, \"fast\" changes the later stages, other keys override it", () => {
+  const bytes = (params) => new Uint8Array(new lf.Estimator(scene.views, shape, params).estimate().disparity.buffer);
+  const defaults = bytes({});
+  assert.deepEqual(bytes({ preset: "default" }), defaults);
+  const fast = bytes({ preset: "fast" });
+  assert.notDeepEqual(fast, defaults);
+  // The EPI stage is the same in both presets.
+  assert.deepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi" }));
+  // The fast preset runs three median passes, not four; an explicit key wins over it.
+  assert.equal(new lf.Estimator(scene.views, shape, { preset: "fast" }).medianPasses, 3);
+  assert.equal(new lf.Estimator(scene.views, shape, { preset: "fast", median: false }).medianPasses, 0);
+  assert.equal(new lf.Estimator(scene.views, shape, {}).medianPasses, 4);
 });
 
 test("Uint8ClampedArray views give the same result as Uint8Array", () => {

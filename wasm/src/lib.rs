@@ -53,6 +53,9 @@ export interface Shape {
 
 /** Estimation parameters; every key is optional and defaults to the core's default. */
 export interface EstimateParams {
+  /** Named settings the other keys then override: "default" (the most accurate) or
+   * "fast" (about 1.3× less CPU, still more accurate than SPO on the HCI scenes). */
+  preset?: "default" | "fast";
   /** Disparity range in px between adjacent views: "auto" (estimated) or [min, max]. */
   range?: "auto" | [number, number];
   /** Gaussian pre-smoothing along the EPI line (px), 0…4. */

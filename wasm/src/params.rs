@@ -3,13 +3,14 @@
 use lfdepth::align::AlignMode;
 use lfdepth::epi::{ColorMode, DisparityRange, Fusion};
 use lfdepth::pipeline::Stages;
-use lfdepth::{Grid, Layout, Params, Plan};
+use lfdepth::{Grid, Layout, Params, Plan, Preset};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{error, message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 19] = [
+const PARAM_KEYS: [&str; 20] = [
+    "preset",
     "range",
     "innerSigma",
     "outerSigma",
@@ -47,7 +48,17 @@ pub fn layout(shape: &JsValue) -> Result<Layout, JsError> {
 /// checked later by `Plan::new`, so the messages are the core's.
 pub fn params(object: &JsValue) -> Result<Params, JsError> {
     let f = Fields::new(object, "params", &PARAM_KEYS, true)?;
-    let mut params = Params::default();
+    // The named preset first; every other key then overrides it, as on the CLI.
+    let mut params = match f.string("preset")? {
+        None => Params::default(),
+        Some(name) => Params::preset(Preset::from_name(&name).ok_or_else(|| {
+            let names: Vec<&str> = Preset::ALL.iter().map(|p| p.name()).collect();
+            message(&format!(
+                "params.preset `{name}` is unknown: use one of \"{}\"",
+                names.join("\", \"")
+            ))
+        })?),
+    };
     // As the CLI: align only when the array is found not to be rectified.
     params.align.mode = AlignMode::Auto;
     if let Some(v) = f.string("align")? {
