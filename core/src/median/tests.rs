@@ -91,7 +91,10 @@ fn reference_rows<S: Sample>(
             }
             let mut n = 0;
             let (mut total, mut below, mut above) = (0u64, 0u64, 0u64);
+            // The same sums over the rows at an even distance from the pixel's.
+            let (mut even_total, mut even_below, mut even_above) = (0u64, 0u64, 0u64);
             for yy in ys.clone() {
+                let even = y.abs_diff(yy) % 2 == 0;
                 let row = &input[yy * width..(yy + 1) * width];
                 let colours = guide.row(yy).unwrap_or(&[]);
                 for xx in xs.clone() {
@@ -118,15 +121,25 @@ fn reference_rows<S: Sample>(
                         };
                         values[n] = v;
                         taps[n] = w;
-                        total += u64::from(w);
-                        if v < own - p.snap {
-                            below += u64::from(w);
-                        } else if v > own + p.snap {
-                            above += u64::from(w);
+                        let w = u64::from(w);
+                        let (b, a) = (
+                            if v < own - p.snap { w } else { 0 },
+                            if v > own + p.snap { w } else { 0 },
+                        );
+                        (total, below, above) = (total + w, below + b, above + a);
+                        if even {
+                            even_total += w;
+                            even_below += b;
+                            even_above += a;
                         }
                         n += 1;
                     }
                 }
+            }
+            // Outside votes weighing less than a third of the even rows on either side
+            // keep the pixel without the rest of the window.
+            if 3 * even_below < even_total && 3 * even_above < even_total {
+                continue;
             }
             // The median lies within `snap` of the pixel's value (which then stays)
             // unless the weight beyond `own ± snap` on one side reaches half: a linear
