@@ -91,7 +91,12 @@ fn reference_rows<S: Sample>(
             }
             let mut n = 0;
             let (mut total, mut below, mut above) = (0u64, 0u64, 0u64);
+            // The same sums over the rows at a distance from the pixel's divisible by 4
+            // and by 2.
+            let mut quarter_sums = [0u64; 3];
+            let mut even_sums = [0u64; 3];
             for yy in ys.clone() {
+                let (quarter, even) = (y.abs_diff(yy) % 4 == 0, y.abs_diff(yy) % 2 == 0);
                 let row = &input[yy * width..(yy + 1) * width];
                 let colours = guide.row(yy).unwrap_or(&[]);
                 for xx in xs.clone() {
@@ -118,15 +123,30 @@ fn reference_rows<S: Sample>(
                         };
                         values[n] = v;
                         taps[n] = w;
-                        total += u64::from(w);
-                        if v < own - p.snap {
-                            below += u64::from(w);
-                        } else if v > own + p.snap {
-                            above += u64::from(w);
+                        let w = u64::from(w);
+                        let (b, a) = (
+                            if v < own - p.snap { w } else { 0 },
+                            if v > own + p.snap { w } else { 0 },
+                        );
+                        (total, below, above) = (total + w, below + b, above + a);
+                        for (sums, add) in [(&mut quarter_sums, quarter), (&mut even_sums, even)] {
+                            if add {
+                                sums[0] += w;
+                                sums[1] += b;
+                                sums[2] += a;
+                            }
                         }
                         n += 1;
                     }
                 }
+            }
+            // Outside votes weighing less than a ninth of the quarter rows, or a third of
+            // the even rows, on either side keep the pixel without the rest of the window.
+            let clear = |[total, below, above]: [u64; 3], parts: u64| {
+                parts * below < total && parts * above < total
+            };
+            if clear(quarter_sums, 9) || clear(even_sums, 3) {
+                continue;
             }
             // The median lies within `snap` of the pixel's value (which then stays)
             // unless the weight beyond `own ± snap` on one side reaches half: a linear
