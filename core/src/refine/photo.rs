@@ -106,6 +106,27 @@ impl<T: Scalar> Tap<T> {
     }
 }
 
+/// An oblique view as [`Views`] keeps it, expanded to a [`Tap`] where it is used: 16
+/// bytes on 32-bit targets instead of the tap's 32 (a table of `MAX_VIEWS` full taps
+/// was the largest part of the whole-frame firmware's deepest stack frame).
+#[derive(Clone, Copy, Debug, Default)]
+struct StoredTap {
+    /// Index of the view's first sample.
+    start: usize,
+    /// Camera offset from the centre (columns, rows), at most `GRID_MAX / 2`.
+    du: i8,
+    dv: i8,
+    /// Distance from the centre view (grid steps): the index of its `(h, 1 / (2h))`
+    /// in [`Views::steps`].
+    reach: u8,
+    /// The groups the view belongs to (below [`GROUPS`]; `GROUPS` for no second one).
+    group: u8,
+    second_group: u8,
+}
+
+/// Entries of [`Views::steps`]: reaches 0…`GRID_MAX / 2`.
+const STEPS: usize = GRID_MAX / 2 + 1;
+
 /// A compared view in the centre row or column of the grid: its samples move along one
 /// image axis, and it belongs to one group.
 #[derive(Clone, Copy, Debug, Default)]
@@ -308,8 +329,11 @@ pub(crate) struct Views<T> {
     regular_max: [T; CHUNK],
     regular_samples: [usize; CHUNK],
     /// The other views.
-    taps: [Tap<T>; MAX_VIEWS],
+    taps: [StoredTap; MAX_VIEWS],
     len: usize,
+    /// Per reach, the oblique taps' `h` (half the disparity step of the central
+    /// difference) and `1 / (2h)`.
+    steps: [(T, T); STEPS],
     /// Views per group times channels: the number of terms of each group per pixel.
     pub terms: [f32; GROUPS],
     centre: usize,
@@ -456,8 +480,12 @@ impl<T: Scalar> Views<T> {
             regular_y: [T::ZERO; CHUNK],
             regular_max: [T::ZERO; CHUNK],
             regular_samples: [0; CHUNK],
-            taps: [Tap::default(); MAX_VIEWS],
+            taps: [StoredTap::default(); MAX_VIEWS],
             len: 0,
+            steps: core::array::from_fn(|reach| {
+                let h = 0.5 / (reach.max(1) as f32);
+                (T::from_f32(h), T::from_f32(0.5 / h))
+            }),
             terms: [0.0; GROUPS],
             centre: grid.index(r0, c0) * layout.view_stride,
             channels: layout.channels,
@@ -505,16 +533,17 @@ impl<T: Scalar> Views<T> {
                     }
                     continue;
                 }
-                let reach = dr.unsigned_abs().max(dc.unsigned_abs()) as f32;
-                let h = 0.5 / reach;
-                views.taps[views.len] = Tap {
+                // Offsets and reach are at most GRID_MAX / 2, groups below GROUPS: the
+                // defaults never happen.
+                let small = |v: usize| u8::try_from(v).unwrap_or(u8::MAX);
+                let offset = |v: isize| i8::try_from(v).unwrap_or(0);
+                views.taps[views.len] = StoredTap {
                     start,
-                    du: T::from_f32(dc as f32),
-                    dv: T::from_f32(dr as f32),
-                    h: T::from_f32(h),
-                    inv: T::from_f32(0.5 / h),
-                    group,
-                    second_group,
+                    du: offset(dc),
+                    dv: offset(dr),
+                    reach: small(dr.unsigned_abs().max(dc.unsigned_abs())),
+                    group: small(group),
+                    second_group: small(second_group.unwrap_or(GROUPS)),
                 };
                 views.len += 1;
             }
@@ -632,9 +661,28 @@ impl<T: Scalar> Views<T> {
 
     /// The oblique taps.
     #[inline(always)]
-    fn oblique_taps(&self) -> &[Tap<T>] {
+    fn oblique_taps(&self) -> impl Iterator<Item = Tap<T>> + '_ {
         // `len` ≤ MAX_VIEWS (`new` stops there): the default never happens.
-        self.taps.get(..self.len).unwrap_or_default()
+        let stored = self.taps.get(..self.len).unwrap_or_default();
+        stored.iter().map(|t| {
+            // `reach` < STEPS (`new`): the default never happens.
+            let (h, inv) = self
+                .steps
+                .get(usize::from(t.reach))
+                .copied()
+                .unwrap_or((T::ZERO, T::ZERO));
+            let second = usize::from(t.second_group);
+            Tap {
+                start: t.start,
+                // The same values as `T::from_f32` of the offsets (small integers).
+                du: T::from_i32(i32::from(t.du)),
+                dv: T::from_i32(i32::from(t.dv)),
+                h,
+                inv,
+                group: usize::from(t.group),
+                second_group: (second < GROUPS).then_some(second),
+            }
+        })
     }
 
     /// Where the samples of an axis tap lie for pixel `(x, y)`: the position along the
@@ -747,6 +795,7 @@ impl<T: Scalar> Views<T> {
             );
         }
         for tap in self.oblique_taps() {
+            let tap = &tap;
             let Some(([first, second, at], factor)) =
                 self.oblique::<S, CH, L>(data, tap, (xf, yf), d)
             else {
@@ -828,6 +877,7 @@ impl<T: Scalar> Views<T> {
             }
         }
         for tap in self.oblique_taps() {
+            let tap = &tap;
             if !self.sees(tap, xf, yf, d) {
                 continue;
             }
@@ -1175,7 +1225,7 @@ impl<T: Scalar> Views<T> {
                     second_group: None,
                 }
             })
-            .chain(self.oblique_taps().iter().copied())
+            .chain(self.oblique_taps())
     }
 
     /// The sample of the raw view at `start` at rectified position `(px, py)` mapped by
@@ -1469,6 +1519,50 @@ mod tests {
         }
         // The comparison saw real costs, not only empty ones.
         assert!(costs.iter().filter(|&&c| c > T::ZERO).count() > w * h / 2);
+    }
+
+    /// The compact stored oblique taps expand to the values a full tap held: offsets,
+    /// `h = ½ / reach`, `1 / (2h)` and the groups, in grid order (every view of the
+    /// largest grid, and a small one).
+    fn stored_taps_expand_to_full_taps<T: Scalar>() {
+        for grid in [Grid::new(GRID_MAX, GRID_MAX), Grid::new(5, 7)] {
+            let layout = crate::lightfield::Layout::packed(grid, 8, 6, 3);
+            let views = Views::<T>::new(&layout, ViewSet::All);
+            let (r0, c0) = grid.center();
+            let mut expected = Vec::new();
+            for r in 0..grid.rows {
+                for c in 0..grid.cols {
+                    let (dr, dc) = (r as isize - r0 as isize, c as isize - c0 as isize);
+                    if dr == 0 || dc == 0 {
+                        continue;
+                    }
+                    let h = 0.5 / (dr.unsigned_abs().max(dc.unsigned_abs()) as f32);
+                    let vertical = 2 + usize::from(dr > 0);
+                    expected.push((
+                        grid.index(r, c) * layout.view_stride,
+                        [dc as f32, dr as f32, h, 0.5 / h].map(T::from_f32),
+                        usize::from(dc > 0),
+                        Some(vertical),
+                    ));
+                }
+            }
+            let taps: Vec<_> = views
+                .oblique_taps()
+                .map(|t| (t.start, [t.du, t.dv, t.h, t.inv], t.group, t.second_group))
+                .collect();
+            assert_eq!(taps.len(), grid.len() - grid.rows - grid.cols + 1);
+            assert!(taps == expected, "{grid:?}: {taps:?} vs {expected:?}");
+        }
+    }
+
+    #[test]
+    fn stored_f32_taps_expand_to_full_taps() {
+        stored_taps_expand_to_full_taps::<f32>();
+    }
+
+    #[test]
+    fn stored_q16_taps_expand_to_full_taps() {
+        stored_taps_expand_to_full_taps::<Q16>();
     }
 
     #[test]
