@@ -106,6 +106,27 @@ impl<T: Scalar> Tap<T> {
     }
 }
 
+/// An oblique view as [`Views`] keeps it, expanded to a [`Tap`] where it is used: 16
+/// bytes on 32-bit targets instead of the tap's 32 (a table of `MAX_VIEWS` full taps
+/// was the largest part of the whole-frame firmware's deepest stack frame).
+#[derive(Clone, Copy, Debug, Default)]
+struct StoredTap {
+    /// Index of the view's first sample.
+    start: usize,
+    /// Camera offset from the centre (columns, rows), at most `GRID_MAX / 2`.
+    du: i8,
+    dv: i8,
+    /// Distance from the centre view (grid steps): the index of its `(h, 1 / (2h))`
+    /// in [`Views::steps`].
+    reach: u8,
+    /// The groups the view belongs to (below [`GROUPS`]; `GROUPS` for no second one).
+    group: u8,
+    second_group: u8,
+}
+
+/// Entries of [`Views::steps`]: reaches 0…`GRID_MAX / 2`.
+const STEPS: usize = GRID_MAX / 2 + 1;
+
 /// A compared view in the centre row or column of the grid: its samples move along one
 /// image axis, and it belongs to one group.
 #[derive(Clone, Copy, Debug, Default)]
@@ -133,6 +154,19 @@ const MAX_AXIS: usize = 2 * (GRID_MAX - 1);
 /// Axis taps are sampled in chunks of this many: the gathered samples then go through
 /// one loop of fixed length that the compiler vectorises (the weights' divisions too).
 const CHUNK: usize = 16;
+
+/// How [`Views::fill_regular`] gathered the regular axis taps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Gathered {
+    /// Every tap sees the pixel, none needs the border's clamped samples.
+    Every,
+    /// Each tap in its lane; the lanes of the taps that do not see the pixel (flagged
+    /// false) add zero to the sums instead of being left out: the sums start at +0 and
+    /// never become −0, so adding +0 leaves them unchanged, bit for bit.
+    Masked([bool; CHUNK]),
+    /// Not gathered: `fill` takes the taps one by one.
+    Not,
+}
 
 /// The gathered samples of up to [`CHUNK`] axis taps for one pixel, structure of
 /// arrays: sample `j` of a tap (see [`Views::fill`]), channel, tap.
@@ -171,7 +205,8 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
     /// Adds the Gauss–Newton statistics of the first `n` taps (gathered with `J` = 3)
     /// at `d` to their groups in `out` (see [`Views::pixel`]). Every lane is computed
     /// (the loop has a fixed length); lanes from `n` on are not added. `regular`: all
-    /// [`CHUNK`] lanes are taken and lane `v` belongs to group `regular[v % GROUPS]`.
+    /// [`CHUNK`] lanes are taken and lane `v` belongs to group `regular[v % GROUPS]`;
+    /// with a mask, the lanes it leaves out add zero (see [`Gathered::Masked`]).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn statistics(
@@ -182,7 +217,7 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
         d: T,
         half: T,
         (robust, scaled): (T, T),
-        regular: Option<&[usize; GROUPS]>,
+        regular: Option<(&[usize; GROUPS], Option<&[bool; CHUNK]>)>,
         out: &mut [T; STATS],
     ) {
         let [t0, t1, t2] = self.scaled::<3>(levels);
@@ -210,16 +245,18 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
             let w = scaled / (robust + rr);
             (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
         }
-        if let Some(groups) = regular {
+        if let Some((groups, seen)) = regular {
             // Lane `v` belongs to group `groups[v % GROUPS]`: each group's sums take its
             // lanes in the same order as the loop below, four groups side by side.
+            // The regular chunk is a pixel's first: its sums start at zero as `out` does.
             let mut sums = [[T::ZERO; 3]; GROUPS];
-            for (sum, &g) in sums.iter_mut().zip(groups) {
-                if let Some(s) = out.get(3 * g..).and_then(|s| s.first_chunk::<3>()) {
-                    *sum = *s;
-                }
-            }
             for (v, ((&a, &b), &e)) in sa.iter().zip(&sb).zip(&se).enumerate() {
+                let keep = seen.is_none_or(|seen| seen.get(v).copied().unwrap_or(false));
+                let (a, b, e) = if keep {
+                    (a, b, e)
+                } else {
+                    (T::ZERO, T::ZERO, T::ZERO)
+                };
                 if let Some([sa, sb, se]) = sums.get_mut(v % GROUPS) {
                     *sa += a;
                     *sb += b;
@@ -292,8 +329,11 @@ pub(crate) struct Views<T> {
     regular_max: [T; CHUNK],
     regular_samples: [usize; CHUNK],
     /// The other views.
-    taps: [Tap<T>; MAX_VIEWS],
+    taps: [StoredTap; MAX_VIEWS],
     len: usize,
+    /// Per reach, the oblique taps' `h` (half the disparity step of the central
+    /// difference) and `1 / (2h)`.
+    steps: [(T, T); STEPS],
     /// Views per group times channels: the number of terms of each group per pixel.
     pub terms: [f32; GROUPS],
     centre: usize,
@@ -440,8 +480,12 @@ impl<T: Scalar> Views<T> {
             regular_y: [T::ZERO; CHUNK],
             regular_max: [T::ZERO; CHUNK],
             regular_samples: [0; CHUNK],
-            taps: [Tap::default(); MAX_VIEWS],
+            taps: [StoredTap::default(); MAX_VIEWS],
             len: 0,
+            steps: core::array::from_fn(|reach| {
+                let h = 0.5 / (reach.max(1) as f32);
+                (T::from_f32(h), T::from_f32(0.5 / h))
+            }),
             terms: [0.0; GROUPS],
             centre: grid.index(r0, c0) * layout.view_stride,
             channels: layout.channels,
@@ -489,16 +533,17 @@ impl<T: Scalar> Views<T> {
                     }
                     continue;
                 }
-                let reach = dr.unsigned_abs().max(dc.unsigned_abs()) as f32;
-                let h = 0.5 / reach;
-                views.taps[views.len] = Tap {
+                // Offsets and reach are at most GRID_MAX / 2, groups below GROUPS: the
+                // defaults never happen.
+                let small = |v: usize| u8::try_from(v).unwrap_or(u8::MAX);
+                let offset = |v: isize| i8::try_from(v).unwrap_or(0);
+                views.taps[views.len] = StoredTap {
                     start,
-                    du: T::from_f32(dc as f32),
-                    dv: T::from_f32(dr as f32),
-                    h: T::from_f32(h),
-                    inv: T::from_f32(0.5 / h),
-                    group,
-                    second_group,
+                    du: offset(dc),
+                    dv: offset(dr),
+                    reach: small(dr.unsigned_abs().max(dc.unsigned_abs())),
+                    group: small(group),
+                    second_group: small(second_group.unwrap_or(GROUPS)),
                 };
                 views.len += 1;
             }
@@ -616,9 +661,28 @@ impl<T: Scalar> Views<T> {
 
     /// The oblique taps.
     #[inline(always)]
-    fn oblique_taps(&self) -> &[Tap<T>] {
+    fn oblique_taps(&self) -> impl Iterator<Item = Tap<T>> + '_ {
         // `len` ≤ MAX_VIEWS (`new` stops there): the default never happens.
-        self.taps.get(..self.len).unwrap_or_default()
+        let stored = self.taps.get(..self.len).unwrap_or_default();
+        stored.iter().map(|t| {
+            // `reach` < STEPS (`new`): the default never happens.
+            let (h, inv) = self
+                .steps
+                .get(usize::from(t.reach))
+                .copied()
+                .unwrap_or((T::ZERO, T::ZERO));
+            let second = usize::from(t.second_group);
+            Tap {
+                start: t.start,
+                // The same values as `T::from_f32` of the offsets (small integers).
+                du: T::from_i32(i32::from(t.du)),
+                dv: T::from_i32(i32::from(t.dv)),
+                h,
+                inv,
+                group: usize::from(t.group),
+                second_group: (second < GROUPS).then_some(second),
+            }
+        })
     }
 
     /// Where the samples of an axis tap lie for pixel `(x, y)`: the position along the
@@ -680,17 +744,38 @@ impl<T: Scalar> Views<T> {
         let mut chunk = Chunk::<T, S, N>::new();
         let mut cursor = 0;
         let centre_used = used::<T, L, N>(&centre);
-        if self.regular && self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk) {
-            chunk.statistics(
+        let gathered = if self.regular {
+            self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk)
+        } else {
+            Gathered::Not
+        };
+        // Two calls rather than one with the mask as an option: the common one keeps no
+        // mask in its loop.
+        let groups = &self.regular_groups;
+        match gathered {
+            Gathered::Every => chunk.statistics(
                 CHUNK,
                 &self.levels,
                 &centre_used,
                 d,
                 self.half,
                 (robust, scaled),
-                Some(&self.regular_groups),
+                Some((groups, None)),
                 out,
-            );
+            ),
+            Gathered::Masked(seen) => chunk.statistics(
+                CHUNK,
+                &self.levels,
+                &centre_used,
+                d,
+                self.half,
+                (robust, scaled),
+                Some((groups, Some(&seen))),
+                out,
+            ),
+            Gathered::Not => {}
+        }
+        if gathered != Gathered::Not {
             cursor = CHUNK;
         }
         loop {
@@ -710,6 +795,7 @@ impl<T: Scalar> Views<T> {
             );
         }
         for tap in self.oblique_taps() {
+            let tap = &tap;
             let Some(([first, second, at], factor)) =
                 self.oblique::<S, CH, L>(data, tap, (xf, yf), d)
             else {
@@ -752,11 +838,26 @@ impl<T: Scalar> Views<T> {
         let mut chunk = Chunk::<T, S, N>::new();
         let mut cursor = 0;
         let centre_used = used::<T, L, N>(&centre);
-        if self.regular && self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk) {
-            let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
-            for e in energies {
-                cost += e;
+        let gathered = if self.regular {
+            self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk)
+        } else {
+            Gathered::Not
+        };
+        match gathered {
+            Gathered::Every => {
+                for e in chunk.energies(&self.levels, &centre_used, (robust, scaled)) {
+                    cost += e;
+                }
             }
+            Gathered::Masked(seen) => {
+                let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+                for (e, keep) in energies.into_iter().zip(seen) {
+                    cost += if keep { e } else { T::ZERO };
+                }
+            }
+            Gathered::Not => {}
+        }
+        if gathered != Gathered::Not {
             if !below(cost) {
                 return None;
             }
@@ -776,6 +877,7 @@ impl<T: Scalar> Views<T> {
             }
         }
         for tap in self.oblique_taps() {
+            let tap = &tap;
             if !self.sees(tap, xf, yf, d) {
                 continue;
             }
@@ -891,11 +993,14 @@ impl<T: Scalar> Views<T> {
         n
     }
 
-    /// [`Self::fill`] of all [`CHUNK`] axis taps of a regular set at once, when every
-    /// tap sees the pixel and none needs the border's clamped samples (the positions
-    /// and cells of the sixteen taps in fixed-length loops, then the copies): the same
-    /// chunk as `fill` from cursor 0. `false` otherwise (the chunk is then partly
-    /// written; `fill` rewrites every lane it returns).
+    /// [`Self::fill`] of all [`CHUNK`] axis taps of a regular set at once (the positions
+    /// and cells of the sixteen taps in fixed-length loops, then the copies): when every
+    /// tap sees the pixel and none needs the border's clamped samples, the same chunk
+    /// as `fill` from cursor 0 ([`Gathered::Every`]); near the image's sides each tap in
+    /// its lane with the clamped samples `fill` takes, and a mask of the taps that see
+    /// the pixel ([`Gathered::Masked`]). [`Gathered::Not`] when a sample lies outside
+    /// the data (the chunk is then partly written; `fill` rewrites every lane it
+    /// returns).
     #[inline(always)]
     fn fill_regular<S: Sample, const CH: usize, const N: usize, const J: usize>(
         &self,
@@ -904,46 +1009,73 @@ impl<T: Scalar> Views<T> {
         (xf, yf): (T, T),
         d: T,
         chunk: &mut Chunk<T, S, N>,
-    ) -> bool {
+    ) -> Gathered {
         let mut cells = [0usize; CHUNK];
-        if !self.regular_cells::<J>((xf, yf), d, &mut cells, &mut chunk.fraction) {
-            return false;
-        }
+        let every = self.regular_cells::<J>((xf, yf), d, &mut cells, &mut chunk.fraction);
         let (row, column) = (y * self.row_stride, x * CH);
         let rs = self.row_stride;
-        for (v, (&k, &start)) in cells.iter().zip(&self.regular_start).enumerate() {
-            if self.regular_in_row[v] {
-                // The J texels lie side by side in the row.
-                let start = start + row + k * CH;
-                let Some(run) = data.get(start..start.wrapping_add((J - 1) * CH + N)) else {
-                    return false;
-                };
-                for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
-                    let texel_run = run.get(j * CH..).unwrap_or_default();
-                    for (channel, &sample) in texel.iter_mut().zip(texel_run) {
-                        if let Some(lane) = channel.get_mut(v) {
-                            *lane = sample;
+        chunk.offset = self.regular_offset;
+        if every {
+            for (v, (&k, &start)) in cells.iter().zip(&self.regular_start).enumerate() {
+                if self.regular_in_row[v] {
+                    // The J texels lie side by side in the row.
+                    let start = start + row + k * CH;
+                    let Some(run) = data.get(start..start.wrapping_add((J - 1) * CH + N)) else {
+                        return Gathered::Not;
+                    };
+                    for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                        let texel_run = run.get(j * CH..).unwrap_or_default();
+                        for (channel, &sample) in texel.iter_mut().zip(texel_run) {
+                            if let Some(lane) = channel.get_mut(v) {
+                                *lane = sample;
+                            }
                         }
                     }
-                }
-            } else {
-                // One texel per row, `rs` apart.
-                let start = start + column + k * rs;
-                for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
-                    let at = start.wrapping_add(j * rs);
-                    let Some(run) = data.get(at..at.wrapping_add(N)) else {
-                        return false;
-                    };
-                    for (channel, &sample) in texel.iter_mut().zip(run) {
-                        if let Some(lane) = channel.get_mut(v) {
-                            *lane = sample;
+                } else {
+                    // One texel per row, `rs` apart.
+                    let start = start + column + k * rs;
+                    for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                        let at = start.wrapping_add(j * rs);
+                        let Some(run) = data.get(at..at.wrapping_add(N)) else {
+                            return Gathered::Not;
+                        };
+                        for (channel, &sample) in texel.iter_mut().zip(run) {
+                            if let Some(lane) = channel.get_mut(v) {
+                                *lane = sample;
+                            }
                         }
                     }
                 }
             }
+            return Gathered::Every;
         }
-        chunk.offset = self.regular_offset;
-        true
+        // Near the sides: texel `k + j` clamped to the last sample along the axis, as
+        // `fill` takes a tap that sees the pixel (`p ± ½` inside the image, the same
+        // position as `regular_cells`); a tap that does not see it reads any texel
+        // inside the view (its lane adds zero).
+        let mut seen = [false; CHUNK];
+        for (v, (&k, &start)) in cells.iter().zip(&self.regular_start).enumerate() {
+            let p = (xf * self.regular_x[v] + yf * self.regular_y[v]) - d * self.regular_offset[v];
+            seen[v] = p - self.half >= T::ZERO && p + self.half <= self.regular_max[v];
+            let last = self.regular_samples[v].saturating_sub(1);
+            let (base, stride) = if self.regular_in_row[v] {
+                (start + row, CH)
+            } else {
+                (start + column, rs)
+            };
+            for (j, texel) in chunk.raw.iter_mut().take(J).enumerate() {
+                let at = base.wrapping_add(k.saturating_add(j).min(last).wrapping_mul(stride));
+                let Some(run) = data.get(at..at.wrapping_add(N)) else {
+                    return Gathered::Not;
+                };
+                for (channel, &sample) in texel.iter_mut().zip(run) {
+                    if let Some(lane) = channel.get_mut(v) {
+                        *lane = sample;
+                    }
+                }
+            }
+        }
+        Gathered::Masked(seen)
     }
 
     /// The cells (first texel index along the axis) and fractions of the regular axis
@@ -1093,7 +1225,7 @@ impl<T: Scalar> Views<T> {
                     second_group: None,
                 }
             })
-            .chain(self.oblique_taps().iter().copied())
+            .chain(self.oblique_taps())
     }
 
     /// The sample of the raw view at `start` at rectified position `(px, py)` mapped by
@@ -1351,7 +1483,8 @@ mod tests {
 
     /// The 9×9 cross's taps in one pass (`fill_regular`, the group sums side by side)
     /// against tap by tap (`fill`): the same bits for every pixel, disparity and bar,
-    /// borders (where the one pass gives way) included.
+    /// borders (where the one pass masks the taps that do not see the pixel and clamps
+    /// the last samples) included.
     fn regular_matches_tap_by_tap<T: Scalar>() {
         let scene = strips(Grid::new(9, 9), 40, 36, 3, 0.6, &[1.8]);
         let regular = Views::<T>::new(&scene.layout, ViewSet::Cross);
@@ -1386,6 +1519,50 @@ mod tests {
         }
         // The comparison saw real costs, not only empty ones.
         assert!(costs.iter().filter(|&&c| c > T::ZERO).count() > w * h / 2);
+    }
+
+    /// The compact stored oblique taps expand to the values a full tap held: offsets,
+    /// `h = ½ / reach`, `1 / (2h)` and the groups, in grid order (every view of the
+    /// largest grid, and a small one).
+    fn stored_taps_expand_to_full_taps<T: Scalar>() {
+        for grid in [Grid::new(GRID_MAX, GRID_MAX), Grid::new(5, 7)] {
+            let layout = crate::lightfield::Layout::packed(grid, 8, 6, 3);
+            let views = Views::<T>::new(&layout, ViewSet::All);
+            let (r0, c0) = grid.center();
+            let mut expected = Vec::new();
+            for r in 0..grid.rows {
+                for c in 0..grid.cols {
+                    let (dr, dc) = (r as isize - r0 as isize, c as isize - c0 as isize);
+                    if dr == 0 || dc == 0 {
+                        continue;
+                    }
+                    let h = 0.5 / (dr.unsigned_abs().max(dc.unsigned_abs()) as f32);
+                    let vertical = 2 + usize::from(dr > 0);
+                    expected.push((
+                        grid.index(r, c) * layout.view_stride,
+                        [dc as f32, dr as f32, h, 0.5 / h].map(T::from_f32),
+                        usize::from(dc > 0),
+                        Some(vertical),
+                    ));
+                }
+            }
+            let taps: Vec<_> = views
+                .oblique_taps()
+                .map(|t| (t.start, [t.du, t.dv, t.h, t.inv], t.group, t.second_group))
+                .collect();
+            assert_eq!(taps.len(), grid.len() - grid.rows - grid.cols + 1);
+            assert!(taps == expected, "{grid:?}: {taps:?} vs {expected:?}");
+        }
+    }
+
+    #[test]
+    fn stored_f32_taps_expand_to_full_taps() {
+        stored_taps_expand_to_full_taps::<f32>();
+    }
+
+    #[test]
+    fn stored_q16_taps_expand_to_full_taps() {
+        stored_taps_expand_to_full_taps::<Q16>();
     }
 
     #[test]
