@@ -52,10 +52,28 @@ pub enum ViewSet {
 /// inlier weight.
 pub struct Tracks;
 
+/// Per-corner tables in scratch (a point's `x`, `y`, `d`; the first pass's disparity
+/// sums `d_num`, `d_den` and the prediction from them): on the stack they made
+/// `align::solve::run` the whole-frame firmware's deepest frame (≈ 12 KB of its 27 KB).
+const CORNER_TABLES: usize = 6;
+
 impl Tracks {
+    /// Scratch for `views` views: each (view, corner)'s observation and inlier weight,
+    /// then the per-corner tables.
     pub fn len_for(views: usize) -> Result<usize> {
-        checked_product(&[views, MAX_FEATURES, 3], "the alignment track table")
+        checked_product(&[views, MAX_FEATURES, 3], "the alignment track table")?
+            .checked_add(CORNER_TABLES * MAX_FEATURES)
+            .ok_or(Error::SizeOverflow {
+                what: "the alignment track table",
+            })
     }
+}
+
+/// Splits one zeroed `MAX_FEATURES`-entry table off the front of `scratch`.
+fn corner_table(scratch: &mut [f32]) -> Option<(&mut [f32; MAX_FEATURES], &mut [f32])> {
+    let (table, rest) = scratch.split_first_chunk_mut::<MAX_FEATURES>()?;
+    table.fill(0.0);
+    Some((table, rest))
 }
 
 /// Views handed to the `ViewMap` at once. The task table lives on the stack: one for a
@@ -181,9 +199,9 @@ struct State<'s> {
     obs: &'s mut [f32],
     /// 1 for an inlier observation, 0 otherwise.
     weight: &'s mut [f32],
-    x: [f32; MAX_FEATURES],
-    y: [f32; MAX_FEATURES],
-    d: [f32; MAX_FEATURES],
+    x: &'s mut [f32; MAX_FEATURES],
+    y: &'s mut [f32; MAX_FEATURES],
+    d: &'s mut [f32; MAX_FEATURES],
     /// Whether corner `i` has enough inlier observations to be solved.
     solved: [bool; MAX_FEATURES],
     /// Views tracked (centre included), a bitmap over the grid.
@@ -378,7 +396,13 @@ pub fn run<S: Sample, M: ViewMap>(
     let (centre_pyr, rest) = scratch.split_at_mut_checked(pyramid.len).ok_or(too_small)?;
     let (view_pyr, rest) = rest.split_at_mut_checked(pyramid.len).ok_or(too_small)?;
     let (obs, rest) = rest.split_at_mut_checked(2 * cells).ok_or(too_small)?;
-    let weight = rest.get_mut(..cells).ok_or(too_small)?;
+    let (weight, rest) = rest.split_at_mut_checked(cells).ok_or(too_small)?;
+    let (x, rest) = corner_table(rest).ok_or(too_small)?;
+    let (y, rest) = corner_table(rest).ok_or(too_small)?;
+    let (d, rest) = corner_table(rest).ok_or(too_small)?;
+    let (d_num, rest) = corner_table(rest).ok_or(too_small)?;
+    let (d_den, rest) = corner_table(rest).ok_or(too_small)?;
+    let (predicted, _) = corner_table(rest).ok_or(too_small)?;
 
     pyramid.build(&lf.center_view(), centre_pyr);
     let centre_pyr = &*centre_pyr;
@@ -400,9 +424,9 @@ pub fn run<S: Sample, M: ViewMap>(
         corners: FixedVec::new(),
         obs,
         weight,
-        x: [0.0; MAX_FEATURES],
-        y: [0.0; MAX_FEATURES],
-        d: [0.0; MAX_FEATURES],
+        x,
+        y,
+        d,
         solved: [false; MAX_FEATURES],
         tracked: [false; MAX_VIEWS],
     };
@@ -436,16 +460,14 @@ pub fn run<S: Sample, M: ViewMap>(
     // disparity measured in the inner rings predicts each corner's position in the next
     // ring; the views of one ring are independent of each other.
     let order = view_order(grid, set);
-    let mut d_num = [0.0f32; MAX_FEATURES];
-    let mut d_den = [0.0f32; MAX_FEATURES];
     let ring = |v: usize| {
         let b = baseline(grid, v);
         libm::fabsf(b.0).max(libm::fabsf(b.1)) as usize
     };
     let rings = order.iter().map(|&v| ring(v)).max().unwrap_or(0);
     for k in 1..=rings {
-        let mut predicted = [0.0f32; MAX_FEATURES];
-        for ((p, &num), &den) in predicted.iter_mut().zip(&d_num).zip(&d_den).take(n) {
+        predicted.fill(0.0);
+        for ((p, &num), &den) in predicted.iter_mut().zip(&*d_num).zip(&*d_den).take(n) {
             if den > 0.0 {
                 *p = num / den;
             }
@@ -453,9 +475,8 @@ pub fn run<S: Sample, M: ViewMap>(
         let corners = &state.corners;
         let ring_views = views_where(grid.len(), |v| ring(v) == k && order.contains(&v));
         let job = |task: &mut ViewTask<'_>, view_pyr: &mut [f32]| {
-            task.outcome = track_first(
-                lf, &pyramid, centre_pyr, view_pyr, corners, &predicted, task,
-            );
+            task.outcome =
+                track_first(lf, &pyramid, centre_pyr, view_pyr, corners, predicted, task);
         };
         track_batches(state.obs, &ring_views, view_pyr, map, &job, |task| {
             if task.outcome? < params.min_inliers {
@@ -468,7 +489,7 @@ pub fn run<S: Sample, M: ViewMap>(
         })?;
         for &v in &ring_views {
             let b = baseline(grid, v);
-            for (i, (num, den)) in d_num.iter_mut().zip(&mut d_den).enumerate().take(n) {
+            for (i, (num, den)) in d_num.iter_mut().zip(d_den.iter_mut()).enumerate().take(n) {
                 let q = state.ob(v, i);
                 if let (Some(q), Some(c)) = (q, state.corners.get(i)) {
                     // q − p ≈ −d · b (misalignment is noise here).
@@ -500,9 +521,9 @@ pub fn run<S: Sample, M: ViewMap>(
     };
     {
         let points = Points {
-            x: &state.x,
-            y: &state.y,
-            d: &state.d,
+            x: state.x,
+            y: state.y,
+            d: state.d,
             solved: &state.solved,
         };
         let corners = &state.corners;
