@@ -616,6 +616,21 @@ impl<T: Scalar> LineEstimator<T> {
                 let to = planes.plane(kind, k, c_n);
                 let (stored, gray) = bank.split_at_mut_checked(to).ok_or(short)?;
                 let gray = gray.get_mut(..planes.len).ok_or(short)?;
+                if c_n == 3 {
+                    // The loops below in one pass over the planes: the same sums in the
+                    // same order.
+                    let plane = |c| {
+                        let at = planes.plane(kind, k, c);
+                        stored.get(at..at + planes.len).ok_or(short)
+                    };
+                    let (first, second, third) = (plane(0)?, plane(1)?, plane(2)?);
+                    for (g, ((&u, &v), &w)) in
+                        gray.iter_mut().zip(first.iter().zip(second).zip(third))
+                    {
+                        *g = (T::ZERO + u + v + w) * scale;
+                    }
+                    continue;
+                }
                 for c in 0..c_n {
                     let at = planes.plane(kind, k, c);
                     let plane = stored.get(at..at + planes.len).ok_or(short)?;
@@ -683,9 +698,13 @@ impl<T: Scalar> LineEstimator<T> {
             *d = d.clamp(first, last);
             // Steps from the first fine shear (≥ 0 after the clamp); the nearest shear is
             // `steps` rounded, here by truncation after adding ½ (a tie is never near).
-            let steps = ((d.to_f32() - h.shear(0)) * inverse_step).max(0.0);
-            let nearest = (steps + 0.5) as u32 as f32;
-            let near = libm::fabsf(steps - nearest) < NEAR;
+            // (Compare and select rather than `f32::max`, and a signed conversion, equal
+            // for these small non-negative values: the loop vectorises.)
+            let steps = (d.to_f32() - h.shear(0)) * inverse_step;
+            let steps = if steps > 0.0 { steps } else { 0.0 };
+            let nearest = (steps + 0.5) as i32 as f32;
+            let off = steps - nearest;
+            let near = (off < NEAR) & (-off < NEAR);
             *reach = if score < single {
                 T::MAX
             } else if near {
