@@ -204,7 +204,15 @@ pub fn fill<S: Sample>(
     for (o, &v) in out.iter_mut().zip(input) {
         *o = v;
     }
-    band_distance(guide, input, (width, height), (p.step, p.edge), dist);
+    // `off_x` is free until the sweeps: one row of it serves the band's row pass.
+    band_distance(
+        guide,
+        input,
+        (width, height),
+        (p.step, p.edge, p.band),
+        dist,
+        off_x,
+    );
     let band = p.band as f32;
     let mut any = false;
     for (d, &v) in dist.iter_mut().zip(input) {
@@ -317,8 +325,8 @@ fn seed_slope(at: impl Fn(i64) -> Option<f32>) -> f32 {
 }
 
 /// City-block distance (px, as `f32`) of every pixel to the nearest pixel of an
-/// *unsupported* step, `+∞` where there is none: the exact L1 transform in one forward
-/// and one backward pass. A step is a difference above `step` between finite
+/// *unsupported* step where it is at most `band`, a value above `band` elsewhere (see
+/// [`within_band`]; `row_scratch` holds one row). A step is a difference above `step` between finite
 /// 4-neighbours; it is unsupported when no colour step of `edge` or more lies on the
 /// line through the pair within 2 px of it: depth edges of real scenes sit on colour
 /// edges, so a step inside uniform colour is a misplaced (fattened) one, while a
@@ -327,8 +335,9 @@ fn band_distance<S: Sample>(
     guide: &View<'_, S>,
     input: &[f32],
     (width, height): (usize, usize),
-    (step, edge): (f32, f32),
+    (step, edge, band): (f32, f32, usize),
     dist: &mut [f32],
+    row_scratch: &mut [f32],
 ) {
     // False next to a NaN; a finite value next to ±∞ is a step.
     let jump = |a: f32, b: f32| (a - b).abs() > step;
@@ -366,30 +375,52 @@ fn band_distance<S: Sample>(
             }
         }
     }
-    for y in 0..height {
-        for x in 0..width {
-            let i = y * width + x;
-            let mut d = at(dist, i);
-            if x > 0 {
-                d = d.min(at(dist, i - 1) + 1.0);
-            }
-            if y > 0 {
-                d = d.min(at(dist, i - width) + 1.0);
-            }
-            put(dist, i, d);
+    within_band(dist, width, band, row_scratch);
+}
+
+/// Turns `dist` (0 on the step pixels, `+∞` elsewhere) into the city-block distance to
+/// the nearest step pixel where it is at most `band`, and a value above `band` elsewhere
+/// (the caller only asks which pixels lie within the band). The L1 distance is separable:
+/// the vertical distance by a downward and an upward pass over whole rows, then the
+/// horizontal step as a minimum over a window of `±band` columns. Every loop walks whole
+/// rows with no dependence between neighbouring columns, so it vectorises (a raster
+/// two-pass transform chains every pixel on its left neighbour). `row` is room for one
+/// row (`width` long). Compare-and-select, not `f32::min`, which wasm lowers slowly.
+fn within_band(dist: &mut [f32], width: usize, band: usize, row: &mut [f32]) {
+    let width = width.max(1);
+    let near = |a: f32, b: f32| if b < a { b } else { a };
+    let pixels = dist.len() - dist.len() % width;
+    for y in 1..pixels / width {
+        let (done, rest) = dist.split_at_mut(y * width);
+        let above = done.get((y - 1) * width..).unwrap_or_default();
+        for (d, &a) in rest.iter_mut().zip(above) {
+            *d = near(*d, a + 1.0);
         }
     }
-    for y in (0..height).rev() {
-        for x in (0..width).rev() {
-            let i = y * width + x;
-            let mut d = at(dist, i);
-            if x + 1 < width {
-                d = d.min(at(dist, i + 1) + 1.0);
+    for y in (1..pixels / width).rev() {
+        let (done, rest) = dist.split_at_mut(y * width);
+        let above = done.get_mut((y - 1) * width..).unwrap_or_default();
+        for (a, &d) in above.iter_mut().zip(rest.iter()) {
+            *a = near(*a, d + 1.0);
+        }
+    }
+    let Some(row) = row.get_mut(..width) else {
+        return;
+    };
+    for line in dist.chunks_exact_mut(width) {
+        row.copy_from_slice(line);
+        for k in 1..=band.min(width - 1) {
+            let step = k as f32;
+            let (Some(right), Some(later)) = (row.get(k..), line.get_mut(k..)) else {
+                break;
+            };
+            // Pixel x sees column x − k on its left, then x + k on its right.
+            for (d, &l) in later.iter_mut().zip(row.iter()) {
+                *d = near(*d, l + step);
             }
-            if y + 1 < height {
-                d = d.min(at(dist, i + width) + 1.0);
+            for (d, &r) in line.iter_mut().zip(right) {
+                *d = near(*d, r + step);
             }
-            put(dist, i, d);
         }
     }
 }
@@ -542,6 +573,32 @@ mod tests {
     /// A 3×3 grid whose every view is the centre image (only the centre is read).
     fn light_field(image: &[u8]) -> Vec<u8> {
         image.repeat(9)
+    }
+
+    #[test]
+    fn band_distance_is_the_city_block_distance_up_to_the_band() {
+        let (w, h, band) = (23usize, 17usize, 4usize);
+        let steps = [(0usize, 0usize), (11, 8), (22, 3), (5, 16), (6, 16)];
+        let mut dist = vec![f32::INFINITY; w * h];
+        for &(x, y) in &steps {
+            dist[y * w + x] = 0.0;
+        }
+        let mut row = vec![0.0; w];
+        within_band(&mut dist, w, band, &mut row);
+        for y in 0..h {
+            for x in 0..w {
+                let exact = steps
+                    .iter()
+                    .map(|&(sx, sy)| (sx.abs_diff(x) + sy.abs_diff(y)) as f32)
+                    .fold(f32::INFINITY, f32::min);
+                let got = dist[y * w + x];
+                if exact <= band as f32 {
+                    assert_eq!(got, exact, "({x}, {y})");
+                } else {
+                    assert!(got > band as f32, "({x}, {y}): {got}");
+                }
+            }
+        }
     }
 
     #[test]
