@@ -770,29 +770,65 @@ impl<'s, S: Scalar> Graph<'s, S> {
     fn gradient_start(&mut self, maps: &Maps<'_>, region: Rect, norm: TvNorm) {
         let (w, h) = (self.width, self.height);
         let eps = GRADIENT_START_SCALE;
-        let disparity = |gi: usize| maps.disparity.get(gi).copied().unwrap_or(0.0);
+        let floor = |n: f32| if n > eps { n } else { eps };
+        let to_f32 = |v: &S| v.to_f32();
+        // A row at a time from row slices (per-node lookups were a tenth of a solve).
         for y in 0..h {
-            let row = (region.y + y) * maps.width + region.x;
+            let start = (region.y + y) * maps.width + region.x;
+            let r = y * w..(y + 1) * w;
+            // From the region's first pixel to the map's end: holds the right neighbours.
+            let d_row = maps.disparity.get(start..).unwrap_or_default();
+            let d_below = maps.disparity.get(start + maps.width..).unwrap_or_default();
+            let (wh, wv) = (part(self.wh, r.clone()), part(self.wv, r.clone()));
+            let bound = part(self.bound, r.clone());
+            let (Some(y1h), Some(own_h), Some(other_h), Some(y1v), Some(own_v), Some(other_v)) = (
+                self.y1h.get_mut(r.clone()),
+                self.own_h.get_mut(r.clone()),
+                self.other_h.get_mut(r.clone()),
+                self.y1v.get_mut(r.clone()),
+                self.own_v.get_mut(r.clone()),
+                self.other_v.get_mut(r),
+            ) else {
+                continue;
+            };
             for x in 0..w {
-                let i = y * w + x;
-                let gi = row + x;
-                let d = disparity(gi);
-                let weight = |buf: &[S]| buf.get(i).map_or(0.0, |v| v.to_f32());
-                let (eh, ev) = (weight(self.wh), weight(self.wv));
-                let gh = if eh > 0.0 { disparity(gi + 1) - d } else { 0.0 };
+                let d = d_row.get(x).copied().unwrap_or(0.0);
+                let (eh, ev) = (wh.get(x).map_or(0.0, to_f32), wv.get(x).map_or(0.0, to_f32));
+                let gh = if eh > 0.0 {
+                    d_row.get(x + 1).copied().unwrap_or(0.0) - d
+                } else {
+                    0.0
+                };
                 let gv = if ev > 0.0 {
-                    disparity(gi + maps.width) - d
+                    d_below.get(x).copied().unwrap_or(0.0) - d
                 } else {
                     0.0
                 };
                 let (fh, fv) = match norm {
                     TvNorm::L2 => {
-                        let n = libm::sqrtf(gh * gh + gv * gv).max(eps);
+                        let n = floor(libm::sqrtf(gh * gh + gv * gv));
                         (gh / n, gv / n)
                     }
-                    TvNorm::L1 => (gh / libm::fabsf(gh).max(eps), gv / libm::fabsf(gv).max(eps)),
+                    TvNorm::L1 => (gh / floor(libm::fabsf(gh)), gv / floor(libm::fabsf(gv))),
                 };
-                self.start_dual_at(i, fh, fv);
+                // `start_dual_at` on row slices: every copy and `F` start at the pair.
+                let b = bound.get(x).map_or(1.0, to_f32);
+                let factor = match self.norm {
+                    TvNorm::L1 => 1.0 / b,
+                    TvNorm::L2 => b,
+                };
+                let to_g = 1.0 / factor;
+                let (fh, fv) = (S::from_f32(to_g * fh), S::from_f32(to_g * fv));
+                for buf in [&mut *y1h, &mut *own_h, &mut *other_h] {
+                    if let Some(v) = buf.get_mut(x) {
+                        *v = fh;
+                    }
+                }
+                for buf in [&mut *y1v, &mut *own_v, &mut *other_v] {
+                    if let Some(v) = buf.get_mut(x) {
+                        *v = fv;
+                    }
+                }
             }
         }
     }
@@ -1010,18 +1046,26 @@ impl<'s, S: Scalar> Graph<'s, S> {
             let ry = core.y - region.y + y;
             let gy = core.y + y;
             divergence_row(ry, w, self.wh, self.wv, self.y1h, self.y1v, div);
-            for x in 0..core.width {
-                let rx = core.x - region.x + x;
-                let gi = gy * maps.width + core.x + x;
-                let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
-                let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
-                let a = data_weight(conf, params);
-                let u = div.get(rx).map_or(0.0, |u| u.to_f32()) / DUAL_SCALE
-                    + external_flow(maps, guide, params, region, rx, ry);
-                if let Some(o) = out.get_mut(y * stride + x) {
-                    let x = d - params.lambda * u / a;
-                    *o = clamp_f32(x, self.range.0, self.range.1);
-                }
+            let start = gy * maps.width + core.x;
+            let r = start..start + core.width;
+            let (Some(d), Some(conf), Some(u), Some(o)) = (
+                maps.disparity.get(r.clone()),
+                maps.confidence.get(r),
+                div.get(core.x - region.x..),
+                out.get_mut(y * stride..y * stride + core.width),
+            ) else {
+                continue;
+            };
+            for (x, (((o, &d), &c), &u)) in o.iter_mut().zip(d).zip(conf).zip(u).enumerate() {
+                let a = data_weight(c, params);
+                // The fixed flows of a previous dual (zero without one).
+                let outside = if maps.dual.is_some() {
+                    external_flow(maps, guide, params, region, core.x - region.x + x, ry)
+                } else {
+                    0.0
+                };
+                let u = u.to_f32() / DUAL_SCALE + outside;
+                *o = clamp_f32(d - params.lambda * u / a, self.range.0, self.range.1);
             }
         }
     }
