@@ -242,8 +242,8 @@ pub fn fill<S: Sample>(
         spatial: p.spatial,
     };
     for _ in 0..p.sweeps {
-        field.sweep(false)?;
-        field.sweep(true)?;
+        field.sweep::<false>()?;
+        field.sweep::<true>()?;
     }
     let Field {
         dist, off_x, off_y, ..
@@ -443,6 +443,25 @@ fn colour_step<S: Sample>(guide: &View<'_, S>, a: (usize, usize), b: (usize, usi
     f32::from(most) * (1.0 / 255.0)
 }
 
+/// [`Field::colour_step`] for pixels of `CH` samples, the first `USED` compared.
+#[inline(always)]
+fn fixed_colour_step<S: Sample, const CH: usize, const USED: usize>(
+    ra: &[S],
+    a: usize,
+    rb: &[S],
+    b: usize,
+) -> f32 {
+    let (Some(pa), Some(pb)) = (ra.get(a * CH..a * CH + USED), rb.get(b * CH..b * CH + USED))
+    else {
+        return 0.0;
+    };
+    let mut most = 0u8;
+    for (sa, sb) in pa.iter().zip(pb) {
+        most = most.max(sa.level().abs_diff(sb.level()));
+    }
+    f32::from(most) * (1.0 / 255.0)
+}
+
 /// The geodesic distance field being relaxed.
 struct Field<'a, 'g, S: Sample> {
     guide: &'a View<'g, S>,
@@ -462,7 +481,23 @@ struct Field<'a, 'g, S: Sample> {
 impl<'g, S: Sample> Field<'_, 'g, S> {
     /// One raster sweep, forward (top-left to bottom-right) or backward: every band
     /// pixel relaxes from the four neighbours the sweep has already visited.
-    fn sweep(&mut self, backward: bool) -> Result<()> {
+    fn sweep<const BACKWARD: bool>(&mut self) -> Result<()> {
+        // The common pixel layouts get a colour step of fixed length (the neighbour
+        // loop is most of the stage on cotton).
+        match (self.guide.channels(), self.channels) {
+            (3, 3) => self.sweep_with::<BACKWARD, 3, 3>(),
+            (4, 3) => self.sweep_with::<BACKWARD, 4, 3>(),
+            (1, 1) => self.sweep_with::<BACKWARD, 1, 1>(),
+            _ => self.sweep_with::<BACKWARD, 0, 0>(),
+        }
+    }
+
+    /// [`Self::sweep`] for `CH` samples per pixel of which `USED` are compared (`CH` 0:
+    /// the view's own layout, looked up per step).
+    fn sweep_with<const BACKWARD: bool, const CH: usize, const USED: usize>(
+        &mut self,
+    ) -> Result<()> {
+        let backward = BACKWARD;
         let (width, height) = (self.width, self.height);
         // (dx, dy) of the visited neighbours in a forward sweep; negated backward.
         const VISITED: [(i64, i64); 4] = [(-1, 0), (-1, -1), (0, -1), (1, -1)];
@@ -512,7 +547,12 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
                     } else {
                         1.0
                     };
-                    let cost = dn + self.colour_step(row, x, colours, nx) + self.spatial * length;
+                    let step = if CH == 0 {
+                        self.colour_step(row, x, colours, nx)
+                    } else {
+                        fixed_colour_step::<S, CH, USED>(row, x, colours, nx)
+                    };
+                    let cost = dn + step + self.spatial * length;
                     if cost < at(self.dist, i) {
                         put(self.dist, i, cost);
                         put(self.off_x, i, ox);
