@@ -204,7 +204,15 @@ pub fn fill<S: Sample>(
     for (o, &v) in out.iter_mut().zip(input) {
         *o = v;
     }
-    band_distance(guide, input, (width, height), (p.step, p.edge), dist);
+    // `off_x` is free until the sweeps: one row of it serves the band's row pass.
+    band_distance(
+        guide,
+        input,
+        (width, height),
+        (p.step, p.edge, p.band),
+        dist,
+        off_x,
+    );
     let band = p.band as f32;
     let mut any = false;
     for (d, &v) in dist.iter_mut().zip(input) {
@@ -234,8 +242,8 @@ pub fn fill<S: Sample>(
         spatial: p.spatial,
     };
     for _ in 0..p.sweeps {
-        field.sweep(false)?;
-        field.sweep(true)?;
+        field.sweep::<false>()?;
+        field.sweep::<true>()?;
     }
     let Field {
         dist, off_x, off_y, ..
@@ -317,8 +325,8 @@ fn seed_slope(at: impl Fn(i64) -> Option<f32>) -> f32 {
 }
 
 /// City-block distance (px, as `f32`) of every pixel to the nearest pixel of an
-/// *unsupported* step, `+∞` where there is none: the exact L1 transform in one forward
-/// and one backward pass. A step is a difference above `step` between finite
+/// *unsupported* step where it is at most `band`, a value above `band` elsewhere (see
+/// [`within_band`]; `row_scratch` holds one row). A step is a difference above `step` between finite
 /// 4-neighbours; it is unsupported when no colour step of `edge` or more lies on the
 /// line through the pair within 2 px of it: depth edges of real scenes sit on colour
 /// edges, so a step inside uniform colour is a misplaced (fattened) one, while a
@@ -327,8 +335,9 @@ fn band_distance<S: Sample>(
     guide: &View<'_, S>,
     input: &[f32],
     (width, height): (usize, usize),
-    (step, edge): (f32, f32),
+    (step, edge, band): (f32, f32, usize),
     dist: &mut [f32],
+    row_scratch: &mut [f32],
 ) {
     // False next to a NaN; a finite value next to ±∞ is a step.
     let jump = |a: f32, b: f32| (a - b).abs() > step;
@@ -366,30 +375,52 @@ fn band_distance<S: Sample>(
             }
         }
     }
-    for y in 0..height {
-        for x in 0..width {
-            let i = y * width + x;
-            let mut d = at(dist, i);
-            if x > 0 {
-                d = d.min(at(dist, i - 1) + 1.0);
-            }
-            if y > 0 {
-                d = d.min(at(dist, i - width) + 1.0);
-            }
-            put(dist, i, d);
+    within_band(dist, width, band, row_scratch);
+}
+
+/// Turns `dist` (0 on the step pixels, `+∞` elsewhere) into the city-block distance to
+/// the nearest step pixel where it is at most `band`, and a value above `band` elsewhere
+/// (the caller only asks which pixels lie within the band). The L1 distance is separable:
+/// the vertical distance by a downward and an upward pass over whole rows, then the
+/// horizontal step as a minimum over a window of `±band` columns. Every loop walks whole
+/// rows with no dependence between neighbouring columns, so it vectorises (a raster
+/// two-pass transform chains every pixel on its left neighbour). `row` is room for one
+/// row (`width` long). Compare-and-select, not `f32::min`, which wasm lowers slowly.
+fn within_band(dist: &mut [f32], width: usize, band: usize, row: &mut [f32]) {
+    let width = width.max(1);
+    let near = |a: f32, b: f32| if b < a { b } else { a };
+    let pixels = dist.len() - dist.len() % width;
+    for y in 1..pixels / width {
+        let (done, rest) = dist.split_at_mut(y * width);
+        let above = done.get((y - 1) * width..).unwrap_or_default();
+        for (d, &a) in rest.iter_mut().zip(above) {
+            *d = near(*d, a + 1.0);
         }
     }
-    for y in (0..height).rev() {
-        for x in (0..width).rev() {
-            let i = y * width + x;
-            let mut d = at(dist, i);
-            if x + 1 < width {
-                d = d.min(at(dist, i + 1) + 1.0);
+    for y in (1..pixels / width).rev() {
+        let (done, rest) = dist.split_at_mut(y * width);
+        let above = done.get_mut((y - 1) * width..).unwrap_or_default();
+        for (a, &d) in above.iter_mut().zip(rest.iter()) {
+            *a = near(*a, d + 1.0);
+        }
+    }
+    let Some(row) = row.get_mut(..width) else {
+        return;
+    };
+    for line in dist.chunks_exact_mut(width) {
+        row.copy_from_slice(line);
+        for k in 1..=band.min(width - 1) {
+            let step = k as f32;
+            let (Some(right), Some(later)) = (row.get(k..), line.get_mut(k..)) else {
+                break;
+            };
+            // Pixel x sees column x − k on its left, then x + k on its right.
+            for (d, &l) in later.iter_mut().zip(row.iter()) {
+                *d = near(*d, l + step);
             }
-            if y + 1 < height {
-                d = d.min(at(dist, i + width) + 1.0);
+            for (d, &r) in line.iter_mut().zip(right) {
+                *d = near(*d, r + step);
             }
-            put(dist, i, d);
         }
     }
 }
@@ -407,6 +438,25 @@ fn colour_step<S: Sample>(guide: &View<'_, S>, a: (usize, usize), b: (usize, usi
     };
     let mut most = 0u8;
     for (sa, sb) in pixel(a).iter().zip(pixel(b)) {
+        most = most.max(sa.level().abs_diff(sb.level()));
+    }
+    f32::from(most) * (1.0 / 255.0)
+}
+
+/// [`Field::colour_step`] for pixels of `CH` samples, the first `USED` compared.
+#[inline(always)]
+fn fixed_colour_step<S: Sample, const CH: usize, const USED: usize>(
+    ra: &[S],
+    a: usize,
+    rb: &[S],
+    b: usize,
+) -> f32 {
+    let (Some(pa), Some(pb)) = (ra.get(a * CH..a * CH + USED), rb.get(b * CH..b * CH + USED))
+    else {
+        return 0.0;
+    };
+    let mut most = 0u8;
+    for (sa, sb) in pa.iter().zip(pb) {
         most = most.max(sa.level().abs_diff(sb.level()));
     }
     f32::from(most) * (1.0 / 255.0)
@@ -431,7 +481,23 @@ struct Field<'a, 'g, S: Sample> {
 impl<'g, S: Sample> Field<'_, 'g, S> {
     /// One raster sweep, forward (top-left to bottom-right) or backward: every band
     /// pixel relaxes from the four neighbours the sweep has already visited.
-    fn sweep(&mut self, backward: bool) -> Result<()> {
+    fn sweep<const BACKWARD: bool>(&mut self) -> Result<()> {
+        // The common pixel layouts get a colour step of fixed length (the neighbour
+        // loop is most of the stage on cotton).
+        match (self.guide.channels(), self.channels) {
+            (3, 3) => self.sweep_with::<BACKWARD, 3, 3>(),
+            (4, 3) => self.sweep_with::<BACKWARD, 4, 3>(),
+            (1, 1) => self.sweep_with::<BACKWARD, 1, 1>(),
+            _ => self.sweep_with::<BACKWARD, 0, 0>(),
+        }
+    }
+
+    /// [`Self::sweep`] for `CH` samples per pixel of which `USED` are compared (`CH` 0:
+    /// the view's own layout, looked up per step).
+    fn sweep_with<const BACKWARD: bool, const CH: usize, const USED: usize>(
+        &mut self,
+    ) -> Result<()> {
+        let backward = BACKWARD;
         let (width, height) = (self.width, self.height);
         // (dx, dy) of the visited neighbours in a forward sweep; negated backward.
         const VISITED: [(i64, i64); 4] = [(-1, 0), (-1, -1), (0, -1), (1, -1)];
@@ -481,7 +547,12 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
                     } else {
                         1.0
                     };
-                    let cost = dn + self.colour_step(row, x, colours, nx) + self.spatial * length;
+                    let step = if CH == 0 {
+                        self.colour_step(row, x, colours, nx)
+                    } else {
+                        fixed_colour_step::<S, CH, USED>(row, x, colours, nx)
+                    };
+                    let cost = dn + step + self.spatial * length;
                     if cost < at(self.dist, i) {
                         put(self.dist, i, cost);
                         put(self.off_x, i, ox);
@@ -542,6 +613,32 @@ mod tests {
     /// A 3×3 grid whose every view is the centre image (only the centre is read).
     fn light_field(image: &[u8]) -> Vec<u8> {
         image.repeat(9)
+    }
+
+    #[test]
+    fn band_distance_is_the_city_block_distance_up_to_the_band() {
+        let (w, h, band) = (23usize, 17usize, 4usize);
+        let steps = [(0usize, 0usize), (11, 8), (22, 3), (5, 16), (6, 16)];
+        let mut dist = vec![f32::INFINITY; w * h];
+        for &(x, y) in &steps {
+            dist[y * w + x] = 0.0;
+        }
+        let mut row = vec![0.0; w];
+        within_band(&mut dist, w, band, &mut row);
+        for y in 0..h {
+            for x in 0..w {
+                let exact = steps
+                    .iter()
+                    .map(|&(sx, sy)| (sx.abs_diff(x) + sy.abs_diff(y)) as f32)
+                    .fold(f32::INFINITY, f32::min);
+                let got = dist[y * w + x];
+                if exact <= band as f32 {
+                    assert_eq!(got, exact, "({x}, {y})");
+                } else {
+                    assert!(got > band as f32, "({x}, {y}): {got}");
+                }
+            }
+        }
     }
 
     #[test]

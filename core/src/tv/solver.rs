@@ -428,6 +428,33 @@ impl<'s, S: Scalar> Graph<'s, S> {
         params: &TvParams,
         region: Rect,
     ) {
+        match (guide, maps.dual) {
+            (Guide::View(view), None) => self.view_weights_by_row(maps, view, params, region),
+            _ => self.weights_by_node(maps, guide, params, region),
+        }
+        self.norm = params.norm;
+        self.set_metric(maps, params, region);
+        self.range = if maps.dual.is_none() {
+            self.node_constants_by_row(maps, params, region)
+        } else {
+            self.node_constants_by_node(maps, guide, params, region)
+        };
+        if let Some(dual) = maps.dual {
+            self.warm_start(maps, region, dual);
+            return;
+        }
+        self.gradient_start(maps, region, params.norm);
+    }
+
+    /// The edge weights node by node: given weights, or a previous sweep's dual (which
+    /// fixes the pairs of the region's last column and row).
+    fn weights_by_node<P: Sample>(
+        &mut self,
+        maps: &Maps<'_>,
+        guide: &Guide<'_, P>,
+        params: &TvParams,
+        region: Rect,
+    ) {
         let (w, h) = (self.width, self.height);
         for y in 0..h {
             let gy = region.y + y;
@@ -469,8 +496,79 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 }
             }
         }
-        self.norm = params.norm;
-        self.set_metric(maps, params, region);
+    }
+
+    /// The edge weights from the guide view without a previous dual, a row at a time
+    /// (the same values as [`Self::weights_by_node`]): the colour steps of the row in
+    /// one pass, the weights of them in another, which vectorise.
+    fn view_weights_by_row<P: Sample>(
+        &mut self,
+        maps: &Maps<'_>,
+        view: &View<'_, P>,
+        params: &TvParams,
+        region: Rect,
+    ) {
+        let (w, h) = (self.width, self.height);
+        let ch = view.channels();
+        for y in 0..h {
+            let gy = region.y + y;
+            let r = y * w..(y + 1) * w;
+            let (Some(oh), Some(ov)) = (self.wh.get_mut(r.clone()), self.wv.get_mut(r)) else {
+                continue;
+            };
+            let row = view.row(gy).unwrap_or_default();
+            let below = view.row(gy + 1).unwrap_or_default();
+            let start = region.x * ch;
+            // The region's pixels and the one right of it (when the map has it).
+            let here = row.get(start..).unwrap_or_default();
+            let under = below.get(start..).unwrap_or_default();
+            // Blocks of pixels through f32 steps on the stack (the weights are `S`).
+            let (mut right, mut down) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
+            let blocks = oh.chunks_mut(STEP_BLOCK).zip(ov.chunks_mut(STEP_BLOCK));
+            for (b, (bh, bv)) in blocks.enumerate() {
+                let first = b * STEP_BLOCK * ch;
+                let (Some(right), Some(down)) =
+                    (right.get_mut(..bh.len()), down.get_mut(..bv.len()))
+                else {
+                    continue; // blocks hold at most STEP_BLOCK pixels
+                };
+                colour_steps_of_row(
+                    here.get(first..).unwrap_or_default(),
+                    under.get(first..).unwrap_or_default(),
+                    ch,
+                    right,
+                    down,
+                );
+                let weight = |step: f32| {
+                    S::from_f32(edge_weight(step, params.edge_sigma, params.edge_floor))
+                };
+                for (e, &step) in bh.iter_mut().zip(right.iter()) {
+                    *e = weight(step);
+                }
+                for (e, &step) in bv.iter_mut().zip(down.iter()) {
+                    *e = weight(step);
+                }
+            }
+            // Edges leaving the region (or the map) are cut.
+            if let Some(last) = oh.last_mut() {
+                *last = S::ZERO;
+            }
+            if y + 1 == h || gy + 1 >= maps.height || under.is_empty() {
+                ov.fill(S::ZERO);
+            }
+        }
+    }
+
+    /// `τ` and `σ` node by node, with the fixed flows of a previous dual; returns the
+    /// range of `D` over the region.
+    fn node_constants_by_node<P: Sample>(
+        &mut self,
+        maps: &Maps<'_>,
+        guide: &Guide<'_, P>,
+        params: &TvParams,
+        region: Rect,
+    ) -> (f32, f32) {
+        let (w, h) = (self.width, self.height);
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         let lambda = params.lambda;
         let gamma = 4.0 * params.step; // γ / ω with ω = 1/4 for each quadratic part
@@ -507,12 +605,69 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 }
             }
         }
-        self.range = (lo, hi);
-        if let Some(dual) = maps.dual {
-            self.warm_start(maps, region, dual);
-            return;
+        (lo, hi)
+    }
+
+    /// `τ` and `σ` of every node without a previous dual (no fixed flows), a row at a
+    /// time (the same values as [`Self::node_constants_by_node`]); returns the range of
+    /// `D` over the region.
+    fn node_constants_by_row(
+        &mut self,
+        maps: &Maps<'_>,
+        params: &TvParams,
+        region: Rect,
+    ) -> (f32, f32) {
+        let (w, h) = (self.width, self.height);
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        let lambda = params.lambda;
+        let gamma = 4.0 * params.step; // γ / ω with ω = 1/4 for each quadratic part
+        let sq = |v: S| {
+            let f = v.to_f32();
+            f * f
+        };
+        for y in 0..h {
+            let start = (region.y + y) * maps.width + region.x;
+            let r = y * w..(y + 1) * w;
+            let above = if y > 0 {
+                part(self.wv, r.start - w..r.start)
+            } else {
+                &[]
+            };
+            let (wh, wv) = (part(self.wh, r.clone()), part(self.wv, r.clone()));
+            let (Some(tau), Some(sig), Some(d), Some(conf)) = (
+                self.tau.get_mut(r.clone()),
+                self.sig.get_mut(r),
+                maps.disparity.get(start..start + w),
+                maps.confidence.get(start..start + w),
+            ) else {
+                continue;
+            };
+            for &d in d {
+                lo = if d < lo { d } else { lo };
+                hi = if d > hi { d } else { hi };
+            }
+            for (x, (((t, s), &d), &c)) in tau
+                .iter_mut()
+                .zip(sig.iter_mut())
+                .zip(d)
+                .zip(conf)
+                .enumerate()
+            {
+                let a = data_weight(c, params);
+                let mut c2 =
+                    wh.get(x).copied().map_or(0.0, sq) + wv.get(x).copied().map_or(0.0, sq);
+                if x > 0 {
+                    c2 += wh.get(x - 1).copied().map_or(0.0, sq);
+                }
+                if let Some(&up) = above.get(x) {
+                    c2 += sq(up);
+                }
+                let gk = gamma * lambda * lambda / a;
+                *s = S::from_f32(gk / (1.0 + gk * c2));
+                *t = S::from_f32(DUAL_SCALE * (a * d / lambda));
+            }
         }
-        self.gradient_start(maps, region, params.norm);
+        (lo, hi)
     }
 
     /// The per-node metric (see [`metric_shift`]): node `i`'s pair is iterated as
@@ -615,29 +770,65 @@ impl<'s, S: Scalar> Graph<'s, S> {
     fn gradient_start(&mut self, maps: &Maps<'_>, region: Rect, norm: TvNorm) {
         let (w, h) = (self.width, self.height);
         let eps = GRADIENT_START_SCALE;
-        let disparity = |gi: usize| maps.disparity.get(gi).copied().unwrap_or(0.0);
+        let floor = |n: f32| if n > eps { n } else { eps };
+        let to_f32 = |v: &S| v.to_f32();
+        // A row at a time from row slices (per-node lookups were a tenth of a solve).
         for y in 0..h {
-            let row = (region.y + y) * maps.width + region.x;
+            let start = (region.y + y) * maps.width + region.x;
+            let r = y * w..(y + 1) * w;
+            // From the region's first pixel to the map's end: holds the right neighbours.
+            let d_row = maps.disparity.get(start..).unwrap_or_default();
+            let d_below = maps.disparity.get(start + maps.width..).unwrap_or_default();
+            let (wh, wv) = (part(self.wh, r.clone()), part(self.wv, r.clone()));
+            let bound = part(self.bound, r.clone());
+            let (Some(y1h), Some(own_h), Some(other_h), Some(y1v), Some(own_v), Some(other_v)) = (
+                self.y1h.get_mut(r.clone()),
+                self.own_h.get_mut(r.clone()),
+                self.other_h.get_mut(r.clone()),
+                self.y1v.get_mut(r.clone()),
+                self.own_v.get_mut(r.clone()),
+                self.other_v.get_mut(r),
+            ) else {
+                continue;
+            };
             for x in 0..w {
-                let i = y * w + x;
-                let gi = row + x;
-                let d = disparity(gi);
-                let weight = |buf: &[S]| buf.get(i).map_or(0.0, |v| v.to_f32());
-                let (eh, ev) = (weight(self.wh), weight(self.wv));
-                let gh = if eh > 0.0 { disparity(gi + 1) - d } else { 0.0 };
+                let d = d_row.get(x).copied().unwrap_or(0.0);
+                let (eh, ev) = (wh.get(x).map_or(0.0, to_f32), wv.get(x).map_or(0.0, to_f32));
+                let gh = if eh > 0.0 {
+                    d_row.get(x + 1).copied().unwrap_or(0.0) - d
+                } else {
+                    0.0
+                };
                 let gv = if ev > 0.0 {
-                    disparity(gi + maps.width) - d
+                    d_below.get(x).copied().unwrap_or(0.0) - d
                 } else {
                     0.0
                 };
                 let (fh, fv) = match norm {
                     TvNorm::L2 => {
-                        let n = libm::sqrtf(gh * gh + gv * gv).max(eps);
+                        let n = floor(libm::sqrtf(gh * gh + gv * gv));
                         (gh / n, gv / n)
                     }
-                    TvNorm::L1 => (gh / libm::fabsf(gh).max(eps), gv / libm::fabsf(gv).max(eps)),
+                    TvNorm::L1 => (gh / floor(libm::fabsf(gh)), gv / floor(libm::fabsf(gv))),
                 };
-                self.start_dual_at(i, fh, fv);
+                // `start_dual_at` on row slices: every copy and `F` start at the pair.
+                let b = bound.get(x).map_or(1.0, to_f32);
+                let factor = match self.norm {
+                    TvNorm::L1 => 1.0 / b,
+                    TvNorm::L2 => b,
+                };
+                let to_g = 1.0 / factor;
+                let (fh, fv) = (S::from_f32(to_g * fh), S::from_f32(to_g * fv));
+                for buf in [&mut *y1h, &mut *own_h, &mut *other_h] {
+                    if let Some(v) = buf.get_mut(x) {
+                        *v = fh;
+                    }
+                }
+                for buf in [&mut *y1v, &mut *own_v, &mut *other_v] {
+                    if let Some(v) = buf.get_mut(x) {
+                        *v = fv;
+                    }
+                }
             }
         }
     }
@@ -855,18 +1046,26 @@ impl<'s, S: Scalar> Graph<'s, S> {
             let ry = core.y - region.y + y;
             let gy = core.y + y;
             divergence_row(ry, w, self.wh, self.wv, self.y1h, self.y1v, div);
-            for x in 0..core.width {
-                let rx = core.x - region.x + x;
-                let gi = gy * maps.width + core.x + x;
-                let d = maps.disparity.get(gi).copied().unwrap_or(0.0);
-                let conf = maps.confidence.get(gi).copied().unwrap_or(0.0);
-                let a = data_weight(conf, params);
-                let u = div.get(rx).map_or(0.0, |u| u.to_f32()) / DUAL_SCALE
-                    + external_flow(maps, guide, params, region, rx, ry);
-                if let Some(o) = out.get_mut(y * stride + x) {
-                    let x = d - params.lambda * u / a;
-                    *o = clamp_f32(x, self.range.0, self.range.1);
-                }
+            let start = gy * maps.width + core.x;
+            let r = start..start + core.width;
+            let (Some(d), Some(conf), Some(u), Some(o)) = (
+                maps.disparity.get(r.clone()),
+                maps.confidence.get(r),
+                div.get(core.x - region.x..),
+                out.get_mut(y * stride..y * stride + core.width),
+            ) else {
+                continue;
+            };
+            for (x, (((o, &d), &c), &u)) in o.iter_mut().zip(d).zip(conf).zip(u).enumerate() {
+                let a = data_weight(c, params);
+                // The fixed flows of a previous dual (zero without one).
+                let outside = if maps.dual.is_some() {
+                    external_flow(maps, guide, params, region, core.x - region.x + x, ry)
+                } else {
+                    0.0
+                };
+                let u = u.to_f32() / DUAL_SCALE + outside;
+                *o = clamp_f32(d - params.lambda * u / a, self.range.0, self.range.1);
             }
         }
     }
@@ -995,6 +1194,73 @@ const METRIC_STIFFNESS: f32 = 4.0;
 
 /// Largest `k` of the metric (`s = 2^-k`).
 const METRIC_MAX_SHIFT: i32 = 6;
+
+/// Pixels per block of [`colour_steps_of_row`] in the setup (two `f32` arrays on the
+/// stack).
+const STEP_BLOCK: usize = 64;
+
+/// The colour steps (largest channel difference, unit intensity) of a row's pixels to
+/// their right neighbours into `right` and to the pixels below into `down` (0 where the
+/// neighbour is missing), the same values as [`colour_step`] per pixel. `row` and
+/// `below` start at the region's first pixel, `ch` samples per pixel, the first three
+/// compared. One pass per channel layout so the common ones need no per-pixel slicing.
+fn colour_steps_of_row<P: Sample>(
+    row: &[P],
+    below: &[P],
+    ch: usize,
+    right: &mut [f32],
+    down: &mut [f32],
+) {
+    match ch {
+        1 => colour_steps_with::<P, 1, 1>(row, below, right, down),
+        3 => colour_steps_with::<P, 3, 3>(row, below, right, down),
+        4 => colour_steps_with::<P, 4, 3>(row, below, right, down),
+        _ => {
+            let used = ch.min(3);
+            for (x, (r, d)) in right.iter_mut().zip(down.iter_mut()).enumerate() {
+                let here = row.get(x * ch..x * ch + ch).unwrap_or(&[]);
+                let step = |other: &[P]| {
+                    if other.is_empty() {
+                        0.0
+                    } else {
+                        colour_step(here, other, used)
+                    }
+                };
+                *r = step(row.get((x + 1) * ch..(x + 2) * ch).unwrap_or(&[]));
+                *d = step(below.get(x * ch..x * ch + ch).unwrap_or(&[]));
+            }
+        }
+    }
+}
+
+/// [`colour_steps_of_row`] for `CH` samples per pixel, `USED` of them compared.
+#[inline(always)]
+fn colour_steps_with<P: Sample, const CH: usize, const USED: usize>(
+    row: &[P],
+    below: &[P],
+    right: &mut [f32],
+    down: &mut [f32],
+) {
+    let step = |a: &[P], b: &[P]| {
+        let mut step = 0.0f32;
+        for (pa, pb) in a.iter().zip(b).take(USED) {
+            let d = libm::fabsf(pa.to_unit() - pb.to_unit());
+            if d > step {
+                step = d;
+            }
+        }
+        step
+    };
+    let pixels = row.chunks_exact(CH);
+    let mut next = row.chunks_exact(CH).skip(1);
+    for (r, here) in right.iter_mut().zip(pixels.clone()) {
+        *r = next.next().map_or(0.0, |n| step(here, n));
+    }
+    let mut under = below.chunks_exact(CH);
+    for (d, here) in down.iter_mut().zip(pixels) {
+        *d = under.next().map_or(0.0, |u| step(here, u));
+    }
+}
 
 /// Edge weights to the right and down neighbours of `(x, y)` from the guide view.
 fn view_weights<P: Sample>(
