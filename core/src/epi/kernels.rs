@@ -240,8 +240,8 @@ impl<T: Scalar> Kernel<T> {
         } else {
             (half, half)
         };
-        for (m, o) in out.iter_mut().enumerate() {
-            if m < lo || m >= hi {
+        for m in (0..lo).chain(hi..half) {
+            if let Some(o) = out.get_mut(m) {
                 *o = clamped(2 * m);
             }
         }
