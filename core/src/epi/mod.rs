@@ -244,7 +244,7 @@ pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
 /// Vertical lines the serial stage estimates before it fuses them into the row-major maps
 /// (a tile of `VERTICAL_TILE` columns: each row of the maps is then read and written once
 /// per tile instead of once per column, whose stride missed the cache on every pixel).
-const VERTICAL_TILE: usize = 8;
+const VERTICAL_TILE: usize = 4;
 
 /// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`]
 /// (the serial stage's vertical tile included).
