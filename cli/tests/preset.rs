@@ -35,7 +35,7 @@ const DEFAULT_KNOBS: [&str; 10] = [
     "--median-passes",
     "4",
     "--tv-tolerance",
-    "4e-4",
+    "7e-4",
 ];
 
 /// The disparity map `estimate` writes for `scene` with `extra` flags (one thread).

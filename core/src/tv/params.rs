@@ -37,8 +37,9 @@ pub struct TvParams {
     /// `√(Σ a_i (xₙ − xₙ₋₁)_i² / n)` with `x = D − λA⁻¹WᵀF` (checked every fourth
     /// iteration). Zero runs every iteration. The default 7e-4 (4e-4 until session 6,
     /// then 5e-4) became affordable when the PPXA copies started at their fixed point
-    /// for the start dual: the default pipeline's tiles stop 8–10 % sooner than at 5e-4
-    /// for +0.002…0.008 points BadPix0.07 on the HCI scenes (docs/bench-tv.md).
+    /// for the start dual (and the start's scale ε 0.05): the default pipeline's TV runs
+    /// 1.14× (cotton) to 1.34× (backgammon) fewer cycles than at 5e-4 with BadPix0.07
+    /// −0.013 / +0.006 points on the HCI scenes (docs/bench-tv.md).
     pub tolerance: f32,
     /// PPXA step γ.
     pub step: f32,
