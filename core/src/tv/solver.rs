@@ -18,10 +18,11 @@
 //!
 //! Two choices of the iteration that PPXA leaves open (Combettes & Pesquet allow any
 //! starting point and any fixed metric): it starts from the dual of `D`'s own smoothed
-//! gradients (`Graph::gradient_start`) instead of `F = 0`, and a pair whose edges touch
-//! a very stiff node (large `γκ`, unreliable pixels) is iterated in a scaled variable —
-//! a per-node step (`metric_shift`), so that the default step γ 4 suits confident and
-//! unreliable pixels alike.
+//! gradients (`Graph::gradient_start`) instead of `F = 0`, with the PPXA copies at the
+//! fixed point that start would have if it were the solution (`Graph::consistent_copies`);
+//! and a pair whose edges touch a very stiff node (large `γκ`, unreliable pixels) is
+//! iterated in a scaled variable — a per-node step (`metric_shift`), so that the default
+//! step γ 4 suits confident and unreliable pixels alike.
 //!
 //! One iteration is one pass over the rows (`Graph::sweep`): the residuals of row
 //! `y + 1`, then the proximity results and the combination of row `y`. The copies of the
@@ -56,8 +57,10 @@ const DUAL_SCALE: f32 = 32.0;
 
 /// Scale `ε` (px of weighted disparity step) of the cold start's dual
 /// `F = g / max(ε, ‖g‖)` (see `Graph::gradient_start`): steps of `D` larger than this
-/// start saturated. 0.02 px measured best of 0.005 / 0.02 / 0.1 / 0.5 on the HCI scenes.
-const GRADIENT_START_SCALE: f32 = 0.02;
+/// start saturated. 0.02 px measured best of 0.005 / 0.02 / 0.1 / 0.5 on the HCI scenes
+/// with every PPXA copy started at `F`; with the copies at their fixed point
+/// (`consistent_copies`) 0.05 of 0.01 / 0.02 / 0.05 / 0.1 (docs/bench-tv.md).
+const GRADIENT_START_SCALE: f32 = 0.05;
 
 /// The per-pixel inputs of the stage: EPI disparity and confidence, row-major, top row
 /// first, `width × height` each.
@@ -439,11 +442,92 @@ impl<'s, S: Scalar> Graph<'s, S> {
         } else {
             self.node_constants_by_node(maps, guide, params, region)
         };
-        if let Some(dual) = maps.dual {
-            self.warm_start(maps, region, dual);
-            return;
+        match maps.dual {
+            Some(dual) => self.warm_start(maps, region, dual),
+            None => self.gradient_start(maps, region, params.norm),
         }
-        self.gradient_start(maps, region, params.norm);
+        self.consistent_copies(maps, params, region);
+    }
+
+    /// Moves the copies of the two quadratic parts (and `y₁`, keeping `F = ½y₁ + ¼y₂ +
+    /// ¼y₃`) from the start `F` to where PPXA's fixed point would hold them if `F` were
+    /// the solution: `y_k = F + (γ/ω_k)∇f_k(F)` for the quadratic parts, so that their
+    /// proximity operators return `F` itself, and `y₁ = F − (γ/ω₁)(∇f₂ + ∇f₃)(F)`, so
+    /// that the first iteration is a projected gradient step from `F`. Started with
+    /// every copy equal to `F`, the copies are far from that fixed point, and PPXA spends
+    /// its first iterations moving them there: from the converged dual of HCI cotton
+    /// (equal copies) a solve still ran 24 of the cold start's 28 iterations.
+    ///
+    /// Node `i`'s gradient is `c_i t_i r_i` with `r_i = (WᵀF)_i − τ_i` and
+    /// `t_i = γκ_i/ω = σ_i / (1 − σ_i‖c_i‖²)`; in the storage of [`Graph`] the own copy
+    /// of an edge takes its owning node's term (`c = −w`), the other copy its far end's
+    /// (`c = +w`).
+    fn consistent_copies(&mut self, maps: &Maps<'_>, params: &TvParams, region: Rect) {
+        let (w, h) = (self.width, self.height);
+        let mut row_bufs = self.rows.chunks_exact_mut(w.max(1));
+        let (Some(mut u), Some(mut u_below)) = (row_bufs.next(), row_bufs.next()) else {
+            return;
+        };
+        let gain = 4.0 * params.step * params.lambda * params.lambda; // γ/ω · λ²
+        let half = S::from_f32(0.5);
+        let node_gradients = |y: usize, y1h: &[S], y1v: &[S], out: &mut [S]| {
+            divergence_row(y, w, self.wh, self.wv, y1h, y1v, out);
+            let start = (region.y + y) * maps.width + region.x;
+            let conf = maps.confidence.get(start..start + w).unwrap_or_default();
+            let tau = part(self.tau, y * w..(y + 1) * w);
+            for ((o, &t), &c) in out.iter_mut().zip(tau).zip(conf) {
+                *o = S::from_f32(gain / data_weight(c, params)) * (*o - t);
+            }
+        };
+        node_gradients(0, self.y1h, self.y1v, u);
+        for y in 0..h {
+            let below = y + 1 < h;
+            if below {
+                node_gradients(y + 1, self.y1h, self.y1v, u_below);
+            }
+            let r = y * w..(y + 1) * w;
+            let (wh, wv) = (part(self.wh, r.clone()), part(self.wv, r.clone()));
+            let (Some(y1h), Some(y1v), Some(own_h), Some(own_v), Some(other_h), Some(other_v)) = (
+                self.y1h.get_mut(r.clone()),
+                self.y1v.get_mut(r.clone()),
+                self.own_h.get_mut(r.clone()),
+                self.own_v.get_mut(r.clone()),
+                self.other_h.get_mut(r.clone()),
+                self.other_v.get_mut(r),
+            ) else {
+                continue;
+            };
+            for x in 0..w {
+                let here = u.get(x).copied().unwrap_or(S::ZERO);
+                let right = u.get(x + 1).copied().unwrap_or(S::ZERO);
+                let down = if below {
+                    u_below.get(x).copied().unwrap_or(S::ZERO)
+                } else {
+                    S::ZERO
+                };
+                let (eh, ev) = (
+                    wh.get(x).copied().unwrap_or(S::ZERO),
+                    wv.get(x).copied().unwrap_or(S::ZERO),
+                );
+                if let (Some(f), Some(o), Some(t)) =
+                    (y1h.get_mut(x), own_h.get_mut(x), other_h.get_mut(x))
+                {
+                    let (a, b) = (eh * here, eh * right);
+                    *o = *f - a;
+                    *t = *f + b;
+                    *f += half * (a - b);
+                }
+                if let (Some(f), Some(o), Some(t)) =
+                    (y1v.get_mut(x), own_v.get_mut(x), other_v.get_mut(x))
+                {
+                    let (a, b) = (ev * here, ev * down);
+                    *o = *f - a;
+                    *t = *f + b;
+                    *f += half * (a - b);
+                }
+            }
+            core::mem::swap(&mut u, &mut u_below);
+        }
     }
 
     /// The edge weights node by node: given weights, or a previous sweep's dual (which
@@ -2055,6 +2139,74 @@ mod tests {
             free > 10.0 * fixed,
             "{norm:?}: free border {free} px vs fixed {fixed} px"
         );
+    }
+
+    /// Started from the optimal dual, the PPXA copies start at their fixed point
+    /// (`consistent_copies`), so the solve stops at its first check, still at the optimum
+    /// (with every copy equal to the dual, PPXA first moved them: from HCI cotton's
+    /// converged dual it ran 24 of the cold start's 28 iterations).
+    #[test]
+    fn a_solve_started_at_the_optimum_stops_at_its_first_check() {
+        for norm in [TvNorm::L2, TvNorm::L1] {
+            let (w, h) = (24usize, 20usize);
+            let mut seed = 99;
+            let d: Vec<f32> = (0..w * h)
+                .map(|i| if i % w < 11 { 1.0 } else { -0.5 } + 0.6 * lcg(&mut seed))
+                .collect();
+            let c: Vec<f32> = (0..w * h).map(|_| lcg(&mut seed)).collect();
+            let wh: Vec<f32> = (0..w * h).map(|_| 0.2 + lcg(&mut seed)).collect();
+            let wv: Vec<f32> = (0..w * h).map(|_| 0.2 + lcg(&mut seed)).collect();
+            let guide: Guide<'_, u8> = Guide::Weights {
+                horizontal: &wh,
+                vertical: &wv,
+            };
+            let maps = Maps::new(w, h, &d, &c).unwrap();
+            let full = Rect {
+                x: 0,
+                y: 0,
+                width: w,
+                height: h,
+            };
+            let mut scratch = vec![0.0f32; scratch_len_for(w, h)];
+            let mut solve_with = |maps: &Maps<'_>, params: &TvParams, dual: Option<&mut [f32]>| {
+                let mut x = vec![0.0f32; w * h];
+                let out = SolveOutput {
+                    disparity: &mut x,
+                    stride: w,
+                    history: &mut [],
+                    dual,
+                };
+                let report = solve(maps, &guide, params, full, full, out, &mut scratch).unwrap();
+                (x, report)
+            };
+            let converged = TvParams {
+                norm,
+                max_iterations: 8_000,
+                tolerance: 0.0,
+                ..TvParams::default()
+            };
+            let mut dual = vec![0.0f32; 2 * w * h];
+            let (optimum, _) = solve_with(&maps, &converged, Some(&mut dual));
+            let default = TvParams {
+                norm,
+                ..TvParams::default()
+            };
+            let (_, cold) = solve_with(&maps, &default, None);
+            let warm_maps = maps.with_dual(&dual).unwrap();
+            let (warm, report) = solve_with(&warm_maps, &default, None);
+            assert!(
+                report.converged && report.iterations == CHECK_EVERY,
+                "{norm:?}: {report:?}"
+            );
+            assert!(cold.iterations > CHECK_EVERY, "{norm:?}: cold {cold:?}");
+            let off = warm
+                .iter()
+                .zip(&optimum)
+                .fold(0.0f32, |m, (a, b)| m.max((a - b).abs()));
+            // Four iterations, each moving the map by less than the tolerance (RMS).
+            let bound = CHECK_EVERY as f32 * default.tolerance;
+            assert!(off < bound, "{norm:?}: {off} px from the optimum");
+        }
     }
 
     #[test]
