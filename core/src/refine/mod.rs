@@ -30,12 +30,12 @@
 //! ```
 //!
 //! i.e. the window average of the per-pixel Gauss–Newton updates weighted by their
-//! curvature. A pixel that moved by less than `SETTLED` (10⁻² px) in the previous
-//! iteration keeps its `A, B, E`: to first order `B` does not depend on `d`, and the
-//! skipped sampling is most of an iteration's cost once the map has settled (measured
-//! on HCI: BadPix0.07 and MSE×100 within ±0.012 points of sampling every pixel,
-//! `docs/bench-refine.md`). The window only takes neighbours within `WINDOW_GATE` of the pixel's
-//! disparity (it never straddles a depth edge); the step is clamped to
+//! curvature. A pixel that moved by less than `SETTLED` (10⁻² px; `SETTLED_EARLY`,
+//! 2·10⁻² px, before the last iteration) in the previous iteration keeps its `A, B, E`:
+//! to first order `B` does not depend on `d`, and the skipped sampling is most of an
+//! iteration's cost once the map has settled (measured on HCI, `docs/bench-refine.md`).
+//! The window only takes neighbours within `WINDOW_GATE` of the pixel's disparity (it
+//! never straddles a depth edge); the step is clamped to
 //! [`RefineParams::max_step`] and the result to the EPI range. Views are summed in four
 //! half-plane groups (left, right, up, down): with [`RefineParams::occlusion`] a half
 //! that fits much worse than its opposite is dropped, and when the horizontal and
@@ -125,9 +125,15 @@ const AXIS_AGREEMENT: f32 = 0.05;
 /// by this power of two (with a robust scale).
 const STAT_SCALE: f32 = 4.0;
 /// A pixel whose disparity moved by less than this (px) in a Gauss–Newton iteration
-/// keeps its statistics for the next one. 10⁻² px skips 66 % of the later iterations'
+/// keeps its statistics for the last one. 10⁻² px skips 66 % of the later iterations'
 /// sampling on HCI cotton (10⁻³: 24 %); the score changes are in `docs/bench-refine.md`.
 const SETTLED: f32 = 1.0e-2;
+/// As [`SETTLED`], for the iterations before the last: their statistics only steer
+/// an intermediate step, which the last iteration measures again where it moved by
+/// `SETTLED` or more. (Measured on HCI: 2·10⁻² skips 13.5 % of the stage's sampling
+/// calls on cotton for +0.010 BadPix0.07; 2·10⁻² in the last iteration too cost cotton
+/// +0.036 BadPix0.07 and +0.04 MSE×100.)
+const SETTLED_EARLY: f32 = 2.0e-2;
 /// Curvature added per term so that textureless pixels keep their disparity.
 const DAMPING_PER_TERM: f32 = 1.0e-6;
 
@@ -246,6 +252,7 @@ struct Constants<T> {
     occlusion_floor: T,
     axis_agreement: T,
     settled: T,
+    settled_early: T,
     /// Squared confidence scale.
     confidence2: T,
 }
@@ -277,6 +284,7 @@ impl<T: Scalar> Constants<T> {
             occlusion_floor: T::from_f32(OCCLUSION_FLOOR * intensity2 * stat_scale),
             axis_agreement: T::from_f32(AXIS_AGREEMENT),
             settled: T::from_f32(SETTLED),
+            settled_early: T::from_f32(SETTLED_EARLY),
             confidence2: T::from_f32(p.confidence_scale * p.confidence_scale),
         }
     }
@@ -686,13 +694,20 @@ fn band<T: Scalar, P: Photometric<T>>(
         // Rows whose statistics the remaining iterations can still reach the band from.
         let measured = near((p.iterations - iteration) * r);
         let updated = near((p.iterations - iteration - 1) * r);
+        let last_iteration = iteration + 1 == p.iterations;
+        let settled = if last_iteration {
+            k.settled
+        } else {
+            k.settled_early
+        };
         // Per-pixel normal equations at each pixel's own disparity.
         for y in measured.clone() {
             for x in 0..width {
                 let i = y * width + x;
-                // A pixel that moved by less than `SETTLED` since its statistics were
-                // measured keeps them (every row measured now was measured and updated
-                // by the iteration before): to first order `B` does not change with
+                // A pixel that moved by less than `SETTLED` (`SETTLED_EARLY` before
+                // the last iteration) since its statistics were measured keeps them
+                // (every row measured now was measured and updated by the iteration
+                // before): to first order `B` does not change with
                 // `d` (`r` grows by `g·Δd`), and the step from the stale `A`, `B` is
                 // that from the fresh ones within a few `SETTLED`.
                 // `measured` rows lie within the region, which the tables cover.
@@ -705,7 +720,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                 ) else {
                     continue;
                 };
-                if iteration > 0 && (now - before).abs() < k.settled {
+                if iteration > 0 && (now - before).abs() < settled {
                     continue;
                 }
                 photo.pixel(x, first + y, now, stat_robust, stat);
@@ -715,7 +730,6 @@ fn band<T: Scalar, P: Photometric<T>>(
         if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
             to.copy_from_slice(from);
         }
-        let last_iteration = iteration + 1 == p.iterations;
         for y in updated {
             for x in 0..width {
                 // Window sum over the neighbours whose disparity is within
