@@ -78,19 +78,18 @@ fn spo_cotton_through_the_binary() {
         "{stdout}"
     );
     assert!(stdout.lines().any(|l| l == "MSE×100 1.313"), "{stdout}");
-    let out = lfdepth(&[
+    let v = common::lfdepth_json(&[
         "eval",
         est.to_str().unwrap(),
         "--gt",
         gt.to_str().unwrap(),
         "--json",
     ]);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!((v["badpix007"].as_f64().unwrap() - 2.594222).abs() < 1e-3);
     // With a mask the score covers fewer pixels and changes.
     let mask = data.join("hci/training/cotton/mask_planes_lowres.png");
     if mask.is_file() {
-        let out = lfdepth(&[
+        let m = common::lfdepth_json(&[
             "eval",
             est.to_str().unwrap(),
             "--gt",
@@ -99,12 +98,6 @@ fn spo_cotton_through_the_binary() {
             mask.to_str().unwrap(),
             "--json",
         ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let m: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         // Independent count: pixels inside the 15-px border and the mask.
         let (e, g) = (pfm::read(&est).unwrap(), pfm::read(&gt).unwrap());
         let lfdepth_cli::io::png::Samples::Eight(mask) =

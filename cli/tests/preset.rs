@@ -24,19 +24,21 @@ const FAST_KNOBS: [&str; 10] = [
     "2e-3",
 ];
 
-/// The default's values of the same knobs.
-const DEFAULT_KNOBS: [&str; 10] = [
-    "--refine-iterations",
-    "3",
-    "--refine-propagation",
-    "4",
-    "--median-gate",
-    "0.2",
-    "--median-passes",
-    "4",
-    "--tv-tolerance",
-    "4e-4",
-];
+/// The default's values of the same knobs, read from `Params::default()` so that a
+/// change of a default does not leave this test comparing against a stale value.
+fn default_knobs() -> Vec<String> {
+    let p = lfdepth::Params::default();
+    [
+        ("--refine-iterations", p.refine.iterations.to_string()),
+        ("--refine-propagation", p.refine.propagation.to_string()),
+        ("--median-gate", p.median.gate.to_string()),
+        ("--median-passes", p.median.passes.to_string()),
+        ("--tv-tolerance", p.tv.tolerance.to_string()),
+    ]
+    .into_iter()
+    .flat_map(|(flag, value)| [flag.to_string(), value])
+    .collect()
+}
 
 /// The disparity map `estimate` writes for `scene` with `extra` flags (one thread).
 fn estimate(scene: &Path, out: &Path, extra: &[&str]) -> Vec<f32> {
@@ -87,8 +89,9 @@ fn fast_preset_is_its_knobs_and_explicit_flags_override_it() {
     let named_default = bits(&estimate(&scene, &out, &["--preset", "default"]));
     let fast = bits(&estimate(&scene, &out, &["--preset", "fast"]));
     let spelled_out = bits(&estimate(&scene, &out, &FAST_KNOBS));
+    let defaults = default_knobs();
     let mut overridden_args = vec!["--preset", "fast"];
-    overridden_args.extend_from_slice(&DEFAULT_KNOBS);
+    overridden_args.extend(defaults.iter().map(String::as_str));
     let overridden = bits(&estimate(&scene, &out, &overridden_args));
 
     assert_eq!(named_default, default, "--preset default is the default");
@@ -134,7 +137,7 @@ fn fast_preset_still_beats_spo_on_the_shared_hci_scenes() {
     else {
         return;
     };
-    let out = lfdepth(&[
+    let v = common::lfdepth_json(&[
         "eval",
         "--dataset",
         data.join("hci").to_str().unwrap(),
@@ -142,12 +145,6 @@ fn fast_preset_still_beats_spo_on_the_shared_hci_scenes() {
         "fast",
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     // What the preset promises (Preset::Fast): below SPO on both scenes. Measured at
     // session 6 (docs/bench-pipeline.md): backgammon 2.258 % / 3.140, cotton 2.364 % /
     // 1.154 (BadPix0.07 / MSE×100).

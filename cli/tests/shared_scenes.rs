@@ -16,18 +16,12 @@ fn dataset_table_over_the_shared_hci_scenes() {
     let Some(data) = common::shared_data("dataset_table_over_the_shared_hci_scenes") else {
         return;
     };
-    let out = lfdepth(&[
+    let v = common::lfdepth_json(&[
         "eval",
         "--dataset",
         data.join("hci").to_str().unwrap(),
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let scenes = v["scenes"].as_array().unwrap();
     let names: Vec<&str> = scenes
         .iter()

@@ -29,6 +29,19 @@ pub fn lfdepth(args: &[&str]) -> Output {
         .expect("the lfdepth binary runs")
 }
 
+/// Runs the `lfdepth` binary with arguments that end in `--json`, asserts that it
+/// succeeded (showing its stderr otherwise) and parses what it printed.
+pub fn lfdepth_json(args: &[&str]) -> serde_json::Value {
+    let out = lfdepth(args);
+    assert!(
+        out.status.success(),
+        "lfdepth {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("lfdepth --json prints one JSON value")
+}
+
 /// Asserts a clean failure: non-zero exit, no panic, one `error: …` line on stderr
 /// containing every one of `needles`. Returns the message.
 pub fn assert_fails(output: &Output, needles: &[&str]) -> String {

@@ -200,6 +200,121 @@ impl<T: Scalar> Kernel<T> {
     }
 }
 
+impl<T: Scalar> Kernel<T> {
+    /// The even outputs of [`Kernel::apply`] on a line of `n` samples, bit-identical:
+    /// `out[m]` = `apply(input)[2m]` for `m < ⌈n/2⌉`, where `split` holds the input as
+    /// [`deinterleave`] writes it (its even samples, then its odd ones). Each output sums
+    /// the same products in the same order as `apply_range` (clamped edges tap by tap, the
+    /// interior centre first, then the symmetric pairs), over contiguous slices of the
+    /// two halves, so the interior vectorises at half the products of the full line.
+    pub(crate) fn apply_even(&self, split: &[T], n: usize, out: &mut [T]) {
+        let n = n.min(split.len());
+        let half = n.div_ceil(2);
+        let (Some(even), Some(odd), Some(out)) =
+            (split.get(..half), split.get(half..n), out.get_mut(..half))
+        else {
+            return;
+        };
+        let r = self.radius;
+        let Some(taps) = self.taps.get(..2 * r + 1) else {
+            return; // radius ≤ MAX_RADIUS by construction
+        };
+        if n == 0 {
+            return;
+        }
+        let last = n - 1;
+        let sample = |i: usize| {
+            let half = if i % 2 == 0 { even } else { odd };
+            half.get(i / 2).copied().unwrap_or(T::ZERO)
+        };
+        let clamped = |t: usize| {
+            let mut acc = T::ZERO;
+            for (j, &k) in taps.iter().enumerate() {
+                acc += k * sample((t + j).saturating_sub(r).min(last));
+            }
+            acc
+        };
+        // Outputs `lo..hi` (samples r ≤ 2m < n − r) are `apply_range`'s interior.
+        let (lo, hi) = if n > 2 * r {
+            (r.div_ceil(2), (n - r).div_ceil(2))
+        } else {
+            (half, half)
+        };
+        for m in (0..lo).chain(hi..half) {
+            if let Some(o) = out.get_mut(m) {
+                *o = clamped(2 * m);
+            }
+        }
+        let (Some(interior), Some((&centre, upper))) = (
+            out.get_mut(lo..hi),
+            self.taps.get(r..).and_then(|t| t.split_first()),
+        ) else {
+            return;
+        };
+        let len = interior.len();
+        fn window<T>(half: &[T], from: usize, len: usize) -> Option<&[T]> {
+            half.get(from..).and_then(|s| s.get(..len))
+        }
+        match (self.symmetry, window(even, lo, len)) {
+            (Symmetry::Even, Some(middle)) => {
+                for (o, &v) in interior.iter_mut().zip(middle) {
+                    *o = centre * v;
+                }
+            }
+            _ => interior.fill(T::ZERO),
+        }
+        for (j, &k) in (1..r + 1).zip(upper) {
+            // Input 2m − j and 2m + j: even halves for even j, odd halves for odd j.
+            let (half, down) = if j % 2 == 0 {
+                (even, j / 2)
+            } else {
+                (odd, j.div_ceil(2))
+            };
+            let below = lo
+                .checked_sub(down)
+                .and_then(|from| window(half, from, len));
+            let above = window(half, lo + j / 2, len);
+            let (Some(below), Some(above)) = (below, above) else {
+                continue;
+            };
+            match self.symmetry {
+                Symmetry::Even => {
+                    for ((o, &x), &y) in interior.iter_mut().zip(below).zip(above) {
+                        *o += k * (x + y);
+                    }
+                }
+                Symmetry::Odd => {
+                    for ((o, &x), &y) in interior.iter_mut().zip(below).zip(above) {
+                        *o += k * (y - x);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `split` = the even samples of `input`, then its odd ones (`input.len()` of them; for
+/// [`Kernel::apply_even`]).
+pub(crate) fn deinterleave<T: Copy>(input: &[T], split: &mut [T]) {
+    let n = input.len();
+    let Some((even, odd)) = split
+        .get_mut(..n)
+        .and_then(|s| s.split_at_mut_checked(n.div_ceil(2)))
+    else {
+        return;
+    };
+    for (e, pair) in even.iter_mut().zip(input.chunks(2)) {
+        if let Some(&v) = pair.first() {
+            *e = v;
+        }
+    }
+    for (o, pair) in odd.iter_mut().zip(input.chunks_exact(2)) {
+        if let [_, v] = *pair {
+            *o = v;
+        }
+    }
+}
+
 /// Samples per register block of [`apply_pair`]'s interior (two accumulators).
 const PAIR_BLOCK: usize = 16;
 
@@ -433,6 +548,41 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_even_outputs_match_the_full_correlation_bit_for_bit() {
+        fn check<T: Scalar>(k: &Kernel<T>, what: &str) {
+            for n in [0usize, 1, 2, 3, 5, 6, 12, 13, 14, 15, 24, 25, 40, 101, 512] {
+                let input: std::vec::Vec<T> = (0..n)
+                    .map(|i| T::from_f32(((i * 37) % 11) as f32 * 0.3 + 0.01 * i as f32))
+                    .collect();
+                let mut full = std::vec![T::ZERO; n];
+                k.apply(&input, &mut full);
+                let mut split = std::vec![T::ZERO; n];
+                deinterleave(&input, &mut split);
+                let mut even = std::vec![T::MAX; n.div_ceil(2) + 1];
+                k.apply_even(&split, n, &mut even);
+                for m in 0..n.div_ceil(2) {
+                    assert!(even[m] == full[2 * m], "{what} n {n} m {m}");
+                    assert_eq!(
+                        even[m].to_f32().to_bits(),
+                        full[2 * m].to_f32().to_bits(),
+                        "{what} n {n} m {m}"
+                    );
+                }
+                assert!(
+                    even[n.div_ceil(2)] == T::MAX,
+                    "{what} n {n} wrote past ⌈n/2⌉"
+                );
+            }
+        }
+        for sigma in [0.0f32, 0.5, 1.0, 2.0, 2.5] {
+            check(&Kernel::<f32>::gaussian(sigma), "gaussian");
+            check(&Kernel::<crate::Q16>::gaussian(sigma), "gaussian q16");
+        }
+        check(&Kernel::<f32>::derivative(0.8), "derivative");
+        check(&Kernel::<f32>::scharr_smoothing(0.5), "scharr");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 
 use super::band::Band;
 use super::hypotheses::Hypotheses;
-use super::kernels::{apply_pair, centre_weights, truncated_gaussian, Kernel};
+use super::kernels::{apply_pair, centre_weights, deinterleave, truncated_gaussian, Kernel};
 use super::planes::{shift, Planes, Sources};
 use super::{ColorMode, EpiParams, Search, INTENSITY_SCALE};
 use crate::error::{check_scratch, Error, Result};
@@ -112,9 +112,9 @@ const LANES: usize = 16;
 /// largest step the residual window still covers), as few as cover the range centred on
 /// it: 2 and 3 steps gave the same HCI scores as 4 (docs/bench-epi.md).
 const COARSE_STEPS: f32 = 4.0;
-/// The coarse pass scores every `COARSE_STRIDE`-th sample along the line (the tensor is
-/// smoothed over ±3·outer_sigma samples anyway); the others take their neighbour's.
-const COARSE_STRIDE: usize = 2;
+// The coarse pass scores every second sample along the line (the tensor is smoothed over
+// ±3·outer_sigma samples anyway); the others take their left neighbour's: see
+// `LineEstimator::coarse_sweep`.
 /// The coarse pass sums the tensor of the views at most this far from the centre.
 const COARSE_VIEWS: usize = 2;
 /// A sample whose coarse estimate lies within this many shear steps of a fine shear is
@@ -580,7 +580,6 @@ impl<T: Scalar> LineEstimator<T> {
             &mut tensor,
             &mut state,
             guide,
-            1,
         );
         let h = &self.hypotheses;
         let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
@@ -591,7 +590,7 @@ impl<T: Scalar> LineEstimator<T> {
     }
 
     /// The coarse pass: the gray mean of the channels' planes (the filters are linear)
-    /// swept over the coarse hypotheses, every `COARSE_STRIDE`-th sample scored; returns
+    /// swept over the coarse hypotheses, every second sample scored; returns
     /// which fine hypotheses each sample needs, held in `coarse_work` (5 lines).
     fn coarse_guide<'w>(
         &self,
@@ -654,32 +653,36 @@ impl<T: Scalar> LineEstimator<T> {
         let (reach, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
         let (score, rest) = rest.split_at_mut_checked(n).ok_or(short)?;
         let (prev_r, prev_c) = rest.split_at_mut_checked(n).ok_or(short)?;
-        let mut state = State {
+        // The sweep's state holds the even samples, sample 2m at m.
+        let half = n.div_ceil(2);
+        let mut compact = State {
+            best_d: estimate.get_mut(..half).ok_or(short)?,
+            best_c: reach.get_mut(..half).ok_or(short)?,
+            score: score.get_mut(..half).ok_or(short)?,
+            prev_r: prev_r.get_mut(..half).ok_or(short)?,
+            prev_c: prev_c.get_mut(..half).ok_or(short)?,
+        };
+        self.coarse_sweep(&coarse.hypotheses, c_n, planes, bank, tensor, &mut compact);
+        // Spread to the line: the samples between the scored ones take their left
+        // neighbour's estimate (backwards: sample m is read before 2m and 2m + 1 are
+        // written).
+        for line in [&mut *estimate, &mut *score] {
+            for m in (0..half).rev() {
+                let Some(&v) = line.get(m) else {
+                    continue;
+                };
+                for o in line.get_mut(2 * m..(2 * m + 2).min(n)).unwrap_or_default() {
+                    *o = v;
+                }
+            }
+        }
+        let state = State {
             best_d: estimate,
             best_c: reach,
             score,
             prev_r,
-            prev_c: prev_c.get_mut(..n).ok_or(short)?,
+            prev_c,
         };
-        self.sweep(
-            &coarse.hypotheses,
-            c_n..c_n + 1,
-            planes,
-            bank,
-            tensor,
-            &mut state,
-            None,
-            COARSE_STRIDE,
-        );
-        // Samples between the scored ones take their left neighbour's estimate.
-        for pair in state.best_d.chunks_exact_mut(COARSE_STRIDE) {
-            let first = pair[0];
-            pair.fill(first);
-        }
-        for pair in state.score.chunks_exact_mut(COARSE_STRIDE) {
-            let first = pair[0];
-            pair.fill(first);
-        }
         // Estimates clamped to the fine shears (each sample then needs at least the
         // nearest one), reach per sample (the coherence's slot is reused).
         let h = &self.hypotheses;
@@ -719,6 +722,61 @@ impl<T: Scalar> LineEstimator<T> {
         })
     }
 
+    /// The coarse pass's sweep of `hyps` on the gray planes (slot `slot`): the tensor of the
+    /// whole line, but its outer smoothing, slopes and scores at the even samples only,
+    /// into `state` compacted (sample 2m at m, ⌈n/2⌉ samples): the same values there as
+    /// [`Self::sweep`] without a guide (every sample's candidates depend on that sample
+    /// only; the odd ones are overwritten with their left neighbour's anyway), for half
+    /// the smoothing and scoring.
+    fn coarse_sweep(
+        &self,
+        hyps: &Hypotheses,
+        slot: usize,
+        planes: &Planes,
+        bank: &mut [T],
+        tensor: &mut Tensor<'_, T>,
+        state: &mut State<'_, T>,
+    ) {
+        let n = planes.n;
+        let half = n.div_ceil(2);
+        let degenerate = T::from_f32(DEGENERATE);
+        state.best_d.fill(T::ZERO);
+        state.best_c.fill(T::ZERO);
+        state.score.fill(T::from_f32(DEGENERATE - 1.0));
+        state.prev_c.fill(degenerate);
+        for i in 0..hyps.count() {
+            let sources = self.sources(planes, bank, hyps.shear(i), slot..slot + 1);
+            self.tensor_span(bank, &sources, tensor, 0..n, planes.n_blocks);
+            let Tensor {
+                jxx,
+                jxk,
+                jkk,
+                sxx,
+                sxk,
+                skk,
+            } = &mut *tensor;
+            // Each raw sum line is split into its even and odd samples (in the smoothed
+            // line's slot), then smoothed at the even samples back into its own slot.
+            for (raw, split) in [(&mut **jxx, &mut **sxx), (jxk, sxk), (jkk, skk)] {
+                if let Some(raw) = raw.get_mut(..n) {
+                    deinterleave(raw, split);
+                    self.outer.apply_even(split, n, raw);
+                }
+            }
+            // `score` reads the smoothed sums from the `s` slots and writes slopes and
+            // coherences into the `j` ones: the roles swap.
+            let mut compact = Tensor {
+                jxx: sxx,
+                jxk: sxk,
+                jkk: skk,
+                sxx: jxx,
+                sxk: jxk,
+                skk: jkk,
+            };
+            self.score(hyps, i, &mut compact, state, 0..half);
+        }
+    }
+
     /// Tests the hypotheses `hyps` on the channel planes `slots`, keeping each sample's
     /// best candidate in `state`. With a `guide`, a sample is only tested at the
     /// hypotheses it needs (see [`Guide::needs`]); the tensor is then computed only
@@ -733,7 +791,6 @@ impl<T: Scalar> LineEstimator<T> {
         tensor: &mut Tensor<'_, T>,
         state: &mut State<'_, T>,
         guide: Option<Guide<'_, T>>,
-        stride: usize,
     ) {
         let n = planes.n;
         let degenerate = T::from_f32(DEGENERATE);
@@ -785,7 +842,7 @@ impl<T: Scalar> LineEstimator<T> {
                 self.outer.apply_range(jxx, sums.sxx, start..end);
                 self.outer.apply_range(jxk, sums.sxk, start..end);
                 self.outer.apply_range(jkk, sums.skk, start..end);
-                self.score(hyps, i, sums, state, start..end, stride);
+                self.score(hyps, i, sums, state, start..end);
                 // The samples the probe passed after the run are not needed either.
                 for c in state.prev_c.get_mut(end..probe).unwrap_or_default() {
                     *c = degenerate;
@@ -803,9 +860,7 @@ impl<T: Scalar> LineEstimator<T> {
         tensor: &mut Tensor<'_, T>,
         state: &mut State<'_, T>,
         range: Range<usize>,
-        stride: usize,
     ) {
-        let stride = stride.max(1); // 1 or the coarse pass's (positive) stride
         let window = T::from_f32(hyps.window());
         let step = T::from_f32(hyps.step());
         let degenerate = T::from_f32(DEGENERATE);
@@ -829,7 +884,7 @@ impl<T: Scalar> LineEstimator<T> {
             prev_r,
             prev_c,
         } = state;
-        for t in (range.start.next_multiple_of(stride)..range.end).step_by(stride) {
+        for t in range {
             // Every slice is `n` long and `range.end ≤ n`: the checked accesses never miss
             // (they replace the bounds checks' panics).
             let (Some(&r), Some(&coherence)) = (slope.get(t), coherence_line.get(t)) else {
@@ -891,9 +946,7 @@ impl<T: Scalar> LineEstimator<T> {
     /// identity), without branches so that the loop vectorises: the same decisions and
     /// values, selects instead of branches (the state's as bit masks, which keep the
     /// stores unconditional: a conditional store keeps the loop scalar) and the crossing's
-    /// division by a safe denominator. Scores every sample of `range`: the coarse pass's
-    /// stride only skips samples whose results it overwrites with their left neighbour's
-    /// (a vector of four scores two samples for less than one scalar sample).
+    /// division by a safe denominator. Scores every sample of `range`.
     fn score_lanes(
         &self,
         hyps: &Hypotheses,
