@@ -30,12 +30,12 @@
 //! ```
 //!
 //! i.e. the window average of the per-pixel Gauss–Newton updates weighted by their
-//! curvature. A pixel that moved by less than `SETTLED` (10⁻² px) in the previous
-//! iteration keeps its `A, B, E`: to first order `B` does not depend on `d`, and the
-//! skipped sampling is most of an iteration's cost once the map has settled (measured
-//! on HCI: BadPix0.07 and MSE×100 within ±0.012 points of sampling every pixel,
-//! `docs/bench-refine.md`). The window only takes neighbours within `WINDOW_GATE` of the pixel's
-//! disparity (it never straddles a depth edge); the step is clamped to
+//! curvature. A pixel that moved by less than `SETTLED` (10⁻² px; `SETTLED_EARLY`,
+//! 2·10⁻² px, before the last iteration) in the previous iteration keeps its `A, B, E`:
+//! to first order `B` does not depend on `d`, and the skipped sampling is most of an
+//! iteration's cost once the map has settled (measured on HCI, `docs/bench-refine.md`).
+//! The window only takes neighbours within `WINDOW_GATE` of the pixel's disparity (it
+//! never straddles a depth edge); the step is clamped to
 //! [`RefineParams::max_step`] and the result to the EPI range. Views are summed in four
 //! half-plane groups (left, right, up, down): with [`RefineParams::occlusion`] a half
 //! that fits much worse than its opposite is dropped, and when the horizontal and
@@ -125,9 +125,15 @@ const AXIS_AGREEMENT: f32 = 0.05;
 /// by this power of two (with a robust scale).
 const STAT_SCALE: f32 = 4.0;
 /// A pixel whose disparity moved by less than this (px) in a Gauss–Newton iteration
-/// keeps its statistics for the next one. 10⁻² px skips 66 % of the later iterations'
+/// keeps its statistics for the last one. 10⁻² px skips 66 % of the later iterations'
 /// sampling on HCI cotton (10⁻³: 24 %); the score changes are in `docs/bench-refine.md`.
 const SETTLED: f32 = 1.0e-2;
+/// As [`SETTLED`], for the iterations before the last: their statistics only steer
+/// an intermediate step, which the last iteration measures again where it moved by
+/// `SETTLED` or more. (Measured on HCI: 2·10⁻² skips 13.5 % of the stage's sampling
+/// calls on cotton for +0.010 BadPix0.07; 2·10⁻² in the last iteration too cost cotton
+/// +0.036 BadPix0.07 and +0.04 MSE×100.)
+const SETTLED_EARLY: f32 = 2.0e-2;
 /// Curvature added per term so that textureless pixels keep their disparity.
 const DAMPING_PER_TERM: f32 = 1.0e-6;
 
@@ -246,6 +252,7 @@ struct Constants<T> {
     occlusion_floor: T,
     axis_agreement: T,
     settled: T,
+    settled_early: T,
     /// Squared confidence scale.
     confidence2: T,
 }
@@ -277,6 +284,7 @@ impl<T: Scalar> Constants<T> {
             occlusion_floor: T::from_f32(OCCLUSION_FLOOR * intensity2 * stat_scale),
             axis_agreement: T::from_f32(AXIS_AGREEMENT),
             settled: T::from_f32(SETTLED),
+            settled_early: T::from_f32(SETTLED_EARLY),
             confidence2: T::from_f32(p.confidence_scale * p.confidence_scale),
         }
     }
@@ -626,9 +634,19 @@ fn band<T: Scalar, P: Photometric<T>>(
                 // Most pixels agree with all four: one test for them (fewer mispredicted
                 // branches than four). A loop rather than `array::map`, which the
                 // compiler left as a call per pixel (1.8 % of the stage's instructions).
+                // A pair of opposite neighbours on a line through the pixel (second
+                // difference within the offer's gate) offers nothing: on a slanted
+                // surface their disparities are those of other points of the same
+                // plane, which do not fit this pixel better (cotton: 9 % fewer first-round
+                // costs, BadPix0.07 1.910 → 1.892, `docs/bench-refine.md`).
+                let bent = (
+                    (candidates[0] + candidates[1] - own - own).abs() > k.offer,
+                    (candidates[2] + candidates[3] - own - own).abs() > k.offer,
+                );
                 let mut offers = [false; 4];
-                for (offer, &d) in offers.iter_mut().zip(&candidates) {
-                    *offer = (d - own).abs() > k.offer;
+                for (n, (offer, &d)) in offers.iter_mut().zip(&candidates).enumerate() {
+                    let pair_bent = if n < 2 { bent.0 } else { bent.1 };
+                    *offer = pair_bent && (d - own).abs() > k.offer;
                 }
                 if offers == [false; 4] {
                     continue;
@@ -686,13 +704,20 @@ fn band<T: Scalar, P: Photometric<T>>(
         // Rows whose statistics the remaining iterations can still reach the band from.
         let measured = near((p.iterations - iteration) * r);
         let updated = near((p.iterations - iteration - 1) * r);
+        let last_iteration = iteration + 1 == p.iterations;
+        let settled = if last_iteration {
+            k.settled
+        } else {
+            k.settled_early
+        };
         // Per-pixel normal equations at each pixel's own disparity.
         for y in measured.clone() {
             for x in 0..width {
                 let i = y * width + x;
-                // A pixel that moved by less than `SETTLED` since its statistics were
-                // measured keeps them (every row measured now was measured and updated
-                // by the iteration before): to first order `B` does not change with
+                // A pixel that moved by less than `SETTLED` (`SETTLED_EARLY` before
+                // the last iteration) since its statistics were measured keeps them
+                // (every row measured now was measured and updated by the iteration
+                // before): to first order `B` does not change with
                 // `d` (`r` grows by `g·Δd`), and the step from the stale `A`, `B` is
                 // that from the fresh ones within a few `SETTLED`.
                 // `measured` rows lie within the region, which the tables cover.
@@ -705,7 +730,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                 ) else {
                     continue;
                 };
-                if iteration > 0 && (now - before).abs() < k.settled {
+                if iteration > 0 && (now - before).abs() < settled {
                     continue;
                 }
                 photo.pixel(x, first + y, now, stat_robust, stat);
@@ -715,7 +740,6 @@ fn band<T: Scalar, P: Photometric<T>>(
         if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
             to.copy_from_slice(from);
         }
-        let last_iteration = iteration + 1 == p.iterations;
         for y in updated {
             for x in 0..width {
                 // Window sum over the neighbours whose disparity is within
