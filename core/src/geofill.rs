@@ -390,15 +390,21 @@ fn within_band(dist: &mut [f32], width: usize, band: usize, row: &mut [f32]) {
     let width = width.max(1);
     let near = |a: f32, b: f32| if b < a { b } else { a };
     let pixels = dist.len() - dist.len() % width;
+    // Checked splits and copies: the firmware links with no panic path (a plain
+    // `split_at_mut` or `copy_from_slice` keeps one the compiler cannot rule out).
     for y in 1..pixels / width {
-        let (done, rest) = dist.split_at_mut(y * width);
+        let Some((done, rest)) = dist.split_at_mut_checked(y * width) else {
+            break;
+        };
         let above = done.get((y - 1) * width..).unwrap_or_default();
         for (d, &a) in rest.iter_mut().zip(above) {
             *d = near(*d, a + 1.0);
         }
     }
     for y in (1..pixels / width).rev() {
-        let (done, rest) = dist.split_at_mut(y * width);
+        let Some((done, rest)) = dist.split_at_mut_checked(y * width) else {
+            continue;
+        };
         let above = done.get_mut((y - 1) * width..).unwrap_or_default();
         for (a, &d) in above.iter_mut().zip(rest.iter()) {
             *a = near(*a, d + 1.0);
@@ -408,7 +414,9 @@ fn within_band(dist: &mut [f32], width: usize, band: usize, row: &mut [f32]) {
         return;
     };
     for line in dist.chunks_exact_mut(width) {
-        row.copy_from_slice(line);
+        for (r, &l) in row.iter_mut().zip(line.iter()) {
+            *r = l;
+        }
         for k in 1..=band.min(width - 1) {
             let step = k as f32;
             let (Some(right), Some(later)) = (row.get(k..), line.get_mut(k..)) else {

@@ -714,12 +714,16 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
     let (lo, hi) = (hyps.min(), hyps.max());
     for x0 in (0..width).step_by(VERTICAL_TILE) {
         let columns = VERTICAL_TILE.min(width - x0);
-        for (g, (d_line, c_line)) in tile_d
-            .chunks_exact_mut(n.max(1))
-            .zip(tile_c.chunks_exact_mut(n.max(1)))
-            .take(columns)
-            .enumerate()
-        {
+        // Indexed slices, not zipped `chunks_exact_mut`: the zip's length (a division by
+        // the chunk size) kept a panic path in the firmware image.
+        let line_len = n.max(1);
+        for g in 0..columns {
+            let lines = g * line_len..(g + 1) * line_len;
+            let (Some(d_line), Some(c_line)) =
+                (tile_d.get_mut(lines.clone()), tile_c.get_mut(lines))
+            else {
+                break;
+            };
             let x = x0 + g;
             if x % PROGRESS_LINES == 0 {
                 report(progress, STAGE_VERTICAL, x, width)?;
