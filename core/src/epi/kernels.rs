@@ -110,9 +110,9 @@ impl<T: Scalar> Kernel<T> {
             }
         }
         // Outer taps below `PRUNE` of the largest are dropped (at σ = 0.5 the last pair,
-        // 10⁻⁴ of the centre, from the Gaussian's 3σ tail: 5 taps instead of 7, a third of
-        // the prefilter's work), the rest rescaled so that the kernel keeps its gain on a
-        // constant (smoothing) or a ramp (derivative).
+        // 3·10⁻⁴ / 10⁻⁴ of the largest, from the Gaussian's 3σ tail: 5 taps instead of 7,
+        // a third of the prefilter's work), the rest rescaled so that the kernel keeps its
+        // gain on a constant (smoothing) or a ramp (derivative).
         let full = r + 1;
         let largest = c
             .iter()
@@ -648,7 +648,7 @@ mod tests {
 
     #[test]
     fn prefilter_kernels_drop_negligible_outer_taps_and_keep_their_gain() {
-        // σ = 0.5 (the default): the composed 7 taps lose the pair of 10⁻⁴ of the centre.
+        // σ = 0.5 (the default): the composed 7 taps lose their outer pair (3·10⁻⁴ / 10⁻⁴).
         assert_eq!(Kernel::<f32>::derivative(0.5).radius(), 2);
         assert_eq!(Kernel::<f32>::scharr_smoothing(0.5).radius(), 2);
         for sigma in [0.0f32, 0.3, 0.5, 0.8, 1.5, 3.0] {
