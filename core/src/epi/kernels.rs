@@ -10,6 +10,10 @@ pub(crate) const MAX_RADIUS: usize = 16;
 /// Taps of the largest kernel.
 pub(crate) const MAX_TAPS: usize = 2 * MAX_RADIUS + 1;
 
+/// Taps of the along-line prefilter kernels below this fraction of their largest are
+/// dropped (the same threshold as the across-view bands', `band::PRUNE`).
+const PRUNE: f32 = 1e-3;
+
 /// Radius of a Gaussian of standard deviation `sigma` truncated at 3σ (0 for σ ≤ 0).
 pub(crate) fn gaussian_radius(sigma: f32) -> usize {
     if sigma > 0.0 {
@@ -105,7 +109,44 @@ impl<T: Scalar> Kernel<T> {
                 c[i + j] += gi * tj;
             }
         }
-        Self::from_f32(&c, r + 1, symmetry)
+        // Outer taps below `PRUNE` of the largest are dropped (at σ = 0.5 the last pair,
+        // 3·10⁻⁴ / 10⁻⁴ of the largest, from the Gaussian's 3σ tail: 5 taps instead of 7,
+        // a third of the prefilter's work), the rest rescaled so that the kernel keeps its
+        // gain on a constant (smoothing) or a ramp (derivative).
+        let full = r + 1;
+        let largest = c
+            .iter()
+            .take(2 * full + 1)
+            .fold(0.0f32, |m, &v| m.max(libm::fabsf(v)));
+        let mut kept = full;
+        while kept > 1 && libm::fabsf(c[full - kept]) < PRUNE * largest {
+            kept -= 1;
+        }
+        let moment = |taps: &[f32], radius: usize| -> f32 {
+            taps.iter()
+                .take(2 * radius + 1)
+                .enumerate()
+                .map(|(i, &v)| match symmetry {
+                    Symmetry::Even => v,
+                    Symmetry::Odd => v * (i as f32 - radius as f32),
+                })
+                .sum()
+        };
+        let mut pruned = [0.0f32; MAX_TAPS];
+        for (o, &v) in pruned
+            .iter_mut()
+            .zip(c.iter().skip(full - kept))
+            .take(2 * kept + 1)
+        {
+            *o = v;
+        }
+        let (before, after) = (moment(&c, full), moment(&pruned, kept));
+        if after != 0.0 {
+            for o in pruned.iter_mut().take(2 * kept + 1) {
+                *o *= before / after;
+            }
+        }
+        Self::from_f32(&pruned, kept, symmetry)
     }
 
     /// Gaussian-smoothed central difference `(in[t+1] − in[t−1]) / 2`.
@@ -601,6 +642,38 @@ mod tests {
             for t in 0..n {
                 assert_eq!(pd[t].to_bits(), d[t].to_bits(), "n {n} derivative {t}");
                 assert_eq!(ps[t].to_bits(), s[t].to_bits(), "n {n} smoothing {t}");
+            }
+        }
+    }
+
+    #[test]
+    fn prefilter_kernels_drop_negligible_outer_taps_and_keep_their_gain() {
+        // σ = 0.5 (the default): the composed 7 taps lose their outer pair (3·10⁻⁴ / 10⁻⁴).
+        assert_eq!(Kernel::<f32>::derivative(0.5).radius(), 2);
+        assert_eq!(Kernel::<f32>::scharr_smoothing(0.5).radius(), 2);
+        for sigma in [0.0f32, 0.3, 0.5, 0.8, 1.5, 3.0] {
+            for (k, odd) in [
+                (Kernel::<f32>::derivative(sigma), true),
+                (Kernel::<f32>::scharr_smoothing(sigma), false),
+            ] {
+                let r = k.radius();
+                let taps = &k.taps[..2 * r + 1];
+                let largest = taps.iter().fold(0.0f32, |m, &v| m.max(v.abs()));
+                assert!(
+                    taps[0].abs() >= PRUNE * largest * 0.5,
+                    "σ {sigma}: outer tap {} of {largest} kept",
+                    taps[0]
+                );
+                // Gain on a ramp (derivative: its slope) or a constant (smoothing).
+                let gain: f32 = taps
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &v)| if odd { v * (i as f32 - r as f32) } else { v })
+                    .sum();
+                assert!(
+                    (gain - 1.0).abs() < 1e-5,
+                    "σ {sigma} odd {odd}: gain {gain}"
+                );
             }
         }
     }
