@@ -115,17 +115,15 @@ impl RowOrder {
 /// With I the inside weight and T = I + B + A the total, the selection moves the pixel
 /// iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both fail for
 /// every I at least as large as a partial sum that makes them fail.
-fn kept(s: &Sums) -> bool {
-    s.weight_below < s.weight_inside + s.weight_above
-        && s.weight_above <= s.weight_inside + s.weight_below
+fn kept(below: u64, above: u64, inside: u64) -> bool {
+    below < inside + above && above <= inside + below
 }
 
 /// The votes outside `own ± snap` weigh less than `1/(q + 1)` of the rows weighed on
 /// either side (qB < I + A and qA < I + B): on the rows sampled by the first phases of
 /// [`Window::decide`], the pixel keeps its value without the rest of its window.
-fn clearly_kept(s: &Sums, q: u64) -> bool {
-    q * s.weight_below < s.weight_inside + s.weight_above
-        && q * s.weight_above < s.weight_inside + s.weight_below
+fn clearly_kept(below: u64, above: u64, inside: u64, q: u64) -> bool {
+    q * below < inside + above && q * above < inside + below
 }
 
 /// The outside share `1/(q + 1)` below which the rows at a distance divisible by 4
@@ -252,6 +250,7 @@ impl<S: Sample> Window<'_, '_, S> {
         let dxs = self.offsets(x);
         let centre = self.rows.colour_at(y, x);
         let shares = [Some(QUARTER_SHARE), Some(EVEN_SHARE), None];
+        let own_weight = u64::from(self.weights.get(0));
         let mut start = 0;
         for (phase, (&end, share)) in self.order.ends.iter().zip(shares).enumerate() {
             let settled = Decision::Kept {
@@ -267,9 +266,15 @@ impl<S: Sample> Window<'_, '_, S> {
             if outside {
                 self.weigh_outside(&mut state, indices, rows, x, &centre);
             }
-            let kept = |s: &Sums| match share {
-                Some(q) => clearly_kept(s, q),
-                None => kept(s),
+            // The pixel's own vote is inside and weighs `own_weight`, and its row is
+            // in the first phase: I at the end of any phase is at least that, so a
+            // phase that keeps the pixel with it keeps it with the whole phase's I.
+            let kept = |s: &Sums| {
+                let inside = s.weight_inside.max(own_weight);
+                match share {
+                    Some(q) => clearly_kept(s.weight_below, s.weight_above, inside, q),
+                    None => kept(s.weight_below, s.weight_above, inside),
+                }
             };
             if kept(&state) {
                 return settled;
