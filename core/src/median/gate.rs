@@ -199,6 +199,28 @@ impl<'a> QuarterRowCounts<'a> {
     }
 }
 
+/// The first run of pixels from column `from` on whose columns `x − reach ..= x + reach`
+/// hold one with `flagged(c)`, or `None`: a flagged column `c` covers the pixels
+/// `c − reach ..= c + reach`, and flagged columns at most `2 · reach + 1` apart cover one
+/// run.
+pub(super) fn changed_span(
+    flagged: impl Fn(usize) -> bool,
+    from: usize,
+    reach: usize,
+    width: usize,
+) -> Option<Range<usize>> {
+    let first = (from.saturating_sub(reach)..width).find(|&c| flagged(c))?;
+    let mut last = first;
+    loop {
+        let next = (last + 1..(last + 2 * reach + 2).min(width)).find(|&c| flagged(c));
+        match next {
+            Some(c) => last = c,
+            None => break,
+        }
+    }
+    Some(first.saturating_sub(reach).max(from)..(last + reach + 1).min(width))
+}
+
 /// The last flagged column met so far along an output row, for windows reaching `reach`
 /// columns either side of the pixel.
 pub(super) struct LastFlagged {
@@ -207,9 +229,18 @@ pub(super) struct LastFlagged {
 }
 
 impl LastFlagged {
-    /// Before column 0: the columns left of `reach` enter with `flagged`.
-    pub(super) fn new(reach: usize, width: usize, flagged: impl Fn(usize) -> bool) -> Self {
-        let column = (0..reach.min(width)).filter(|&c| flagged(c)).last();
+    /// Before column `x`, for a walk over the columns from `x` on: the columns from
+    /// `x − reach` to `x + reach − 1` enter with `flagged` (columns further left reach
+    /// no pixel of the walk).
+    pub(super) fn at(
+        x: usize,
+        reach: usize,
+        width: usize,
+        flagged: impl Fn(usize) -> bool,
+    ) -> Self {
+        let column = (x.saturating_sub(reach)..(x + reach).min(width))
+            .rev()
+            .find(|&c| flagged(c));
         LastFlagged { column, reach }
     }
 

@@ -332,7 +332,6 @@ fn run<S: Sample>(
         }
         let last_row = input.get(last * width..(last + 1) * width).unwrap_or(&[]);
         let column_has_step = |c: usize| steps.any(c) || gate::right_step(last_row, c, p.gate);
-        let mut step_column = LastFlagged::new(r, width, |c| gated && column_has_step(c));
         // What the pixel's value depends on: radius + 1 around it.
         let reach = r + 1;
         if let Some(previous) = previous {
@@ -347,9 +346,6 @@ fn run<S: Sample>(
                 quarter_changes.move_to(y, count_changes);
             }
         }
-        let mut changed_column =
-            LastFlagged::new(reach, width, |c| previous.is_none() || changes.any(c));
-        let mut quarter_column = LastFlagged::new(reach, width, |c| quarter_changes.any(c));
         let mut loaded = false;
         // Per window row: where it lives in the ring, and `y − yy`.
         let order = RowOrder::new(ys.len(), y - ys.start);
@@ -359,50 +355,65 @@ fn run<S: Sample>(
             *base = ring.base(yy);
             *dy = y as f32 - yy as f32;
         }
-        for (x, (o, &own)) in o.iter_mut().zip(row).enumerate() {
-            let has_step = step_column.step(x, width, |c| gated && column_has_step(c));
-            let changed = changed_column.step(x, width, |c| previous.is_none() || changes.any(c));
-            let quarter_changed =
-                recheck && quarter_column.step(x, width, |c| quarter_changes.any(c));
-            // Unchanged within the reach: the value and its `settled` byte stay.
-            if !changed {
-                continue;
-            }
-            let flag = settled_row.as_deref_mut().and_then(|s| s.get_mut(x));
-            if recheck && !quarter_changed && flag.as_deref() == Some(&1) {
-                continue;
-            }
-            if !own.is_finite() || (gated && !has_step) {
-                // A non-finite value is always kept; a window without a step may gain one.
-                if let Some(flag) = flag {
-                    *flag = u8::from(!own.is_finite());
-                }
-                continue;
-            }
-            // The window rows enter the ring when a pixel of this row first needs them.
-            if !loaded {
-                for yy in ys.clone() {
-                    ring.load(input, guide, yy, p.gate, p.planar);
-                }
-                loaded = true;
-            }
-            let window = Window {
-                input,
-                width,
-                height,
-                guide,
-                rows: &ring,
-                bases: &bases,
-                dys: &dys,
-                offsets,
-                weights: &weights,
-                params: p,
-                order: &order,
+        // The runs of pixels with a change within their reach (all of them in a first
+        // pass); the others keep their value and their `settled` byte.
+        let mut from = 0;
+        while from < width {
+            let span = match previous {
+                Some(_) => match gate::changed_span(|c| changes.any(c), from, reach, width) {
+                    Some(span) => span,
+                    None => break,
+                },
+                None => 0..width,
             };
-            let by_quarter_rows;
-            (*o, by_quarter_rows) = window.value(x, y, own, &mut indices);
-            if let Some(flag) = flag {
-                *flag = u8::from(by_quarter_rows);
+            from = span.end;
+            let mut step_column =
+                LastFlagged::at(span.start, r, width, |c| gated && column_has_step(c));
+            let mut quarter_column =
+                LastFlagged::at(span.start, reach, width, |c| quarter_changes.any(c));
+            let (Some(o), Some(row)) = (o.get_mut(span.clone()), row.get(span.clone())) else {
+                break;
+            };
+            for (x, (o, &own)) in span.zip(o.iter_mut().zip(row)) {
+                let has_step = step_column.step(x, width, |c| gated && column_has_step(c));
+                let quarter_changed =
+                    recheck && quarter_column.step(x, width, |c| quarter_changes.any(c));
+                let flag = settled_row.as_deref_mut().and_then(|s| s.get_mut(x));
+                if recheck && !quarter_changed && flag.as_deref() == Some(&1) {
+                    continue;
+                }
+                if !own.is_finite() || (gated && !has_step) {
+                    // A non-finite value is always kept; a window without a step may gain one.
+                    if let Some(flag) = flag {
+                        *flag = u8::from(!own.is_finite());
+                    }
+                    continue;
+                }
+                // The window rows enter the ring when a pixel of this row first needs them.
+                if !loaded {
+                    for yy in ys.clone() {
+                        ring.load(input, guide, yy, p.gate, p.planar);
+                    }
+                    loaded = true;
+                }
+                let window = Window {
+                    input,
+                    width,
+                    height,
+                    guide,
+                    rows: &ring,
+                    bases: &bases,
+                    dys: &dys,
+                    offsets,
+                    weights: &weights,
+                    params: p,
+                    order: &order,
+                };
+                let by_quarter_rows;
+                (*o, by_quarter_rows) = window.value(x, y, own, &mut indices);
+                if let Some(flag) = flag {
+                    *flag = u8::from(by_quarter_rows);
+                }
             }
         }
     }
