@@ -3,10 +3,9 @@
 //! filters, the photometric refinement's output after the geodesic refill (when the
 //! default parameters enable it, as the pipeline runs them), of HCI cotton when `../shared/data` is
 //! present, else of a synthetic 9×9×512×512 Mixed scene; passes after the first as the
-//! engine runs them (`filter_rows_again`) and in full (`filter`, as the serial pipeline
-//! and the page do). The reported times are the
-//! benchmark thread's CPU time (`/proc/thread-self/schedstat`), not wall time: the
-//! machine is shared, and waiting for a core is no cost of the median.
+//! engine runs them (`filter_pass`, remembering settled pixels) and in full (`filter`).
+//! The reported times are the benchmark thread's CPU time (`/proc/thread-self/schedstat`),
+//! not wall time: the machine is shared, and waiting for a core is no cost of the median.
 
 #[path = "../tests/tv_support.rs"]
 mod tv_support;
@@ -73,22 +72,24 @@ fn thread_cpu() -> Duration {
 }
 
 /// Every pass as the engine runs them: each pass after the first knows the one before's
-/// input (`a`), its own input (`b`) is that pass's output, its output goes to `next`.
-/// `maps` are three maps of the input's size, overwritten.
+/// input (`a`) and which pixels it settled (`settled`), its own input (`b`) is that
+/// pass's output, its output goes to `next`. `maps` are three maps of the input's size,
+/// overwritten.
 fn engine_passes(
     plan: &Plan,
     lf: &LightField<'_, u8>,
     input: &[f32],
     maps: &mut [Vec<f32>; 3],
+    settled: &mut [u8],
     scratch: &mut [f32],
 ) {
     let guide = lf.center_view();
     let height = plan.layout().height;
     let [a, b, next] = maps;
-    median::filter(plan, &guide, input, b, scratch).unwrap();
+    median::filter_pass(plan, &guide, input, None, 0..height, b, settled, scratch).unwrap();
     a.copy_from_slice(input);
     for _ in 1..plan.params().median.passes {
-        median::filter_rows_again(plan, &guide, b, a, 0..height, next, scratch).unwrap();
+        median::filter_pass(plan, &guide, b, Some(a), 0..height, next, settled, scratch).unwrap();
         std::mem::swap(a, b);
         std::mem::swap(b, next);
     }
@@ -115,11 +116,12 @@ fn bench_engine_passes(
     let passes = plan.params().median.passes;
     let mut scratch = vec![0.0f32; median::scratch_len(plan)];
     let mut maps = [input.to_vec(), input.to_vec(), input.to_vec()];
+    let mut settled = vec![0u8; plan.pixels()];
     group.bench_function(format!("{scene}_{passes}passes_1t"), |bench| {
         bench.iter_custom(|iters| {
             let start = thread_cpu();
             for _ in 0..iters {
-                engine_passes(plan, lf, input, &mut maps, &mut scratch);
+                engine_passes(plan, lf, input, &mut maps, &mut settled, &mut scratch);
             }
             thread_cpu() - start
         })

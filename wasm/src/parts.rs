@@ -268,26 +268,27 @@ impl Estimator {
         let guide = lf.center_view();
         let mut scratch = vec![0.0f32; median::scratch_len(&self.plan)];
         // The input of the pass about to run, the input of the pass before it, and the
-        // output; only the rows a later pass reads are ever filled.
+        // output; only the rows a later pass reads are ever filled. `settled`: what each
+        // pass remembers per pixel for the next (`median::filter_pass`); a pass's rows
+        // lie within the previous pass's, so it reads only bytes that pass wrote.
         let mut current = input.to_vec();
         let mut before: Option<Vec<f32>> = None;
         let mut next = vec![0.0f32; input.len()];
+        let mut settled = vec![0u8; input.len()];
         for pass in 0..passes {
             let grow = (passes - 1 - pass) * reach;
             let rows = start.saturating_sub(grow)..(end + grow).min(height);
-            let out = &mut next[rows.start * width..rows.end * width];
-            match &before {
-                Some(previous) => median::filter_rows_again(
-                    &self.plan,
-                    &guide,
-                    &current,
-                    previous,
-                    rows,
-                    out,
-                    &mut scratch,
-                ),
-                None => median::filter_rows(&self.plan, &guide, &current, rows, out, &mut scratch),
-            }
+            let band = rows.start * width..rows.end * width;
+            median::filter_pass(
+                &self.plan,
+                &guide,
+                &current,
+                before.as_deref(),
+                rows,
+                &mut next[band.clone()],
+                &mut settled[band],
+                &mut scratch,
+            )
             .map_err(error)?;
             // next → current → before; the oldest map becomes the next output.
             let oldest = before.replace(core::mem::replace(&mut current, next));

@@ -376,10 +376,19 @@ fn median_passes<S: Sample + Sync>(
 ) -> Result<(), lfdepth::Error> {
     let start = Instant::now();
     // Each pass after the first is told the one before's input, so that it filters only
-    // near the pixels that moved.
+    // near the pixels that moved, and which pixels the one before settled on a part of
+    // their window (`median::filter_pass`).
     let mut previous: Option<Vec<f32>> = None;
+    let mut settled = vec![0u8; plan.pixels()];
     for _ in 0..plan.params().median.passes {
-        let next = median_parallel(plan, lf, &estimate.disparity, previous.as_deref(), tracker)?;
+        let next = median_parallel(
+            plan,
+            lf,
+            &estimate.disparity,
+            previous.as_deref(),
+            &mut settled,
+            tracker,
+        )?;
         previous = Some(std::mem::replace(&mut estimate.disparity, next));
     }
     estimate.timings.push((median::STAGE, start.elapsed()));
@@ -388,12 +397,14 @@ fn median_passes<S: Sample + Sync>(
 
 /// One pass of the weighted median in parallel bands of rows (each pixel depends only
 /// on its window, so the map does not depend on the banding); `previous` is the previous
-/// pass's input, if any.
+/// pass's input, if any, and `settled` what the previous pass remembered per pixel (read
+/// when `previous` is given, then overwritten for the next pass).
 fn median_parallel<S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     disparity: &[f32],
     previous: Option<&[f32]>,
+    settled: &mut [u8],
     tracker: &Tracker<'_>,
 ) -> Result<Vec<f32>, lfdepth::Error> {
     const BAND_ROWS: usize = 16;
@@ -402,18 +413,16 @@ fn median_parallel<S: Sample + Sync>(
     let mut out = vec![0.0f32; plan.pixels()];
     let guide = lf.center_view();
     out.par_chunks_mut(BAND_ROWS * width)
+        .zip(settled.par_chunks_mut(BAND_ROWS * width))
         .enumerate()
         .try_for_each_init(
             || vec![0.0f32; median::scratch_len(plan)],
-            |scratch, (index, band)| {
+            |scratch, (index, (band, settled))| {
                 let start = index * BAND_ROWS;
                 let rows = start..(start + BAND_ROWS).min(height);
-                match previous {
-                    Some(previous) => median::filter_rows_again(
-                        plan, &guide, disparity, previous, rows, band, scratch,
-                    )?,
-                    None => median::filter_rows(plan, &guide, disparity, rows, band, scratch)?,
-                }
+                median::filter_pass(
+                    plan, &guide, disparity, previous, rows, band, settled, scratch,
+                )?;
                 tracker.add(1);
                 Ok::<(), lfdepth::Error>(())
             },

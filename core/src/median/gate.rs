@@ -39,12 +39,24 @@ pub(super) fn count_steps(
     ) else {
         return;
     };
-    // Branch-free over the row (vector code): the last column has no right step.
-    let rights = row.iter().skip(1).map(Some).chain([None]);
-    for (((count, &v), &down), right) in counts.iter_mut().zip(row).zip(below).zip(rights) {
-        let right_step = right.is_some_and(|&right| (right - v).abs() > gate);
-        let step = right_step | ((down - v).abs() > gate);
-        *count += if step { delta } else { 0.0 };
+    let (Some(counts), Some(last)) = (counts.get_mut(..width), width.checked_sub(1)) else {
+        return;
+    };
+    let step = |v: f32, other: f32| (other - v).abs() > gate;
+    // Branch-free over the row (vector code); the last column has no right step.
+    let (inner, last_count) = counts.split_at_mut(last);
+    let columns = row.iter().zip(row.get(1..).unwrap_or_default()).zip(below);
+    for (count, ((&v, &right), &down)) in inner.iter_mut().zip(columns) {
+        *count += if step(v, right) | step(v, down) {
+            delta
+        } else {
+            0.0
+        };
+    }
+    if let (Some(count), Some(&v), Some(&down)) =
+        (last_count.first_mut(), row.get(last), below.get(last))
+    {
+        *count += if step(v, down) { delta } else { 0.0 };
     }
 }
 
@@ -114,6 +126,101 @@ impl<'a> ColumnCounts<'a> {
     }
 }
 
+/// Per column, how many of the rows that the first phase of a pixel's decision reads
+/// (its window's rows at a distance from its own row divisible by 4, and the rows next
+/// to them, whose values enter their slopes) have a flag, for pixels of one row at a
+/// time; the rows move with the pixel's row. For the pixels of row `centre` these are
+/// the rows from `centre + q − 1` to `centre + q + 1` for the multiples q of 4 within
+/// the radius, inside the image: the bands of adjacent q are 4 rows apart, so no row is
+/// counted twice.
+pub(super) struct QuarterRowCounts<'a> {
+    counts: &'a mut [f32],
+    centre: Option<usize>,
+    radius: usize,
+    height: usize,
+}
+
+impl<'a> QuarterRowCounts<'a> {
+    /// No rows counted yet; `counts` needs one element per column.
+    pub(super) fn new(counts: &'a mut [f32], radius: usize, height: usize) -> Self {
+        counts.fill(0.0);
+        QuarterRowCounts {
+            counts,
+            centre: None,
+            radius,
+            height,
+        }
+    }
+
+    /// Counts the rows of the pixels of row `centre`; `count_row(yy, counts, delta)`
+    /// adds `delta` to the counts of the columns of row `yy` that have a flag.
+    pub(super) fn move_to(&mut self, centre: usize, count_row: impl Fn(usize, &mut [f32], f32)) {
+        match self.centre {
+            Some(previous) if previous + 1 == centre => {
+                // Each band moves down one row: its top row leaves, the row below enters.
+                let reach = self.radius / 4 * 4;
+                for q in (0..=2 * reach).step_by(4) {
+                    if let Some(top) = (previous + q).checked_sub(reach + 1) {
+                        if top < self.height {
+                            count_row(top, self.counts, -1.0);
+                        }
+                    }
+                    if let Some(below) = (centre + q + 1).checked_sub(reach) {
+                        if below < self.height {
+                            count_row(below, self.counts, 1.0);
+                        }
+                    }
+                }
+            }
+            Some(previous) if previous == centre => {}
+            _ => {
+                self.counts.fill(0.0);
+                let reach = self.radius / 4 * 4;
+                for q in (0..=2 * reach).step_by(4) {
+                    for k in 0..3 {
+                        // centre + (q − reach) + (k − 1), when inside the image.
+                        let Some(yy) = (centre + q + k).checked_sub(reach + 1) else {
+                            continue;
+                        };
+                        if yy < self.height {
+                            count_row(yy, self.counts, 1.0);
+                        }
+                    }
+                }
+            }
+        }
+        self.centre = Some(centre);
+    }
+
+    /// Whether column `x` has a counted row with a flag.
+    #[inline(always)]
+    pub(super) fn any(&self, x: usize) -> bool {
+        self.counts.get(x).is_some_and(|&c| c > 0.0)
+    }
+}
+
+/// The first run of pixels from column `from` on whose columns `x − reach ..= x + reach`
+/// hold one with `flagged(c)`, or `None`: a flagged column `c` covers the pixels
+/// `c − reach ..= c + reach`, and flagged columns at most `2 · reach + 1` apart cover one
+/// run.
+pub(super) fn changed_span(
+    flagged: impl Fn(usize) -> bool,
+    from: usize,
+    reach: usize,
+    width: usize,
+) -> Option<Range<usize>> {
+    let first = (from.saturating_sub(reach)..width).find(|&c| flagged(c))?;
+    let mut last = first;
+    loop {
+        let next = (last + 1..(last + 2 * reach + 2).min(width)).find(|&c| flagged(c));
+        match next {
+            Some(c) => last = c,
+            None => break,
+        }
+    }
+    Some(first.saturating_sub(reach).max(from)..(last + reach + 1).min(width))
+}
+
 /// The last flagged column met so far along an output row, for windows reaching `reach`
 /// columns either side of the pixel.
 pub(super) struct LastFlagged {
@@ -122,9 +229,18 @@ pub(super) struct LastFlagged {
 }
 
 impl LastFlagged {
-    /// Before column 0: the columns left of `reach` enter with `flagged`.
-    pub(super) fn new(reach: usize, width: usize, flagged: impl Fn(usize) -> bool) -> Self {
-        let column = (0..reach.min(width)).filter(|&c| flagged(c)).last();
+    /// Before column `x`, for a walk over the columns from `x` on: the columns from
+    /// `x − reach` to `x + reach − 1` enter with `flagged` (columns further left reach
+    /// no pixel of the walk).
+    pub(super) fn at(
+        x: usize,
+        reach: usize,
+        width: usize,
+        flagged: impl Fn(usize) -> bool,
+    ) -> Self {
+        let column = (x.saturating_sub(reach)..(x + reach).min(width))
+            .rev()
+            .find(|&c| flagged(c));
         LastFlagged { column, reach }
     }
 

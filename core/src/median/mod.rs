@@ -36,8 +36,8 @@ use crate::error::{check_scratch, Error, Result};
 use crate::lightfield::{Sample, View};
 use crate::plan::Plan;
 
-use gate::{ColumnCounts, LastFlagged};
-use pixel::Window;
+use gate::{ColumnCounts, LastFlagged, QuarterRowCounts};
+use pixel::{RowIndices, RowOrder, Window};
 use ring::RowRing;
 use weights::Weights;
 
@@ -152,14 +152,14 @@ fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(
     Ok((w, h))
 }
 
-/// Scratch (`f32` elements) of [`filter_rows`], [`filter_rows_again`] and [`filter`]:
-/// two counts per column (window rows with a step, rows changed since the previous
-/// pass) plus every window row's values, slopes and colour levels, padded by 22 columns:
-/// `2 · width + 90 · (width + 22)`.
+/// Scratch (`f32` elements) of [`filter_rows`], [`filter_rows_again`], [`filter_pass`]
+/// and [`filter`]: three counts per column (window rows with a step, rows changed since
+/// the previous pass within the window's reach and near its quarter rows) plus every window row's values, slopes and colour levels, padded by 22 columns:
+/// `3 · width + 90 · (width + 22)`.
 pub fn scratch_len(plan: &Plan) -> usize {
     let width = plan.layout().width;
     width
-        .saturating_mul(2)
+        .saturating_mul(3)
         .saturating_add(ring::ring_len(width))
 }
 
@@ -175,7 +175,7 @@ pub fn filter_rows<S: Sample>(
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    run(plan, guide, input, None, rows, out, scratch)
+    run(plan, guide, input, None, rows, out, None, scratch)
 }
 
 /// [`filter_rows`] for a pass after the first, `previous` being the previous pass's
@@ -200,9 +200,63 @@ pub fn filter_rows_again<S: Sample>(
             got: previous.len(),
         });
     }
-    run(plan, guide, input, Some(previous), rows, out, scratch)
+    run(plan, guide, input, Some(previous), rows, out, None, scratch)
 }
 
+/// One pass of [`filter_rows`] (`previous: None`, the first pass) or
+/// [`filter_rows_again`] (`previous`: the previous pass's input) that also remembers,
+/// per pixel, whether the first phase of its decision settled it: the rows of its
+/// window at a distance from its own divisible by 4 kept its value (`pixel.rs`). The
+/// same output, faster again in later passes: a pixel so settled in the previous pass
+/// keeps its value when the rows that first phase reads (those rows and the rows next
+/// to them, whose values enter their slopes, over the window's columns and one more on
+/// either side) hold the same values as in `previous`, because the phase then sees the
+/// same votes and weights and keeps it again.
+///
+/// `settled` holds one byte per pixel of `rows` (row-major, `rows.len() · width`): the
+/// pass writes it, and with `previous` it first reads what the previous pass's call
+/// for the same pixels wrote there (any banding; each pixel's byte is its own). Bytes
+/// not written by the previous pass make the output wrong, not an error.
+#[allow(clippy::too_many_arguments)] // the arguments of `filter_rows_again`, and one more
+pub fn filter_pass<S: Sample>(
+    plan: &Plan,
+    guide: &View<'_, S>,
+    input: &[f32],
+    previous: Option<&[f32]>,
+    rows: Range<usize>,
+    out: &mut [f32],
+    settled: &mut [u8],
+    scratch: &mut [f32],
+) -> Result<()> {
+    if let Some(previous) = previous {
+        if previous.len() != input.len() {
+            return Err(Error::OutputSize {
+                what: "the median's previous input",
+                needed: input.len(),
+                got: previous.len(),
+            });
+        }
+    }
+    if settled.len() != out.len() {
+        return Err(Error::OutputSize {
+            what: "the median's settled pixels (one byte per pixel of the band)",
+            needed: out.len(),
+            got: settled.len(),
+        });
+    }
+    run(
+        plan,
+        guide,
+        input,
+        previous,
+        rows,
+        out,
+        Some(settled),
+        scratch,
+    )
+}
+
+#[allow(clippy::too_many_arguments)] // every entry point's arguments
 fn run<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,
@@ -210,6 +264,7 @@ fn run<S: Sample>(
     previous: Option<&[f32]>,
     rows: Range<usize>,
     out: &mut [f32],
+    mut settled: Option<&mut [u8]>,
     scratch: &mut [f32],
 ) -> Result<()> {
     let (width, height) = check(plan, guide, input)?;
@@ -237,20 +292,28 @@ fn run<S: Sample>(
     let (step_counts, rest) = scratch[..needed]
         .split_at_mut_checked(width)
         .ok_or(too_small)?;
-    let (change_counts, ring) = rest.split_at_mut_checked(width).ok_or(too_small)?;
+    let (change_counts, rest) = rest.split_at_mut_checked(width).ok_or(too_small)?;
+    let (quarter_counts, ring) = rest.split_at_mut_checked(width).ok_or(too_small)?;
     let p = plan.params().median;
     let weights = Weights::new(p.color_sigma);
     let r = p.radius;
     let gated = p.gate > 0.0;
     let mut steps = ColumnCounts::new(step_counts);
     let mut changes = ColumnCounts::new(change_counts);
+    let mut quarter_changes = QuarterRowCounts::new(quarter_counts, r, height);
+    // Pixels settled in the previous pass stay settled while their rows do not change.
+    let recheck = previous.is_some() && settled.is_some();
     let mut ring = RowRing::new(ring, width);
     let offsets = pixel::lane_offsets(r);
+    let mut indices: RowIndices = [[0; ring::LANES]; pixel::SPAN];
     let count_steps = |yy: usize, counts: &mut [f32], delta: f32| {
         gate::count_steps(input, width, p.gate, yy, counts, delta);
     };
     // `max(1)`: a layout has pixels (`check`); an empty row would have nothing to cut.
-    for (o, y) in out.chunks_exact_mut(width.max(1)).zip(rows) {
+    for (i, (o, y)) in out.chunks_exact_mut(width.max(1)).zip(rows).enumerate() {
+        let mut settled_row = settled
+            .as_deref_mut()
+            .and_then(|s| s.get_mut(i * width..(i + 1) * width));
         let row = input
             .get(y * width..(y + 1) * width)
             .ok_or(Error::OutOfRange {
@@ -269,7 +332,6 @@ fn run<S: Sample>(
         }
         let last_row = input.get(last * width..(last + 1) * width).unwrap_or(&[]);
         let column_has_step = |c: usize| steps.any(c) || gate::right_step(last_row, c, p.gate);
-        let mut step_column = LastFlagged::new(r, width, |c| gated && column_has_step(c));
         // What the pixel's value depends on: radius + 1 around it.
         let reach = r + 1;
         if let Some(previous) = previous {
@@ -280,43 +342,79 @@ fn run<S: Sample>(
                 y.saturating_sub(reach)..(y + reach + 1).min(height),
                 count_changes,
             );
+            if recheck {
+                quarter_changes.move_to(y, count_changes);
+            }
         }
-        let mut changed_column =
-            LastFlagged::new(reach, width, |c| previous.is_none() || changes.any(c));
         let mut loaded = false;
         // Per window row: where it lives in the ring, and `y − yy`.
+        let order = RowOrder::new(ys.len(), y - ys.start);
         let mut bases = [0usize; pixel::SPAN];
         let mut dys = [0.0f32; pixel::SPAN];
         for ((base, dy), yy) in bases.iter_mut().zip(dys.iter_mut()).zip(ys.clone()) {
             *base = ring.base(yy);
             *dy = y as f32 - yy as f32;
         }
-        for (x, (o, &own)) in o.iter_mut().zip(row).enumerate() {
-            let has_step = step_column.step(x, width, |c| gated && column_has_step(c));
-            let changed = changed_column.step(x, width, |c| previous.is_none() || changes.any(c));
-            if !own.is_finite() || (gated && !has_step) || !changed {
-                continue;
-            }
-            // The window rows enter the ring when a pixel of this row first needs them.
-            if !loaded {
-                for yy in ys.clone() {
-                    ring.load(input, guide, yy, p.gate, p.planar);
-                }
-                loaded = true;
-            }
-            let window = Window {
-                input,
-                width,
-                height,
-                guide,
-                rows: &ring,
-                bases: &bases,
-                dys: &dys,
-                offsets,
-                weights: &weights,
-                params: p,
+        // The runs of pixels with a change within their reach (all of them in a first
+        // pass); the others keep their value and their `settled` byte.
+        let mut from = 0;
+        while from < width {
+            let span = match previous {
+                Some(_) => match gate::changed_span(|c| changes.any(c), from, reach, width) {
+                    Some(span) => span,
+                    None => break,
+                },
+                None => 0..width,
             };
-            *o = window.value(x, y, own);
+            from = span.end;
+            let mut step_column =
+                LastFlagged::at(span.start, r, width, |c| gated && column_has_step(c));
+            let mut quarter_column =
+                LastFlagged::at(span.start, reach, width, |c| quarter_changes.any(c));
+            let (Some(o), Some(row)) = (o.get_mut(span.clone()), row.get(span.clone())) else {
+                break;
+            };
+            for (x, (o, &own)) in span.zip(o.iter_mut().zip(row)) {
+                let has_step = step_column.step(x, width, |c| gated && column_has_step(c));
+                let quarter_changed =
+                    recheck && quarter_column.step(x, width, |c| quarter_changes.any(c));
+                let flag = settled_row.as_deref_mut().and_then(|s| s.get_mut(x));
+                if recheck && !quarter_changed && flag.as_deref() == Some(&1) {
+                    continue;
+                }
+                if !own.is_finite() || (gated && !has_step) {
+                    // A non-finite value is always kept; a window without a step may gain one.
+                    if let Some(flag) = flag {
+                        *flag = u8::from(!own.is_finite());
+                    }
+                    continue;
+                }
+                // The window rows enter the ring when a pixel of this row first needs them.
+                if !loaded {
+                    for yy in ys.clone() {
+                        ring.load(input, guide, yy, p.gate, p.planar);
+                    }
+                    loaded = true;
+                }
+                let window = Window {
+                    input,
+                    width,
+                    height,
+                    guide,
+                    rows: &ring,
+                    bases: &bases,
+                    dys: &dys,
+                    offsets,
+                    weights: &weights,
+                    params: p,
+                    order: &order,
+                };
+                let by_quarter_rows;
+                (*o, by_quarter_rows) = window.value(x, y, own, &mut indices);
+                if let Some(flag) = flag {
+                    *flag = u8::from(by_quarter_rows);
+                }
+            }
         }
     }
     Ok(())

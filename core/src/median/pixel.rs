@@ -41,38 +41,89 @@ struct Side {
     target: u64,
 }
 
-/// A decision in progress: per window row the classes of its votes and (once
-/// measured) its weight table indices, and the weights summed so far.
+/// What [`Window::decide`] found.
+enum Decision {
+    /// The pixel keeps its value; `by_quarter_rows`: the first phase (the rows at a
+    /// distance from the pixel's own divisible by 4) settled it.
+    Kept { by_quarter_rows: bool },
+    /// The median lies on this side of `own ± snap`.
+    Side(Side),
+}
+
+/// A decision in progress: per window row the classes of its votes, and the weights
+/// summed so far.
 #[derive(Default)]
 struct Sums {
     below: [u16; SPAN],
     above: [u16; SPAN],
     inside: [u16; SPAN],
-    indices: [[u32; LANES]; SPAN],
-    /// Rows whose `indices` are measured, rows with a vote outside, rows whose inside
-    /// votes are in `weight_inside` (bit i: row i).
-    measured: u16,
-    outside: u16,
-    inside_weighed: u16,
     weight_below: u64,
     weight_above: u64,
     weight_inside: u64,
 }
 
+/// Per window row, the weight table indices of its lanes ([`Weights::index`]), once a
+/// decision has measured them: kept by the caller across pixels, so that no decision
+/// clears them (a row is read only after the same decision measured it).
+pub(super) type RowIndices = [[u32; LANES]; SPAN];
+
+/// The window rows of the pixels of one image row in the order [`Window::decide`]
+/// visits them: first the rows at a distance from the pixels' row divisible by 4, then
+/// the other rows at an even distance, then the rest (`ends`: where each phase's rows
+/// end), each phase's rows by distance (the nearest first: their colours are likeliest
+/// alike, so a pixel kept is kept after fewer rows).
+pub(super) struct RowOrder {
+    rows: [u8; SPAN],
+    ends: [usize; 3],
+}
+
+impl RowOrder {
+    /// For a window of `rows` rows (at most [`SPAN`]) whose pixels lie on row
+    /// `centre_row` of it.
+    pub(super) fn new(rows: usize, centre_row: usize) -> Self {
+        let rows = rows.min(SPAN);
+        let mut order = RowOrder {
+            rows: [0; SPAN],
+            ends: [0; 3],
+        };
+        let mut n = 0;
+        for (phase, end) in order.ends.iter_mut().enumerate() {
+            // Window rows centre, −1, +1, −2, +2, … .
+            for step in 0..2 * rows {
+                let distance = step.div_ceil(2);
+                let i = if step % 2 == 1 {
+                    centre_row.checked_sub(distance)
+                } else {
+                    Some(centre_row + distance).filter(|&i| i < rows)
+                };
+                let in_phase = match phase {
+                    0 => distance % 4 == 0,
+                    1 => distance % 4 == 2,
+                    _ => distance % 2 == 1,
+                };
+                if let (Some(i), true, Some(slot)) = (i, in_phase, order.rows.get_mut(n)) {
+                    *slot = i as u8;
+                    n += 1;
+                }
+            }
+            *end = n;
+        }
+        order
+    }
+}
+
 /// With I the inside weight and T = I + B + A the total, the selection moves the pixel
 /// iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both fail for
 /// every I at least as large as a partial sum that makes them fail.
-fn kept(s: &Sums) -> bool {
-    s.weight_below < s.weight_inside + s.weight_above
-        && s.weight_above <= s.weight_inside + s.weight_below
+fn kept(below: u64, above: u64, inside: u64) -> bool {
+    below < inside + above && above <= inside + below
 }
 
 /// The votes outside `own ± snap` weigh less than `1/(q + 1)` of the rows weighed on
 /// either side (qB < I + A and qA < I + B): on the rows sampled by the first phases of
 /// [`Window::decide`], the pixel keeps its value without the rest of its window.
-fn clearly_kept(s: &Sums, q: u64) -> bool {
-    q * s.weight_below < s.weight_inside + s.weight_above
-        && q * s.weight_above < s.weight_inside + s.weight_below
+fn clearly_kept(below: u64, above: u64, inside: u64, q: u64) -> bool {
+    q * below < inside + above && q * above < inside + below
 }
 
 /// The outside share `1/(q + 1)` below which the rows at a distance divisible by 4
@@ -97,6 +148,8 @@ pub(super) struct Window<'a, 'g, S: Sample> {
     pub(super) offsets: [f32; LANES],
     pub(super) weights: &'a Weights,
     pub(super) params: MedianParams,
+    /// The order of the window rows for the decisions.
+    pub(super) order: &'a RowOrder,
 }
 
 impl<S: Sample> Window<'_, '_, S> {
@@ -162,16 +215,26 @@ impl<S: Sample> Window<'_, '_, S> {
     }
 
     /// The value of the pixel `(x, y)` of finite value `own`: [`Self::decide`], then
-    /// the selection on the side that holds the median when it may move.
-    pub(super) fn value(&self, x: usize, y: usize, own: f32) -> f32 {
-        match self.decide(x, y, own) {
-            None => own,
-            Some(side) => self.select_side(x, y, own, &side),
+    /// the selection on the side that holds the median when it may move; and whether
+    /// the rows of its window at a distance from its own divisible by 4 kept it (then
+    /// it keeps its value as long as those rows and the rows next to them, which their
+    /// slopes read, do not change: [`super::filter_pass`]).
+    pub(super) fn value(
+        &self,
+        x: usize,
+        y: usize,
+        own: f32,
+        indices: &mut RowIndices,
+    ) -> (f32, bool) {
+        match self.decide(x, y, own, indices) {
+            Decision::Kept { by_quarter_rows } => (own, by_quarter_rows),
+            Decision::Side(side) => (self.select_side(x, y, own, &side), false),
         }
     }
 
-    /// `None` when the pixel `(x, y)` of finite value `own` keeps it. Else the side of
-    /// `own ± snap` whose votes weigh at least half of the window: the median lies there.
+    /// Whether the pixel `(x, y)` of finite value `own` keeps it (and whether the first
+    /// phase settled that), else the side of `own ± snap` whose votes weigh at least
+    /// half of the window: the median lies there.
     ///
     /// The pixel keeps its value when the votes outside `own ± snap` weigh less than
     /// half of the window on either side, or, first, when on the rows at a distance
@@ -181,75 +244,63 @@ impl<S: Sample> Window<'_, '_, S> {
     /// settled by a part of their window; only the others classify and weigh the rest.
     /// (These shortcuts change the output only where the sampled rows disagree strongly
     /// with the others; the shares were chosen on the HCI scenes, docs/bench-median.md.)
-    fn decide(&self, x: usize, y: usize, own: f32) -> Option<Side> {
-        let (ys, _) = self.rows_and_columns(x, y);
-        let rows = ys.len().min(SPAN);
-        let centre_row = y - ys.start;
-        let all = ((1u32 << rows) - 1) as u16;
-        // Bit i for window row i at a distance from the pixel's row divisible by 4, by 2.
-        let quarter = (0x1111u16 << (centre_row & 3)) & all;
-        let even = (0x5555u16 << (centre_row & 1)) & all;
+    fn decide(&self, x: usize, y: usize, own: f32, indices: &mut RowIndices) -> Decision {
         let mut state = Sums::default();
         // Lane k is column x − r + k.
         let dxs = self.offsets(x);
         let centre = self.rows.colour_at(y, x);
-        let phases = [
-            (quarter, Some(QUARTER_SHARE)),
-            (even, Some(EVEN_SHARE)),
-            (all, None),
-        ];
-        let mut done = 0u16;
-        for (weighed, share) in phases {
-            let rows_now = weighed & !done;
-            done |= rows_now;
-            state.outside |= self.classify_rows(&mut state, rows_now, x, own, &dxs);
-            if state.outside == 0 {
+        let shares = [Some(QUARTER_SHARE), Some(EVEN_SHARE), None];
+        let own_weight = u64::from(self.weights.get(0));
+        let mut start = 0;
+        for (phase, (&end, share)) in self.order.ends.iter().zip(shares).enumerate() {
+            let settled = Decision::Kept {
+                by_quarter_rows: phase == 0,
+            };
+            let rows = self.order.rows.get(start..end).unwrap_or_default();
+            start = end;
+            let outside = self.classify_rows(&mut state, rows, x, own, &dxs);
+            if phase == 0 && !outside {
                 // No vote outside: B = A = 0 < I (the pixel's own vote weighs w₀ > 0).
-                return None;
+                return settled;
             }
-            self.weigh_outside(&mut state, rows_now, x, &centre);
-            let kept = |s: &Sums| match share {
-                Some(q) => clearly_kept(s, q),
-                None => kept(s),
+            if outside {
+                self.weigh_outside(&mut state, indices, rows, x, &centre);
+            }
+            // The pixel's own vote is inside and weighs `own_weight`, and its row is
+            // in the first phase: I at the end of any phase is at least that, so a
+            // phase that keeps the pixel with it keeps it with the whole phase's I.
+            let kept = |s: &Sums| {
+                let inside = s.weight_inside.max(own_weight);
+                match share {
+                    Some(q) => clearly_kept(s.weight_below, s.weight_above, inside, q),
+                    None => kept(s.weight_below, s.weight_above, inside),
+                }
             };
             if kept(&state) {
-                return None;
+                return settled;
             }
             // Rows by distance from the pixel's own: their colours are likeliest alike.
-            for step in 0..2 * rows {
-                let distance = step.div_ceil(2);
-                let i = if step % 2 == 1 {
-                    centre_row.checked_sub(distance)
-                } else {
-                    Some(centre_row + distance).filter(|&i| i < rows)
-                };
-                let Some(i) = i else {
-                    continue;
-                };
-                if (weighed & !state.inside_weighed) >> i & 1 == 0 {
-                    continue;
-                }
-                state.inside_weighed |= 1 << i;
-                let (Some(&bits), Some(&base), Some(row)) = (
-                    state.inside.get(i),
-                    self.bases.get(i),
-                    state.indices.get_mut(i),
-                ) else {
+            for &i in rows {
+                let i = usize::from(i);
+                let (Some(&bits), Some(&base), Some(row)) =
+                    (state.inside.get(i), self.bases.get(i), indices.get_mut(i))
+                else {
                     continue;
                 };
                 if bits == 0 {
                     continue;
                 }
-                if state.measured >> i & 1 == 0 {
+                // `weigh_outside` measured the rows with a vote outside.
+                let measured = state.below.get(i).zip(state.above.get(i));
+                if measured.is_none_or(|(&b, &a)| b | a == 0) {
                     let Some(colours) = self.rows.colours_at(base, x, self.params.radius) else {
                         continue;
                     };
                     *row = table_indices(&colours, &centre, self.weights);
-                    state.measured |= 1 << i;
                 }
                 state.weight_inside += self.weigh(bits, row);
                 if kept(&state) {
-                    return None;
+                    return settled;
                 }
             }
         }
@@ -258,7 +309,7 @@ impl<S: Sample> Window<'_, '_, S> {
         // it, else above `hi`, where the votes below and inside count first.
         let (below, inside, above) = (state.weight_below, state.weight_inside, state.weight_above);
         let half = (below + inside + above).div_ceil(2);
-        Some(if below >= half {
+        Decision::Side(if below >= half {
             Side {
                 lanes: state.below,
                 target: half,
@@ -271,31 +322,26 @@ impl<S: Sample> Window<'_, '_, S> {
         })
     }
 
-    /// Classifies the votes of the window rows `rows` (bit i: row i) into
-    /// `state.below`, `above` and `inside`; returns the rows holding a vote outside
-    /// `own ± snap`.
+    /// Classifies the votes of the window rows `rows` into `state.below`, `above` and
+    /// `inside`; returns whether one of them holds a vote outside `own ± snap`.
     #[inline(always)]
     fn classify_rows(
         &self,
         state: &mut Sums,
-        rows: u16,
+        rows: &[u8],
         x: usize,
         own: f32,
         dxs: &[f32; LANES],
-    ) -> u16 {
+    ) -> bool {
         let r = self.params.radius;
         let (lo, hi) = (own - self.params.snap, own + self.params.snap);
         let lanes_in_window = (1u32 << (2 * r + 1)) - 1;
-        let mut outside = 0u16;
-        let per_row = self.bases.iter().zip(self.dys);
-        let masks = state
-            .below
-            .iter_mut()
-            .zip(state.above.iter_mut().zip(state.inside.iter_mut()));
-        for (i, ((&base, &dy), (below, (above, inside)))) in per_row.zip(masks).enumerate() {
-            if rows >> i & 1 == 0 {
+        let mut outside = 0u32;
+        for &i in rows {
+            let i = usize::from(i);
+            let (Some(&base), Some(&dy)) = (self.bases.get(i), self.dys.get(i)) else {
                 continue;
-            }
+            };
             let Some(lanes) = self.rows.lanes_at(base, x, r) else {
                 continue;
             };
@@ -305,27 +351,44 @@ impl<S: Sample> Window<'_, '_, S> {
                 a & lanes_in_window,
                 f & lanes_in_window,
             );
+            let (Some(below), Some(above), Some(inside)) = (
+                state.below.get_mut(i),
+                state.above.get_mut(i),
+                state.inside.get_mut(i),
+            ) else {
+                continue;
+            };
             *below = b as u16;
             *above = a as u16;
             *inside = (f & !(b | a)) as u16;
-            outside |= u16::from(b | a != 0) << i;
+            outside |= b | a;
         }
-        outside
+        outside != 0
     }
 
-    /// Adds the weights of the votes below and above of the rows `rows` to the sums.
+    /// Adds the weights of the votes below and above of the rows `rows` to the sums,
+    /// and keeps the weight table indices of the rows with such votes in `indices`.
     #[inline(always)]
-    fn weigh_outside(&self, state: &mut Sums, rows: u16, x: usize, centre: &[f32; 3]) {
+    fn weigh_outside(
+        &self,
+        state: &mut Sums,
+        indices: &mut RowIndices,
+        rows: &[u8],
+        x: usize,
+        centre: &[f32; 3],
+    ) {
         let r = self.params.radius;
-        let sides = state.below.iter().zip(&state.above);
-        for (i, ((&base, row), (&below, &above))) in self
-            .bases
-            .iter()
-            .zip(state.indices.iter_mut())
-            .zip(sides)
-            .enumerate()
-        {
-            if rows >> i & 1 == 0 || below | above == 0 {
+        for &i in rows {
+            let i = usize::from(i);
+            let (Some(&base), Some(&below), Some(&above), Some(row)) = (
+                self.bases.get(i),
+                state.below.get(i),
+                state.above.get(i),
+                indices.get_mut(i),
+            ) else {
+                continue;
+            };
+            if below | above == 0 {
                 continue;
             }
             let Some(colours) = self.rows.colours_at(base, x, r) else {
@@ -333,7 +396,6 @@ impl<S: Sample> Window<'_, '_, S> {
             };
             let live;
             (*row, live) = indices_live(&colours, centre, self.weights);
-            state.measured |= 1 << i;
             // Across a strong colour edge every outside vote of a row may weigh zero.
             if (below | above) & live == 0 {
                 continue;

@@ -99,17 +99,29 @@ impl<'a> RowRing<'a> {
         let columns = PAD_LEFT..PAD_LEFT + width;
         let channels = guide.channels();
         let samples = guide.row(yy).unwrap_or(&[]);
-        for (c, plane) in colours.chunks_exact_mut(stride.max(1)).enumerate() {
+        // The three planes in one sweep over the row's pixels (missing channels zero).
+        let Some((c0, rest)) = colours.split_at_mut_checked(stride) else {
+            return;
+        };
+        let Some((c1, c2)) = rest.split_at_mut_checked(stride) else {
+            return;
+        };
+        for plane in [&mut *c0, &mut *c1, &mut *c2] {
             plane.fill(0.0);
-            if c >= channels {
-                continue;
-            }
-            let Some(levels) = plane.get_mut(columns.clone()) else {
-                return;
-            };
-            for (level, pixel) in levels.iter_mut().zip(samples.chunks_exact(channels)) {
-                *level = pixel.get(c).map_or(0.0, |s| f32::from(s.level()));
-            }
+        }
+        let (Some(c0), Some(c1), Some(c2)) = (
+            c0.get_mut(columns.clone()),
+            c1.get_mut(columns.clone()),
+            c2.get_mut(columns.clone()),
+        ) else {
+            return;
+        };
+        let level = |s: &S| f32::from(s.level());
+        let planes = c0.iter_mut().zip(c1.iter_mut().zip(c2.iter_mut()));
+        for ((l0, (l1, l2)), pixel) in planes.zip(samples.chunks_exact(channels.max(1))) {
+            *l0 = pixel.first().map_or(0.0, level);
+            *l1 = pixel.get(1).map_or(0.0, level);
+            *l2 = pixel.get(2).map_or(0.0, level);
         }
         let Some(row) = map.get(yy * width..(yy + 1) * width) else {
             return;

@@ -689,3 +689,105 @@ fn later_passes_skip_unchanged_windows_with_the_same_result() {
         Err(Error::OutputSize { .. })
     ));
 }
+
+/// [`filter_pass`] over four passes in random bands (a new banding each pass, scratch
+/// and the first pass's `settled` bytes garbage) equals full passes of [`filter`] bit
+/// for bit, while pixels settled by their quarter rows are kept without a decision.
+#[test]
+fn passes_that_remember_settled_pixels_equal_full_passes() {
+    let mut rng = Rng(0x2545_F491_4F6C_DD1D);
+    let (mut settled_pixels, mut moved) = (0, 0);
+    for trial in 0..30 {
+        let (w, h) = (side(&mut rng), side(&mut rng));
+        let channels = [1, 3, 4][rng.below(3)];
+        let s = scene(&mut rng, w, h, channels);
+        let plan = plan_for(w, h, random_params(&mut rng));
+        let guide =
+            View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
+        let pixels = w * h;
+        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        let mut expected = s.map[..pixels].to_vec();
+        let mut input = expected.clone();
+        let mut previous: Option<Vec<f32>> = None;
+        let mut settled = vec![7u8; pixels];
+        for pass in 0..4 {
+            let mut next = vec![0.0f32; pixels];
+            filter(&plan, &guide, &expected, &mut next, &mut scratch).unwrap();
+            moved += (0..pixels)
+                .filter(|&i| next[i].to_bits() != expected[i].to_bits())
+                .count();
+            expected = next;
+            let mut got = vec![0.0f32; pixels];
+            let mut start = 0;
+            while start < h {
+                let end = (start + 1 + rng.below(h)).min(h);
+                scratch.fill(f32::NAN);
+                filter_pass(
+                    &plan,
+                    &guide,
+                    &input,
+                    previous.as_deref(),
+                    start..end,
+                    &mut got[start * w..end * w],
+                    &mut settled[start * w..end * w],
+                    &mut scratch,
+                )
+                .unwrap();
+                start = end;
+            }
+            for i in 0..pixels {
+                assert_eq!(
+                    got[i].to_bits(),
+                    expected[i].to_bits(),
+                    "trial {trial}, pass {pass}, ({}, {})",
+                    i % w,
+                    i / w
+                );
+                assert!(
+                    settled[i] <= 1,
+                    "trial {trial}, pass {pass}: byte not written"
+                );
+            }
+            settled_pixels += settled.iter().filter(|&&b| b == 1).count();
+            previous = Some(core::mem::replace(&mut input, got));
+        }
+    }
+    // Both the median and the settled shortcut must have had work to do.
+    assert!(moved > 100, "only {moved} pixels moved");
+    assert!(
+        settled_pixels > 1000,
+        "only {settled_pixels} settled pixels"
+    );
+    let plan = plan_for(16, 16, MedianParams::default());
+    let views = [0u8; 256];
+    let guide = View::new(&views, 16, 16, 1, 16).unwrap();
+    let mut out = [0.0f32; 256];
+    let mut scratch = vec![0.0; scratch_len(&plan)];
+    let map = [0.0f32; 256];
+    assert!(matches!(
+        filter_pass(
+            &plan,
+            &guide,
+            &map,
+            None,
+            0..16,
+            &mut out,
+            &mut [0; 255],
+            &mut scratch
+        ),
+        Err(Error::OutputSize { .. })
+    ));
+    assert!(matches!(
+        filter_pass(
+            &plan,
+            &guide,
+            &map,
+            Some(&[0.0; 255]),
+            0..16,
+            &mut out,
+            &mut [0; 256],
+            &mut scratch
+        ),
+        Err(Error::OutputSize { .. })
+    ));
+}
