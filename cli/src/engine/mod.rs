@@ -407,7 +407,11 @@ fn median_parallel<S: Sample + Sync>(
     settled: &mut [u8],
     tracker: &Tracker<'_>,
 ) -> Result<Vec<f32>, lfdepth::Error> {
-    const BAND_ROWS: usize = 16;
+    // 32 rows: each band reloads the window's 14 halo rows into its ring and re-counts
+    // them, which cost 16-row bands 4 % (cotton) / 4 % (backgammon) more of the stage's
+    // instructions (docs/bench-median.md, session 7); 16 bands of a 512-row map still
+    // balance across threads.
+    const BAND_ROWS: usize = 32;
     let (width, height) = (plan.layout().width, plan.layout().height);
     tracker.start(median::STAGE, height.div_ceil(BAND_ROWS) as u64);
     let mut out = vec![0.0f32; plan.pixels()];
