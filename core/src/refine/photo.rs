@@ -155,13 +155,6 @@ const MAX_AXIS: usize = 2 * (GRID_MAX - 1);
 /// one loop of fixed length that the compiler vectorises (the weights' divisions too).
 const CHUNK: usize = 16;
 
-/// A propagation candidate's cost over the regular axis taps is checked against its
-/// bar after every this many taps (the farthest first): most candidates that fail reach
-/// the bar within the first four or eight taps (HCI backgammon: 81 % within eight), and
-/// the taps after that are neither gathered nor weighted. Partial sums of non-negative
-/// terms in the same order: the same decisions and costs, bit for bit.
-const STAGE: usize = 4;
-
 /// How [`Views::fill_regular`] gathered the regular axis taps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Gathered {
@@ -295,46 +288,6 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
         let mut out = [T::ZERO; CHUNK];
         for (v, o) in out.iter_mut().enumerate() {
             let f = self.fraction[v];
-            let mut e = T::ZERO;
-            for c in 0..N {
-                let r = t0[c][v] + f * (t1[c][v] - t0[c][v]) - centre[c];
-                e += r * r;
-            }
-            *o = scaled / (robust + e) * e;
-        }
-        out
-    }
-}
-
-impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
-    /// [`Self::energies`] of the lanes `from..from + STAGE` alone (the same bits per
-    /// lane: each lane's arithmetic does not depend on the others).
-    #[inline(always)]
-    fn stage_energies(
-        &self,
-        from: usize,
-        levels: &[T; 256],
-        centre: &[T; N],
-        (robust, scaled): (T, T),
-    ) -> [T; STAGE] {
-        let mut t = [[[T::ZERO; STAGE]; N]; 2];
-        for (to, from_texel) in t.iter_mut().zip(&self.raw) {
-            for (to, channel) in to.iter_mut().zip(from_texel) {
-                if let Some(raw) = channel.get(from..).and_then(|r| r.first_chunk::<STAGE>()) {
-                    *to = convert(raw, levels);
-                }
-            }
-        }
-        let fractions = self
-            .fraction
-            .get(from..)
-            .and_then(|f| f.first_chunk::<STAGE>())
-            .copied()
-            .unwrap_or([T::ZERO; STAGE]);
-        let [t0, t1] = t;
-        let mut out = [T::ZERO; STAGE];
-        for (v, o) in out.iter_mut().enumerate() {
-            let f = fractions[v];
             let mut e = T::ZERO;
             for c in 0..N {
                 let r = t0[c][v] + f * (t1[c][v] - t0[c][v]) - centre[c];
@@ -672,9 +625,8 @@ impl<T: Scalar> Views<T> {
     /// of their weighted residual energy times `scale / robust` (`scaled` = `scale`: a
     /// power of two, see [`cost_scale`]), one sample per view from two texels (the
     /// statistics read three: the derivative is not needed). `None` when the cost is not
-    /// below `bar`, as soon as that is known after a chunk (for the regular 9×9 cross,
-    /// after each [`STAGE`] of taps): every term is non-negative and rounded sums are
-    /// monotonic, so the running sum is a lower bound of the cost.
+    /// below `bar`, as soon as that is known after a chunk: every term is non-negative
+    /// and rounded sums are monotonic, so the running sum is a lower bound of the cost.
     #[inline]
     pub(crate) fn cost<S: Sample>(
         &self,
@@ -886,34 +838,11 @@ impl<T: Scalar> Views<T> {
         let mut chunk = Chunk::<T, S, N>::new();
         let mut cursor = 0;
         let centre_used = used::<T, L, N>(&centre);
-        let staged = match bar {
-            Some(bar) if self.regular => self.staged_cost::<S, CH, N>(
-                data,
-                (x, y),
-                (xf, yf),
-                d,
-                &centre_used,
-                (robust, scaled),
-                bar,
-                &mut chunk,
-            ),
-            _ => None,
+        let gathered = if self.regular {
+            self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk)
+        } else {
+            Gathered::Not
         };
-        let gathered = match staged {
-            Some(None) => return None,
-            Some(Some(sum)) => {
-                cost = sum;
-                // The same sum as the chunk's below: no mask, the bar checked.
-                Gathered::Not
-            }
-            None if self.regular => {
-                self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk)
-            }
-            None => Gathered::Not,
-        };
-        if staged.is_some() {
-            cursor = CHUNK;
-        }
         match gathered {
             Gathered::Every => {
                 for e in chunk.energies(&self.levels, &centre_used, (robust, scaled)) {
@@ -1118,7 +1047,6 @@ impl<T: Scalar> Views<T> {
                     }
                 }
             }
-
             return Gathered::Every;
         }
         // Near the sides: texel `k + j` clamped to the last sample along the axis, as
@@ -1148,115 +1076,6 @@ impl<T: Scalar> Views<T> {
             }
         }
         Gathered::Masked(seen)
-    }
-
-    /// Copies the two texels of the regular axis taps `FROM..FROM + STAGE` (cells from
-    /// [`Self::regular_cells`], every tap seeing the pixel away from the sides) into
-    /// their lanes of `chunk`, as [`Self::fill_regular`] does; false when a sample lies
-    /// outside the data.
-    #[inline(always)]
-    fn gather_stage<S: Sample, const CH: usize, const N: usize, const FROM: usize>(
-        &self,
-        data: &[S],
-        (x, y): (usize, usize),
-        cells: &[usize; CHUNK],
-        chunk: &mut Chunk<T, S, N>,
-    ) -> bool {
-        let (row, column) = (y * self.row_stride, x * CH);
-        let rs = self.row_stride;
-        for v in FROM..FROM + STAGE {
-            let (Some(&k), Some(&start), Some(&in_row)) = (
-                cells.get(v),
-                self.regular_start.get(v),
-                self.regular_in_row.get(v),
-            ) else {
-                return false;
-            };
-            // As `fill_regular`: side by side in a row, or one texel per row `rs` apart.
-            let (at, step) = if in_row {
-                (start + row + k * CH, CH)
-            } else {
-                (start + column + k * rs, rs)
-            };
-            let second = at.wrapping_add(step);
-            let (Some(t0), Some(t1)) = (samples::<S, N>(data, at), samples::<S, N>(data, second))
-            else {
-                return false;
-            };
-            let [raw0, raw1, _] = &mut chunk.raw;
-            for c in 0..N {
-                raw0[c][v] = t0[c];
-                raw1[c][v] = t1[c];
-            }
-        }
-        true
-    }
-
-    /// One stage of [`Self::staged_cost`]: adds the weighted energies of the taps
-    /// `FROM..FROM + STAGE` to `cost`; false when a sample lies outside the data.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn cost_stage<S: Sample, const CH: usize, const N: usize, const FROM: usize>(
-        &self,
-        data: &[S],
-        pixel: (usize, usize),
-        cells: &[usize; CHUNK],
-        centre: &[T; N],
-        robust: (T, T),
-        chunk: &mut Chunk<T, S, N>,
-        cost: &mut T,
-    ) -> bool {
-        if !self.gather_stage::<S, CH, N, FROM>(data, pixel, cells, chunk) {
-            return false;
-        }
-        for e in chunk.stage_energies(FROM, &self.levels, centre, robust) {
-            *cost += e;
-        }
-        true
-    }
-
-    /// The cost's sum over the regular axis taps, [`STAGE`] taps at a time with the
-    /// bar checked after each (see [`Self::cost`]): `Some(Some(sum))` below the bar,
-    /// `Some(None)` at or above it, `None` when not every tap sees the pixel away from
-    /// the sides (the caller then takes the full chunk, with its mask).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn staged_cost<S: Sample, const CH: usize, const N: usize>(
-        &self,
-        data: &[S],
-        pixel: (usize, usize),
-        (xf, yf): (T, T),
-        d: T,
-        centre: &[T; N],
-        robust: (T, T),
-        bar: T,
-        chunk: &mut Chunk<T, S, N>,
-    ) -> Option<Option<T>> {
-        let mut cells = [0usize; CHUNK];
-        if !self.regular_cells::<2>((xf, yf), d, &mut cells, &mut chunk.fraction) {
-            return None;
-        }
-        let mut cost = T::ZERO;
-        // Four stages of four taps (`CHUNK` = 4 · `STAGE`), written out so that each
-        // stage's lanes are constants.
-        let args = (data, pixel, &cells, centre, robust);
-        macro_rules! stage {
-            ($from:expr) => {
-                if !self.cost_stage::<S, CH, N, { $from }>(
-                    args.0, args.1, args.2, args.3, args.4, chunk, &mut cost,
-                ) {
-                    return None;
-                }
-                if cost >= bar {
-                    return Some(None);
-                }
-            };
-        }
-        stage!(0);
-        stage!(STAGE);
-        stage!(2 * STAGE);
-        stage!(3 * STAGE);
-        Some(Some(cost))
     }
 
     /// The cells (first texel index along the axis) and fractions of the regular axis
@@ -1689,15 +1508,7 @@ mod tests {
                 assert_eq!(full, by_tap.cost(&scene.data, x, y, d, cost_robust, None));
                 let full = full.unwrap_or(T::ZERO);
                 costs.push(full);
-                // Bars the sum reaches at its end, never, and within the first or a later
-                // stage of taps (`STAGE`).
-                let bars = [
-                    full,
-                    full + T::from_f32(1.0e-3),
-                    full * T::from_f32(0.5),
-                    full * T::from_f32(0.125),
-                ];
-                for bar in bars {
+                for bar in [full, full + T::from_f32(1.0e-3), full * T::from_f32(0.5)] {
                     assert_eq!(
                         regular.cost(&scene.data, x, y, d, cost_robust, Some(bar)),
                         by_tap.cost(&scene.data, x, y, d, cost_robust, Some(bar)),
