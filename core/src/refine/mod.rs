@@ -11,8 +11,8 @@
 //! alone) is below
 //! `PROPAGATION_ACCEPT` times its own, which pulls wrong regions to their surroundings.
 //! A candidate's cost needs one sample per view (no derivative) and its sum stops
-//! once it reaches the bar (its terms are non-negative; checked after every four views
-//! of the 9×9 cross, the farthest first): neither changes the result. A pixel's own
+//! once it reaches the bar (its terms are non-negative; checked after each chunk of
+//! views): neither changes the result. A pixel's own
 //! cost is only computed once a neighbour offers another disparity, from the
 //! Gauss–Newton statistics at its disparity (their residual energy is the same sum of
 //! weighted terms), which the first iteration then keeps unless a candidate wins. A disparity within `SAME_CANDIDATE`
