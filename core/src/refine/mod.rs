@@ -10,10 +10,12 @@
 //! are the iterations' work) and keeps one whose robust photometric cost (the pixel
 //! alone) is below
 //! `PROPAGATION_ACCEPT` times its own, which pulls wrong regions to their surroundings.
-//! A cost needs one sample per view (no derivative), a pixel's own cost is only
-//! computed once a neighbour offers another disparity, and a candidate's sum stops
+//! A candidate's cost needs one sample per view (no derivative) and its sum stops
 //! once it reaches the bar (its terms are non-negative; checked after each chunk of
-//! views): none of these changes the result. A disparity within `SAME_CANDIDATE`
+//! views): neither changes the result. A pixel's own
+//! cost is only computed once a neighbour offers another disparity, from the
+//! Gauss–Newton statistics at its disparity (their residual energy is the same sum of
+//! weighted terms), which the first iteration then keeps unless a candidate wins. A disparity within `SAME_CANDIDATE`
 //! (0.05 px) of one tried this round, or of the last `REMEMBERED` ones the pixel
 //! rejected in earlier rounds, is not tried again (an equal one could not pass the
 //! bar, which only falls; a nearly equal one rarely does).
@@ -174,12 +176,16 @@ fn region_rows(plan: &Plan) -> usize {
     rows.min(plan.layout().height)
 }
 
-/// Scratch (elements of the scalar type) one band needs: `2 + 12` values per pixel of the band and
-/// its halo; independent of the image height.
+/// Values per region pixel the propagation keeps besides the statistics: the state of
+/// its own cost (or the cost itself) and the candidates it rejected.
+const MEMORY: usize = 1 + REMEMBERED;
+
+/// Scratch (elements of the scalar type) one band needs: `2 + 12 + 5` values per pixel
+/// of the band and its halo; independent of the image height.
 pub fn scratch_len(plan: &Plan) -> usize {
     region_rows(plan)
         .saturating_mul(plan.layout().width)
-        .saturating_mul(2 + STATS)
+        .saturating_mul(2 + STATS + MEMORY)
 }
 
 /// Number of bands.
@@ -533,7 +539,7 @@ fn band<T: Scalar, P: Photometric<T>>(
     let last = (rows.end + halo).min(height);
     let region = last - first;
     let pixels = region * width;
-    let needed = pixels * (2 + STATS);
+    let needed = pixels * (2 + STATS + MEMORY);
     check_scratch(needed, scratch.len())?;
     let input = disparity
         .get(first * width..last * width)
@@ -553,7 +559,8 @@ fn band<T: Scalar, P: Photometric<T>>(
     };
     let (current, rest) = scratch.split_at_mut_checked(pixels).ok_or(too_small)?;
     let (previous, rest) = rest.split_at_mut_checked(pixels).ok_or(too_small)?;
-    let stats = rest.get_mut(..pixels * STATS).ok_or(too_small)?;
+    let (stats, rest) = rest.split_at_mut_checked(pixels * STATS).ok_or(too_small)?;
+    let memory = rest.get_mut(..pixels * MEMORY).ok_or(too_small)?;
     for (c, &v) in current.iter_mut().zip(input) {
         *c = T::from_f32(v);
     }
@@ -574,6 +581,9 @@ fn band<T: Scalar, P: Photometric<T>>(
     // The robust scale with and without the cost's scale.
     let cost_robust = (k.robust, k.robust * T::from_f32(scale));
     let stat_robust = (k.robust, k.robust * T::from_f32(k.stat_scale));
+    // A cost from the statistics' residual energies: the same weighted terms, scaled by
+    // the statistics' power of two instead of the cost's (both powers of two).
+    let cost_per_energy = T::from_f32(scale / k.stat_scale);
     // Region rows (relative to `first`) within `reach` rows of the band.
     let near = |reach: usize| -> Range<usize> {
         let lo = rows.start.saturating_sub(reach).max(first) - first;
@@ -583,17 +593,23 @@ fn band<T: Scalar, P: Photometric<T>>(
     // Propagation: each pixel tries the disparities of its four neighbours at each
     // jump and keeps the one the views agree on best (robust cost of the pixel alone),
     // which pulls wrong regions to their surroundings' disparity.
-    // `stats[i · STATS]` caches the cost of pixel i at its current disparity: it is
-    // read and written only for pixel i, so the order of pixels does not matter.
+    // `memory[i · MEMORY]` holds the state of pixel i's cost at its current disparity:
+    // `unknown`, `fresh` (its statistics were measured there: the cost is their residual
+    // energy, and the first iteration need not measure them again) or the cost itself
+    // (non-negative: a candidate's, accepted). It is read and written only for pixel i,
+    // so the order of pixels does not matter.
     // A round only visits the rows that the later rounds and the iterations can still
     // carry to the band (it reads its neighbours up to `jump` rows further, which the
     // round before visited): the rows outside would not change the result.
     // The cost of a pixel at its own disparity is only needed once a neighbour offers
-    // another one: `stats[i · STATS + 1]` is one when `stats[i · STATS]` holds it.
-    // `stats[i · STATS + 2..][..REMEMBERED]` hold the last candidates pixel i rejected
+    // another one. It comes from the statistics, not from `Photometric::cost`: the
+    // first iteration needs them at that disparity unless a candidate wins (HCI
+    // backgammon: 154 k of its 271 k measurements), and they cost about 1.5 times a cost.
+    // Always, whatever row the pixel is in, so that every band decides alike.
+    // `memory[i · MEMORY + 1..][..REMEMBERED]` hold the last candidates pixel i rejected
     // (`MAX` for none): a round visits a subset of the rows the round before visited,
     // so every band sees the same history for the rows it keeps.
-    let (unknown, known) = (T::ZERO, T::ONE);
+    let (unknown, fresh) = (-T::ONE, -(T::ONE + T::ONE));
     let jumps = jumps(plan);
     let reach_after = |round: usize| -> usize {
         p.iterations * r
@@ -603,12 +619,12 @@ fn band<T: Scalar, P: Photometric<T>>(
     };
     if !jumps.is_empty() {
         let span = near(reach_after(0));
-        let near_stats = stats
-            .get_mut(span.start * width * STATS..span.end * width * STATS)
+        let near_memory = memory
+            .get_mut(span.start * width * MEMORY..span.end * width * MEMORY)
             .unwrap_or_default();
-        for stat in near_stats.chunks_exact_mut(STATS) {
-            stat[1] = unknown;
-            if let Some(rejected) = stat.get_mut(2..2 + REMEMBERED) {
+        for kept in near_memory.chunks_exact_mut(MEMORY) {
+            kept[0] = unknown;
+            if let Some(rejected) = kept.get_mut(1..) {
                 rejected.fill(T::MAX);
             }
         }
@@ -651,10 +667,14 @@ fn band<T: Scalar, P: Photometric<T>>(
                 if offers == [false; 4] {
                     continue;
                 }
-                let Some(stat) = stats
-                    .get_mut(i * STATS..)
-                    .and_then(|s| s.first_chunk_mut::<{ 2 + REMEMBERED }>())
-                else {
+                let (Some(kept), Some(stat)) = (
+                    memory
+                        .get_mut(i * MEMORY..)
+                        .and_then(|s| s.first_chunk_mut::<MEMORY>()),
+                    stats
+                        .get_mut(i * STATS..)
+                        .and_then(|s| s.first_chunk_mut::<STATS>()),
+                ) else {
                     continue;
                 };
                 // Disparities already tried this round, and the last ones rejected in
@@ -667,34 +687,38 @@ fn band<T: Scalar, P: Photometric<T>>(
                     let near = |t: &T| (*t - d).abs() <= k.same;
                     if !offer
                         || tried.get(..n).is_some_and(|t| t.iter().any(near))
-                        || stat[2..].iter().any(near)
+                        || kept[1..].iter().any(near)
                     {
                         continue;
                     }
                     if let Some(t) = tried.get_mut(n) {
                         *t = d;
                     }
-                    if stat[1] == unknown {
-                        // Without a bar the cost is always returned.
-                        stat[0] = photo
-                            .cost(x, first + y, own, cost_robust, None)
-                            .unwrap_or(T::MAX);
-                        stat[1] = known;
+                    if kept[0] == unknown {
+                        photo.pixel(x, first + y, own, stat_robust, stat);
+                        kept[0] = fresh;
                     }
-                    let limit = *bar.get_or_insert(stat[0] * k.accept);
+                    let limit = *bar.get_or_insert_with(|| {
+                        let own_cost = if kept[0] == fresh {
+                            (0..GROUPS).fold(T::ZERO, |e, g| e + stat[3 * g + 2]) * cost_per_energy
+                        } else {
+                            kept[0]
+                        };
+                        own_cost * k.accept
+                    });
                     if let Some(c) = photo.cost(x, first + y, d, cost_robust, Some(limit)) {
                         bar = Some(c);
-                        stat[0] = c;
+                        kept[0] = c;
                         if let Some(current) = current.get_mut(i) {
                             *current = d;
                         }
                     } else {
                         // The newest first, the oldest dropped (element by element:
                         // `rotate_right` was a call per rejection).
-                        for j in (3..2 + REMEMBERED).rev() {
-                            stat[j] = stat[j - 1];
+                        for j in (2..MEMORY).rev() {
+                            kept[j] = kept[j - 1];
                         }
-                        stat[2] = d;
+                        kept[1] = d;
                     }
                 }
             }
@@ -731,6 +755,14 @@ fn band<T: Scalar, P: Photometric<T>>(
                     continue;
                 };
                 if iteration > 0 && (now - before).abs() < settled {
+                    continue;
+                }
+                // The propagation measured them at this disparity (the same bits as now):
+                // `memory` covers these rows when there was a propagation.
+                if iteration == 0
+                    && !jumps.is_empty()
+                    && memory.get(i * MEMORY).is_some_and(|&m| m == fresh)
+                {
                     continue;
                 }
                 photo.pixel(x, first + y, now, stat_robust, stat);
