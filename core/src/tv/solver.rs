@@ -484,6 +484,9 @@ impl<'s, S: Scalar> Graph<'s, S> {
             let below = y + 1 < h;
             if below {
                 node_gradients(y + 1, self.y1h, self.y1v, u_below);
+            } else {
+                // The last row has no vertical edges (zero weight): no far end.
+                u_below.fill(S::ZERO);
             }
             let r = y * w..(y + 1) * w;
             let (wh, wv) = (part(self.wh, r.clone()), part(self.wv, r.clone()));
@@ -497,35 +500,34 @@ impl<'s, S: Scalar> Graph<'s, S> {
             ) else {
                 continue;
             };
-            for x in 0..w {
-                let here = u.get(x).copied().unwrap_or(S::ZERO);
-                let right = u.get(x + 1).copied().unwrap_or(S::ZERO);
-                let down = if below {
-                    u_below.get(x).copied().unwrap_or(S::ZERO)
-                } else {
-                    S::ZERO
-                };
-                let (eh, ev) = (
-                    wh.get(x).copied().unwrap_or(S::ZERO),
-                    wv.get(x).copied().unwrap_or(S::ZERO),
-                );
-                if let (Some(f), Some(o), Some(t)) =
-                    (y1h.get_mut(x), own_h.get_mut(x), other_h.get_mut(x))
-                {
-                    let (a, b) = (eh * here, eh * right);
+            // Horizontal: the far end is the right neighbour; the last column's edge is
+            // cut (zero weight), so its far end reads as zero. Vertical: the node below
+            // (`u_below` is zero on the last row, whose edges are cut).
+            let right = u.get(1..).unwrap_or_default();
+            let copies = |f: &mut [S], own: &mut [S], other: &mut [S], e: &[S], far: &[S]| {
+                let copies = own.iter_mut().zip(other.iter_mut());
+                let ends = e.iter().zip(u.iter().zip(far));
+                for ((f, (o, t)), (&e, (&here, &far))) in f.iter_mut().zip(copies).zip(ends) {
+                    let (a, b) = (e * here, e * far);
                     *o = *f - a;
                     *t = *f + b;
                     *f += half * (a - b);
                 }
-                if let (Some(f), Some(o), Some(t)) =
-                    (y1v.get_mut(x), own_v.get_mut(x), other_v.get_mut(x))
-                {
-                    let (a, b) = (ev * here, ev * down);
-                    *o = *f - a;
-                    *t = *f + b;
-                    *f += half * (a - b);
-                }
+            };
+            copies(y1h, own_h, other_h, wh, right);
+            if let (Some(f), Some(o), Some(t), Some(&e), Some(&here)) = (
+                y1h.last_mut(),
+                own_h.last_mut(),
+                other_h.last_mut(),
+                wh.last(),
+                u.last(),
+            ) {
+                let (a, b) = (e * here, e * S::ZERO);
+                *o = *f - a;
+                *t = *f + b;
+                *f += half * (a - b);
             }
+            copies(y1v, own_v, other_v, wv, u_below);
             core::mem::swap(&mut u, &mut u_below);
         }
     }
@@ -709,13 +711,27 @@ impl<'s, S: Scalar> Graph<'s, S> {
             let f = v.to_f32();
             f * f
         };
+        // The row above the first: no upper edges (adding `sq(0) = 0` changes nothing).
+        let zeros = self.rows.get_mut(..w).unwrap_or_default();
+        zeros.fill(S::ZERO);
+        let node = |d: f32, c: f32, eh: S, ev: S, left: S, up: S| {
+            let a = data_weight(c, params);
+            // `‖c_i‖²`: the node's own edges, then its left and upper neighbours', in
+            // the order of `node_constants_by_node`.
+            let c2 = sq(eh) + sq(ev) + sq(left) + sq(up);
+            let gk = gamma * lambda * lambda / a;
+            (
+                S::from_f32(DUAL_SCALE * (a * d / lambda)),
+                S::from_f32(gk / (1.0 + gk * c2)),
+            )
+        };
         for y in 0..h {
             let start = (region.y + y) * maps.width + region.x;
             let r = y * w..(y + 1) * w;
             let above = if y > 0 {
                 part(self.wv, r.start - w..r.start)
             } else {
-                &[]
+                &*zeros
             };
             let (wh, wv) = (part(self.wh, r.clone()), part(self.wv, r.clone()));
             let (Some(tau), Some(sig), Some(d), Some(conf)) = (
@@ -730,25 +746,22 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 lo = if d < lo { d } else { lo };
                 hi = if d > hi { d } else { hi };
             }
-            for (x, (((t, s), &d), &c)) in tau
-                .iter_mut()
-                .zip(sig.iter_mut())
-                .zip(d)
-                .zip(conf)
-                .enumerate()
-            {
-                let a = data_weight(c, params);
-                let mut c2 =
-                    wh.get(x).copied().map_or(0.0, sq) + wv.get(x).copied().map_or(0.0, sq);
-                if x > 0 {
-                    c2 += wh.get(x - 1).copied().map_or(0.0, sq);
-                }
-                if let Some(&up) = above.get(x) {
-                    c2 += sq(up);
-                }
-                let gk = gamma * lambda * lambda / a;
-                *s = S::from_f32(gk / (1.0 + gk * c2));
-                *t = S::from_f32(DUAL_SCALE * (a * d / lambda));
+            // The first node has no left edge; the others' is the previous node's own.
+            let (Some((t0, tau)), Some((s0, sig)), Some((&d0, d)), Some((&c0, conf))) = (
+                tau.split_first_mut(),
+                sig.split_first_mut(),
+                d.split_first(),
+                conf.split_first(),
+            ) else {
+                continue;
+            };
+            let first = |v: &[S]| v.first().copied().unwrap_or(S::ZERO);
+            (*t0, *s0) = node(d0, c0, first(wh), first(wv), S::ZERO, first(above));
+            let own = part(wh, 1..w).iter().zip(part(wv, 1..w));
+            let weights = own.zip(wh.iter().zip(part(above, 1..w)));
+            let nodes = tau.iter_mut().zip(sig.iter_mut()).zip(d.iter().zip(conf));
+            for (((t, s), (&d, &c)), ((&eh, &ev), (&left, &up))) in nodes.zip(weights) {
+                (*t, *s) = node(d, c, eh, ev, left, up);
             }
         }
         (lo, hi)
@@ -841,7 +854,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
         }
     }
 
-    /// The cold start: every PPXA copy and `F` set to the dual that the total variation
+    /// The cold start: `F` set to the dual that the total variation
     /// of a Huber-smoothed TV would take at `x = D`, per node `F = g / max(ε, ‖g‖)` with
     /// `g` the node's forward differences of `D` (ℓ2: the pair's norm; ℓ1: each edge on
     /// its own) and `ε` = [`GRADIENT_START_SCALE`]. (Differences weighted by the edge
@@ -850,44 +863,39 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// step the dual starts saturated along it, where it is flat near zero — which is
     /// where most of the optimal dual lies, so fewer iterations reach a given distance to
     /// the minimiser than from `F = 0`. Edges that leave the region (zero weight) start
-    /// at zero.
+    /// at zero. The PPXA copies are set from `F` by `consistent_copies`.
     fn gradient_start(&mut self, maps: &Maps<'_>, region: Rect, norm: TvNorm) {
-        let (w, h) = (self.width, self.height);
+        let w = self.width;
         let eps = GRADIENT_START_SCALE;
         let floor = |n: f32| if n > eps { n } else { eps };
         let to_f32 = |v: &S| v.to_f32();
+        // Only `F` (in `y₁`) is written: `consistent_copies` sets the copies from it.
         // A row at a time from row slices (per-node lookups were a tenth of a solve).
-        for y in 0..h {
-            let start = (region.y + y) * maps.width + region.x;
+        let rows = self
+            .y1h
+            .chunks_exact_mut(w.max(1))
+            .zip(self.y1v.chunks_exact_mut(w.max(1)));
+        let weights = self
+            .wh
+            .chunks_exact(w.max(1))
+            .zip(self.wv.chunks_exact(w.max(1)));
+        for (y, ((y1h, y1v), (wh, wv))) in rows.zip(weights).enumerate() {
             let r = y * w..(y + 1) * w;
+            let bound = part(self.bound, r);
+            let start = (region.y + y) * maps.width + region.x;
             // From the region's first pixel to the map's end: holds the right neighbours.
             let d_row = maps.disparity.get(start..).unwrap_or_default();
-            let d_below = maps.disparity.get(start + maps.width..).unwrap_or_default();
-            let (wh, wv) = (part(self.wh, r.clone()), part(self.wv, r.clone()));
-            let bound = part(self.bound, r.clone());
-            let (Some(y1h), Some(own_h), Some(other_h), Some(y1v), Some(own_v), Some(other_v)) = (
-                self.y1h.get_mut(r.clone()),
-                self.own_h.get_mut(r.clone()),
-                self.other_h.get_mut(r.clone()),
-                self.y1v.get_mut(r.clone()),
-                self.own_v.get_mut(r.clone()),
-                self.other_v.get_mut(r),
-            ) else {
+            let Some(d) = d_row.get(..w) else {
                 continue;
             };
-            for x in 0..w {
-                let d = d_row.get(x).copied().unwrap_or(0.0);
-                let (eh, ev) = (wh.get(x).map_or(0.0, to_f32), wv.get(x).map_or(0.0, to_f32));
-                let gh = if eh > 0.0 {
-                    d_row.get(x + 1).copied().unwrap_or(0.0) - d
-                } else {
-                    0.0
-                };
-                let gv = if ev > 0.0 {
-                    d_below.get(x).copied().unwrap_or(0.0) - d
-                } else {
-                    0.0
-                };
+            // Without a row below (the map's last) every vertical edge is cut.
+            let below = maps
+                .disparity
+                .get(start + maps.width..start + maps.width + w)
+                .unwrap_or(d);
+            let node = |eh: &S, ev: &S, b: &S, d: f32, right: f32, down: f32| {
+                let gh = if to_f32(eh) > 0.0 { right - d } else { 0.0 };
+                let gv = if to_f32(ev) > 0.0 { down - d } else { 0.0 };
                 let (fh, fv) = match norm {
                     TvNorm::L2 => {
                         let n = floor(libm::sqrtf(gh * gh + gv * gv));
@@ -895,24 +903,34 @@ impl<'s, S: Scalar> Graph<'s, S> {
                     }
                     TvNorm::L1 => (gh / floor(libm::fabsf(gh)), gv / floor(libm::fabsf(gv))),
                 };
-                // `start_dual_at` on row slices: every copy and `F` start at the pair.
-                let b = bound.get(x).map_or(1.0, to_f32);
-                let factor = match self.norm {
+                // `start_dual_at`'s scaling into the iterated variable.
+                let b = to_f32(b);
+                let factor = match norm {
                     TvNorm::L1 => 1.0 / b,
                     TvNorm::L2 => b,
                 };
                 let to_g = 1.0 / factor;
-                let (fh, fv) = (S::from_f32(to_g * fh), S::from_f32(to_g * fv));
-                for buf in [&mut *y1h, &mut *own_h, &mut *other_h] {
-                    if let Some(v) = buf.get_mut(x) {
-                        *v = fh;
-                    }
-                }
-                for buf in [&mut *y1v, &mut *own_v, &mut *other_v] {
-                    if let Some(v) = buf.get_mut(x) {
-                        *v = fv;
-                    }
-                }
+                (S::from_f32(to_g * fh), S::from_f32(to_g * fv))
+            };
+            // Every node but the last has its right neighbour in the row; the last one's
+            // edge is cut (zero weight) or, at the map's edge, missing.
+            let right = part(d_row, 1..w);
+            let nodes = y1h.iter_mut().zip(y1v.iter_mut()).zip(d.iter().zip(below));
+            let edges = wh.iter().zip(wv.iter()).zip(bound.iter().zip(right));
+            for (((fh, fv), (&d, &down)), ((eh, ev), (b, &right))) in nodes.zip(edges) {
+                (*fh, *fv) = node(eh, ev, b, d, right, down);
+            }
+            if let (Some(fh), Some(fv), Some(&d), Some(&down), Some(eh), Some(ev), Some(b)) = (
+                y1h.last_mut(),
+                y1v.last_mut(),
+                d.last(),
+                below.last(),
+                wh.last(),
+                wv.last(),
+                bound.last(),
+            ) {
+                let right = d_row.get(w).copied().unwrap_or(0.0);
+                (*fh, *fv) = node(eh, ev, b, d, right, down);
             }
         }
     }
@@ -1317,7 +1335,11 @@ fn colour_steps_of_row<P: Sample>(
     }
 }
 
-/// [`colour_steps_of_row`] for `CH` samples per pixel, `USED` of them compared.
+/// [`colour_steps_of_row`] for `CH` samples per pixel, `USED` of them compared, on at
+/// most [`STEP_BLOCK`] pixels: each sample is turned into unit intensity once, into one
+/// stack array per channel, so the differences and the largest of them run in vector
+/// lanes. The same values as [`colour_step`]: the largest of non-negative differences
+/// (the samples are finite) does not depend on the order it is taken in.
 #[inline(always)]
 fn colour_steps_with<P: Sample, const CH: usize, const USED: usize>(
     row: &[P],
@@ -1325,24 +1347,46 @@ fn colour_steps_with<P: Sample, const CH: usize, const USED: usize>(
     right: &mut [f32],
     down: &mut [f32],
 ) {
-    let step = |a: &[P], b: &[P]| {
-        let mut step = 0.0f32;
-        for (pa, pb) in a.iter().zip(b).take(USED) {
-            let d = libm::fabsf(pa.to_unit() - pb.to_unit());
-            if d > step {
-                step = d;
+    let mut here = [[0.0f32; STEP_BLOCK + 1]; USED];
+    let mut under = [[0.0f32; STEP_BLOCK]; USED];
+    // Pixels of the row (with the one right of the block) and of the row below.
+    let mut known = 0;
+    for (x, pixel) in row.chunks_exact(CH).take(STEP_BLOCK + 1).enumerate() {
+        for (channel, &v) in here.iter_mut().zip(pixel) {
+            if let Some(u) = channel.get_mut(x) {
+                *u = v.to_unit();
             }
         }
-        step
-    };
-    let pixels = row.chunks_exact(CH);
-    let mut next = row.chunks_exact(CH).skip(1);
-    for (r, here) in right.iter_mut().zip(pixels.clone()) {
-        *r = next.next().map_or(0.0, |n| step(here, n));
+        known = x + 1;
     }
-    let mut under = below.chunks_exact(CH);
-    for (d, here) in down.iter_mut().zip(pixels) {
-        *d = under.next().map_or(0.0, |u| step(here, u));
+    let mut known_below = 0;
+    for (x, pixel) in below.chunks_exact(CH).take(STEP_BLOCK).enumerate() {
+        for (channel, &v) in under.iter_mut().zip(pixel) {
+            if let Some(u) = channel.get_mut(x) {
+                *u = v.to_unit();
+            }
+        }
+        known_below = x + 1;
+    }
+    right.fill(0.0);
+    down.fill(0.0);
+    // A missing neighbour leaves its step at 0.
+    let with_right = right.len().min(known.saturating_sub(1));
+    let with_down = down.len().min(known_below);
+    let (right, down) = (
+        right.get_mut(..with_right).unwrap_or_default(),
+        down.get_mut(..with_down).unwrap_or_default(),
+    );
+    for (channel, channel_below) in here.iter().zip(&under) {
+        let next = channel.iter().skip(1);
+        for ((r, &a), &b) in right.iter_mut().zip(channel).zip(next) {
+            let d = libm::fabsf(a - b);
+            *r = if d > *r { d } else { *r };
+        }
+        for ((r, &a), &b) in down.iter_mut().zip(channel).zip(channel_below) {
+            let d = libm::fabsf(a - b);
+            *r = if d > *r { d } else { *r };
+        }
     }
 }
 
