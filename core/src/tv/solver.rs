@@ -1047,11 +1047,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                     &mut *p_other_v,
                 ],
             );
-            if CHECK {
-                average_row(self.y1h, self.own_h, self.other_h, r.clone(), c, dh);
-                average_row(self.y1v, self.own_v, self.other_v, r.clone(), c, dv);
-            }
-            combine::<S, RECORD>(
+            combine::<S, RECORD, CHECK>(
                 c,
                 [
                     part_mut(self.y1h, r.clone()),
@@ -1064,12 +1060,10 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 [&*p_own_h, &*p_own_v, &*p_other_h, &*p_other_v],
                 part(self.bound, r.clone()),
                 [&mut *p1h, &mut *p1v],
+                [&mut *dh, &mut *dv],
                 &mut sums,
             );
             if CHECK {
-                // The update of `F` over this iteration, `ΔF = F_new − F_old`.
-                average_change_row(self.y1h, self.own_h, self.other_h, r.clone(), c, dh);
-                average_change_row(self.y1v, self.own_v, self.other_v, r.clone(), c, dv);
                 let above = if y > 0 {
                     Some((part(wv, r.start - w..r.start), &*dv_above))
                 } else {
@@ -1522,47 +1516,6 @@ fn primal_change_row<S: Scalar>(
     sums.iter().sum()
 }
 
-/// `put(out, ½y₁ + ¼y₂ + ¼y₃)` over `range` (one row).
-#[inline(always)]
-fn average_row_with<S: Scalar>(
-    y1: &[S],
-    y2: &[S],
-    y3: &[S],
-    range: Range<usize>,
-    c: &Constants<S>,
-    out: &mut [S],
-    put: impl Fn(&mut S, S),
-) {
-    let ys = part(y2, range.clone()).iter().zip(part(y3, range.clone()));
-    for ((o, &a), (&b, &d)) in out.iter_mut().zip(part(y1, range)).zip(ys) {
-        put(o, average(c, a, b, d));
-    }
-}
-
-/// `out = ½y₁ + ¼y₂ + ¼y₃` over `range` (one row): `F` of the row.
-fn average_row<S: Scalar>(
-    y1: &[S],
-    y2: &[S],
-    y3: &[S],
-    range: Range<usize>,
-    c: &Constants<S>,
-    out: &mut [S],
-) {
-    average_row_with(y1, y2, y3, range, c, out, |o, f| *o = f);
-}
-
-/// `out = ½y₁ + ¼y₂ + ¼y₃ − out` over `range`: the change of `F` since [`average_row`].
-fn average_change_row<S: Scalar>(
-    y1: &[S],
-    y2: &[S],
-    y3: &[S],
-    range: Range<usize>,
-    c: &Constants<S>,
-    out: &mut [S],
-) {
-    average_row_with(y1, y2, y3, range, c, out, |o, f| *o = f - *o);
-}
-
 /// Constants of the PPXA combination step.
 struct Constants<S> {
     rho: S,
@@ -1577,22 +1530,26 @@ struct Constants<S> {
 const LANES: usize = 16;
 
 /// The PPXA combination on one row: `p₁ = P_B(y₁)`, `p = ½p₁ + ¼p₂ + ¼p₃`,
-/// `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`; adds `‖ΔF‖²` and `‖F‖²` (scaled units) to
-/// `sums`. `p1` is room for `p₁` (two rows). The projection couples the two components
-/// of a node, the rest does not: the horizontal and the vertical components are combined
-/// in separate passes, each few enough streams to stay in registers.
+/// `y_k += ρ(2p − F − p_k)`, `F += ρ(p − F)`; adds `‖ΔF‖²` (scaled units) to `sums`
+/// when `RECORD` and writes `ΔF = ρ(p − F)` (both components) into `delta` when `CHECK`
+/// (the update of `F = Σ ω_k y_k` is exactly that: `Σ ω_k (2p − F − p_k) = p − F`).
+/// `p1` is room for `p₁` (two rows). The projection couples the two components of a
+/// node, the rest does not: the horizontal and the vertical components are combined in
+/// separate passes, each few enough streams to stay in registers.
 #[inline(never)]
-fn combine<S: Scalar, const RECORD: bool>(
+fn combine<S: Scalar, const RECORD: bool, const CHECK: bool>(
     c: &Constants<S>,
     state: [&mut [S]; 6],
     prox: [&[S]; 4],
     bound: &[S],
     p1: [&mut [S]; 2],
+    delta: [&mut [S]; 2],
     sums: &mut Sums,
 ) {
     let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
     let [p2h, p2v, p3h, p3v] = prox;
     let [p1h, p1v] = p1;
+    let [dh, dv] = delta;
     copy_row(p1h, y1h);
     copy_row(p1v, y1v);
     let full = p1h.len() - p1h.len() % LANES;
@@ -1621,23 +1578,25 @@ fn combine<S: Scalar, const RECORD: bool>(
         project_lanes(&mut h1, &mut v1, &[b], c.norm);
         (*h, *v) = (h1[0], v1[0]);
     }
-    combine_component::<S, RECORD>(c, [y1h, y2h, y3h], [p1h, p2h, p3h], sums);
-    combine_component::<S, RECORD>(c, [y1v, y2v, y3v], [p1v, p2v, p3v], sums);
+    combine_component::<S, RECORD, CHECK>(c, [y1h, y2h, y3h], [p1h, p2h, p3h], dh, sums);
+    combine_component::<S, RECORD, CHECK>(c, [y1v, y2v, y3v], [p1v, p2v, p3v], dv, sums);
 }
 
 /// The combination of one component (all horizontal or all vertical duals of a row).
 #[inline(always)]
-fn combine_component<S: Scalar, const RECORD: bool>(
+fn combine_component<S: Scalar, const RECORD: bool, const CHECK: bool>(
     c: &Constants<S>,
     y: [&mut [S]; 3],
     p: [&[S]; 3],
+    delta: &mut [S],
     sums: &mut Sums,
 ) {
     let [y1, y2, y3] = y;
     let [p1, p2, p3] = p;
     let n = y1.len();
     let full = n - n % LANES;
-    // One row each, all the same length (the checked splits never fail).
+    // One row each, all the same length (the checked splits never fail; `delta` is
+    // only written when `CHECK`).
     let (y1, y1r) = y1.split_at_mut(full);
     let (Some((y2, y2r)), Some((y3, y3r)), Some((p1, p1r)), Some((p2, p2r)), Some((p3, p3r))) = (
         y2.split_at_mut_checked(full),
@@ -1648,8 +1607,19 @@ fn combine_component<S: Scalar, const RECORD: bool>(
     ) else {
         return;
     };
-    combine_lanes::<S, LANES, RECORD>(c, [y1, y2, y3], [p1, p2, p3], sums);
-    combine_lanes::<S, 1, RECORD>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], sums);
+    if CHECK {
+        let Some((d, dr)) = delta
+            .get_mut(..n)
+            .and_then(|d| d.split_at_mut_checked(full))
+        else {
+            return;
+        };
+        combine_lanes_with_delta::<S, LANES, RECORD>(c, [y1, y2, y3], [p1, p2, p3], d, sums);
+        combine_lanes_with_delta::<S, 1, RECORD>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], dr, sums);
+    } else {
+        combine_lanes::<S, LANES, RECORD>(c, [y1, y2, y3], [p1, p2, p3], sums);
+        combine_lanes::<S, 1, RECORD>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], sums);
+    }
 }
 
 /// `½a + ¼(b + c)`: the PPXA average of the three copies (weights ω).
@@ -1695,19 +1665,80 @@ fn combine_lanes<S: Scalar, const L: usize, const RECORD: bool>(
             continue; // chunks_exact yields exactly L elements
         };
         for j in 0..L {
-            let p = average(c, p1[j], p2[j], p3[j]);
-            let f0 = average(c, y1[j], y2[j], y3[j]);
-            let t = c.two * p - f0;
-            y1[j] += c.rho * (t - p1[j]);
-            y2[j] += c.rho * (t - p2[j]);
-            y3[j] += c.rho * (t - p3[j]);
-            let d = c.rho * (p - f0);
+            let d = combine_node(
+                c,
+                [&mut y1[j], &mut y2[j], &mut y3[j]],
+                [p1[j], p2[j], p3[j]],
+            );
             if RECORD {
                 let d = d.to_f32();
                 sums.change[j % LANES] += d * d;
             }
         }
     }
+}
+
+/// [`combine_lanes`] that also writes `ΔF` of every node into `delta` (a checking
+/// iteration; a separate loop so the others stream one buffer less).
+#[inline(always)]
+fn combine_lanes_with_delta<S: Scalar, const L: usize, const RECORD: bool>(
+    c: &Constants<S>,
+    y: [&mut [S]; 3],
+    p: [&[S]; 3],
+    delta: &mut [S],
+    sums: &mut Sums,
+) {
+    let [y1, y2, y3] = y;
+    let [p1, p2, p3] = p;
+    let groups = y1
+        .chunks_exact_mut(L)
+        .zip(y2.chunks_exact_mut(L))
+        .zip(y3.chunks_exact_mut(L))
+        .zip(
+            p1.chunks_exact(L)
+                .zip(p2.chunks_exact(L))
+                .zip(p3.chunks_exact(L)),
+        )
+        .zip(delta.chunks_exact_mut(L));
+    for ((((y1, y2), y3), ((p1, p2), p3)), delta) in groups {
+        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(p2), Ok(p3), Ok(delta)) = (
+            <&mut [S; L]>::try_from(y1),
+            <&mut [S; L]>::try_from(y2),
+            <&mut [S; L]>::try_from(y3),
+            <&[S; L]>::try_from(p1),
+            <&[S; L]>::try_from(p2),
+            <&[S; L]>::try_from(p3),
+            <&mut [S; L]>::try_from(delta),
+        ) else {
+            continue; // chunks_exact yields exactly L elements
+        };
+        for j in 0..L {
+            let d = combine_node(
+                c,
+                [&mut y1[j], &mut y2[j], &mut y3[j]],
+                [p1[j], p2[j], p3[j]],
+            );
+            delta[j] = d;
+            if RECORD {
+                let d = d.to_f32();
+                sums.change[j % LANES] += d * d;
+            }
+        }
+    }
+}
+
+/// One node's PPXA combination: `y_k += ρ(2p − F − p_k)`; returns `ΔF = ρ(p − F)`.
+#[inline(always)]
+fn combine_node<S: Scalar>(c: &Constants<S>, y: [&mut S; 3], p: [S; 3]) -> S {
+    let [y1, y2, y3] = y;
+    let [p1, p2, p3] = p;
+    let p = average(c, p1, p2, p3);
+    let f0 = average(c, *y1, *y2, *y3);
+    let t = c.two * p - f0;
+    *y1 += c.rho * (t - p1);
+    *y2 += c.rho * (t - p2);
+    *y3 += c.rho * (t - p3);
+    c.rho * (p - f0)
 }
 
 /// Projects `L` dual pairs onto their constraint sets in place; `bound` per pair (see
