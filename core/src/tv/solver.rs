@@ -1886,29 +1886,43 @@ fn residual_row<S: Scalar>(
     let r = y * width..(y + 1) * width;
     let (whr, wvr) = (part(wh, r.clone()), part(wv, r.clone()));
     let (oh, ov) = (part(own_h, r.clone()), part(own_v, r.clone()));
-    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(whr).zip(wvr).zip(oh.iter().zip(ov)) {
-        *o = -(a * c + b * d);
+    let own = |a: S, b: S, c: S, d: S| -(a * c + b * d);
+    // Two passes, in the order of the sums `((own) + left) + up`: the node's own edges
+    // and its left neighbour's (every node but the first has one), then its upper
+    // neighbour's with `σ(· − τ)`.
+    if let (Some(o), Some(&a), Some(&b), Some(&c), Some(&d)) = (
+        out.first_mut(),
+        whr.first(),
+        wvr.first(),
+        oh.first(),
+        ov.first(),
+    ) {
+        *o = own(a, b, c, d);
     }
-    for ((o, &a), &c) in out
-        .iter_mut()
-        .skip(1)
-        .zip(whr)
-        .zip(part(other_h, r.clone()))
-    {
-        *o += a * c;
+    let after_first = 1..width;
+    let nodes = part(whr, after_first.clone())
+        .iter()
+        .zip(part(wvr, after_first.clone()))
+        .zip(
+            part(oh, after_first.clone())
+                .iter()
+                .zip(part(ov, after_first)),
+        );
+    let left = whr.iter().zip(part(other_h, r.clone()));
+    for ((o, ((&a, &b), (&c, &d))), (&wl, &fl)) in out.iter_mut().skip(1).zip(nodes).zip(left) {
+        *o = own(a, b, c, d) + wl * fl;
     }
+    let targets = part(tau, r.clone()).iter().zip(part(sig, r));
     if y > 0 {
         let p = (y - 1) * width..y * width;
-        for ((o, &b), &d) in out
-            .iter_mut()
-            .zip(part(wv, p.clone()))
-            .zip(part(other_v, p))
-        {
-            *o += b * d;
+        let up = part(wv, p.clone()).iter().zip(part(other_v, p));
+        for ((s, (&b, &d)), (&t, &g)) in out.iter_mut().zip(up).zip(targets) {
+            *s = g * ((*s + b * d) - t);
         }
-    }
-    for ((s, &t), &g) in out.iter_mut().zip(part(tau, r.clone())).zip(part(sig, r)) {
-        *s = g * (*s - t);
+    } else {
+        for (s, (&t, &g)) in out.iter_mut().zip(targets) {
+            *s = g * (*s - t);
+        }
     }
 }
 
