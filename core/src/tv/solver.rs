@@ -1855,11 +1855,32 @@ fn divergence_of_row<S: Scalar>(
 ) {
     let [wh, wv] = weights;
     let [fh, fv] = flows;
-    for (((o, &a), &b), (&c, &d)) in out.iter_mut().zip(wh).zip(wv).zip(fh.iter().zip(fv)) {
-        *o = -(a * c + b * d);
+    let own = |a: S, b: S, c: S, d: S| -(a * c + b * d);
+    // The node's own edges and its left neighbour's in one pass (every node but the
+    // first has one), then the upper neighbour's: the order of the sums of
+    // `((own) + left) + up`.
+    if let (Some(o), Some(&a), Some(&b), Some(&c), Some(&d)) = (
+        out.first_mut(),
+        wh.first(),
+        wv.first(),
+        fh.first(),
+        fv.first(),
+    ) {
+        *o = own(a, b, c, d);
     }
-    for ((o, &a), &c) in out.iter_mut().skip(1).zip(wh).zip(fh) {
-        *o += a * c;
+    let after_first = 1..wh.len();
+    let nodes = part(wh, after_first.clone())
+        .iter()
+        .zip(part(wv, after_first.clone()))
+        .zip(
+            part(fh, after_first.clone())
+                .iter()
+                .zip(part(fv, after_first)),
+        );
+    for ((o, ((&a, &b), (&c, &d))), (&wl, &fl)) in
+        out.iter_mut().skip(1).zip(nodes).zip(wh.iter().zip(fh))
+    {
+        *o = own(a, b, c, d) + wl * fl;
     }
     if let Some((wa, fa)) = above {
         for ((o, &b), &d) in out.iter_mut().zip(wa).zip(fa) {
