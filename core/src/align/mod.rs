@@ -56,7 +56,7 @@ use crate::geometry::Homography;
 use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
 
 pub use gauge::{gauge_fit, gauge_fit_where, gauge_rms, reprojection_rms, GaugeFit};
-pub use warp::{warp_band, warp_rows, warp_rows_with, Interpolation, WarpSample};
+pub use warp::{sharpen_columns, warp_band, warp_rows, warp_rows_with, Interpolation, WarpSample};
 
 /// Most corners tracked from the centre view (compile-time capacity).
 pub const MAX_FEATURES: usize = 512;
@@ -177,7 +177,7 @@ impl Default for AlignParams {
             rectified_rms: 0.1,
             min_inliers: 12,
             seed: 0x5eed_a11e,
-            interpolation: Interpolation::Bilinear,
+            interpolation: Interpolation::SharpenedBilinear,
             views: AlignedViews::Read,
             disparity_step: 0.5,
         }
