@@ -750,7 +750,8 @@ fn offset_sensitivity() {
 
 /// The final disparity (every stage, `StageSelect::Full`) of the aligned arrays against
 /// the rectified one (a measurement, run by hand): the pipeline's cross-only estimate
-/// and every view, bilinear and Catmull–Rom, after the unobservable disparity plane.
+/// and every view, bilinear, sharpened bilinear (the default) and Catmull–Rom, after
+/// the unobservable disparity plane.
 /// `cargo test --release -p lfdepth-cli --test align_epi final_disparity -- --ignored --nocapture`
 #[test]
 #[ignore]
