@@ -156,6 +156,10 @@ fn bench(c: &mut Criterion) {
             Interpolation::CatmullRom,
         ),
         ("warp_cross_17_views_f32_bilinear", Interpolation::Bilinear),
+        (
+            "warp_cross_17_views_f32_sharpened_bilinear",
+            Interpolation::SharpenedBilinear,
+        ),
     ] {
         let mut params = Params::default();
         params.align.interpolation = interpolation;

@@ -50,6 +50,9 @@ fn warp_all(lf: &LightField<'_, u8>, hs: &[Homography], how: Interpolation) -> V
     let mut out = vec![0.0f32; l.validate().unwrap()];
     for (v, chunk) in out.chunks_exact_mut(view).enumerate() {
         warp_rows_with(lf, hs, v, 0..l.height, how, chunk).unwrap();
+        if how == Interpolation::SharpenedBilinear {
+            align::sharpen_columns(l, hs, v, chunk).unwrap();
+        }
     }
     out
 }
@@ -747,7 +750,8 @@ fn offset_sensitivity() {
 
 /// The final disparity (every stage, `StageSelect::Full`) of the aligned arrays against
 /// the rectified one (a measurement, run by hand): the pipeline's cross-only estimate
-/// and every view, bilinear and Catmull–Rom, after the unobservable disparity plane.
+/// and every view, bilinear, sharpened bilinear (the default) and Catmull–Rom, after
+/// the unobservable disparity plane.
 /// `cargo test --release -p lfdepth-cli --test align_epi final_disparity -- --ignored --nocapture`
 #[test]
 #[ignore]
@@ -794,7 +798,11 @@ fn final_disparity() {
                         .map(|(i, &d)| g.true_disparity(d, (i % n) as f32, (i / n) as f32))
                         .collect()
                 };
-                for how in [Interpolation::Bilinear, Interpolation::CatmullRom] {
+                for how in [
+                    Interpolation::Bilinear,
+                    Interpolation::SharpenedBilinear,
+                    Interpolation::CatmullRom,
+                ] {
                     let warped = warp_all(&lf, &est, how);
                     let e = badpix(&fix(epi(&warped, &spec)), &gt, n);
                     let f = badpix(&fix(full(&warped, &spec)), &gt, n);
@@ -995,5 +1003,409 @@ fn refine_through_homographies() {
             through[1] < on_warped && through[0] < on_warped,
             "{name}: {through:?} vs {on_warped}"
         );
+    }
+}
+
+/// Separable 3-tap blur `[a, 1 − 2a, a]` of every view, in place (borders repeat).
+#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
+fn blur3(data: &mut [f32], l: &lfdepth::Layout, a: f32) {
+    let (w, h, ch) = (l.width, l.height, l.channels);
+    let mut tmp = vec![0.0f32; w * h * ch];
+    for view in data.chunks_exact_mut(w * h * ch) {
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..ch {
+                    let at = |xx: usize| view[(y * w + xx) * ch + c];
+                    tmp[(y * w + x) * ch + c] = a * at(x.saturating_sub(1))
+                        + (1.0 - 2.0 * a) * at(x)
+                        + a * at((x + 1).min(w - 1));
+                }
+            }
+        }
+        for y in 0..h {
+            for x in 0..w {
+                for c in 0..ch {
+                    let at = |yy: usize| tmp[(yy * w + x) * ch + c];
+                    view[(y * w + x) * ch + c] = a * at(y.saturating_sub(1))
+                        + (1.0 - 2.0 * a) * at(y)
+                        + a * at((y + 1).min(h - 1));
+                }
+            }
+        }
+    }
+}
+
+/// In-place cubic B-spline prefilter of a strided line (mirror boundary).
+#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
+fn bspline_prefilter(line: &mut [f32]) {
+    let z = 3.0f32.sqrt() - 2.0;
+    let n = line.len();
+    if n < 2 {
+        return;
+    }
+    for v in line.iter_mut() {
+        *v *= 6.0;
+    }
+    // Causal init: truncated sum.
+    let mut zk = z;
+    let mut sum = line[0];
+    for v in line.iter().take(n.min(24)).skip(1) {
+        sum += zk * v;
+        zk *= z;
+    }
+    line[0] = sum;
+    for k in 1..n {
+        line[k] += z * line[k - 1];
+    }
+    line[n - 1] = (z / (z * z - 1.0)) * (z * line[n - 2] + line[n - 1]);
+    for k in (0..n - 1).rev() {
+        line[k] = z * (line[k + 1] - line[k]);
+    }
+}
+
+/// Every view warped by `hs` with a prefiltered cubic B-spline (an interpolator).
+#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
+fn warp_bspline(lf: &LightField<'_, u8>, hs: &[Homography]) -> Vec<f32> {
+    let l = lf.layout();
+    let (w, h, ch) = (l.width, l.height, l.channels);
+    let mut out = vec![0.0f32; l.validate().unwrap()];
+    let mut coef = vec![0.0f32; w * h];
+    let mut line = vec![0.0f32; w.max(h)];
+    let wts = |t: f32| {
+        let s = 1.0 - t;
+        [
+            s * s * s / 6.0,
+            (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0,
+            (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0,
+            t * t * t / 6.0,
+        ]
+    };
+    for (v, chunk) in out.chunks_exact_mut(w * h * ch).enumerate() {
+        let (r, c) = (v / l.grid.cols, v % l.grid.cols);
+        for k in 0..ch {
+            for y in 0..h {
+                for x in 0..w {
+                    line[x] = lf.pixel(r, c, x, y, k).unwrap() as f32 / 255.0;
+                }
+                bspline_prefilter(&mut line[..w]);
+                coef[y * w..(y + 1) * w].copy_from_slice(&line[..w]);
+            }
+            for x in 0..w {
+                for y in 0..h {
+                    line[y] = coef[y * w + x];
+                }
+                bspline_prefilter(&mut line[..h]);
+                for y in 0..h {
+                    coef[y * w + x] = line[y];
+                }
+            }
+            for y in 0..h {
+                for x in 0..w {
+                    let (u, vv) = hs[v].apply(x as f32, y as f32).unwrap();
+                    let u = u.clamp(0.0, (w - 1) as f32);
+                    let vv = vv.clamp(0.0, (h - 1) as f32);
+                    let (x0, y0) = (u.floor() as i64, vv.floor() as i64);
+                    let (wx, wy) = (wts(u - x0 as f32), wts(vv - y0 as f32));
+                    let mut acc = 0.0;
+                    for j in 0..4 {
+                        let sy = (y0 + j as i64 - 1).clamp(0, h as i64 - 1) as usize;
+                        for i in 0..4 {
+                            let sx = (x0 + i as i64 - 1).clamp(0, w as i64 - 1) as usize;
+                            acc += wy[j] * wx[i] * coef[sy * w + sx];
+                        }
+                    }
+                    chunk[(y * w + x) * ch + k] = acc;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Every view warped by `hs` with Catmull–Rom along `cubic_x`/`cubic_y` (per view, from
+/// its grid offset) and linear interpolation along the other axis.
+#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
+fn warp_mixed_kernel(
+    lf: &LightField<'_, u8>,
+    hs: &[Homography],
+    cubic: impl Fn(isize, isize) -> (bool, bool),
+) -> Vec<f32> {
+    let l = lf.layout();
+    let (w, h, ch) = (l.width, l.height, l.channels);
+    let (r0, c0) = l.grid.center();
+    let cr = |t: f32| {
+        let (t2, t3) = (t * t, t * t * t);
+        [
+            0.5 * (-t3 + 2.0 * t2 - t),
+            0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+            0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+            0.5 * (t3 - t2),
+        ]
+    };
+    let lin = |t: f32| [0.0, 1.0 - t, t, 0.0];
+    let mut out = vec![0.0f32; l.validate().unwrap()];
+    for (v, chunk) in out.chunks_exact_mut(w * h * ch).enumerate() {
+        let (r, c) = (v / l.grid.cols, v % l.grid.cols);
+        let (cx, cy) = cubic(c as isize - c0 as isize, r as isize - r0 as isize);
+        for y in 0..h {
+            for x in 0..w {
+                let (u, vv) = hs[v].apply(x as f32, y as f32).unwrap();
+                let u = u.clamp(0.0, (w - 1) as f32);
+                let vv = vv.clamp(0.0, (h - 1) as f32);
+                let (x0, y0) = (u.floor() as i64, vv.floor() as i64);
+                let (fx, fy) = (u - x0 as f32, vv - y0 as f32);
+                let wx = if cx { cr(fx) } else { lin(fx) };
+                let wy = if cy { cr(fy) } else { lin(fy) };
+                for k in 0..ch {
+                    let mut acc = 0.0;
+                    for j in 0..4 {
+                        let sy = (y0 + j as i64 - 1).clamp(0, h as i64 - 1) as usize;
+                        for i in 0..4 {
+                            let sx = (x0 + i as i64 - 1).clamp(0, w as i64 - 1) as usize;
+                            acc += wy[j] * wx[i] * f32::from(lf.pixel(r, c, sx, sy, k).unwrap())
+                                / 255.0;
+                        }
+                    }
+                    chunk[(y * w + x) * ch + k] = acc;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Every non-centre view of a bilinearly warped array sharpened by a separable 3-tap
+/// `[a, 1 − 2a, a]` whose `a = −k·t(1 − t)/2` undoes the variance `t(1 − t)` that
+/// bilinear interpolation at phase `t` adds (per axis, per pixel); `k = 0` leaves it.
+#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
+fn sharpen_adaptive(data: &mut [f32], l: &lfdepth::Layout, hs: &[Homography], k: f32) {
+    let (w, h, ch) = (l.width, l.height, l.channels);
+    let centre = l.grid.len() / 2;
+    let mut tmp = vec![0.0f32; w * h * ch];
+    for (v, view) in data.chunks_exact_mut(w * h * ch).enumerate() {
+        if v == centre {
+            continue;
+        }
+        let phase = |x: usize, y: usize| {
+            let (u, vv) = hs[v].apply(x as f32, y as f32).unwrap();
+            (u - u.floor(), vv - vv.floor())
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let (t, _) = phase(x, y);
+                let a = -k * t * (1.0 - t) / 2.0;
+                for c in 0..ch {
+                    let at = |xx: usize| view[(y * w + xx) * ch + c];
+                    tmp[(y * w + x) * ch + c] = a * at(x.saturating_sub(1))
+                        + (1.0 - 2.0 * a) * at(x)
+                        + a * at((x + 1).min(w - 1));
+                }
+            }
+        }
+        for y in 0..h {
+            for x in 0..w {
+                let (_, t) = phase(x, y);
+                let a = -k * t * (1.0 - t) / 2.0;
+                for c in 0..ch {
+                    let at = |yy: usize| tmp[(yy * w + x) * ch + c];
+                    view[(y * w + x) * ch + c] = a * at(y.saturating_sub(1))
+                        + (1.0 - 2.0 * a) * at(y)
+                        + a * at((y + 1).min(h - 1));
+                }
+            }
+        }
+    }
+}
+
+/// Session 7 probe: what matched blur and sharper kernels do to the final disparity
+/// with the true homographies.
+/// `cargo test --release -p lfdepth-cli --test align_epi session7_probe -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn session7_probe() {
+    let n = SIZE;
+    let run = |data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect| {
+        let lf = LightField::new(data, spec.layout()).unwrap();
+        let options = EstimateOptions {
+            params,
+            stage,
+            threads: None,
+        };
+        engine::estimate(&lf, &options, &mut |_, _, _| {})
+            .unwrap()
+            .disparity
+    };
+    let only = std::env::var("PROBE").unwrap_or_default();
+    for scene in [SceneKind::Planes, SceneKind::Mixed] {
+        let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
+        let l = spec.layout();
+        let name = scene.name();
+        let ideal_f: Vec<f32> = ideal.iter().map(|&v| f32::from(v) / 255.0).collect();
+        let lf = LightField::new(&misaligned[..], l).unwrap();
+        let blurred = |mut d: Vec<f32>, a: f32| {
+            blur3(&mut d, &l, a);
+            d
+        };
+        let bil = warp_all(&lf, &truth, Interpolation::Bilinear);
+        let cr = warp_all(&lf, &truth, Interpolation::CatmullRom);
+        let mut inputs: Vec<(&str, Vec<f32>)> = vec![
+            ("rectified", ideal_f.clone()),
+            ("bilinear", bil.clone()),
+            ("CR", cr.clone()),
+            (
+                "sharpened bilinear",
+                warp_all(&lf, &truth, Interpolation::SharpenedBilinear),
+            ),
+        ];
+        if only.contains("gauge") {
+            // The pipeline's estimate, and the true homographies moved into its gauge:
+            // what is per-view error and what is the unobservable gauge. Scored after
+            // the estimate's disparity plane, in the estimate's frame.
+            let (r0, c0) = spec.grid.center();
+            let cols = spec.grid.cols;
+            let b = |v: usize| ((v % cols) as f32 - c0 as f32, (v / cols) as f32 - r0 as f32);
+            for frame in [Reference::Estimated, Reference::CentreView] {
+                let params = AlignParams {
+                    mode: AlignMode::On,
+                    reference: frame,
+                    views: AlignedViews::Cross,
+                    ..AlignParams::default()
+                };
+                let (est, _) = estimate(&lf, params);
+                let include = |v: usize| v / cols == r0 || v % cols == c0;
+                let g = gauge_fit_where(&est, &truth, spec.grid, n, n, &include).unwrap();
+                let hybrid: Vec<Homography> = (0..truth.len())
+                    .map(|v| truth[v].compose(&gauge_map(&g, b(v)).inverse().unwrap()))
+                    .collect();
+                // The estimate re-anchored on the centre camera: every map composed with
+                // the inverse of the centre view's, so the centre view is not warped.
+                let centre = spec.grid.index(r0, c0);
+                let back = est[centre].inverse().unwrap();
+                let anchored: Vec<Homography> = est.iter().map(|h| h.compose(&back)).collect();
+                // How far the estimated frame is from the centre camera's, beyond a
+                // common translation: the corners' displacement minus its mean.
+                let corners = [
+                    (0.0, 0.0),
+                    (n as f32, 0.0),
+                    (0.0, n as f32),
+                    (n as f32, n as f32),
+                ];
+                let moves: Vec<(f32, f32)> = corners
+                    .iter()
+                    .map(|&(x, y)| {
+                        let (u, v) = est[centre].apply(x, y).unwrap();
+                        (u - x, v - y)
+                    })
+                    .collect();
+                let mean = moves
+                    .iter()
+                    .fold((0.0, 0.0), |a, m| (a.0 + m.0 / 4.0, a.1 + m.1 / 4.0));
+                let spread = moves
+                    .iter()
+                    .map(|m| (m.0 - mean.0).hypot(m.1 - mean.1))
+                    .fold(0.0f32, f32::max);
+                eprintln!(
+                    "{name} {frame:?}: centre view's map, translation ({:.3}, {:.3}) px, corners beyond it up to {spread:.3} px",
+                    mean.0, mean.1
+                );
+                for (label, hs) in [
+                    ("estimated", &est),
+                    ("true H in its gauge", &hybrid),
+                    ("estimated, re-anchored on the centre camera", &anchored),
+                ] {
+                    let g = gauge_fit_where(hs, &truth, spec.grid, n, n, &include).unwrap();
+                    let warped = warp_all(&lf, hs, Interpolation::SharpenedBilinear);
+                    let mut line = format!(
+                        "{name} {frame:?} {label} (gauge offset {:.3}, translation ({:.3}, {:.3}), scale {:.5}):",
+                        g.disparity_offset, g.translation.0, g.translation.1, g.scale
+                    );
+                    for (stage_name, stage) in
+                        [("EPI", StageSelect::Epi), ("full", StageSelect::Full)]
+                    {
+                        let raw = run(&warped, &spec, Params::default(), stage);
+                        let own: Vec<f32> = raw
+                            .iter()
+                            .enumerate()
+                            .map(|(i, &d)| g.true_disparity(d, (i % n) as f32, (i / n) as f32))
+                            .collect();
+                        let s = badpix(&own, &gt, n);
+                        line += &format!(" {stage_name} {s:.2}");
+                    }
+                    eprintln!("{line}");
+                }
+            }
+        }
+        if only.contains("sharp") {
+            for k in [1.0f32, 2.0] {
+                let mut d = bil.clone();
+                sharpen_adaptive(&mut d, &l, &truth, k);
+                inputs.push(("bil, adaptive sharpen", d));
+            }
+            let centre = spec.grid.len() / 2;
+            let view = l.width * l.height * l.channels;
+            for a in [-1.0f32 / 12.0, -1.0 / 8.0] {
+                let mut d = bil.clone();
+                for (v, chunk) in d.chunks_exact_mut(view).enumerate() {
+                    if v != centre {
+                        let one =
+                            lfdepth::Layout::packed(Grid::new(1, 1), l.width, l.height, l.channels);
+                        blur3(chunk, &one, a);
+                    }
+                }
+                inputs.push(("bil, uniform sharpen", d));
+            }
+        }
+        if only.contains("centre") {
+            let centre = spec.grid.len() / 2;
+            let view = l.width * l.height * l.channels;
+            let centre_blurred = |mut d: Vec<f32>, a: f32| {
+                let one = lfdepth::Layout::packed(Grid::new(1, 1), l.width, l.height, l.channels);
+                blur3(&mut d[centre * view..(centre + 1) * view], &one, a);
+                d
+            };
+            for a in [1.0 / 12.0, 1.0 / 24.0] {
+                inputs.push(("bil, centre blurred", centre_blurred(bil.clone(), a)));
+                inputs.push(("CR, centre blurred", centre_blurred(cr.clone(), a)));
+            }
+        }
+        if only.contains("blur") {
+            inputs.push(("rect blur1/4", blurred(ideal_f.clone(), 0.25)));
+            inputs.push(("bil blur1/4", blurred(bil.clone(), 0.25)));
+            inputs.push(("bil blur1/8", blurred(bil, 0.125)));
+            inputs.push(("CR blur1/8", blurred(cr, 0.125)));
+        }
+        if only.contains("axis") {
+            inputs.push((
+                "CR along baseline",
+                warp_mixed_kernel(&lf, &truth, |dc, dr| (dr == 0, dc == 0)),
+            ));
+            inputs.push((
+                "CR across baseline",
+                warp_mixed_kernel(&lf, &truth, |dc, dr| (dc == 0, dr == 0)),
+            ));
+            inputs.push((
+                "CR both (test)",
+                warp_mixed_kernel(&lf, &truth, |_, _| (true, true)),
+            ));
+        }
+        if only.contains("bs") {
+            inputs.push(("B-spline", warp_bspline(&lf, &truth)));
+        }
+        for (label, stage) in [("EPI", StageSelect::Epi), ("full", StageSelect::Full)] {
+            let mut line = format!("{name} {label}:");
+            let mut reference = 0.0;
+            for (k, (input, data)) in inputs.iter().enumerate() {
+                let d = run(data, &spec, Params::default(), stage);
+                let s = badpix(&d, &gt, n);
+                if k == 0 {
+                    reference = s;
+                }
+                line += &format!(
+                    " | {input} {s:.2} ({:+.1} %)",
+                    100.0 * (s / reference - 1.0)
+                );
+            }
+            eprintln!("{line}");
+        }
     }
 }

@@ -76,12 +76,19 @@ fn run(data: &[u8], layout: Layout, params: &AlignParams) -> (align::AlignReport
 }
 
 /// Every view of `lf` warped by `hs` into `O` (the pipeline's default interpolation).
-fn warp_all<O: align::WarpSample>(lf: &LightField<'_, u8>, hs: &[Homography]) -> Vec<O> {
+fn warp_all<O: align::WarpSample + lfdepth::Sample>(
+    lf: &LightField<'_, u8>,
+    hs: &[Homography],
+) -> Vec<O> {
     let l = lf.layout();
     let view = l.width * l.height * l.channels;
     let mut out = vec![O::default(); l.validate().unwrap()];
+    let how = Interpolation::default();
     for (v, chunk) in out.chunks_exact_mut(view).enumerate() {
-        warp_rows_with(lf, hs, v, 0..l.height, Interpolation::default(), chunk).unwrap();
+        warp_rows_with(lf, hs, v, 0..l.height, how, chunk).unwrap();
+        if how == Interpolation::SharpenedBilinear {
+            align::sharpen_columns(l, hs, v, chunk).unwrap();
+        }
     }
     out
 }

@@ -134,7 +134,11 @@ fn warping_with_the_true_homographies_restores_the_ideal_views() {
     };
     let before = mad(&data);
     let mut after = Vec::new();
-    for how in [Interpolation::Bilinear, Interpolation::CatmullRom] {
+    for how in [
+        Interpolation::Bilinear,
+        Interpolation::SharpenedBilinear,
+        Interpolation::CatmullRom,
+    ] {
         // Bands of 37 rows (deliberately not a divisor of the height).
         let mut warped = vec![0u8; data.len()];
         for (v, out) in warped.chunks_exact_mut(view).enumerate() {
@@ -142,6 +146,9 @@ fn warping_with_the_true_homographies_restores_the_ideal_views() {
                 let first = band * 37;
                 let rows = first..first + out.len() / (3 * n);
                 warp_rows_with(&lf, &truth, v, rows, how, out).unwrap();
+            }
+            if how == Interpolation::SharpenedBilinear {
+                align::sharpen_columns(&spec.layout(), &truth, v, out).unwrap();
             }
         }
         after.push(mad(&warped));

@@ -429,7 +429,7 @@ pub fn align_views<S: Sample, A: WarpSample + Sample>(
 /// view pixels, one per view) into `aligned` ([`aligned_len`] elements, the plan's
 /// layout) with `params.align.interpolation`; the other views of `aligned` are left as
 /// they were.
-pub fn warp_views<S: Sample, A: WarpSample>(
+pub fn warp_views<S: Sample, A: WarpSample + Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
@@ -469,6 +469,13 @@ pub fn warp_views<S: Sample, A: WarpSample>(
                 plan.params().align.interpolation,
                 out,
             )?;
+        }
+        if plan.params().align.interpolation == align::Interpolation::SharpenedBilinear {
+            let start = view * layout.view_stride;
+            let out = aligned.get_mut(start..).ok_or(Error::SizeOverflow {
+                what: "the aligned light field",
+            })?;
+            align::sharpen_columns(&layout, homographies, view, out)?;
         }
     }
     report(progress, STAGE_WARP, views, views)

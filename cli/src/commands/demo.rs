@@ -56,7 +56,7 @@ pub struct DemoArgs {
     #[arg(long, value_enum, default_value_t = AlignChoice::Auto)]
     pub align: AlignChoice,
     /// Alignment: how the views are resampled, `bilinear` or `catmull-rom` (sharper).
-    #[arg(long, value_enum, value_name = "KERNEL", default_value_t = AlignInterp::Bilinear)]
+    #[arg(long, value_enum, value_name = "KERNEL", default_value_t = AlignInterp::SharpenedBilinear)]
     pub align_interp: AlignInterp,
     /// Alignment: which views get a homography, `read`, `cross` or `all`.
     #[arg(long, value_enum, value_name = "VIEWS", default_value_t = AlignViewsChoice::Read)]

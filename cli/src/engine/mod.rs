@@ -300,6 +300,9 @@ fn warp_parallel<S: Sample + Sync>(
                     }
                     Ok::<(), lfdepth::Error>(())
                 })?;
+            if plan.params().align.interpolation == align::Interpolation::SharpenedBilinear {
+                align::sharpen_columns(&layout, homographies, view, samples)?;
+            }
             tracker.add(1);
             Ok(())
         })
