@@ -748,6 +748,20 @@ fn offset_sensitivity() {
     }
 }
 
+/// The disparity map `engine::estimate` gives for the views `data` of `spec` with
+/// `params`, run as far as `stage`.
+fn engine_map(data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect) -> Vec<f32> {
+    let lf = LightField::new(data, spec.layout()).unwrap();
+    let options = EstimateOptions {
+        params,
+        stage,
+        threads: None,
+    };
+    engine::estimate(&lf, &options, &mut |_, _, _| {})
+        .unwrap()
+        .disparity
+}
+
 /// The final disparity (every stage, `StageSelect::Full`) of the aligned arrays against
 /// the rectified one (a measurement, run by hand): the pipeline's cross-only estimate
 /// and every view, bilinear, sharpened bilinear (the default) and Catmull–Rom, after
@@ -827,17 +841,7 @@ fn final_disparity() {
 #[ignore]
 fn final_stages() {
     let n = SIZE;
-    let run = |data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect| {
-        let lf = LightField::new(data, spec.layout()).unwrap();
-        let options = EstimateOptions {
-            params,
-            stage,
-            threads: None,
-        };
-        engine::estimate(&lf, &options, &mut |_, _, _| {})
-            .unwrap()
-            .disparity
-    };
+    let run = engine_map;
     let no_refine = {
         let mut p = Params::default();
         p.refine.enabled = false;
@@ -1224,17 +1228,7 @@ fn sharpen_adaptive(data: &mut [f32], l: &lfdepth::Layout, hs: &[Homography], k:
 #[ignore]
 fn session7_probe() {
     let n = SIZE;
-    let run = |data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect| {
-        let lf = LightField::new(data, spec.layout()).unwrap();
-        let options = EstimateOptions {
-            params,
-            stage,
-            threads: None,
-        };
-        engine::estimate(&lf, &options, &mut |_, _, _| {})
-            .unwrap()
-            .disparity
-    };
+    let run = engine_map;
     let only = std::env::var("PROBE").unwrap_or_default();
     for scene in [SceneKind::Planes, SceneKind::Mixed] {
         let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
