@@ -180,24 +180,58 @@ impl<S: Sample> Source<'_, S> {
     /// Bilinear sample of every channel at `(u, v)`, clamped to the view.
     #[inline(always)]
     fn bilinear<O: WarpSample>(&self, u: f32, v: f32, px: &mut [O]) {
+        let cell = self.cell(u, v);
+        for (c, o) in px.iter_mut().enumerate() {
+            *o = O::from_unit(self.lerp(&cell, c));
+        }
+    }
+
+    /// The bilinear cell of `(u, v)` clamped to the view: its first sample's index, the
+    /// index steps to the right and lower neighbours (0 on the last column / row), and
+    /// the phases `(fx, fy)`.
+    #[inline(always)]
+    fn cell(&self, u: f32, v: f32) -> Cell {
         let (w, h, ch) = (self.width, self.height, self.channels);
         // NaN (a point at infinity) clamps to the origin: `max` returns the other operand.
         let u = u.max(0.0).min((w - 1) as f32);
         let v = v.max(0.0).min((h - 1) as f32);
         let (x0, y0) = (u as usize, v as usize);
-        let (fx, fy) = (u - x0 as f32, v - y0 as f32);
-        let dx = if x0 + 1 < w { ch } else { 0 };
-        let dy = if y0 + 1 < h { self.row_stride } else { 0 };
-        let i = y0 * self.row_stride + x0 * ch;
-        for (c, o) in px.iter_mut().enumerate() {
-            let at = |k: usize| self.data.get(k).map_or(0.0, |s| s.to_unit());
-            let (a, b) = (at(i + c), at(i + c + dx));
-            let top = a + fx * (b - a);
-            let (a, b) = (at(i + c + dy), at(i + c + dy + dx));
-            let bottom = a + fx * (b - a);
-            *o = O::from_unit(top + fy * (bottom - top));
+        Cell {
+            index: y0 * self.row_stride + x0 * ch,
+            dx: if x0 + 1 < w { ch } else { 0 },
+            dy: if y0 + 1 < h { self.row_stride } else { 0 },
+            fx: u - x0 as f32,
+            fy: v - y0 as f32,
         }
     }
+
+    /// Channel `c` of the bilinear sample in `cell`.
+    #[inline(always)]
+    fn lerp(&self, cell: &Cell, c: usize) -> f32 {
+        let Cell {
+            index: i,
+            dx,
+            dy,
+            fx,
+            fy,
+        } = *cell;
+        let at = |k: usize| self.data.get(k).map_or(0.0, |s| s.to_unit());
+        let (a, b) = (at(i + c), at(i + c + dx));
+        let top = a + fx * (b - a);
+        let (a, b) = (at(i + c + dy), at(i + c + dy + dx));
+        let bottom = a + fx * (b - a);
+        top + fy * (bottom - top)
+    }
+}
+
+/// Where a bilinear sample reads (see [`Source::cell`]).
+#[derive(Clone, Copy)]
+struct Cell {
+    index: usize,
+    dx: usize,
+    dy: usize,
+    fx: f32,
+    fy: f32,
 }
 
 /// Weight `a` of the two neighbours in the sharpening of a bilinear sample at phase `t`
@@ -209,27 +243,15 @@ fn sharpening(t: f32) -> f32 {
 
 impl<S: Sample> Source<'_, S> {
     /// Bilinear sample of `C` channels at `(u, v)` (as [`Source::bilinear`], kept in
-    /// `f32`) and the phase of `u`.
+    /// `f32`; `C` is the view's channel count) and the phase of `u`.
     #[inline(always)]
     fn bilinear_lanes<const C: usize>(&self, u: f32, v: f32) -> ([f32; C], f32) {
-        let (w, h) = (self.width, self.height);
-        let u = u.max(0.0).min((w - 1) as f32);
-        let v = v.max(0.0).min((h - 1) as f32);
-        let (x0, y0) = (u as usize, v as usize);
-        let (fx, fy) = (u - x0 as f32, v - y0 as f32);
-        let dx = if x0 + 1 < w { C } else { 0 };
-        let dy = if y0 + 1 < h { self.row_stride } else { 0 };
-        let i = y0 * self.row_stride + x0 * C;
+        let cell = self.cell(u, v);
         let mut value = [0.0f32; C];
         for (c, o) in value.iter_mut().enumerate() {
-            let at = |k: usize| self.data.get(k).map_or(0.0, |s| s.to_unit());
-            let (a, b) = (at(i + c), at(i + c + dx));
-            let top = a + fx * (b - a);
-            let (a, b) = (at(i + c + dy), at(i + c + dy + dx));
-            let bottom = a + fx * (b - a);
-            *o = top + fy * (bottom - top);
+            *o = self.lerp(&cell, c);
         }
-        (value, fx)
+        (value, cell.fx)
     }
 
     /// One output row of [`Interpolation::SharpenedBilinear`]'s horizontal pass.
