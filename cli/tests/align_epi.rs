@@ -1011,29 +1011,43 @@ fn refine_through_homographies() {
 }
 
 /// Separable 3-tap blur `[a, 1 − 2a, a]` of every view, in place (borders repeat).
-#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
 fn blur3(data: &mut [f32], l: &lfdepth::Layout, a: f32) {
+    let mut tmp = vec![0.0f32; l.width * l.height * l.channels];
+    for view in data.chunks_exact_mut(l.width * l.height * l.channels) {
+        three_tap(view, &mut tmp, l, |_, _| (a, a));
+    }
+}
+
+/// Separable 3-tap filter `[a, 1 − 2a, a]` of one view in place (borders repeat), whose
+/// weight `a` at pixel `(x, y)` is `weights(x, y).0` across the row and `.1` down the
+/// column; `tmp` holds the view between the passes.
+#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
+fn three_tap(
+    view: &mut [f32],
+    tmp: &mut [f32],
+    l: &lfdepth::Layout,
+    weights: impl Fn(usize, usize) -> (f32, f32),
+) {
     let (w, h, ch) = (l.width, l.height, l.channels);
-    let mut tmp = vec![0.0f32; w * h * ch];
-    for view in data.chunks_exact_mut(w * h * ch) {
-        for y in 0..h {
-            for x in 0..w {
-                for c in 0..ch {
-                    let at = |xx: usize| view[(y * w + xx) * ch + c];
-                    tmp[(y * w + x) * ch + c] = a * at(x.saturating_sub(1))
-                        + (1.0 - 2.0 * a) * at(x)
-                        + a * at((x + 1).min(w - 1));
-                }
+    for y in 0..h {
+        for x in 0..w {
+            let a = weights(x, y).0;
+            for c in 0..ch {
+                let at = |xx: usize| view[(y * w + xx) * ch + c];
+                tmp[(y * w + x) * ch + c] = a * at(x.saturating_sub(1))
+                    + (1.0 - 2.0 * a) * at(x)
+                    + a * at((x + 1).min(w - 1));
             }
         }
-        for y in 0..h {
-            for x in 0..w {
-                for c in 0..ch {
-                    let at = |yy: usize| tmp[(yy * w + x) * ch + c];
-                    view[(y * w + x) * ch + c] = a * at(y.saturating_sub(1))
-                        + (1.0 - 2.0 * a) * at(y)
-                        + a * at((y + 1).min(h - 1));
-                }
+    }
+    for y in 0..h {
+        for x in 0..w {
+            let a = weights(x, y).1;
+            for c in 0..ch {
+                let at = |yy: usize| tmp[(yy * w + x) * ch + c];
+                view[(y * w + x) * ch + c] = a * at(y.saturating_sub(1))
+                    + (1.0 - 2.0 * a) * at(y)
+                    + a * at((y + 1).min(h - 1));
             }
         }
     }
@@ -1181,43 +1195,21 @@ fn warp_mixed_kernel(
 /// Every non-centre view of a bilinearly warped array sharpened by a separable 3-tap
 /// `[a, 1 − 2a, a]` whose `a = −k·t(1 − t)/2` undoes the variance `t(1 − t)` that
 /// bilinear interpolation at phase `t` adds (per axis, per pixel); `k = 0` leaves it.
-#[allow(clippy::needless_range_loop)] // Index loops read as the formulas.
 fn sharpen_adaptive(data: &mut [f32], l: &lfdepth::Layout, hs: &[Homography], k: f32) {
-    let (w, h, ch) = (l.width, l.height, l.channels);
     let centre = l.grid.len() / 2;
-    let mut tmp = vec![0.0f32; w * h * ch];
-    for (v, view) in data.chunks_exact_mut(w * h * ch).enumerate() {
+    let mut tmp = vec![0.0f32; l.width * l.height * l.channels];
+    for (v, view) in data
+        .chunks_exact_mut(l.width * l.height * l.channels)
+        .enumerate()
+    {
         if v == centre {
             continue;
         }
-        let phase = |x: usize, y: usize| {
+        three_tap(view, &mut tmp, l, |x, y| {
             let (u, vv) = hs[v].apply(x as f32, y as f32).unwrap();
-            (u - u.floor(), vv - vv.floor())
-        };
-        for y in 0..h {
-            for x in 0..w {
-                let (t, _) = phase(x, y);
-                let a = -k * t * (1.0 - t) / 2.0;
-                for c in 0..ch {
-                    let at = |xx: usize| view[(y * w + xx) * ch + c];
-                    tmp[(y * w + x) * ch + c] = a * at(x.saturating_sub(1))
-                        + (1.0 - 2.0 * a) * at(x)
-                        + a * at((x + 1).min(w - 1));
-                }
-            }
-        }
-        for y in 0..h {
-            for x in 0..w {
-                let (_, t) = phase(x, y);
-                let a = -k * t * (1.0 - t) / 2.0;
-                for c in 0..ch {
-                    let at = |yy: usize| tmp[(yy * w + x) * ch + c];
-                    view[(y * w + x) * ch + c] = a * at(y.saturating_sub(1))
-                        + (1.0 - 2.0 * a) * at(y)
-                        + a * at((y + 1).min(h - 1));
-                }
-            }
-        }
+            let (tx, ty) = (u - u.floor(), vv - vv.floor());
+            (-k * tx * (1.0 - tx) / 2.0, -k * ty * (1.0 - ty) / 2.0)
+        });
     }
 }
 
