@@ -193,13 +193,6 @@ pub fn filter_rows_again<S: Sample>(
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    if previous.len() != input.len() {
-        return Err(Error::OutputSize {
-            what: "the median's previous input",
-            needed: input.len(),
-            got: previous.len(),
-        });
-    }
     run(plan, guide, input, Some(previous), rows, out, None, scratch)
 }
 
@@ -228,15 +221,6 @@ pub fn filter_pass<S: Sample>(
     settled: &mut [u8],
     scratch: &mut [f32],
 ) -> Result<()> {
-    if let Some(previous) = previous {
-        if previous.len() != input.len() {
-            return Err(Error::OutputSize {
-                what: "the median's previous input",
-                needed: input.len(),
-                got: previous.len(),
-            });
-        }
-    }
     if settled.len() != out.len() {
         return Err(Error::OutputSize {
             what: "the median's settled pixels (one byte per pixel of the band)",
@@ -267,6 +251,15 @@ fn run<S: Sample>(
     mut settled: Option<&mut [u8]>,
     scratch: &mut [f32],
 ) -> Result<()> {
+    if let Some(previous) = previous {
+        if previous.len() != input.len() {
+            return Err(Error::OutputSize {
+                what: "the median's previous input",
+                needed: input.len(),
+                got: previous.len(),
+            });
+        }
+    }
     let (width, height) = check(plan, guide, input)?;
     if rows.start > rows.end || rows.end > height {
         return Err(Error::OutOfRange {
