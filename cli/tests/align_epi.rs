@@ -50,9 +50,7 @@ fn warp_all(lf: &LightField<'_, u8>, hs: &[Homography], how: Interpolation) -> V
     let mut out = vec![0.0f32; l.validate().unwrap()];
     for (v, chunk) in out.chunks_exact_mut(view).enumerate() {
         warp_rows_with(lf, hs, v, 0..l.height, how, chunk).unwrap();
-        if how == Interpolation::SharpenedBilinear {
-            align::sharpen_columns(l, hs, v, chunk).unwrap();
-        }
+        align::finish_view(l, hs, v, how, chunk).unwrap();
     }
     out
 }

@@ -86,9 +86,7 @@ fn warp_all<O: align::WarpSample + lfdepth::Sample>(
     let how = Interpolation::default();
     for (v, chunk) in out.chunks_exact_mut(view).enumerate() {
         warp_rows_with(lf, hs, v, 0..l.height, how, chunk).unwrap();
-        if how == Interpolation::SharpenedBilinear {
-            align::sharpen_columns(l, hs, v, chunk).unwrap();
-        }
+        align::finish_view(l, hs, v, how, chunk).unwrap();
     }
     out
 }

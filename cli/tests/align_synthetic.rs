@@ -147,9 +147,7 @@ fn warping_with_the_true_homographies_restores_the_ideal_views() {
                 let rows = first..first + out.len() / (3 * n);
                 warp_rows_with(&lf, &truth, v, rows, how, out).unwrap();
             }
-            if how == Interpolation::SharpenedBilinear {
-                align::sharpen_columns(&spec.layout(), &truth, v, out).unwrap();
-            }
+            align::finish_view(&spec.layout(), &truth, v, how, out).unwrap();
         }
         after.push(mad(&warped));
         eprintln!(

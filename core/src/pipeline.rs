@@ -470,13 +470,17 @@ pub fn warp_views<S: Sample, A: WarpSample + Sample>(
                 out,
             )?;
         }
-        if plan.params().align.interpolation == align::Interpolation::SharpenedBilinear {
-            let start = view * layout.view_stride;
-            let out = aligned.get_mut(start..).ok_or(Error::SizeOverflow {
-                what: "the aligned light field",
-            })?;
-            align::sharpen_columns(&layout, homographies, view, out)?;
-        }
+        let start = view * layout.view_stride;
+        let out = aligned.get_mut(start..).ok_or(Error::SizeOverflow {
+            what: "the aligned light field",
+        })?;
+        align::finish_view(
+            &layout,
+            homographies,
+            view,
+            plan.params().align.interpolation,
+            out,
+        )?;
     }
     report(progress, STAGE_WARP, views, views)
 }

@@ -300,9 +300,13 @@ fn warp_parallel<S: Sample + Sync>(
                     }
                     Ok::<(), lfdepth::Error>(())
                 })?;
-            if plan.params().align.interpolation == align::Interpolation::SharpenedBilinear {
-                align::sharpen_columns(&layout, homographies, view, samples)?;
-            }
+            align::finish_view(
+                &layout,
+                homographies,
+                view,
+                plan.params().align.interpolation,
+                samples,
+            )?;
             tracker.add(1);
             Ok(())
         })
@@ -411,7 +415,7 @@ fn median_parallel<S: Sample + Sync>(
     tracker: &Tracker<'_>,
 ) -> Result<Vec<f32>, lfdepth::Error> {
     // 32 rows: each band reloads the window's 14 halo rows into its ring and re-counts
-    // them, which cost 16-row bands 4 % (cotton) / 4 % (backgammon) more of the stage's
+    // them, which cost 16-row bands about 4 % more of the stage's
     // instructions (docs/bench-median.md, session 7); 16 bands of a 512-row map still
     // balance across threads.
     const BAND_ROWS: usize = 32;

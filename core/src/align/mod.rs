@@ -56,7 +56,9 @@ use crate::geometry::Homography;
 use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
 
 pub use gauge::{gauge_fit, gauge_fit_where, gauge_rms, reprojection_rms, GaugeFit};
-pub use warp::{sharpen_columns, warp_band, warp_rows, warp_rows_with, Interpolation, WarpSample};
+pub use warp::{
+    finish_view, sharpen_columns, warp_band, warp_rows, warp_rows_with, Interpolation, WarpSample,
+};
 
 /// Most corners tracked from the centre view (compile-time capacity).
 pub const MAX_FEATURES: usize = 512;

@@ -79,7 +79,7 @@ pub fn warp_rows<S: Sample, O: WarpSample>(
 
 /// [`warp_rows`] with the given interpolation. With
 /// [`Interpolation::SharpenedBilinear`] this writes the bilinear samples sharpened along
-/// the rows only; [`sharpen_columns`] completes the view once all its rows are written.
+/// the rows only; [`finish_view`] completes the view once all its rows are written.
 pub fn warp_rows_with<S: Sample, O: WarpSample>(
     lf: &LightField<'_, S>,
     homographies: &[Homography],
@@ -294,6 +294,22 @@ impl<S: Sample> Source<'_, S> {
             centre = right;
             phase = next_phase;
         }
+    }
+}
+
+/// Completes view `view` once [`warp_rows_with`] has written all its rows into `out`
+/// with `interpolation`: the column pass of [`Interpolation::SharpenedBilinear`]
+/// ([`sharpen_columns`]); the other kernels are complete after their rows, so nothing.
+pub fn finish_view<O: WarpSample + Sample>(
+    layout: &crate::lightfield::Layout,
+    homographies: &[Homography],
+    view: usize,
+    interpolation: Interpolation,
+    out: &mut [O],
+) -> Result<()> {
+    match interpolation {
+        Interpolation::SharpenedBilinear => sharpen_columns(layout, homographies, view, out),
+        Interpolation::Bilinear | Interpolation::CatmullRom => Ok(()),
     }
 }
 
