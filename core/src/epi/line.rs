@@ -128,6 +128,16 @@ const COARSE_VIEWS: usize = 2;
 /// pipeline; 0.2 and 0.25 cost cotton's pipeline MSE +0.03 / +0.08 (docs/bench-epi.md,
 /// session 5).
 const NEAR: f32 = 0.15;
+/// A sample the coarse pass brackets between two fine shears is not tested at the upper
+/// one when its fine residual slope at the lower one puts it less than this many shear
+/// steps above that one (the lower one is then its nearest) with at least
+/// `SETTLE_COHERENCE` (see `Guide::settle`): −8 % / −12 % of the fine pass's tensor samples
+/// on HCI cotton / backgammon; 0.3 steps without the coherence test cost backgammon's
+/// pipeline MSE×100 +0.028, and settling residuals below the lower shear too +0.035
+/// (docs/bench-epi.md, session 8).
+const FINE_NEAR: f32 = 0.5;
+/// See `FINE_NEAR`: 0.9 keeps both HCI scenes' pipeline scores within +0.02 MSE×100.
+const SETTLE_COHERENCE: f32 = 0.9;
 /// Residual slope and coherence of the smoothed tensor at the samples `range` into
 /// `tensor.jxx` / `tensor.jxk` (coherence < 0 marks a degenerate tensor: no texture, or an
 /// orientation no window holds). Normalised by the trace so that fixed point never
@@ -266,8 +276,8 @@ struct State<'a, T> {
 /// closer than `reach[t]` to `estimate[t]` (`T::MAX` where the coarse pass found no
 /// estimate inside a window: every hypothesis).
 struct Guide<'a, T> {
-    estimate: &'a [T],
-    reach: &'a [T],
+    estimate: &'a mut [T],
+    reach: &'a mut [T],
 }
 
 impl<T: Scalar> Guide<'_, T> {
@@ -277,6 +287,50 @@ impl<T: Scalar> Guide<'_, T> {
         match (self.estimate.get(t), self.reach.get(t)) {
             (Some(&estimate), Some(&reach)) => (shear - estimate).abs() < reach,
             _ => true,
+        }
+    }
+
+    /// After hypothesis `shear` was scored at the samples `range`: a sample the coarse
+    /// pass placed (finite reach) that needs `shear` and `next`, whose residual there
+    /// (`state.prev_r`, inside the window: `state.prev_c ≥ 0`) lies in `0 ≤ r < below`
+    /// and whose coherence there is at least `SETTLE_COHERENCE`, needs no further
+    /// hypothesis: its zero crossing with `next` would lie within `below` of `shear`,
+    /// where the fine residual slope is nearly unbiased on coherent texture (the crossings'
+    /// residual gap is within 5 % of the shear step on 83 % / 80 % of the HCI cotton /
+    /// backgammon crossings, docs/bench-epi.md, session 8). Its score becomes the top one.
+    fn settle(
+        &mut self,
+        state: &mut State<'_, T>,
+        shear: T,
+        next: T,
+        below: T,
+        range: Range<usize>,
+    ) {
+        let coherent = T::from_f32(SETTLE_COHERENCE);
+        let (Some(estimate), Some(reach), Some(residual), Some(coherence), Some(score)) = (
+            self.estimate.get(range.clone()),
+            self.reach.get_mut(range.clone()),
+            state.prev_r.get(range.clone()),
+            state.prev_c.get(range.clone()),
+            state.score.get_mut(range),
+        ) else {
+            return;
+        };
+        for ((((&e, reach), &r), &c), score) in estimate
+            .iter()
+            .zip(reach.iter_mut())
+            .zip(residual)
+            .zip(coherence)
+            .zip(score.iter_mut())
+        {
+            let placed = *reach < T::MAX;
+            let both = ((shear - e).abs() < *reach) & ((next - e).abs() < *reach);
+            let settled = placed & both & (c >= coherent) & (r >= T::ZERO) & (r < below);
+            *reach = if settled { T::ZERO } else { *reach };
+            // No later candidate beats the top score: a run that passes over the sample
+            // (a merged gap) leaves its estimate alone, which then depends on its own
+            // residual only, not on its neighbours' runs.
+            *score = if settled { T::MAX } else { *score };
         }
     }
 }
@@ -794,9 +848,10 @@ impl<T: Scalar> LineEstimator<T> {
         bank: &mut [T],
         tensor: &mut Tensor<'_, T>,
         state: &mut State<'_, T>,
-        guide: Option<Guide<'_, T>>,
+        mut guide: Option<Guide<'_, T>>,
     ) {
         let n = planes.n;
+        let settle_below = T::from_f32(FINE_NEAR * hyps.step());
         let degenerate = T::from_f32(DEGENERATE);
         let lowest = T::from_f32(DEGENERATE - 1.0);
         state.best_d.fill(T::ZERO);
@@ -809,14 +864,14 @@ impl<T: Scalar> LineEstimator<T> {
         for i in 0..hyps.count() {
             let shear = hyps.shear(i);
             let shear_t = T::from_f32(shear);
-            let needs = |t: usize| match &guide {
+            let needs = |guide: &Option<Guide<'_, T>>, t: usize| match guide {
                 None => true,
                 Some(g) => g.needs(t, shear_t),
             };
             let sources = self.sources(planes, bank, shear, slots.clone());
             let mut t = 0;
             while t < n {
-                if !needs(t) {
+                if !needs(&guide, t) {
                     // Not tested here: no zero crossing with the next hypothesis.
                     if let Some(c) = state.prev_c.get_mut(t) {
                         *c = degenerate;
@@ -828,7 +883,7 @@ impl<T: Scalar> LineEstimator<T> {
                 let mut end = t + 1;
                 let mut probe = t + 1;
                 while probe < n && probe < end + merge {
-                    if needs(probe) {
+                    if needs(&guide, probe) {
                         end = probe + 1;
                     }
                     probe += 1;
@@ -847,6 +902,12 @@ impl<T: Scalar> LineEstimator<T> {
                 self.outer.apply_range(jxk, sums.sxk, start..end);
                 self.outer.apply_range(jkk, sums.skk, start..end);
                 self.score(hyps, i, sums, state, start..end);
+                if let Some(g) = guide.as_mut() {
+                    if i + 1 < hyps.count() {
+                        let next = T::from_f32(hyps.shear(i + 1));
+                        g.settle(state, shear_t, next, settle_below, start..end);
+                    }
+                }
                 // The samples the probe passed after the run are not needed either.
                 for c in state.prev_c.get_mut(end..probe).unwrap_or_default() {
                     *c = degenerate;
