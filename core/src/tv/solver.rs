@@ -1251,6 +1251,13 @@ fn external_flow<P: Sample>(
 #[inline]
 pub(crate) fn data_weight(confidence: f32, params: &TvParams) -> f32 {
     let c = confidence.clamp(0.0, 1.0);
+    // The defaults (power 1, threshold 0) in a branch-free form with the same values
+    // (`c > 0` selects `c` itself, `c = 0` adds nothing), tested first: the test is the
+    // same for every node, so the compiler takes it out of the setup's per-node loops,
+    // which then vectorise (the general form below branches per node).
+    if params.confidence_power == 1.0 && params.confidence_threshold == 0.0 {
+        return c + params.tikhonov;
+    }
     let reliable = if c >= params.confidence_threshold && c > 0.0 {
         // `powf(c, 1) == c` exactly; the default power skips the call (a third of setup).
         if params.confidence_power == 1.0 {
