@@ -432,7 +432,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
         region: Rect,
     ) {
         match (guide, maps.dual) {
-            (Guide::View(view), None) => self.view_weights_by_row(maps, view, params, region),
+            (Guide::View(view), None) => self.weights_from_view(maps, view, params, region),
             _ => self.weights_by_node(maps, guide, params, region),
         }
         self.norm = params.norm;
@@ -584,63 +584,111 @@ impl<'s, S: Scalar> Graph<'s, S> {
         }
     }
 
-    /// The edge weights from the guide view without a previous dual, a row at a time
-    /// (the same values as [`Self::weights_by_node`]): the colour steps of the row in
-    /// one pass, the weights of them in another, which vectorise.
-    fn view_weights_by_row<P: Sample>(
+    /// The edge weights from the guide view without a previous dual (the same values as
+    /// [`Self::weights_by_node`]), a block of columns at a time down the region
+    /// ([`Self::view_weights_by_block`]) for every layout a view has (1, 3 or 4 samples
+    /// per pixel).
+    fn weights_from_view<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
         view: &View<'_, P>,
         params: &TvParams,
         region: Rect,
     ) {
+        match view.channels() {
+            1 => self.view_weights_by_block::<P, 1, 1>(view, params, region),
+            3 => self.view_weights_by_block::<P, 3, 3>(view, params, region),
+            4 => self.view_weights_by_block::<P, 4, 3>(view, params, region),
+            _ => self.weights_by_node(maps, &Guide::View(*view), params, region),
+        }
+    }
+
+    /// [`Self::weights_from_view`] for `CH` samples per pixel, `USED` of them compared: the
+    /// region is walked in blocks of [`STEP_BLOCK`] columns, each from its top row down,
+    /// so every image row of a block is turned into unit intensity once — as the lower
+    /// row of one row's vertical steps and then as the next row's own — instead of twice
+    /// (row by row, each row was converted again as the one below the previous row).
+    /// The same values as [`colour_step`] per pixel: the largest of non-negative
+    /// differences (the samples are finite) does not depend on the order it is taken in,
+    /// so the differences and the largest of them run in vector lanes, a channel at a time.
+    fn view_weights_by_block<P: Sample, const CH: usize, const USED: usize>(
+        &mut self,
+        view: &View<'_, P>,
+        params: &TvParams,
+        region: Rect,
+    ) {
         let (w, h) = (self.width, self.height);
-        let ch = view.channels();
-        for y in 0..h {
-            let gy = region.y + y;
-            let r = y * w..(y + 1) * w;
-            let (Some(oh), Some(ov)) = (self.wh.get_mut(r.clone()), self.wv.get_mut(r)) else {
-                continue;
-            };
+        let weight =
+            |step: f32| S::from_f32(edge_weight(step, params.edge_sigma, params.edge_floor));
+        // The block's pixels of image row `gy` and the one right of the block (when the
+        // image has them) into `out`, in unit intensity; returns how many there were.
+        let load = |gy: usize, first: usize, n: usize, out: &mut [[f32; STEP_BLOCK + 1]; USED]| {
             let row = view.row(gy).unwrap_or_default();
-            let below = view.row(gy + 1).unwrap_or_default();
-            let start = region.x * ch;
-            // The region's pixels and the one right of it (when the map has it).
-            let here = row.get(start..).unwrap_or_default();
-            let under = below.get(start..).unwrap_or_default();
-            // Blocks of pixels through f32 steps on the stack (the weights are `S`).
-            let (mut right, mut down) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
-            let blocks = oh.chunks_mut(STEP_BLOCK).zip(ov.chunks_mut(STEP_BLOCK));
-            for (b, (bh, bv)) in blocks.enumerate() {
-                let first = b * STEP_BLOCK * ch;
-                let (Some(right), Some(down)) =
-                    (right.get_mut(..bh.len()), down.get_mut(..bv.len()))
-                else {
-                    continue; // blocks hold at most STEP_BLOCK pixels
+            let pixels = row.get((region.x + first) * CH..).unwrap_or_default();
+            let mut known = 0;
+            for (x, pixel) in pixels.chunks_exact(CH).take(n + 1).enumerate() {
+                for (channel, &v) in out.iter_mut().zip(pixel) {
+                    if let Some(u) = channel.get_mut(x) {
+                        *u = v.to_unit();
+                    }
+                }
+                known = x + 1;
+            }
+            known
+        };
+        let mut here = [[0.0f32; STEP_BLOCK + 1]; USED];
+        let mut under = [[0.0f32; STEP_BLOCK + 1]; USED];
+        for first in (0..w).step_by(STEP_BLOCK) {
+            let n = STEP_BLOCK.min(w - first);
+            let mut known = load(region.y, first, n, &mut here);
+            for y in 0..h {
+                let r = y * w + first..y * w + first + n;
+                let (Some(oh), Some(ov)) = (self.wh.get_mut(r.clone()), self.wv.get_mut(r)) else {
+                    continue;
                 };
-                colour_steps_of_row(
-                    here.get(first..).unwrap_or_default(),
-                    under.get(first..).unwrap_or_default(),
-                    ch,
-                    right,
-                    down,
-                );
-                let weight = |step: f32| {
-                    S::from_f32(edge_weight(step, params.edge_sigma, params.edge_floor))
+                // The last row's vertical edges are cut (the region's or the map's end).
+                let known_below = if y + 1 < h {
+                    load(region.y + y + 1, first, n, &mut under)
+                } else {
+                    0
                 };
-                for (e, &step) in bh.iter_mut().zip(right.iter()) {
+                let (mut right, mut down) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
+                // A missing neighbour leaves its step at 0.
+                let with_right = n.min(known.saturating_sub(1));
+                let with_down = n.min(known_below);
+                if let (Some(right), Some(down)) =
+                    (right.get_mut(..with_right), down.get_mut(..with_down))
+                {
+                    for (channel, channel_below) in here.iter().zip(&under) {
+                        let next = channel.iter().skip(1);
+                        for ((r, &a), &b) in right.iter_mut().zip(channel).zip(next) {
+                            let d = libm::fabsf(a - b);
+                            *r = if d > *r { d } else { *r };
+                        }
+                        for ((r, &a), &b) in down.iter_mut().zip(channel).zip(channel_below) {
+                            let d = libm::fabsf(a - b);
+                            *r = if d > *r { d } else { *r };
+                        }
+                    }
+                }
+                for (e, &step) in oh.iter_mut().zip(right.iter()) {
                     *e = weight(step);
                 }
-                for (e, &step) in bv.iter_mut().zip(down.iter()) {
-                    *e = weight(step);
+                if y + 1 < h {
+                    for (e, &step) in ov.iter_mut().zip(down.iter()) {
+                        *e = weight(step);
+                    }
+                } else {
+                    ov.fill(S::ZERO);
                 }
-            }
-            // Edges leaving the region (or the map) are cut.
-            if let Some(last) = oh.last_mut() {
-                *last = S::ZERO;
-            }
-            if y + 1 == h || gy + 1 >= maps.height || under.is_empty() {
-                ov.fill(S::ZERO);
+                // The region's last column: its horizontal edge is cut.
+                if first + n == w {
+                    if let Some(last) = oh.last_mut() {
+                        *last = S::ZERO;
+                    }
+                }
+                core::mem::swap(&mut here, &mut under);
+                known = known_below;
             }
         }
     }
@@ -1298,98 +1346,9 @@ const METRIC_STIFFNESS: f32 = 4.0;
 /// Largest `k` of the metric (`s = 2^-k`).
 const METRIC_MAX_SHIFT: i32 = 6;
 
-/// Pixels per block of [`colour_steps_of_row`] in the setup (two `f32` arrays on the
-/// stack).
+/// Pixels per block of columns of [`Graph::view_weights_by_block`] in the setup (`f32`
+/// arrays on the stack).
 const STEP_BLOCK: usize = 64;
-
-/// The colour steps (largest channel difference, unit intensity) of a row's pixels to
-/// their right neighbours into `right` and to the pixels below into `down` (0 where the
-/// neighbour is missing), the same values as [`colour_step`] per pixel. `row` and
-/// `below` start at the region's first pixel, `ch` samples per pixel, the first three
-/// compared. One pass per channel layout so the common ones need no per-pixel slicing.
-fn colour_steps_of_row<P: Sample>(
-    row: &[P],
-    below: &[P],
-    ch: usize,
-    right: &mut [f32],
-    down: &mut [f32],
-) {
-    match ch {
-        1 => colour_steps_with::<P, 1, 1>(row, below, right, down),
-        3 => colour_steps_with::<P, 3, 3>(row, below, right, down),
-        4 => colour_steps_with::<P, 4, 3>(row, below, right, down),
-        _ => {
-            let used = ch.min(3);
-            for (x, (r, d)) in right.iter_mut().zip(down.iter_mut()).enumerate() {
-                let here = row.get(x * ch..x * ch + ch).unwrap_or(&[]);
-                let step = |other: &[P]| {
-                    if other.is_empty() {
-                        0.0
-                    } else {
-                        colour_step(here, other, used)
-                    }
-                };
-                *r = step(row.get((x + 1) * ch..(x + 2) * ch).unwrap_or(&[]));
-                *d = step(below.get(x * ch..x * ch + ch).unwrap_or(&[]));
-            }
-        }
-    }
-}
-
-/// [`colour_steps_of_row`] for `CH` samples per pixel, `USED` of them compared, on at
-/// most [`STEP_BLOCK`] pixels: each sample is turned into unit intensity once, into one
-/// stack array per channel, so the differences and the largest of them run in vector
-/// lanes. The same values as [`colour_step`]: the largest of non-negative differences
-/// (the samples are finite) does not depend on the order it is taken in.
-#[inline(always)]
-fn colour_steps_with<P: Sample, const CH: usize, const USED: usize>(
-    row: &[P],
-    below: &[P],
-    right: &mut [f32],
-    down: &mut [f32],
-) {
-    let mut here = [[0.0f32; STEP_BLOCK + 1]; USED];
-    let mut under = [[0.0f32; STEP_BLOCK]; USED];
-    // Pixels of the row (with the one right of the block) and of the row below.
-    let mut known = 0;
-    for (x, pixel) in row.chunks_exact(CH).take(STEP_BLOCK + 1).enumerate() {
-        for (channel, &v) in here.iter_mut().zip(pixel) {
-            if let Some(u) = channel.get_mut(x) {
-                *u = v.to_unit();
-            }
-        }
-        known = x + 1;
-    }
-    let mut known_below = 0;
-    for (x, pixel) in below.chunks_exact(CH).take(STEP_BLOCK).enumerate() {
-        for (channel, &v) in under.iter_mut().zip(pixel) {
-            if let Some(u) = channel.get_mut(x) {
-                *u = v.to_unit();
-            }
-        }
-        known_below = x + 1;
-    }
-    right.fill(0.0);
-    down.fill(0.0);
-    // A missing neighbour leaves its step at 0.
-    let with_right = right.len().min(known.saturating_sub(1));
-    let with_down = down.len().min(known_below);
-    let (right, down) = (
-        right.get_mut(..with_right).unwrap_or_default(),
-        down.get_mut(..with_down).unwrap_or_default(),
-    );
-    for (channel, channel_below) in here.iter().zip(&under) {
-        let next = channel.iter().skip(1);
-        for ((r, &a), &b) in right.iter_mut().zip(channel).zip(next) {
-            let d = libm::fabsf(a - b);
-            *r = if d > *r { d } else { *r };
-        }
-        for ((r, &a), &b) in down.iter_mut().zip(channel).zip(channel_below) {
-            let d = libm::fabsf(a - b);
-            *r = if d > *r { d } else { *r };
-        }
-    }
-}
 
 /// Edge weights to the right and down neighbours of `(x, y)` from the guide view.
 fn view_weights<P: Sample>(
@@ -2348,6 +2307,83 @@ mod tests {
             // tolerance (RMS).
             let bound = report.iterations as f32 * default.tolerance;
             assert!(off < bound, "{norm:?}: {off} px from the optimum");
+        }
+    }
+
+    #[test]
+    fn edge_weights_by_blocks_of_columns_equal_those_node_by_node() {
+        // A 150 × 9 image (more than two blocks of columns, a partial last one) with
+        // regions inside it, at its right and bottom edges and across all of it, for
+        // every layout of a view (1, 3, 4 samples).
+        let (mw, mh) = (150usize, 9usize);
+        let d = vec![0.0f32; mw * mh];
+        let c = vec![1.0f32; mw * mh];
+        let maps = Maps::new(mw, mh, &d, &c).unwrap();
+        let params = TvParams::default();
+        let regions = [
+            Rect {
+                x: 3,
+                y: 2,
+                width: 140,
+                height: 5,
+            },
+            Rect {
+                x: 10,
+                y: 4,
+                width: 140,
+                height: 5,
+            },
+            Rect {
+                x: 0,
+                y: 0,
+                width: mw,
+                height: mh,
+            },
+            Rect {
+                x: 149,
+                y: 0,
+                width: 1,
+                height: 3,
+            },
+        ];
+        let mut seed = 7u64;
+        for ch in [1usize, 3, 4] {
+            // Small steps (weights between the floor and 1) and a few large ones.
+            let data: Vec<u8> = (0..mw * mh * ch)
+                .map(|i| {
+                    let jump = if lcg(&mut seed) < 0.1 { 100.0 } else { 0.0 };
+                    ((i / ch % mw) as f32 * 0.5 + lcg(&mut seed) * 8.0 + jump) as u8
+                })
+                .collect();
+            let view = View::new(&data, mw, mh, ch, mw * ch).unwrap();
+            let guide = Guide::View(view);
+            for region in regions {
+                let n = region.width * region.height;
+                let mut a = vec![0.0f32; scratch_len_for(region.width, region.height)];
+                let mut b = a.clone();
+                let mut by_view = Graph::split(&mut a, region.width, region.height);
+                by_view.weights_from_view(&maps, &view, &params, region);
+                let mut by_node = Graph::split(&mut b, region.width, region.height);
+                by_node.weights_by_node(&maps, &guide, &params, region);
+                assert_eq!(
+                    by_view.wh[..n],
+                    by_node.wh[..n],
+                    "{ch} channels, {region:?}"
+                );
+                assert_eq!(
+                    by_view.wv[..n],
+                    by_node.wv[..n],
+                    "{ch} channels, {region:?}"
+                );
+                // The large regions see both kinds of steps.
+                if n > 100 {
+                    let (wh, wv) = (&by_view.wh[..n], &by_view.wv[..n]);
+                    let between = |w: &f32| *w > params.edge_floor && *w < 1.0;
+                    assert!(wh.iter().chain(wv).any(between), "{ch} ch., {region:?}");
+                    let floor = |w: &f32| *w == params.edge_floor;
+                    assert!(wh.iter().chain(wv).any(floor), "{ch} ch., {region:?}");
+                }
+            }
         }
     }
 
