@@ -916,9 +916,11 @@ impl<'s, S: Scalar> Graph<'s, S> {
         let w = self.width;
         let eps = GRADIENT_START_SCALE;
         let floor = |n: f32| if n > eps { n } else { eps };
-        let to_f32 = |v: &S| v.to_f32();
         // Only `F` (in `y₁`) is written: `consistent_copies` sets the copies from it.
-        // A row at a time from row slices (per-node lookups were a tenth of a solve).
+        // A row at a time, in blocks of `STEP_BLOCK` nodes through `f32` arrays on the
+        // stack: the differences, the divisions and the scaling in vector lanes, the
+        // square roots (libm's `sqrtf` is a scalar instruction) in a pass of their own —
+        // the same operations per node as one scalar loop.
         let rows = self
             .y1h
             .chunks_exact_mut(w.max(1))
@@ -941,44 +943,65 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 .disparity
                 .get(start + maps.width..start + maps.width + w)
                 .unwrap_or(d);
-            let node = |eh: &S, ev: &S, b: &S, d: f32, right: f32, down: f32| {
-                let gh = if to_f32(eh) > 0.0 { right - d } else { 0.0 };
-                let gv = if to_f32(ev) > 0.0 { down - d } else { 0.0 };
-                let (fh, fv) = match norm {
+            for first in (0..w).step_by(STEP_BLOCK) {
+                let n = STEP_BLOCK.min(w - first);
+                let block = first..first + n;
+                // Every node but the row's last has its right neighbour in the row; the
+                // last one's edge is cut (zero weight) or, at the map's edge, missing.
+                let mut right = [0.0f32; STEP_BLOCK];
+                let known = part(d_row, first + 1..(first + n + 1).min(d_row.len()));
+                copy_row(part_mut(&mut right, 0..known.len()), known);
+                let (mut gh, mut gv) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
+                let steps = gh.iter_mut().zip(gv.iter_mut());
+                let ends = part(d, block.clone()).iter().zip(right.iter());
+                let edges = part(wh, block.clone()).iter().zip(part(wv, block.clone()));
+                let downs = part(below, block.clone());
+                for (((gh, gv), (&d, &right)), ((eh, ev), &down)) in
+                    steps.zip(ends).zip(edges.zip(downs))
+                {
+                    *gh = if eh.to_f32() > 0.0 { right - d } else { 0.0 };
+                    *gv = if ev.to_f32() > 0.0 { down - d } else { 0.0 };
+                }
+                // The divisor of each component: ℓ2 the pair's norm, ℓ1 each on its own.
+                let (mut nh, mut nv) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
+                match norm {
                     TvNorm::L2 => {
-                        let n = floor(libm::sqrtf(gh * gh + gv * gv));
-                        (gh / n, gv / n)
+                        for ((n2, &gh), &gv) in nh.iter_mut().zip(&gh).zip(&gv) {
+                            *n2 = gh * gh + gv * gv;
+                        }
+                        for n in nh.iter_mut() {
+                            *n = libm::sqrtf(*n);
+                        }
+                        for (n, nv) in nh.iter_mut().zip(nv.iter_mut()) {
+                            *n = floor(*n);
+                            *nv = *n;
+                        }
                     }
-                    TvNorm::L1 => (gh / floor(libm::fabsf(gh)), gv / floor(libm::fabsf(gv))),
-                };
+                    TvNorm::L1 => {
+                        for (((nh, nv), &gh), &gv) in
+                            nh.iter_mut().zip(nv.iter_mut()).zip(&gh).zip(&gv)
+                        {
+                            *nh = floor(libm::fabsf(gh));
+                            *nv = floor(libm::fabsf(gv));
+                        }
+                    }
+                }
                 // `start_dual_at`'s scaling into the iterated variable.
-                let b = to_f32(b);
-                let factor = match norm {
-                    TvNorm::L1 => 1.0 / b,
-                    TvNorm::L2 => b,
-                };
-                let to_g = 1.0 / factor;
-                (S::from_f32(to_g * fh), S::from_f32(to_g * fv))
-            };
-            // Every node but the last has its right neighbour in the row; the last one's
-            // edge is cut (zero weight) or, at the map's edge, missing.
-            let right = part(d_row, 1..w);
-            let nodes = y1h.iter_mut().zip(y1v.iter_mut()).zip(d.iter().zip(below));
-            let edges = wh.iter().zip(wv.iter()).zip(bound.iter().zip(right));
-            for (((fh, fv), (&d, &down)), ((eh, ev), (b, &right))) in nodes.zip(edges) {
-                (*fh, *fv) = node(eh, ev, b, d, right, down);
-            }
-            if let (Some(fh), Some(fv), Some(&d), Some(&down), Some(eh), Some(ev), Some(b)) = (
-                y1h.last_mut(),
-                y1v.last_mut(),
-                d.last(),
-                below.last(),
-                wh.last(),
-                wv.last(),
-                bound.last(),
-            ) {
-                let right = d_row.get(w).copied().unwrap_or(0.0);
-                (*fh, *fv) = node(eh, ev, b, d, right, down);
+                let outs = part_mut(y1h, block.clone())
+                    .iter_mut()
+                    .zip(part_mut(y1v, block.clone()));
+                let steps = gh.iter().zip(&gv).zip(nh.iter().zip(&nv));
+                for (((fh, fv), ((&gh, &gv), (&nh, &nv))), b) in
+                    outs.zip(steps).zip(part(bound, block))
+                {
+                    let b = b.to_f32();
+                    let factor = match norm {
+                        TvNorm::L1 => 1.0 / b,
+                        TvNorm::L2 => b,
+                    };
+                    let to_g = 1.0 / factor;
+                    (*fh, *fv) = (S::from_f32(to_g * (gh / nh)), S::from_f32(to_g * (gv / nv)));
+                }
             }
         }
     }
