@@ -762,17 +762,9 @@ impl<'s, S: Scalar> Graph<'s, S> {
         // The row above the first: no upper edges (adding `sq(0) = 0` changes nothing).
         let zeros = self.rows.get_mut(..w).unwrap_or_default();
         zeros.fill(S::ZERO);
-        let node = |d: f32, c: f32, eh: S, ev: S, left: S, up: S| {
-            let a = data_weight(c, params);
-            // `‖c_i‖²`: the node's own edges, then its left and upper neighbours', in
-            // the order of `node_constants_by_node`.
-            let c2 = sq(eh) + sq(ev) + sq(left) + sq(up);
-            let gk = gamma * lambda * lambda / a;
-            (
-                S::from_f32(DUAL_SCALE * (a * d / lambda)),
-                S::from_f32(gk / (1.0 + gk * c2)),
-            )
-        };
+        // `a_i` of the defaults in data_weight's branch-free form, chosen once per block
+        // so that the loop vectorises.
+        let simple = params.confidence_power == 1.0 && params.confidence_threshold == 0.0;
         for y in 0..h {
             let start = (region.y + y) * maps.width + region.x;
             let r = y * w..(y + 1) * w;
@@ -794,22 +786,52 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 lo = if d < lo { d } else { lo };
                 hi = if d > hi { d } else { hi };
             }
-            // The first node has no left edge; the others' is the previous node's own.
-            let (Some((t0, tau)), Some((s0, sig)), Some((&d0, d)), Some((&c0, conf))) = (
-                tau.split_first_mut(),
-                sig.split_first_mut(),
-                d.split_first(),
-                conf.split_first(),
-            ) else {
-                continue;
-            };
-            let first = |v: &[S]| v.first().copied().unwrap_or(S::ZERO);
-            (*t0, *s0) = node(d0, c0, first(wh), first(wv), S::ZERO, first(above));
-            let own = part(wh, 1..w).iter().zip(part(wv, 1..w));
-            let weights = own.zip(wh.iter().zip(part(above, 1..w)));
-            let nodes = tau.iter_mut().zip(sig.iter_mut()).zip(d.iter().zip(conf));
-            for (((t, s), (&d, &c)), ((&eh, &ev), (&left, &up))) in nodes.zip(weights) {
-                (*t, *s) = node(d, c, eh, ev, left, up);
+            // Blocks of nodes through `f32` arrays on the stack: the data weights and
+            // `‖c_i‖²` first, then `τ` and `σ` (the same operations per node as one loop).
+            for first in (0..w).step_by(STEP_BLOCK) {
+                let n = STEP_BLOCK.min(w - first);
+                let block = first..first + n;
+                let mut a = [1.0f32; STEP_BLOCK];
+                let conf = part(conf, block.clone());
+                if simple {
+                    for (a, &c) in a.iter_mut().zip(conf) {
+                        *a = c.clamp(0.0, 1.0) + params.tikhonov;
+                    }
+                } else {
+                    for (a, &c) in a.iter_mut().zip(conf) {
+                        *a = data_weight(c, params);
+                    }
+                }
+                // The left neighbour's own edge (the row's first node has none: 0).
+                let mut left = [0.0f32; STEP_BLOCK];
+                let (to, from) = if first == 0 {
+                    (part_mut(&mut left, 1..n), part(wh, 0..n.saturating_sub(1)))
+                } else {
+                    (
+                        part_mut(&mut left, 0..n),
+                        part(wh, first - 1..first + n - 1),
+                    )
+                };
+                for (l, &e) in to.iter_mut().zip(from) {
+                    *l = sq(e);
+                }
+                // `‖c_i‖²`: the node's own edges, then its left and upper neighbours', in
+                // the order of `node_constants_by_node`.
+                let mut c2 = [0.0f32; STEP_BLOCK];
+                let own = part(wh, block.clone()).iter().zip(part(wv, block.clone()));
+                let others = left.iter().zip(part(above, block.clone()));
+                for (c2, ((&eh, &ev), (&left, &up))) in c2.iter_mut().zip(own.zip(others)) {
+                    *c2 = sq(eh) + sq(ev) + left + sq(up);
+                }
+                let outs = part_mut(tau, block.clone())
+                    .iter_mut()
+                    .zip(part_mut(sig, block.clone()));
+                let nodes = part(d, block).iter().zip(a.iter().zip(&c2));
+                for ((t, s), (&d, (&a, &c2))) in outs.zip(nodes) {
+                    let gk = gamma * lambda * lambda / a;
+                    *t = S::from_f32(DUAL_SCALE * (a * d / lambda));
+                    *s = S::from_f32(gk / (1.0 + gk * c2));
+                }
             }
         }
         (lo, hi)
