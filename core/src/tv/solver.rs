@@ -1231,6 +1231,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
     ) {
         let w = self.width;
         let div = self.rows.get_mut(..w).unwrap_or_default();
+        let simple = params.confidence_power == 1.0 && params.confidence_threshold == 0.0;
         for y in 0..core.height {
             let ry = core.y - region.y + y;
             let gy = core.y + y;
@@ -1245,7 +1246,18 @@ impl<'s, S: Scalar> Graph<'s, S> {
             ) else {
                 continue;
             };
-            for (x, (((o, &d), &c), &u)) in o.iter_mut().zip(d).zip(conf).zip(u).enumerate() {
+            let pixels = o.iter_mut().zip(d).zip(conf).zip(u);
+            if maps.dual.is_none() && simple {
+                // The defaults without fixed flows: data_weight's branch-free form and no
+                // per-pixel test, so the loop vectorises (the same operations per pixel).
+                for (((o, &d), &c), &u) in pixels {
+                    let a = c.clamp(0.0, 1.0) + params.tikhonov;
+                    let u = u.to_f32() / DUAL_SCALE + 0.0;
+                    *o = clamp_f32(d - params.lambda * u / a, self.range.0, self.range.1);
+                }
+                continue;
+            }
+            for (x, (((o, &d), &c), &u)) in pixels.enumerate() {
                 let a = data_weight(c, params);
                 // The fixed flows of a previous dual (zero without one).
                 let outside = if maps.dual.is_some() {
