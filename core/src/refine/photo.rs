@@ -235,20 +235,35 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
     /// The weighted energies `scaled / (robust + e) · e` of the taps (gathered with
     /// `J` = 2), `e = Σ r²` at `p`; lanes past those gathered hold any value.
     #[inline(always)]
-    fn energies(&self, levels: &[T; 256], centre: &[T; N], (robust, scaled): (T, T)) -> [T; CHUNK] {
+    fn energies(&self, levels: &[T; 256], centre: &[T; N], robust: (T, T)) -> [T; CHUNK] {
         let [t0, t1, _] = self.scaled::<2>(levels);
-        let mut out = [T::ZERO; CHUNK];
-        for (v, o) in out.iter_mut().enumerate() {
-            let f = self.fraction[v];
-            let mut e = T::ZERO;
-            for c in 0..N {
-                let r = t0[c][v] + f * (t1[c][v] - t0[c][v]) - centre[c];
-                e += r * r;
-            }
-            *o = scaled / (robust + e) * e;
-        }
-        out
+        // `j` < 2 (`energies`).
+        let texel = |j: usize, c: usize, v: usize| if j == 0 { t0[c][v] } else { t1[c][v] };
+        energies(&texel, &self.fraction, centre, robust)
     }
+}
+
+/// The weighted energies `scaled / (robust + e) · e` of [`CHUNK`] taps
+/// (`texel(j, c, v)`: sample `j` < 2 of tap `v`, channel `c`), `e = Σ r²` at `p`.
+#[inline(always)]
+fn energies<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
+    texel: &F,
+    fraction: &[T; CHUNK],
+    centre: &[T; N],
+    (robust, scaled): (T, T),
+) -> [T; CHUNK] {
+    let mut out = [T::ZERO; CHUNK];
+    for (v, o) in out.iter_mut().enumerate() {
+        let f = fraction[v];
+        let mut e = T::ZERO;
+        for (c, &centre) in centre.iter().enumerate() {
+            let (t0, t1) = (texel(0, c, v), texel(1, c, v));
+            let r = t0 + f * (t1 - t0) - centre;
+            e += r * r;
+        }
+        *o = scaled / (robust + e) * e;
+    }
+    out
 }
 
 /// The scaled texels of up to [`CHUNK`] axis taps (`texel(j, c, v)`: sample `j` of tap
@@ -915,44 +930,70 @@ impl<T: Scalar> Views<T> {
         // The views' weighted energies in a fixed order: a running sum of non-negative
         // terms, so a partial sum at or above the bar decides.
         let mut cost = T::ZERO;
-        let mut chunk = Chunk::<T, S, N>::new();
         let mut cursor = 0;
         let centre_used = used::<T, L, N>(&centre);
-        let gathered = if self.regular {
-            self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk)
-        } else {
-            Gathered::Not
-        };
-        match gathered {
-            Gathered::Every => {
-                for e in chunk.energies(&self.levels, &centre_used, (robust, scaled)) {
+        // The common case first, as in `pixel_channels`: the same energies as from the
+        // chunk `fill_regular` gathers (the same bits).
+        if self.regular {
+            let (mut cells, mut fractions) = ([0i32; CHUNK], [T::ZERO; CHUNK]);
+            let words = if self.regular_cells::<2>((xf, yf), d, &mut cells, &mut fractions) {
+                self.regular_words::<S, CH, 2>(data, (x, y), &cells)
+            } else {
+                None
+            };
+            if let Some(words) = words {
+                let levels = &self.levels;
+                // `j` < 2, `c` < N ≤ 3 (`energies`).
+                let texel = |j: usize, c: usize, v: usize| unpack(words[j][v], c, levels);
+                for e in energies(&texel, &fractions, &centre_used, (robust, scaled)) {
                     cost += e;
                 }
-            }
-            Gathered::Masked(seen) => {
-                let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
-                for (e, keep) in energies.into_iter().zip(seen) {
-                    cost += if keep { e } else { T::ZERO };
-                }
-            }
-            Gathered::Not => {}
-        }
-        if gathered != Gathered::Not {
-            if !below(cost) {
-                return None;
-            }
-            cursor = CHUNK;
-        }
-        loop {
-            let n = self.fill::<S, CH, N, 2>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
-            if n == 0 {
-                break;
-            }
-            let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
-            for &e in energies.get(..n).unwrap_or_default() {
-                cost += e;
                 if !below(cost) {
                     return None;
+                }
+                cursor = CHUNK;
+            }
+        }
+        // The other axis taps (see `pixel_channels`).
+        if cursor < self.axis_len {
+            let mut chunk = Chunk::<T, S, N>::new();
+            let gathered = if self.regular {
+                self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk)
+            } else {
+                Gathered::Not
+            };
+            match gathered {
+                Gathered::Every => {
+                    for e in chunk.energies(&self.levels, &centre_used, (robust, scaled)) {
+                        cost += e;
+                    }
+                }
+                Gathered::Masked(seen) => {
+                    let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+                    for (e, keep) in energies.into_iter().zip(seen) {
+                        cost += if keep { e } else { T::ZERO };
+                    }
+                }
+                Gathered::Not => {}
+            }
+            if gathered != Gathered::Not {
+                if !below(cost) {
+                    return None;
+                }
+                cursor = CHUNK;
+            }
+            loop {
+                let n =
+                    self.fill::<S, CH, N, 2>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
+                if n == 0 {
+                    break;
+                }
+                let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+                for &e in energies.get(..n).unwrap_or_default() {
+                    cost += e;
+                    if !below(cost) {
+                        return None;
+                    }
                 }
             }
         }
@@ -999,46 +1040,9 @@ impl<T: Scalar> Views<T> {
         robust: (T, T),
         out: &mut [T; STATS],
     ) -> bool {
-        // Resolved at compile time for each sample type. Texels hold at most 3 used
-        // channels: a 32-bit word has room.
-        if TypeId::of::<S>() != TypeId::of::<u8>() || N > 4 {
+        let Some(words) = self.regular_words::<S, CH, 3>(data, (x, y), cells) else {
             return false;
-        }
-        let (row, column, rs) = (y * self.row_stride, x * CH, self.row_stride);
-        let mut words = [[0u32; CHUNK]; 3];
-        for v in 0..CHUNK {
-            // Cells are non-negative (`regular_cells`).
-            let k = cells[v] as usize;
-            // The words of texels `k`, `k + 1`, `k + 2` along the tap's axis.
-            let word = |bytes: Option<&[S; 4]>| {
-                let bytes = bytes.and_then(|b| (b as &dyn Any).downcast_ref::<[u8; 4]>());
-                bytes.map(|&b| u32::from_le_bytes(b))
-            };
-            let texels = if self.regular_in_row[v] {
-                // Side by side in the row: one bounds check for the twelve bytes that
-                // hold them (channels ≤ 4).
-                let first = self.regular_start[v] + row + k * CH;
-                let run = data.get(first..).and_then(|s| s.first_chunk::<12>());
-                let Some(run) = run else {
-                    return false;
-                };
-                let at = |j: usize| word(run.get(j * CH..).and_then(|s| s.first_chunk::<4>()));
-                [at(0), at(1), at(2)]
-            } else {
-                let first = self.regular_start[v] + column + k * rs;
-                let at = |j: usize| {
-                    let start = first.wrapping_add(j * rs);
-                    word(data.get(start..).and_then(|s| s.first_chunk::<4>()))
-                };
-                [at(0), at(1), at(2)]
-            };
-            for (words, texel) in words.iter_mut().zip(texels) {
-                let Some(texel) = texel else {
-                    return false;
-                };
-                words[v] = texel;
-            }
-        }
+        };
         let levels = &self.levels;
         let lanes = Lanes {
             // `j` < 3, `c` < N ≤ 4 (`statistics`).
@@ -1050,6 +1054,49 @@ impl<T: Scalar> Views<T> {
         let regular = Some((&self.regular_groups, None));
         statistics(&lanes, CHUNK, centre, d, self.half, robust, regular, out);
         true
+    }
+
+    /// The texels `k`, …, `k + J − 1` (`k` the tap's cell) of the [`CHUNK`] regular
+    /// axis taps for pixel `(x, y)`, each as one 32-bit word of its first four 8-bit
+    /// samples (the channels, little-endian; see [`unpack`]). `None` for other sample
+    /// types and when a word reaches past the end of the data.
+    #[inline(always)]
+    fn regular_words<S: Sample, const CH: usize, const J: usize>(
+        &self,
+        data: &[S],
+        (x, y): (usize, usize),
+        cells: &[i32; CHUNK],
+    ) -> Option<[[u32; CHUNK]; J]> {
+        // Resolved at compile time for each sample type. A pixel's used channels (at
+        // most three) fit a word; a row tap's `J` ≤ 3 texels lie within twelve bytes.
+        if TypeId::of::<S>() != TypeId::of::<u8>() || CH > 4 || J > 3 {
+            return None;
+        }
+        let word = |bytes: Option<&[S; 4]>| {
+            let bytes = bytes.and_then(|b| (b as &dyn Any).downcast_ref::<[u8; 4]>())?;
+            Some(u32::from_le_bytes(*bytes))
+        };
+        let (row, column, rs) = (y * self.row_stride, x * CH, self.row_stride);
+        let mut words = [[0u32; CHUNK]; J];
+        for v in 0..CHUNK {
+            // Cells are non-negative (`regular_cells`).
+            let k = cells[v] as usize;
+            if self.regular_in_row[v] {
+                // Side by side in the row: one bounds check.
+                let first = self.regular_start[v] + row + k * CH;
+                let run = data.get(first..)?.first_chunk::<12>()?;
+                for (j, words) in words.iter_mut().enumerate() {
+                    words[v] = word(run.get(j * CH..).and_then(|s| s.first_chunk::<4>()))?;
+                }
+            } else {
+                let first = self.regular_start[v] + column + k * rs;
+                for (j, words) in words.iter_mut().enumerate() {
+                    let start = first.wrapping_add(j * rs);
+                    words[v] = word(data.get(start..).and_then(|s| s.first_chunk::<4>()))?;
+                }
+            }
+        }
+        Some(words)
     }
 
     /// The next axis tap.
