@@ -936,12 +936,12 @@ impl<T: Scalar> Views<T> {
         // chunk `fill_regular` gathers (the same bits).
         if self.regular {
             let (mut cells, mut fractions) = ([0i32; CHUNK], [T::ZERO; CHUNK]);
-            let words = if self.regular_cells::<2>((xf, yf), d, &mut cells, &mut fractions) {
-                self.regular_words::<S, CH, 2>(data, (x, y), &cells)
-            } else {
-                None
-            };
-            if let Some(words) = words {
+            let mut words = [[0u32; CHUNK]; 2];
+            if self.regular_cells::<2>((xf, yf), d, &mut cells, &mut fractions)
+                && self
+                    .regular_words::<S, CH, 2>(data, (x, y), &cells, &mut words)
+                    .is_some()
+            {
                 let levels = &self.levels;
                 // `j` < 2, `c` < N ≤ 3 (`energies`).
                 let texel = |j: usize, c: usize, v: usize| unpack(words[j][v], c, levels);
@@ -1040,9 +1040,13 @@ impl<T: Scalar> Views<T> {
         robust: (T, T),
         out: &mut [T; STATS],
     ) -> bool {
-        let Some(words) = self.regular_words::<S, CH, 3>(data, (x, y), cells) else {
+        let mut words = [[0u32; CHUNK]; 3];
+        if self
+            .regular_words::<S, CH, 3>(data, (x, y), cells, &mut words)
+            .is_none()
+        {
             return false;
-        };
+        }
         let levels = &self.levels;
         let lanes = Lanes {
             // `j` < 3, `c` < N ≤ 4 (`statistics`).
@@ -1057,16 +1061,18 @@ impl<T: Scalar> Views<T> {
     }
 
     /// The texels `k`, …, `k + J − 1` (`k` the tap's cell) of the [`CHUNK`] regular
-    /// axis taps for pixel `(x, y)`, each as one 32-bit word of its first four 8-bit
-    /// samples (the channels, little-endian; see [`unpack`]). `None` for other sample
-    /// types and when a word reaches past the end of the data.
+    /// axis taps for pixel `(x, y)` into `words`, each as one 32-bit word of its first
+    /// four 8-bit samples (the channels, little-endian; see [`unpack`]). `None` for
+    /// other sample types and when a word reaches past the end of the data. (An output
+    /// argument: a returned array was copied by `memcpy`.)
     #[inline(always)]
     fn regular_words<S: Sample, const CH: usize, const J: usize>(
         &self,
         data: &[S],
         (x, y): (usize, usize),
         cells: &[i32; CHUNK],
-    ) -> Option<[[u32; CHUNK]; J]> {
+        words: &mut [[u32; CHUNK]; J],
+    ) -> Option<()> {
         // Resolved at compile time for each sample type. A pixel's used channels (at
         // most three) fit a word; a row tap's `J` ≤ 3 texels lie within twelve bytes.
         if TypeId::of::<S>() != TypeId::of::<u8>() || CH > 4 || J > 3 {
@@ -1077,7 +1083,6 @@ impl<T: Scalar> Views<T> {
             Some(u32::from_le_bytes(*bytes))
         };
         let (row, column, rs) = (y * self.row_stride, x * CH, self.row_stride);
-        let mut words = [[0u32; CHUNK]; J];
         for v in 0..CHUNK {
             // Cells are non-negative (`regular_cells`).
             let k = cells[v] as usize;
@@ -1096,7 +1101,7 @@ impl<T: Scalar> Views<T> {
                 }
             }
         }
-        Some(words)
+        Some(())
     }
 
     /// The next axis tap.
