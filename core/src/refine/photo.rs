@@ -1094,10 +1094,16 @@ impl<T: Scalar> Views<T> {
                     words[v] = word(run.get(j * CH..).and_then(|s| s.first_chunk::<4>()))?;
                 }
             } else {
+                // One row apart: one bounds check for the span from the first word to
+                // the end of the last (the sums do not wrap, so the nearer words lie
+                // inside it).
                 let first = self.regular_start[v] + column + k * rs;
-                for (j, words) in words.iter_mut().enumerate() {
-                    let start = first.wrapping_add(j * rs);
-                    words[v] = word(data.get(start..).and_then(|s| s.first_chunk::<4>()))?;
+                let last = rs.checked_mul(J.saturating_sub(1))?.checked_add(4)?;
+                let run = data.get(first..first.checked_add(last)?)?;
+                let mut at = 0usize;
+                for words in words.iter_mut() {
+                    words[v] = word(run.get(at..).and_then(|s| s.first_chunk::<4>()))?;
+                    at = at.checked_add(rs)?;
                 }
             }
         }
