@@ -106,8 +106,11 @@ impl<'a> RowRing<'a> {
         let Some((c1, c2)) = rest.split_at_mut_checked(stride) else {
             return;
         };
+        // Only the padding is cleared: the sweep writes every column of the row (a
+        // row of the guide shorter than the image, which a view never has, is cleared).
+        let complete = samples.len() >= width * channels && channels > 0;
         for plane in [&mut *c0, &mut *c1, &mut *c2] {
-            plane.fill(0.0);
+            clear_padding(plane, width, complete);
         }
         let (Some(c0), Some(c1), Some(c2)) = (
             c0.get_mut(columns.clone()),
@@ -118,10 +121,19 @@ impl<'a> RowRing<'a> {
         };
         let level = |s: &S| f32::from(s.level());
         let planes = c0.iter_mut().zip(c1.iter_mut().zip(c2.iter_mut()));
-        for ((l0, (l1, l2)), pixel) in planes.zip(samples.chunks_exact(channels.max(1))) {
-            *l0 = pixel.first().map_or(0.0, level);
-            *l1 = pixel.get(1).map_or(0.0, level);
-            *l2 = pixel.get(2).map_or(0.0, level);
+        if channels == 3 {
+            // The common case with a fixed stride: no per-pixel channel test.
+            for ((l0, (l1, l2)), pixel) in planes.zip(samples.chunks_exact(3)) {
+                if let [a, b, c] = pixel {
+                    (*l0, *l1, *l2) = (level(a), level(b), level(c));
+                }
+            }
+        } else {
+            for ((l0, (l1, l2)), pixel) in planes.zip(samples.chunks_exact(channels.max(1))) {
+                *l0 = pixel.first().map_or(0.0, level);
+                *l1 = pixel.get(1).map_or(0.0, level);
+                *l2 = pixel.get(2).map_or(0.0, level);
+            }
         }
         let Some(row) = map.get(yy * width..(yy + 1) * width) else {
             return;
@@ -139,8 +151,9 @@ impl<'a> RowRing<'a> {
             *v = if d.is_finite() { d } else { f32::NAN };
         }
         right.fill(f32::NAN);
-        sx.fill(0.0);
-        sy.fill(0.0);
+        // `row_slopes` writes every column of the row.
+        clear_padding(sx, width, planar);
+        clear_padding(sy, width, planar);
         if planar {
             let (Some(sx), Some(sy)) = (sx.get_mut(columns.clone()), sy.get_mut(columns)) else {
                 return;
@@ -214,6 +227,20 @@ impl<'a> RowRing<'a> {
             get(at + 4 * self.stride),
             get(at + 5 * self.stride),
         ]
+    }
+}
+
+/// Zeroes a padded plane of a row of `width` columns: only its padding when the
+/// row's columns are written next (`written`), else all of it.
+fn clear_padding(plane: &mut [f32], width: usize, written: bool) {
+    if !written {
+        plane.fill(0.0);
+        return;
+    }
+    let (left, rest) = plane.split_at_mut(PAD_LEFT.min(plane.len()));
+    left.fill(0.0);
+    if let Some(right) = rest.get_mut(width..) {
+        right.fill(0.0);
     }
 }
 
