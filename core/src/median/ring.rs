@@ -40,6 +40,9 @@ pub(super) struct RowRing<'a> {
     slot_row: [usize; RING_ROWS],
     width: usize,
     stride: usize,
+    /// `2 · stride + LANES`: the elements from a lane's start in one plane to its end
+    /// two planes further.
+    three_planes: usize,
 }
 
 /// One window row of a pixel: [`LANES`] values and slopes from `radius` left of it.
@@ -60,6 +63,7 @@ impl<'a> RowRing<'a> {
             slot_row: [usize::MAX; RING_ROWS],
             width,
             stride: stride(width),
+            three_planes: stride(width).saturating_mul(2).saturating_add(LANES),
         }
     }
 
@@ -169,12 +173,6 @@ impl<'a> RowRing<'a> {
         PLANES * (yy % RING_ROWS) * self.stride
     }
 
-    /// [`LANES`] elements from `at`: one bounds check.
-    #[inline(always)]
-    fn read(&self, at: usize) -> Option<&[f32; LANES]> {
-        self.rows.get(at..)?.first_chunk()
-    }
-
     /// Where the lanes of the pixel in column `x` start in the row at `base`.
     #[inline(always)]
     fn start(base: usize, x: usize, radius: usize) -> Option<usize> {
@@ -186,10 +184,14 @@ impl<'a> RowRing<'a> {
     #[inline(always)]
     pub(super) fn lanes_at(&self, base: usize, x: usize, radius: usize) -> Option<Lanes<'_>> {
         let start = Self::start(base, x, radius)?;
+        // One range for the three planes: the first and last lanes need no more check.
+        let block = self
+            .rows
+            .get(start..start.checked_add(self.three_planes)?)?;
         Some(Lanes {
-            values: self.read(start)?,
-            gx: self.read(start.wrapping_add(self.stride))?,
-            gy: self.read(start.wrapping_add(2 * self.stride))?,
+            values: block.first_chunk()?,
+            gx: block.get(self.stride..)?.first_chunk()?,
+            gy: block.last_chunk()?,
         })
     }
 
@@ -201,11 +203,14 @@ impl<'a> RowRing<'a> {
         x: usize,
         radius: usize,
     ) -> Option<ColourLanes<'_>> {
-        let start = Self::start(base, x, radius)?;
+        let start = Self::start(base, x, radius)?.checked_add(3 * self.stride)?;
+        let block = self
+            .rows
+            .get(start..start.checked_add(self.three_planes)?)?;
         Some([
-            self.read(start.wrapping_add(3 * self.stride))?,
-            self.read(start.wrapping_add(4 * self.stride))?,
-            self.read(start.wrapping_add(5 * self.stride))?,
+            block.first_chunk()?,
+            block.get(self.stride..)?.first_chunk()?,
+            block.last_chunk()?,
         ])
     }
 
