@@ -409,8 +409,8 @@ impl<S: Sample> Window<'_, '_, S> {
             if (below | above) & live == 0 {
                 continue;
             }
-            state.weight_below += self.weigh(below & live, row);
-            state.weight_above += self.weigh(above & live, row);
+            state.weight_below += self.weigh(below, row);
+            state.weight_above += self.weigh(above, row);
         }
     }
 
