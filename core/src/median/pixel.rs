@@ -425,6 +425,8 @@ impl<S: Sample> Window<'_, '_, S> {
     /// 7, so no sum overflows), so the order is total, and a non-zero value has one bit
     /// pattern; a median of ±0, whose sign the selection's pivots decide, is left to
     /// [`Self::select`], which selects exactly as the whole window does.
+    // Out of line: its key array would otherwise enlarge every decision's frame.
+    #[inline(never)]
     fn select_side(&self, ring: &RowRing<'_>, x: usize, y: usize, own: f32, side: &Side) -> f32 {
         let (ys, _) = self.rows_and_columns(x, y);
         let r = self.params.radius;
