@@ -112,7 +112,7 @@ impl<'a> RowRing<'a> {
         };
         // Only the padding is cleared: the sweep writes every column of the row (a
         // row of the guide shorter than the image, which a view never has, is cleared).
-        let complete = samples.len() >= width * channels && channels > 0;
+        let complete = samples.len() >= width.saturating_mul(channels) && channels > 0;
         for plane in [&mut *c0, &mut *c1, &mut *c2] {
             clear_padding(plane, width, complete);
         }
