@@ -299,6 +299,8 @@ fn run<S: Sample>(
     let mut ring = RowRing::new(ring, width);
     let offsets = pixel::lane_offsets(r);
     let mut indices: RowIndices = [[0; ring::LANES]; pixel::SPAN];
+    // The window's row order for (rows, the pixels' row in it).
+    let mut order = ((0, 0), RowOrder::new(0, 0));
     let count_steps = |yy: usize, counts: &mut [f32], delta: f32| {
         gate::count_steps(input, width, p.gate, yy, counts, delta);
     };
@@ -340,14 +342,32 @@ fn run<S: Sample>(
             }
         }
         let mut loaded = false;
-        // Per window row: where it lives in the ring, and `y − yy`.
-        let order = RowOrder::new(ys.len(), y - ys.start);
+        // Per window row: where it lives in the ring, and `y − yy`; the order of the
+        // rows is that of the row before unless the window meets the image's edge.
+        let shape = (ys.len(), y - ys.start);
+        if order.0 != shape {
+            order = (shape, RowOrder::new(shape.0, shape.1));
+        }
         let mut bases = [0usize; pixel::SPAN];
         let mut dys = [0.0f32; pixel::SPAN];
         for ((base, dy), yy) in bases.iter_mut().zip(dys.iter_mut()).zip(ys.clone()) {
             *base = ring.base(yy);
             *dy = y as f32 - yy as f32;
         }
+        // What every pixel of the row shares (the ring is passed to each decision, as
+        // the row's window rows enter it only when a pixel first needs them).
+        let window = Window {
+            input,
+            width,
+            height,
+            guide,
+            bases: &bases,
+            dys: &dys,
+            offsets,
+            weights: &weights,
+            params: p,
+            order: &order.1,
+        };
         // The runs of pixels with a change within their reach (all of them in a first
         // pass); the others keep their value and their `settled` byte.
         let mut from = 0;
@@ -389,21 +409,8 @@ fn run<S: Sample>(
                     }
                     loaded = true;
                 }
-                let window = Window {
-                    input,
-                    width,
-                    height,
-                    guide,
-                    rows: &ring,
-                    bases: &bases,
-                    dys: &dys,
-                    offsets,
-                    weights: &weights,
-                    params: p,
-                    order: &order,
-                };
                 let by_quarter_rows;
-                (*o, by_quarter_rows) = window.value(x, y, own, &mut indices);
+                (*o, by_quarter_rows) = window.value(&ring, x, y, own, &mut indices);
                 if let Some(flag) = flag {
                     *flag = u8::from(by_quarter_rows);
                 }

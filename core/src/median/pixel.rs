@@ -139,7 +139,6 @@ pub(super) struct Window<'a, 'g, S: Sample> {
     pub(super) width: usize,
     pub(super) height: usize,
     pub(super) guide: &'a View<'g, S>,
-    pub(super) rows: &'a RowRing<'a>,
     /// Per window row (top first), where it lives in the ring ([`RowRing::base`]).
     pub(super) bases: &'a [usize; SPAN],
     /// Per window row, `y − yy` as `f32`.
@@ -221,14 +220,15 @@ impl<S: Sample> Window<'_, '_, S> {
     /// slopes read, do not change: [`super::filter_pass`]).
     pub(super) fn value(
         &self,
+        ring: &RowRing<'_>,
         x: usize,
         y: usize,
         own: f32,
         indices: &mut RowIndices,
     ) -> (f32, bool) {
-        match self.decide(x, y, own, indices) {
+        match self.decide(ring, x, y, own, indices) {
             Decision::Kept { by_quarter_rows } => (own, by_quarter_rows),
-            Decision::Side(side) => (self.select_side(x, y, own, &side), false),
+            Decision::Side(side) => (self.select_side(ring, x, y, own, &side), false),
         }
     }
 
@@ -244,11 +244,18 @@ impl<S: Sample> Window<'_, '_, S> {
     /// settled by a part of their window; only the others classify and weigh the rest.
     /// (These shortcuts change the output only where the sampled rows disagree strongly
     /// with the others; the shares were chosen on the HCI scenes, docs/bench-median.md.)
-    fn decide(&self, x: usize, y: usize, own: f32, indices: &mut RowIndices) -> Decision {
+    fn decide(
+        &self,
+        ring: &RowRing<'_>,
+        x: usize,
+        y: usize,
+        own: f32,
+        indices: &mut RowIndices,
+    ) -> Decision {
         let mut state = Sums::default();
         // Lane k is column x − r + k.
         let dxs = self.offsets(x);
-        let centre = self.rows.colour_at(y, x);
+        let centre = ring.colour_at(y, x);
         let shares = [Some(QUARTER_SHARE), Some(EVEN_SHARE), None];
         let own_weight = u64::from(self.weights.get(0));
         let mut start = 0;
@@ -258,13 +265,13 @@ impl<S: Sample> Window<'_, '_, S> {
             };
             let rows = self.order.rows.get(start..end).unwrap_or_default();
             start = end;
-            let outside = self.classify_rows(&mut state, rows, x, own, &dxs);
+            let outside = self.classify_rows(ring, &mut state, rows, x, own, &dxs);
             if phase == 0 && !outside {
                 // No vote outside: B = A = 0 < I (the pixel's own vote weighs w₀ > 0).
                 return settled;
             }
             if outside {
-                self.weigh_outside(&mut state, indices, rows, x, &centre);
+                self.weigh_outside(ring, &mut state, indices, rows, x, &centre);
             }
             // The pixel's own vote is inside and weighs `own_weight`, and its row is
             // in the first phase: I at the end of any phase is at least that, so a
@@ -293,7 +300,7 @@ impl<S: Sample> Window<'_, '_, S> {
                 // `weigh_outside` measured the rows with a vote outside.
                 let measured = state.below.get(i).zip(state.above.get(i));
                 if measured.is_none_or(|(&b, &a)| b | a == 0) {
-                    let Some(colours) = self.rows.colours_at(base, x, self.params.radius) else {
+                    let Some(colours) = ring.colours_at(base, x, self.params.radius) else {
                         continue;
                     };
                     *row = table_indices(&colours, &centre, self.weights);
@@ -327,6 +334,7 @@ impl<S: Sample> Window<'_, '_, S> {
     #[inline(always)]
     fn classify_rows(
         &self,
+        ring: &RowRing<'_>,
         state: &mut Sums,
         rows: &[u8],
         x: usize,
@@ -342,7 +350,7 @@ impl<S: Sample> Window<'_, '_, S> {
             let (Some(&base), Some(&dy)) = (self.bases.get(i), self.dys.get(i)) else {
                 continue;
             };
-            let Some(lanes) = self.rows.lanes_at(base, x, r) else {
+            let Some(lanes) = ring.lanes_at(base, x, r) else {
                 continue;
             };
             let (b, a, f) = classify(&lanes, dxs, dy, lo, hi);
@@ -371,6 +379,7 @@ impl<S: Sample> Window<'_, '_, S> {
     #[inline(always)]
     fn weigh_outside(
         &self,
+        ring: &RowRing<'_>,
         state: &mut Sums,
         indices: &mut RowIndices,
         rows: &[u8],
@@ -391,7 +400,7 @@ impl<S: Sample> Window<'_, '_, S> {
             if below | above == 0 {
                 continue;
             }
-            let Some(colours) = self.rows.colours_at(base, x, r) else {
+            let Some(colours) = ring.colours_at(base, x, r) else {
                 continue;
             };
             let live;
@@ -416,11 +425,13 @@ impl<S: Sample> Window<'_, '_, S> {
     /// 7, so no sum overflows), so the order is total, and a non-zero value has one bit
     /// pattern; a median of ±0, whose sign the selection's pivots decide, is left to
     /// [`Self::select`], which selects exactly as the whole window does.
-    fn select_side(&self, x: usize, y: usize, own: f32, side: &Side) -> f32 {
+    // Out of line: its key array would otherwise enlarge every decision's frame.
+    #[inline(never)]
+    fn select_side(&self, ring: &RowRing<'_>, x: usize, y: usize, own: f32, side: &Side) -> f32 {
         let (ys, _) = self.rows_and_columns(x, y);
         let r = self.params.radius;
         let dxs = self.offsets(x);
-        let centre = self.rows.colour_at(y, x);
+        let centre = ring.colour_at(y, x);
         let mut keys = [0u64; MAX_TAPS];
         let mut n = 0;
         let per_row = self.bases.iter().zip(self.dys);
@@ -429,10 +440,9 @@ impl<S: Sample> Window<'_, '_, S> {
             if bits == 0 {
                 continue;
             }
-            let (Some(lanes), Some(colours)) = (
-                self.rows.lanes_at(base, x, r),
-                self.rows.colours_at(base, x, r),
-            ) else {
+            let (Some(lanes), Some(colours)) =
+                (ring.lanes_at(base, x, r), ring.colours_at(base, x, r))
+            else {
                 continue;
             };
             let votes = votes(&lanes, &dxs, dy);
@@ -451,7 +461,7 @@ impl<S: Sample> Window<'_, '_, S> {
         let keys = keys.get_mut(..n).unwrap_or_default();
         let m = match weighted_median_of_keys(keys, side.target) {
             Some(m) if m != 0.0 && side.target > 0 => m,
-            _ => return self.select(x, y, own),
+            _ => return self.select(ring, x, y, own),
         };
         if (m - own).abs() > self.params.snap {
             m
@@ -463,7 +473,7 @@ impl<S: Sample> Window<'_, '_, S> {
     /// The value of the pixel `(x, y)` of finite value `own`: the weighted median of its
     /// window's votes when that differs from `own` by more than `snap`, else `own`
     /// (every vote weighed and selected, as the stage was first written).
-    fn select(&self, x: usize, y: usize, own: f32) -> f32 {
+    fn select(&self, ring: &RowRing<'_>, x: usize, y: usize, own: f32) -> f32 {
         let p = &self.params;
         let (ys, xs) = self.rows_and_columns(x, y);
         let centre = self.colour(x, y);
@@ -488,7 +498,7 @@ impl<S: Sample> Window<'_, '_, S> {
                     continue;
                 }
                 let v = if p.planar {
-                    let (gx, gy) = self.rows.slope_at(yy, xx);
+                    let (gx, gy) = ring.slope_at(yy, xx);
                     v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
                 } else {
                     v

@@ -40,6 +40,9 @@ pub(super) struct RowRing<'a> {
     slot_row: [usize; RING_ROWS],
     width: usize,
     stride: usize,
+    /// `2 · stride + LANES`: the elements from a lane's start in one plane to its end
+    /// two planes further.
+    three_planes: usize,
 }
 
 /// One window row of a pixel: [`LANES`] values and slopes from `radius` left of it.
@@ -60,6 +63,7 @@ impl<'a> RowRing<'a> {
             slot_row: [usize::MAX; RING_ROWS],
             width,
             stride: stride(width),
+            three_planes: stride(width).saturating_mul(2).saturating_add(LANES),
         }
     }
 
@@ -106,8 +110,11 @@ impl<'a> RowRing<'a> {
         let Some((c1, c2)) = rest.split_at_mut_checked(stride) else {
             return;
         };
+        // Only the padding is cleared: the sweep writes every column of the row (a
+        // row of the guide shorter than the image, which a view never has, is cleared).
+        let complete = samples.len() >= width.saturating_mul(channels) && channels > 0;
         for plane in [&mut *c0, &mut *c1, &mut *c2] {
-            plane.fill(0.0);
+            clear_padding(plane, width, complete);
         }
         let (Some(c0), Some(c1), Some(c2)) = (
             c0.get_mut(columns.clone()),
@@ -118,10 +125,19 @@ impl<'a> RowRing<'a> {
         };
         let level = |s: &S| f32::from(s.level());
         let planes = c0.iter_mut().zip(c1.iter_mut().zip(c2.iter_mut()));
-        for ((l0, (l1, l2)), pixel) in planes.zip(samples.chunks_exact(channels.max(1))) {
-            *l0 = pixel.first().map_or(0.0, level);
-            *l1 = pixel.get(1).map_or(0.0, level);
-            *l2 = pixel.get(2).map_or(0.0, level);
+        if channels == 3 {
+            // The common case with a fixed stride: no per-pixel channel test.
+            for ((l0, (l1, l2)), pixel) in planes.zip(samples.chunks_exact(3)) {
+                if let [a, b, c] = pixel {
+                    (*l0, *l1, *l2) = (level(a), level(b), level(c));
+                }
+            }
+        } else {
+            for ((l0, (l1, l2)), pixel) in planes.zip(samples.chunks_exact(channels.max(1))) {
+                *l0 = pixel.first().map_or(0.0, level);
+                *l1 = pixel.get(1).map_or(0.0, level);
+                *l2 = pixel.get(2).map_or(0.0, level);
+            }
         }
         let Some(row) = map.get(yy * width..(yy + 1) * width) else {
             return;
@@ -139,8 +155,9 @@ impl<'a> RowRing<'a> {
             *v = if d.is_finite() { d } else { f32::NAN };
         }
         right.fill(f32::NAN);
-        sx.fill(0.0);
-        sy.fill(0.0);
+        // `row_slopes` writes every column of the row.
+        clear_padding(sx, width, planar);
+        clear_padding(sy, width, planar);
         if planar {
             let (Some(sx), Some(sy)) = (sx.get_mut(columns.clone()), sy.get_mut(columns)) else {
                 return;
@@ -156,12 +173,6 @@ impl<'a> RowRing<'a> {
         PLANES * (yy % RING_ROWS) * self.stride
     }
 
-    /// [`LANES`] elements from `at`: one bounds check.
-    #[inline(always)]
-    fn read(&self, at: usize) -> Option<&[f32; LANES]> {
-        self.rows.get(at..)?.first_chunk()
-    }
-
     /// Where the lanes of the pixel in column `x` start in the row at `base`.
     #[inline(always)]
     fn start(base: usize, x: usize, radius: usize) -> Option<usize> {
@@ -173,10 +184,14 @@ impl<'a> RowRing<'a> {
     #[inline(always)]
     pub(super) fn lanes_at(&self, base: usize, x: usize, radius: usize) -> Option<Lanes<'_>> {
         let start = Self::start(base, x, radius)?;
+        // One range for the three planes: the first and last lanes need no more check.
+        let block = self
+            .rows
+            .get(start..start.checked_add(self.three_planes)?)?;
         Some(Lanes {
-            values: self.read(start)?,
-            gx: self.read(start.wrapping_add(self.stride))?,
-            gy: self.read(start.wrapping_add(2 * self.stride))?,
+            values: block.first_chunk()?,
+            gx: block.get(self.stride..)?.first_chunk()?,
+            gy: block.last_chunk()?,
         })
     }
 
@@ -188,11 +203,14 @@ impl<'a> RowRing<'a> {
         x: usize,
         radius: usize,
     ) -> Option<ColourLanes<'_>> {
-        let start = Self::start(base, x, radius)?;
+        let start = Self::start(base, x, radius)?.checked_add(3 * self.stride)?;
+        let block = self
+            .rows
+            .get(start..start.checked_add(self.three_planes)?)?;
         Some([
-            self.read(start.wrapping_add(3 * self.stride))?,
-            self.read(start.wrapping_add(4 * self.stride))?,
-            self.read(start.wrapping_add(5 * self.stride))?,
+            block.first_chunk()?,
+            block.get(self.stride..)?.first_chunk()?,
+            block.last_chunk()?,
         ])
     }
 
@@ -214,6 +232,20 @@ impl<'a> RowRing<'a> {
             get(at + 4 * self.stride),
             get(at + 5 * self.stride),
         ]
+    }
+}
+
+/// Zeroes a padded plane of a row of `width` columns: only its padding when the
+/// row's columns are written next (`written`), else all of it.
+fn clear_padding(plane: &mut [f32], width: usize, written: bool) {
+    if !written {
+        plane.fill(0.0);
+        return;
+    }
+    let (left, rest) = plane.split_at_mut(PAD_LEFT.min(plane.len()));
+    left.fill(0.0);
+    if let Some(right) = rest.get_mut(width..) {
+        right.fill(0.0);
     }
 }
 
