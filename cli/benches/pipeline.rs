@@ -52,6 +52,7 @@ fn pipeline(c: &mut Criterion) {
                 params,
                 stage: StageSelect::Full,
                 threads: Some(threads),
+                kernels: Default::default(),
             };
             group.bench_function(format!("{name}_{variant}_{threads}t"), |b| {
                 b.iter(|| estimate(&lf, &options, &mut |_, _, _| {}).unwrap())
@@ -80,6 +81,7 @@ fn scalar(c: &mut Criterion) {
         params: Params::default(),
         stage: StageSelect::Full,
         threads: Some(1),
+        kernels: Default::default(),
     };
     for (name, precision) in [("f32", Precision::F32), ("q16", Precision::Q16)] {
         group.bench_function(format!("mixed{size}_{name}_1t"), |b| {
