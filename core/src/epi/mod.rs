@@ -79,7 +79,9 @@ pub enum Search {
     /// first; then only the hypotheses within `(1 + margin)·shear_step` of that estimate
     /// are tested in full colour: the two that bracket it, and a neighbour when it lies
     /// within `margin` steps of one of them; an estimate within 0.15 steps of a hypothesis
-    /// is tested at that one only (and those within `0.5 + margin` steps). Samples the
+    /// is tested at that one only (and those within `0.5 + margin` steps). A coherent
+    /// sample whose fine residual at the lower of two such hypotheses puts it less than
+    /// half a step above that one keeps that estimate and skips the upper one. Samples the
     /// gray pass cannot place inside a window are tested at every hypothesis.
     CoarseToFine {
         /// Extra reach, in shear steps, 0…2.

@@ -11,7 +11,7 @@
 //! Everything is computed in the scalar type `T`; see [the module](super) for the scale
 //! that keeps Q16.16 precise.
 
-use core::any::Any;
+use core::any::{Any, TypeId};
 
 use crate::align::Interpolation;
 use crate::geometry::Homography;
@@ -207,10 +207,7 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
     }
 
     /// Adds the Gauss–Newton statistics of the first `n` taps (gathered with `J` = 3)
-    /// at `d` to their groups in `out` (see [`Views::pixel`]). Every lane is computed
-    /// (the loop has a fixed length); lanes from `n` on are not added. `regular`: all
-    /// [`CHUNK`] lanes are taken and lane `v` belongs to group `regular[v % GROUPS]`;
-    /// with a mask, the lanes it leaves out add zero (see [`Gathered::Masked`]).
+    /// at `d` to their groups in `out`: [`statistics`] of the chunk's scaled texels.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn statistics(
@@ -220,86 +217,143 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
         centre: &[T; N],
         d: T,
         half: T,
-        (robust, scaled): (T, T),
+        robust: (T, T),
         regular: Option<(&[usize; GROUPS], Option<&[bool; CHUNK]>)>,
         out: &mut [T; STATS],
     ) {
         let [t0, t1, t2] = self.scaled::<3>(levels);
-        let (mut sa, mut sb, mut se) = ([T::ZERO; CHUNK], [T::ZERO; CHUNK], [T::ZERO; CHUNK]);
-        for v in 0..CHUNK {
-            let (f, offset) = (self.fraction[v], self.offset[v]);
-            // The image at `p − ½` and `p + ½` (`t0 + f·(t1 − t0)`, `t1 + f·(t2 − t1)`)
-            // and at `p` (between t0 and t1 for f < ½, t1 and t2 above: the weights
-            // without a branch): `g = (I(p − ½) − I(p + ½)) · offset`,
-            // `r = I(p) − centre`.
-            let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
-            let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
-            for c in 0..N {
-                let (a0, a1, a2) = (t0[c][v], t1[c][v], t2[c][v]);
-                let (d01, d12) = (a1 - a0, a2 - a1);
-                let g = (f * (d01 - d12) - d01) * offset;
-                let r = a1 - w0 * d01 + w2 * d12 - centre[c];
-                gg += g * g;
-                gr += g * (g * d - r);
-                rr += r * r;
-            }
-            // Cauchy weight of the view (iteratively reweighted least squares): a view
-            // that disagrees by much more than the noise (an occluder, a highlight)
-            // hardly counts.
-            let w = scaled / (robust + rr);
-            (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
-        }
-        if let Some((groups, seen)) = regular {
-            // Lane `v` belongs to group `groups[v % GROUPS]`: each group's sums take its
-            // lanes in the same order as the loop below, four groups side by side.
-            // The regular chunk is a pixel's first: its sums start at zero as `out` does.
-            let mut sums = [[T::ZERO; 3]; GROUPS];
-            for (v, ((&a, &b), &e)) in sa.iter().zip(&sb).zip(&se).enumerate() {
-                let keep = seen.is_none_or(|seen| seen.get(v).copied().unwrap_or(false));
-                let (a, b, e) = if keep {
-                    (a, b, e)
-                } else {
-                    (T::ZERO, T::ZERO, T::ZERO)
-                };
-                if let Some([sa, sb, se]) = sums.get_mut(v % GROUPS) {
-                    *sa += a;
-                    *sb += b;
-                    *se += e;
-                }
-            }
-            for (sum, &g) in sums.iter().zip(groups) {
-                if let Some(s) = out.get_mut(3 * g..).and_then(|s| s.first_chunk_mut::<3>()) {
-                    *s = *sum;
-                }
-            }
-            return;
-        }
-        for v in 0..n.min(CHUNK) {
-            let g = usize::from(self.group[v]);
-            if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
-                sums[0] += sa[v];
-                sums[1] += sb[v];
-                sums[2] += se[v];
-            }
-        }
+        let lanes = Lanes {
+            // `j` < 3 (`statistics`).
+            texel: |j: usize, c: usize, v: usize| match j {
+                0 => t0[c][v],
+                1 => t1[c][v],
+                _ => t2[c][v],
+            },
+            fraction: &self.fraction,
+            offset: &self.offset,
+            group: &self.group,
+        };
+        statistics(&lanes, n, centre, d, half, robust, regular, out);
     }
 
     /// The weighted energies `scaled / (robust + e) · e` of the taps (gathered with
     /// `J` = 2), `e = Σ r²` at `p`; lanes past those gathered hold any value.
     #[inline(always)]
-    fn energies(&self, levels: &[T; 256], centre: &[T; N], (robust, scaled): (T, T)) -> [T; CHUNK] {
+    fn energies(&self, levels: &[T; 256], centre: &[T; N], robust: (T, T)) -> [T; CHUNK] {
         let [t0, t1, _] = self.scaled::<2>(levels);
-        let mut out = [T::ZERO; CHUNK];
-        for (v, o) in out.iter_mut().enumerate() {
-            let f = self.fraction[v];
-            let mut e = T::ZERO;
-            for c in 0..N {
-                let r = t0[c][v] + f * (t1[c][v] - t0[c][v]) - centre[c];
-                e += r * r;
-            }
-            *o = scaled / (robust + e) * e;
+        // `j` < 2 (`energies`).
+        let texel = |j: usize, c: usize, v: usize| if j == 0 { t0[c][v] } else { t1[c][v] };
+        energies(&texel, &self.fraction, centre, robust)
+    }
+}
+
+/// The weighted energies `scaled / (robust + e) · e` of [`CHUNK`] taps
+/// (`texel(j, c, v)`: sample `j` < 2 of tap `v`, channel `c`), `e = Σ r²` at `p`.
+#[inline(always)]
+fn energies<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
+    texel: &F,
+    fraction: &[T; CHUNK],
+    centre: &[T; N],
+    (robust, scaled): (T, T),
+) -> [T; CHUNK] {
+    let mut out = [T::ZERO; CHUNK];
+    for (v, o) in out.iter_mut().enumerate() {
+        let f = fraction[v];
+        let mut e = T::ZERO;
+        for (c, &centre) in centre.iter().enumerate() {
+            let (t0, t1) = (texel(0, c, v), texel(1, c, v));
+            let r = t0 + f * (t1 - t0) - centre;
+            e += r * r;
         }
-        out
+        *o = scaled / (robust + e) * e;
+    }
+    out
+}
+
+/// The scaled texels of up to [`CHUNK`] axis taps (`texel(j, c, v)`: sample `j` of tap
+/// `v`, channel `c`) with the fractions of their positions, their offsets and groups
+/// (see [`Chunk`]).
+struct Lanes<'a, T, F> {
+    texel: F,
+    fraction: &'a [T; CHUNK],
+    offset: &'a [T; CHUNK],
+    group: &'a [u8; CHUNK],
+}
+
+/// Adds the Gauss–Newton statistics of the first `n` taps of `lanes` at `d` to their
+/// groups in `out` (see [`Views::pixel`]). Every lane is computed
+/// (the loop has a fixed length); lanes from `n` on are not added. `regular`: all
+/// [`CHUNK`] lanes are taken and lane `v` belongs to group `regular[v % GROUPS]`;
+/// with a mask, the lanes it leaves out add zero (see [`Gathered::Masked`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
+    lanes: &Lanes<'_, T, F>,
+    n: usize,
+    centre: &[T; N],
+    d: T,
+    half: T,
+    (robust, scaled): (T, T),
+    regular: Option<(&[usize; GROUPS], Option<&[bool; CHUNK]>)>,
+    out: &mut [T; STATS],
+) {
+    let texel = &lanes.texel;
+    let (mut sa, mut sb, mut se) = ([T::ZERO; CHUNK], [T::ZERO; CHUNK], [T::ZERO; CHUNK]);
+    for v in 0..CHUNK {
+        let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
+        // The image at `p − ½` and `p + ½` (`t0 + f·(t1 − t0)`, `t1 + f·(t2 − t1)`)
+        // and at `p` (between t0 and t1 for f < ½, t1 and t2 above: the weights
+        // without a branch): `g = (I(p − ½) − I(p + ½)) · offset`,
+        // `r = I(p) − centre`.
+        let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
+        let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
+        for (c, &centre) in centre.iter().enumerate() {
+            let (a0, a1, a2) = (texel(0, c, v), texel(1, c, v), texel(2, c, v));
+            let (d01, d12) = (a1 - a0, a2 - a1);
+            let g = (f * (d01 - d12) - d01) * offset;
+            let r = a1 - w0 * d01 + w2 * d12 - centre;
+            gg += g * g;
+            gr += g * (g * d - r);
+            rr += r * r;
+        }
+        // Cauchy weight of the view (iteratively reweighted least squares): a view
+        // that disagrees by much more than the noise (an occluder, a highlight)
+        // hardly counts.
+        let w = scaled / (robust + rr);
+        (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
+    }
+    if let Some((groups, seen)) = regular {
+        // Lane `v` belongs to group `groups[v % GROUPS]`: each group's sums take its
+        // lanes in the same order as the loop below, four groups side by side.
+        // The regular chunk is a pixel's first: its sums start at zero as `out` does.
+        let mut sums = [[T::ZERO; 3]; GROUPS];
+        for (v, ((&a, &b), &e)) in sa.iter().zip(&sb).zip(&se).enumerate() {
+            let keep = seen.is_none_or(|seen| seen.get(v).copied().unwrap_or(false));
+            let (a, b, e) = if keep {
+                (a, b, e)
+            } else {
+                (T::ZERO, T::ZERO, T::ZERO)
+            };
+            if let Some([sa, sb, se]) = sums.get_mut(v % GROUPS) {
+                *sa += a;
+                *sb += b;
+                *se += e;
+            }
+        }
+        for (sum, &g) in sums.iter().zip(groups) {
+            if let Some(s) = out.get_mut(3 * g..).and_then(|s| s.first_chunk_mut::<3>()) {
+                *s = *sum;
+            }
+        }
+        return;
+    }
+    for v in 0..n.min(CHUNK) {
+        let g = usize::from(lanes.group[v]);
+        if let Some(sums) = out.get_mut(3 * g..3 * g + 3) {
+            sums[0] += sa[v];
+            sums[1] += sb[v];
+            sums[2] += se[v];
+        }
     }
 }
 
@@ -324,14 +378,15 @@ pub(crate) struct Views<T> {
     regular_groups: [usize; GROUPS],
     /// For a regular set, per axis tap: offset, first sample, whether it lies in the
     /// centre row, the position's factors of `x` and `y` (one of them one, the other
-    /// zero), its largest value and the number of samples along the axis.
+    /// zero), its largest value and the number of samples along the axis (an `i32`, as
+    /// the cells are: compared side by side).
     regular_offset: [T; CHUNK],
     regular_start: [usize; CHUNK],
     regular_in_row: [bool; CHUNK],
     regular_x: [T; CHUNK],
     regular_y: [T; CHUNK],
     regular_max: [T; CHUNK],
-    regular_samples: [usize; CHUNK],
+    regular_samples: [i32; CHUNK],
     /// The other views.
     taps: [StoredTap; MAX_VIEWS],
     len: usize,
@@ -396,6 +451,21 @@ fn convert<T: Scalar, S: Sample, const L: usize>(s: &[S; L], levels: &[T; 256]) 
         *o = texel(v, levels);
     }
     out
+}
+
+/// The scaled intensity of channel `c` (byte `c`, little-endian) of a 32-bit word
+/// holding a texel's 8-bit channels: the same value as [`convert`] of the byte.
+#[inline(always)]
+fn unpack<T: Scalar>(word: u32, c: usize, levels: &[T; 256]) -> T {
+    let level = (word >> (8 * (c as u32 & 3))) & 0xff;
+    // Resolved at compile time for each scalar type.
+    let mut out = T::ZERO;
+    if let Some(to) = (&mut out as &mut dyn Any).downcast_mut::<f32>() {
+        // Below 256: exact in `i32` and `f32` (`f32::from` of the byte).
+        *to = level as i32 as f32 * UNIT;
+        return out;
+    }
+    levels[level as usize]
 }
 
 /// `(⌊p⌋, p − ⌊p⌋)` of a position `p ≥ 0` inside the image. For `f32` the truncating
@@ -579,9 +649,11 @@ impl<T: Scalar> Views<T> {
             views.regular_groups = groups;
         }
         let (along, across) = (T::ONE, T::ZERO);
+        // `refine_band` takes only images whose sides convert to `i32`.
+        let samples = |n: usize| i32::try_from(n).unwrap_or(i32::MAX);
         let (row_frame, column_frame) = (
-            (along, across, views.x_max, views.x_last + 2),
-            (across, along, views.y_max, views.y_last + 2),
+            (along, across, views.x_max, samples(views.x_last + 2)),
+            (across, along, views.y_max, samples(views.y_last + 2)),
         );
         for (i, tap) in views.axis.iter().take(CHUNK).enumerate() {
             let frame = if tap.in_row { row_frame } else { column_frame };
@@ -749,58 +821,81 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return;
         };
-        let mut chunk = Chunk::<T, S, N>::new();
+        // The common case first: every regular tap sees the pixel, and none needs the
+        // border's clamped samples.
         let mut cursor = 0;
-        let centre_used = used::<T, L, N>(&centre);
-        let gathered = if self.regular {
-            self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk)
-        } else {
-            Gathered::Not
-        };
-        // Two calls rather than one with the mask as an option: the common one keeps no
-        // mask in its loop.
-        let groups = &self.regular_groups;
-        match gathered {
-            Gathered::Every => chunk.statistics(
-                CHUNK,
-                &self.levels,
-                &centre_used,
-                d,
-                self.half,
-                (robust, scaled),
-                Some((groups, None)),
-                out,
-            ),
-            Gathered::Masked(seen) => chunk.statistics(
-                CHUNK,
-                &self.levels,
-                &centre_used,
-                d,
-                self.half,
-                (robust, scaled),
-                Some((groups, Some(&seen))),
-                out,
-            ),
-            Gathered::Not => {}
-        }
-        if gathered != Gathered::Not {
-            cursor = CHUNK;
-        }
-        loop {
-            let n = self.fill::<S, CH, N, 3>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
-            if n == 0 {
-                break;
+        if self.regular {
+            let (mut cells, mut fractions) = ([0i32; CHUNK], [T::ZERO; CHUNK]);
+            if self.regular_cells::<3>((xf, yf), d, &mut cells, &mut fractions)
+                && self.regular_statistics::<S, CH, N>(
+                    data,
+                    (x, y),
+                    (&cells, &fractions),
+                    &used::<T, L, N>(&centre),
+                    d,
+                    (robust, scaled),
+                    out,
+                )
+            {
+                cursor = CHUNK;
             }
-            chunk.statistics(
-                n,
-                &self.levels,
-                &centre_used,
-                d,
-                self.half,
-                (robust, scaled),
-                None,
-                out,
-            );
+        }
+        // The other axis taps, or those of a regular set near the image's sides, from
+        // a chunk (zeroed: not needed when the regular taps are done).
+        if cursor < self.axis_len {
+            let mut chunk = Chunk::<T, S, N>::new();
+            let centre_used = used::<T, L, N>(&centre);
+            let gathered = if self.regular {
+                self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk)
+            } else {
+                Gathered::Not
+            };
+            // Two calls rather than one with the mask as an option: the common one keeps no
+            // mask in its loop.
+            let groups = &self.regular_groups;
+            match gathered {
+                Gathered::Every => chunk.statistics(
+                    CHUNK,
+                    &self.levels,
+                    &centre_used,
+                    d,
+                    self.half,
+                    (robust, scaled),
+                    Some((groups, None)),
+                    out,
+                ),
+                Gathered::Masked(seen) => chunk.statistics(
+                    CHUNK,
+                    &self.levels,
+                    &centre_used,
+                    d,
+                    self.half,
+                    (robust, scaled),
+                    Some((groups, Some(&seen))),
+                    out,
+                ),
+                Gathered::Not => {}
+            }
+            if gathered != Gathered::Not {
+                cursor = CHUNK;
+            }
+            loop {
+                let n =
+                    self.fill::<S, CH, N, 3>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
+                if n == 0 {
+                    break;
+                }
+                chunk.statistics(
+                    n,
+                    &self.levels,
+                    &centre_used,
+                    d,
+                    self.half,
+                    (robust, scaled),
+                    None,
+                    out,
+                );
+            }
         }
         for tap in self.oblique_taps() {
             let tap = &tap;
@@ -844,44 +939,70 @@ impl<T: Scalar> Views<T> {
         // The views' weighted energies in a fixed order: a running sum of non-negative
         // terms, so a partial sum at or above the bar decides.
         let mut cost = T::ZERO;
-        let mut chunk = Chunk::<T, S, N>::new();
         let mut cursor = 0;
         let centre_used = used::<T, L, N>(&centre);
-        let gathered = if self.regular {
-            self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk)
-        } else {
-            Gathered::Not
-        };
-        match gathered {
-            Gathered::Every => {
-                for e in chunk.energies(&self.levels, &centre_used, (robust, scaled)) {
+        // The common case first, as in `pixel_channels`: the same energies as from the
+        // chunk `fill_regular` gathers (the same bits).
+        if self.regular {
+            let (mut cells, mut fractions) = ([0i32; CHUNK], [T::ZERO; CHUNK]);
+            let mut words = [[0u32; CHUNK]; 2];
+            if self.regular_cells::<2>((xf, yf), d, &mut cells, &mut fractions)
+                && self
+                    .regular_words::<S, CH, 2>(data, (x, y), &cells, &mut words)
+                    .is_some()
+            {
+                let levels = &self.levels;
+                // `j` < 2, `c` < N ≤ 3 (`energies`).
+                let texel = |j: usize, c: usize, v: usize| unpack(words[j][v], c, levels);
+                for e in energies(&texel, &fractions, &centre_used, (robust, scaled)) {
                     cost += e;
                 }
-            }
-            Gathered::Masked(seen) => {
-                let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
-                for (e, keep) in energies.into_iter().zip(seen) {
-                    cost += if keep { e } else { T::ZERO };
-                }
-            }
-            Gathered::Not => {}
-        }
-        if gathered != Gathered::Not {
-            if !below(cost) {
-                return None;
-            }
-            cursor = CHUNK;
-        }
-        loop {
-            let n = self.fill::<S, CH, N, 2>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
-            if n == 0 {
-                break;
-            }
-            let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
-            for &e in energies.get(..n).unwrap_or_default() {
-                cost += e;
                 if !below(cost) {
                     return None;
+                }
+                cursor = CHUNK;
+            }
+        }
+        // The other axis taps (see `pixel_channels`).
+        if cursor < self.axis_len {
+            let mut chunk = Chunk::<T, S, N>::new();
+            let gathered = if self.regular {
+                self.fill_regular::<S, CH, N, 2>(data, (x, y), (xf, yf), d, &mut chunk)
+            } else {
+                Gathered::Not
+            };
+            match gathered {
+                Gathered::Every => {
+                    for e in chunk.energies(&self.levels, &centre_used, (robust, scaled)) {
+                        cost += e;
+                    }
+                }
+                Gathered::Masked(seen) => {
+                    let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+                    for (e, keep) in energies.into_iter().zip(seen) {
+                        cost += if keep { e } else { T::ZERO };
+                    }
+                }
+                Gathered::Not => {}
+            }
+            if gathered != Gathered::Not {
+                if !below(cost) {
+                    return None;
+                }
+                cursor = CHUNK;
+            }
+            loop {
+                let n =
+                    self.fill::<S, CH, N, 2>(data, &mut cursor, (x, y), (xf, yf), d, &mut chunk);
+                if n == 0 {
+                    break;
+                }
+                let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+                for &e in energies.get(..n).unwrap_or_default() {
+                    cost += e;
+                    if !below(cost) {
+                        return None;
+                    }
                 }
             }
         }
@@ -906,6 +1027,96 @@ impl<T: Scalar> Views<T> {
             }
         }
         below(cost).then_some(cost)
+    }
+
+    /// The statistics of the [`CHUNK`] regular axis taps when every one sees pixel
+    /// `(x, y)` and none needs the border's clamped samples (`cells`, `fractions` from
+    /// [`Self::regular_cells`] with `J` = 3), written to the groups' slots of `out`
+    /// (zeroed), for 8-bit samples: [`statistics`] of the same scaled texels as the
+    /// chunk `fill_regular` gathers (the same bits), but each texel's channels moved as
+    /// one 32-bit word, then split into channels for all taps side by side (the byte
+    /// by byte gather was a third of a call). `false` (and `out` unchanged) for other
+    /// sample types and when a texel's four bytes reach past the end of the data.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn regular_statistics<S: Sample, const CH: usize, const N: usize>(
+        &self,
+        data: &[S],
+        (x, y): (usize, usize),
+        (cells, fractions): (&[i32; CHUNK], &[T; CHUNK]),
+        centre: &[T; N],
+        d: T,
+        robust: (T, T),
+        out: &mut [T; STATS],
+    ) -> bool {
+        let mut words = [[0u32; CHUNK]; 3];
+        if self
+            .regular_words::<S, CH, 3>(data, (x, y), cells, &mut words)
+            .is_none()
+        {
+            return false;
+        }
+        let levels = &self.levels;
+        let lanes = Lanes {
+            // `j` < 3, `c` < N ≤ 4 (`statistics`).
+            texel: |j: usize, c: usize, v: usize| unpack(words[j][v], c, levels),
+            fraction: fractions,
+            offset: &self.regular_offset,
+            group: &[0; CHUNK],
+        };
+        let regular = Some((&self.regular_groups, None));
+        statistics(&lanes, CHUNK, centre, d, self.half, robust, regular, out);
+        true
+    }
+
+    /// The texels `k`, …, `k + J − 1` (`k` the tap's cell) of the [`CHUNK`] regular
+    /// axis taps for pixel `(x, y)` into `words`, each as one 32-bit word of its first
+    /// four 8-bit samples (the channels, little-endian; see [`unpack`]). `None` for
+    /// other sample types and when a word reaches past the end of the data. (An output
+    /// argument: a returned array was copied by `memcpy`.)
+    #[inline(always)]
+    fn regular_words<S: Sample, const CH: usize, const J: usize>(
+        &self,
+        data: &[S],
+        (x, y): (usize, usize),
+        cells: &[i32; CHUNK],
+        words: &mut [[u32; CHUNK]; J],
+    ) -> Option<()> {
+        // Resolved at compile time for each sample type. A pixel's used channels (at
+        // most three) fit a word; a row tap's `J` ≤ 3 texels lie within twelve bytes.
+        if TypeId::of::<S>() != TypeId::of::<u8>() || CH > 4 || J > 3 {
+            return None;
+        }
+        let word = |bytes: Option<&[S; 4]>| {
+            let bytes = bytes.and_then(|b| (b as &dyn Any).downcast_ref::<[u8; 4]>())?;
+            Some(u32::from_le_bytes(*bytes))
+        };
+        let (row, column, rs) = (y * self.row_stride, x * CH, self.row_stride);
+        for v in 0..CHUNK {
+            // Cells are non-negative (`regular_cells`).
+            let k = cells[v] as usize;
+            if self.regular_in_row[v] {
+                // Side by side in the row: one bounds check.
+                let first = self.regular_start[v] + row + k * CH;
+                let run = data.get(first..)?.first_chunk::<12>()?;
+                for (j, words) in words.iter_mut().enumerate() {
+                    words[v] = word(run.get(j * CH..).and_then(|s| s.first_chunk::<4>()))?;
+                }
+            } else {
+                // One row apart: one bounds check for the span from the first word to
+                // the end of the last (the sums do not wrap, so the nearer words lie
+                // inside it).
+                let first = self.regular_start[v] + column + k * rs;
+                let last = rs.checked_mul(J.saturating_sub(1))?.checked_add(4)?;
+                let run = data.get(first..first.checked_add(last)?)?;
+                let mut at = 0usize;
+                for words in words.iter_mut() {
+                    words[v] = word(run.get(at..).and_then(|s| s.first_chunk::<4>()))?;
+                    at = at.checked_add(rs)?;
+                }
+            }
+        }
+        Some(())
     }
 
     /// The next axis tap.
@@ -1019,8 +1230,10 @@ impl<T: Scalar> Views<T> {
         d: T,
         chunk: &mut Chunk<T, S, N>,
     ) -> Gathered {
-        let mut cells = [0usize; CHUNK];
+        let mut cells = [0i32; CHUNK];
         let every = self.regular_cells::<J>((xf, yf), d, &mut cells, &mut chunk.fraction);
+        // Cells are non-negative (`regular_cells`).
+        let cells = cells.map(|k| k as usize);
         let (row, column) = (y * self.row_stride, x * CH);
         let rs = self.row_stride;
         chunk.offset = self.regular_offset;
@@ -1066,7 +1279,7 @@ impl<T: Scalar> Views<T> {
         for (v, (&k, &start)) in cells.iter().zip(&self.regular_start).enumerate() {
             let p = (xf * self.regular_x[v] + yf * self.regular_y[v]) - d * self.regular_offset[v];
             seen[v] = p - self.half >= T::ZERO && p + self.half <= self.regular_max[v];
-            let last = self.regular_samples[v].saturating_sub(1);
+            let last = (self.regular_samples[v] as usize).saturating_sub(1);
             let (base, stride) = if self.regular_in_row[v] {
                 (start + row, CH)
             } else {
@@ -1090,13 +1303,14 @@ impl<T: Scalar> Views<T> {
     /// The cells (first texel index along the axis) and fractions of the regular axis
     /// taps at `d`, as [`Self::fill`] splits them (`J` = 3: of `p − ½`, `J` = 2: of
     /// `p`); whether every tap sees the pixel and none needs the border's clamped
-    /// samples. For `f32` in one loop without branches, which the compiler vectorises.
+    /// samples. For `f32` in one loop without branches, which the compiler vectorises
+    /// (the cells as `i32`, non-negative, so that they stay in vector lanes too).
     #[inline(always)]
     fn regular_cells<const J: usize>(
         &self,
         (xf, yf): (T, T),
         d: T,
-        cells: &mut [usize; CHUNK],
+        cells: &mut [i32; CHUNK],
         fractions: &mut [T; CHUNK],
     ) -> bool {
         let half = self.half;
@@ -1132,22 +1346,28 @@ impl<T: Scalar> Views<T> {
                 f[v] = q - k as f32;
                 inside[v] = (p - 0.5 >= 0.0) & (p + 0.5 <= max[v]) & (q < 4194304.0);
             }
-            let mut all = true;
+            // In `i32` side by side (the cells are below 2^22).
+            let mut fits = [false; CHUNK];
             for v in 0..CHUNK {
-                let k = whole[v].max(0) as usize;
+                let k = whole[v].max(0);
                 cells[v] = k;
-                all &= inside[v] & (k + J <= self.regular_samples[v]);
+                fits[v] = inside[v] & (k + J as i32 <= self.regular_samples[v]);
             }
-            return all;
+            return fits.iter().fold(true, |all, &fits| all & fits);
         }
         let mut all = true;
         for v in 0..CHUNK {
             let p = (xf * self.regular_x[v] + yf * self.regular_y[v]) - d * self.regular_offset[v];
             let (k, f) = split(if J == 3 { p - half } else { p });
+            // A cell that does not fit `i32` lies outside the image: not `all`, and the
+            // border path clamps it to the last cell either way.
+            let cell = i32::try_from(k).unwrap_or(i32::MAX);
             all &= p - half >= T::ZERO
                 && p + half <= self.regular_max[v]
-                && k + J <= self.regular_samples[v];
-            cells[v] = k;
+                && cell
+                    .checked_add(J as i32)
+                    .is_some_and(|end| end <= self.regular_samples[v]);
+            cells[v] = cell;
             fractions[v] = f;
         }
         all

@@ -443,7 +443,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
         region: Rect,
     ) {
         match (guide, maps.dual) {
-            (Guide::View(view), None) => self.view_weights_by_row(maps, view, params, region),
+            (Guide::View(view), None) => self.weights_from_view(maps, view, params, region),
             _ => self.weights_by_node(maps, guide, params, region),
         }
         self.norm = params.norm;
@@ -597,64 +597,111 @@ impl<'s, S: Scalar> Graph<'s, S> {
         }
     }
 
-    /// The edge weights from the guide view without a previous dual, a row at a time
-    /// (the same values as [`Self::weights_by_node`]): the colour steps of the row in
-    /// one pass, the weights of them in another, which vectorise.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
-    fn view_weights_by_row<P: Sample>(
+    /// The edge weights from the guide view without a previous dual (the same values as
+    /// [`Self::weights_by_node`]), a block of columns at a time down the region
+    /// ([`Self::view_weights_by_block`]) for every layout a view has (1, 3 or 4 samples
+    /// per pixel).
+    fn weights_from_view<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
         view: &View<'_, P>,
         params: &TvParams,
         region: Rect,
     ) {
+        match view.channels() {
+            1 => self.view_weights_by_block::<P, 1, 1>(view, params, region),
+            3 => self.view_weights_by_block::<P, 3, 3>(view, params, region),
+            4 => self.view_weights_by_block::<P, 4, 3>(view, params, region),
+            _ => self.weights_by_node(maps, &Guide::View(*view), params, region),
+        }
+    }
+
+    /// [`Self::weights_from_view`] for `CH` samples per pixel, `USED` of them compared: the
+    /// region is walked in blocks of [`STEP_BLOCK`] columns, each from its top row down,
+    /// so every image row of a block is turned into unit intensity once — as the lower
+    /// row of one row's vertical steps and then as the next row's own — instead of twice
+    /// (row by row, each row was converted again as the one below the previous row).
+    /// The same values as [`colour_step`] per pixel: the largest of non-negative
+    /// differences (the samples are finite) does not depend on the order it is taken in,
+    /// so the differences and the largest of them run in vector lanes, a channel at a time.
+    fn view_weights_by_block<P: Sample, const CH: usize, const USED: usize>(
+        &mut self,
+        view: &View<'_, P>,
+        params: &TvParams,
+        region: Rect,
+    ) {
         let (w, h) = (self.width, self.height);
-        let ch = view.channels();
-        for y in 0..h {
-            let gy = region.y + y;
-            let r = y * w..(y + 1) * w;
-            let (Some(oh), Some(ov)) = (self.wh.get_mut(r.clone()), self.wv.get_mut(r)) else {
-                continue;
-            };
+        let weight =
+            |step: f32| S::from_f32(edge_weight(step, params.edge_sigma, params.edge_floor));
+        // The block's pixels of image row `gy` and the one right of the block (when the
+        // image has them) into `out`, in unit intensity; returns how many there were.
+        let load = |gy: usize, first: usize, n: usize, out: &mut [[f32; STEP_BLOCK + 1]; USED]| {
             let row = view.row(gy).unwrap_or_default();
-            let below = view.row(gy + 1).unwrap_or_default();
-            let start = region.x * ch;
-            // The region's pixels and the one right of it (when the map has it).
-            let here = row.get(start..).unwrap_or_default();
-            let under = below.get(start..).unwrap_or_default();
-            // Blocks of pixels through f32 steps on the stack (the weights are `S`).
-            let (mut right, mut down) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
-            let blocks = oh.chunks_mut(STEP_BLOCK).zip(ov.chunks_mut(STEP_BLOCK));
-            for (b, (bh, bv)) in blocks.enumerate() {
-                let first = b * STEP_BLOCK * ch;
-                let (Some(right), Some(down)) =
-                    (right.get_mut(..bh.len()), down.get_mut(..bv.len()))
-                else {
-                    continue; // blocks hold at most STEP_BLOCK pixels
+            let pixels = row.get((region.x + first) * CH..).unwrap_or_default();
+            let mut known = 0;
+            for (x, pixel) in pixels.chunks_exact(CH).take(n + 1).enumerate() {
+                for (channel, &v) in out.iter_mut().zip(pixel) {
+                    if let Some(u) = channel.get_mut(x) {
+                        *u = v.to_unit();
+                    }
+                }
+                known = x + 1;
+            }
+            known
+        };
+        let mut here = [[0.0f32; STEP_BLOCK + 1]; USED];
+        let mut under = [[0.0f32; STEP_BLOCK + 1]; USED];
+        for first in (0..w).step_by(STEP_BLOCK) {
+            let n = STEP_BLOCK.min(w - first);
+            let mut known = load(region.y, first, n, &mut here);
+            for y in 0..h {
+                let r = y * w + first..y * w + first + n;
+                let (Some(oh), Some(ov)) = (self.wh.get_mut(r.clone()), self.wv.get_mut(r)) else {
+                    continue;
                 };
-                colour_steps_of_row(
-                    here.get(first..).unwrap_or_default(),
-                    under.get(first..).unwrap_or_default(),
-                    ch,
-                    right,
-                    down,
-                );
-                let weight = |step: f32| {
-                    S::from_f32(edge_weight(step, params.edge_sigma, params.edge_floor))
+                // The last row's vertical edges are cut (the region's or the map's end).
+                let known_below = if y + 1 < h {
+                    load(region.y + y + 1, first, n, &mut under)
+                } else {
+                    0
                 };
-                for (e, &step) in bh.iter_mut().zip(right.iter()) {
+                let (mut right, mut down) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
+                // A missing neighbour leaves its step at 0.
+                let with_right = n.min(known.saturating_sub(1));
+                let with_down = n.min(known_below);
+                if let (Some(right), Some(down)) =
+                    (right.get_mut(..with_right), down.get_mut(..with_down))
+                {
+                    for (channel, channel_below) in here.iter().zip(&under) {
+                        let next = channel.iter().skip(1);
+                        for ((r, &a), &b) in right.iter_mut().zip(channel).zip(next) {
+                            let d = libm::fabsf(a - b);
+                            *r = if d > *r { d } else { *r };
+                        }
+                        for ((r, &a), &b) in down.iter_mut().zip(channel).zip(channel_below) {
+                            let d = libm::fabsf(a - b);
+                            *r = if d > *r { d } else { *r };
+                        }
+                    }
+                }
+                for (e, &step) in oh.iter_mut().zip(right.iter()) {
                     *e = weight(step);
                 }
-                for (e, &step) in bv.iter_mut().zip(down.iter()) {
-                    *e = weight(step);
+                if y + 1 < h {
+                    for (e, &step) in ov.iter_mut().zip(down.iter()) {
+                        *e = weight(step);
+                    }
+                } else {
+                    ov.fill(S::ZERO);
                 }
-            }
-            // Edges leaving the region (or the map) are cut.
-            if let Some(last) = oh.last_mut() {
-                *last = S::ZERO;
-            }
-            if y + 1 == h || gy + 1 >= maps.height || under.is_empty() {
-                ov.fill(S::ZERO);
+                // The region's last column: its horizontal edge is cut.
+                if first + n == w {
+                    if let Some(last) = oh.last_mut() {
+                        *last = S::ZERO;
+                    }
+                }
+                core::mem::swap(&mut here, &mut under);
+                known = known_below;
             }
         }
     }
@@ -730,17 +777,9 @@ impl<'s, S: Scalar> Graph<'s, S> {
         // The row above the first: no upper edges (adding `sq(0) = 0` changes nothing).
         let zeros = self.rows.get_mut(..w).unwrap_or_default();
         zeros.fill(S::ZERO);
-        let node = |d: f32, c: f32, eh: S, ev: S, left: S, up: S| {
-            let a = data_weight(c, params);
-            // `‖c_i‖²`: the node's own edges, then its left and upper neighbours', in
-            // the order of `node_constants_by_node`.
-            let c2 = sq(eh) + sq(ev) + sq(left) + sq(up);
-            let gk = gamma * lambda * lambda / a;
-            (
-                S::from_f32(DUAL_SCALE * (a * d / lambda)),
-                S::from_f32(gk / (1.0 + gk * c2)),
-            )
-        };
+        // `a_i` of the defaults in data_weight's branch-free form, chosen once per block
+        // so that the loop vectorises.
+        let simple = params.confidence_power == 1.0 && params.confidence_threshold == 0.0;
         for y in 0..h {
             let start = (region.y + y) * maps.width + region.x;
             let r = y * w..(y + 1) * w;
@@ -762,22 +801,52 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 lo = if d < lo { d } else { lo };
                 hi = if d > hi { d } else { hi };
             }
-            // The first node has no left edge; the others' is the previous node's own.
-            let (Some((t0, tau)), Some((s0, sig)), Some((&d0, d)), Some((&c0, conf))) = (
-                tau.split_first_mut(),
-                sig.split_first_mut(),
-                d.split_first(),
-                conf.split_first(),
-            ) else {
-                continue;
-            };
-            let first = |v: &[S]| v.first().copied().unwrap_or(S::ZERO);
-            (*t0, *s0) = node(d0, c0, first(wh), first(wv), S::ZERO, first(above));
-            let own = part(wh, 1..w).iter().zip(part(wv, 1..w));
-            let weights = own.zip(wh.iter().zip(part(above, 1..w)));
-            let nodes = tau.iter_mut().zip(sig.iter_mut()).zip(d.iter().zip(conf));
-            for (((t, s), (&d, &c)), ((&eh, &ev), (&left, &up))) in nodes.zip(weights) {
-                (*t, *s) = node(d, c, eh, ev, left, up);
+            // Blocks of nodes through `f32` arrays on the stack: the data weights and
+            // `‖c_i‖²` first, then `τ` and `σ` (the same operations per node as one loop).
+            for first in (0..w).step_by(STEP_BLOCK) {
+                let n = STEP_BLOCK.min(w - first);
+                let block = first..first + n;
+                let mut a = [1.0f32; STEP_BLOCK];
+                let conf = part(conf, block.clone());
+                if simple {
+                    for (a, &c) in a.iter_mut().zip(conf) {
+                        *a = c.clamp(0.0, 1.0) + params.tikhonov;
+                    }
+                } else {
+                    for (a, &c) in a.iter_mut().zip(conf) {
+                        *a = data_weight(c, params);
+                    }
+                }
+                // The left neighbour's own edge (the row's first node has none: 0).
+                let mut left = [0.0f32; STEP_BLOCK];
+                let (to, from) = if first == 0 {
+                    (part_mut(&mut left, 1..n), part(wh, 0..n.saturating_sub(1)))
+                } else {
+                    (
+                        part_mut(&mut left, 0..n),
+                        part(wh, first - 1..first + n - 1),
+                    )
+                };
+                for (l, &e) in to.iter_mut().zip(from) {
+                    *l = sq(e);
+                }
+                // `‖c_i‖²`: the node's own edges, then its left and upper neighbours', in
+                // the order of `node_constants_by_node`.
+                let mut c2 = [0.0f32; STEP_BLOCK];
+                let own = part(wh, block.clone()).iter().zip(part(wv, block.clone()));
+                let others = left.iter().zip(part(above, block.clone()));
+                for (c2, ((&eh, &ev), (&left, &up))) in c2.iter_mut().zip(own.zip(others)) {
+                    *c2 = sq(eh) + sq(ev) + left + sq(up);
+                }
+                let outs = part_mut(tau, block.clone())
+                    .iter_mut()
+                    .zip(part_mut(sig, block.clone()));
+                let nodes = part(d, block).iter().zip(a.iter().zip(&c2));
+                for ((t, s), (&d, (&a, &c2))) in outs.zip(nodes) {
+                    let gk = gamma * lambda * lambda / a;
+                    *t = S::from_f32(DUAL_SCALE * (a * d / lambda));
+                    *s = S::from_f32(gk / (1.0 + gk * c2));
+                }
             }
         }
         (lo, hi)
@@ -888,9 +957,11 @@ impl<'s, S: Scalar> Graph<'s, S> {
         let w = self.width;
         let eps = GRADIENT_START_SCALE;
         let floor = |n: f32| if n > eps { n } else { eps };
-        let to_f32 = |v: &S| v.to_f32();
         // Only `F` (in `y₁`) is written: `consistent_copies` sets the copies from it.
-        // A row at a time from row slices (per-node lookups were a tenth of a solve).
+        // A row at a time, in blocks of `STEP_BLOCK` nodes through `f32` arrays on the
+        // stack: the differences, the divisions and the scaling in vector lanes, the
+        // square roots (libm's `sqrtf` is a scalar instruction) in a pass of their own —
+        // the same operations per node as one scalar loop.
         let rows = self
             .y1h
             .chunks_exact_mut(w.max(1))
@@ -913,44 +984,65 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 .disparity
                 .get(start + maps.width..start + maps.width + w)
                 .unwrap_or(d);
-            let node = |eh: &S, ev: &S, b: &S, d: f32, right: f32, down: f32| {
-                let gh = if to_f32(eh) > 0.0 { right - d } else { 0.0 };
-                let gv = if to_f32(ev) > 0.0 { down - d } else { 0.0 };
-                let (fh, fv) = match norm {
+            for first in (0..w).step_by(STEP_BLOCK) {
+                let n = STEP_BLOCK.min(w - first);
+                let block = first..first + n;
+                // Every node but the row's last has its right neighbour in the row; the
+                // last one's edge is cut (zero weight) or, at the map's edge, missing.
+                let mut right = [0.0f32; STEP_BLOCK];
+                let known = part(d_row, first + 1..(first + n + 1).min(d_row.len()));
+                copy_row(part_mut(&mut right, 0..known.len()), known);
+                let (mut gh, mut gv) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
+                let steps = gh.iter_mut().zip(gv.iter_mut());
+                let ends = part(d, block.clone()).iter().zip(right.iter());
+                let edges = part(wh, block.clone()).iter().zip(part(wv, block.clone()));
+                let downs = part(below, block.clone());
+                for (((gh, gv), (&d, &right)), ((eh, ev), &down)) in
+                    steps.zip(ends).zip(edges.zip(downs))
+                {
+                    *gh = if eh.to_f32() > 0.0 { right - d } else { 0.0 };
+                    *gv = if ev.to_f32() > 0.0 { down - d } else { 0.0 };
+                }
+                // The divisor of each component: ℓ2 the pair's norm, ℓ1 each on its own.
+                let (mut nh, mut nv) = ([0.0f32; STEP_BLOCK], [0.0f32; STEP_BLOCK]);
+                match norm {
                     TvNorm::L2 => {
-                        let n = floor(libm::sqrtf(gh * gh + gv * gv));
-                        (gh / n, gv / n)
+                        for ((n2, &gh), &gv) in nh.iter_mut().zip(&gh).zip(&gv) {
+                            *n2 = gh * gh + gv * gv;
+                        }
+                        for n in nh.iter_mut() {
+                            *n = libm::sqrtf(*n);
+                        }
+                        for (n, nv) in nh.iter_mut().zip(nv.iter_mut()) {
+                            *n = floor(*n);
+                            *nv = *n;
+                        }
                     }
-                    TvNorm::L1 => (gh / floor(libm::fabsf(gh)), gv / floor(libm::fabsf(gv))),
-                };
+                    TvNorm::L1 => {
+                        for (((nh, nv), &gh), &gv) in
+                            nh.iter_mut().zip(nv.iter_mut()).zip(&gh).zip(&gv)
+                        {
+                            *nh = floor(libm::fabsf(gh));
+                            *nv = floor(libm::fabsf(gv));
+                        }
+                    }
+                }
                 // `start_dual_at`'s scaling into the iterated variable.
-                let b = to_f32(b);
-                let factor = match norm {
-                    TvNorm::L1 => 1.0 / b,
-                    TvNorm::L2 => b,
-                };
-                let to_g = 1.0 / factor;
-                (S::from_f32(to_g * fh), S::from_f32(to_g * fv))
-            };
-            // Every node but the last has its right neighbour in the row; the last one's
-            // edge is cut (zero weight) or, at the map's edge, missing.
-            let right = part(d_row, 1..w);
-            let nodes = y1h.iter_mut().zip(y1v.iter_mut()).zip(d.iter().zip(below));
-            let edges = wh.iter().zip(wv.iter()).zip(bound.iter().zip(right));
-            for (((fh, fv), (&d, &down)), ((eh, ev), (b, &right))) in nodes.zip(edges) {
-                (*fh, *fv) = node(eh, ev, b, d, right, down);
-            }
-            if let (Some(fh), Some(fv), Some(&d), Some(&down), Some(eh), Some(ev), Some(b)) = (
-                y1h.last_mut(),
-                y1v.last_mut(),
-                d.last(),
-                below.last(),
-                wh.last(),
-                wv.last(),
-                bound.last(),
-            ) {
-                let right = d_row.get(w).copied().unwrap_or(0.0);
-                (*fh, *fv) = node(eh, ev, b, d, right, down);
+                let outs = part_mut(y1h, block.clone())
+                    .iter_mut()
+                    .zip(part_mut(y1v, block.clone()));
+                let steps = gh.iter().zip(&gv).zip(nh.iter().zip(&nv));
+                for (((fh, fv), ((&gh, &gv), (&nh, &nv))), b) in
+                    outs.zip(steps).zip(part(bound, block))
+                {
+                    let b = b.to_f32();
+                    let factor = match norm {
+                        TvNorm::L1 => 1.0 / b,
+                        TvNorm::L2 => b,
+                    };
+                    let to_g = 1.0 / factor;
+                    (*fh, *fv) = (S::from_f32(to_g * (gh / nh)), S::from_f32(to_g * (gv / nv)));
+                }
             }
         }
     }
@@ -1164,6 +1256,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
     ) {
         let w = self.width;
         let div = self.rows.get_mut(..w).unwrap_or_default();
+        let simple = params.confidence_power == 1.0 && params.confidence_threshold == 0.0;
         for y in 0..core.height {
             let ry = core.y - region.y + y;
             let gy = core.y + y;
@@ -1178,7 +1271,18 @@ impl<'s, S: Scalar> Graph<'s, S> {
             ) else {
                 continue;
             };
-            for (x, (((o, &d), &c), &u)) in o.iter_mut().zip(d).zip(conf).zip(u).enumerate() {
+            let pixels = o.iter_mut().zip(d).zip(conf).zip(u);
+            if maps.dual.is_none() && simple {
+                // The defaults without fixed flows: data_weight's branch-free form and no
+                // per-pixel test, so the loop vectorises (the same operations per pixel).
+                for (((o, &d), &c), &u) in pixels {
+                    let a = c.clamp(0.0, 1.0) + params.tikhonov;
+                    let u = u.to_f32() / DUAL_SCALE + 0.0;
+                    *o = clamp_f32(d - params.lambda * u / a, self.range.0, self.range.1);
+                }
+                continue;
+            }
+            for (x, (((o, &d), &c), &u)) in pixels.enumerate() {
                 let a = data_weight(c, params);
                 // The fixed flows of a previous dual (zero without one).
                 let outside = if maps.dual.is_some() {
@@ -1281,6 +1385,13 @@ fn external_flow<P: Sample>(
 #[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn data_weight(confidence: f32, params: &TvParams) -> f32 {
     let c = confidence.clamp(0.0, 1.0);
+    // The defaults (power 1, threshold 0) in a branch-free form with the same values
+    // (`c > 0` selects `c` itself, `c = 0` adds nothing), tested first: the test is the
+    // same for every node, so the compiler takes it out of the setup's per-node loops,
+    // which then vectorise (the general form below branches per node).
+    if params.confidence_power == 1.0 && params.confidence_threshold == 0.0 {
+        return c + params.tikhonov;
+    }
     let reliable = if c >= params.confidence_threshold && c > 0.0 {
         // `powf(c, 1) == c` exactly; the default power skips the call (a third of setup).
         if params.confidence_power == 1.0 {
@@ -1322,99 +1433,9 @@ const METRIC_STIFFNESS: f32 = 4.0;
 /// Largest `k` of the metric (`s = 2^-k`).
 const METRIC_MAX_SHIFT: i32 = 6;
 
-/// Pixels per block of [`colour_steps_of_row`] in the setup (two `f32` arrays on the
-/// stack).
+/// Pixels per block of columns of [`Graph::view_weights_by_block`] in the setup (`f32`
+/// arrays on the stack).
 const STEP_BLOCK: usize = 64;
-
-/// The colour steps (largest channel difference, unit intensity) of a row's pixels to
-/// their right neighbours into `right` and to the pixels below into `down` (0 where the
-/// neighbour is missing), the same values as [`colour_step`] per pixel. `row` and
-/// `below` start at the region's first pixel, `ch` samples per pixel, the first three
-/// compared. One pass per channel layout so the common ones need no per-pixel slicing.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
-fn colour_steps_of_row<P: Sample>(
-    row: &[P],
-    below: &[P],
-    ch: usize,
-    right: &mut [f32],
-    down: &mut [f32],
-) {
-    match ch {
-        1 => colour_steps_with::<P, 1, 1>(row, below, right, down),
-        3 => colour_steps_with::<P, 3, 3>(row, below, right, down),
-        4 => colour_steps_with::<P, 4, 3>(row, below, right, down),
-        _ => {
-            let used = ch.min(3);
-            for (x, (r, d)) in right.iter_mut().zip(down.iter_mut()).enumerate() {
-                let here = row.get(x * ch..x * ch + ch).unwrap_or(&[]);
-                let step = |other: &[P]| {
-                    if other.is_empty() {
-                        0.0
-                    } else {
-                        colour_step(here, other, used)
-                    }
-                };
-                *r = step(row.get((x + 1) * ch..(x + 2) * ch).unwrap_or(&[]));
-                *d = step(below.get(x * ch..x * ch + ch).unwrap_or(&[]));
-            }
-        }
-    }
-}
-
-/// [`colour_steps_of_row`] for `CH` samples per pixel, `USED` of them compared, on at
-/// most [`STEP_BLOCK`] pixels: each sample is turned into unit intensity once, into one
-/// stack array per channel, so the differences and the largest of them run in vector
-/// lanes. The same values as [`colour_step`]: the largest of non-negative differences
-/// (the samples are finite) does not depend on the order it is taken in.
-#[inline(always)]
-fn colour_steps_with<P: Sample, const CH: usize, const USED: usize>(
-    row: &[P],
-    below: &[P],
-    right: &mut [f32],
-    down: &mut [f32],
-) {
-    let mut here = [[0.0f32; STEP_BLOCK + 1]; USED];
-    let mut under = [[0.0f32; STEP_BLOCK]; USED];
-    // Pixels of the row (with the one right of the block) and of the row below.
-    let mut known = 0;
-    for (x, pixel) in row.chunks_exact(CH).take(STEP_BLOCK + 1).enumerate() {
-        for (channel, &v) in here.iter_mut().zip(pixel) {
-            if let Some(u) = channel.get_mut(x) {
-                *u = v.to_unit();
-            }
-        }
-        known = x + 1;
-    }
-    let mut known_below = 0;
-    for (x, pixel) in below.chunks_exact(CH).take(STEP_BLOCK).enumerate() {
-        for (channel, &v) in under.iter_mut().zip(pixel) {
-            if let Some(u) = channel.get_mut(x) {
-                *u = v.to_unit();
-            }
-        }
-        known_below = x + 1;
-    }
-    right.fill(0.0);
-    down.fill(0.0);
-    // A missing neighbour leaves its step at 0.
-    let with_right = right.len().min(known.saturating_sub(1));
-    let with_down = down.len().min(known_below);
-    let (right, down) = (
-        right.get_mut(..with_right).unwrap_or_default(),
-        down.get_mut(..with_down).unwrap_or_default(),
-    );
-    for (channel, channel_below) in here.iter().zip(&under) {
-        let next = channel.iter().skip(1);
-        for ((r, &a), &b) in right.iter_mut().zip(channel).zip(next) {
-            let d = libm::fabsf(a - b);
-            *r = if d > *r { d } else { *r };
-        }
-        for ((r, &a), &b) in down.iter_mut().zip(channel).zip(channel_below) {
-            let d = libm::fabsf(a - b);
-            *r = if d > *r { d } else { *r };
-        }
-    }
-}
 
 /// Edge weights to the right and down neighbours of `(x, y)` from the guide view.
 #[cfg_attr(target_arch = "x86_64", inline(always))]
@@ -2382,6 +2403,83 @@ mod tests {
             // tolerance (RMS).
             let bound = report.iterations as f32 * default.tolerance;
             assert!(off < bound, "{norm:?}: {off} px from the optimum");
+        }
+    }
+
+    #[test]
+    fn edge_weights_by_blocks_of_columns_equal_those_node_by_node() {
+        // A 150 × 9 image (more than two blocks of columns, a partial last one) with
+        // regions inside it, at its right and bottom edges and across all of it, for
+        // every layout of a view (1, 3, 4 samples).
+        let (mw, mh) = (150usize, 9usize);
+        let d = vec![0.0f32; mw * mh];
+        let c = vec![1.0f32; mw * mh];
+        let maps = Maps::new(mw, mh, &d, &c).unwrap();
+        let params = TvParams::default();
+        let regions = [
+            Rect {
+                x: 3,
+                y: 2,
+                width: 140,
+                height: 5,
+            },
+            Rect {
+                x: 10,
+                y: 4,
+                width: 140,
+                height: 5,
+            },
+            Rect {
+                x: 0,
+                y: 0,
+                width: mw,
+                height: mh,
+            },
+            Rect {
+                x: 149,
+                y: 0,
+                width: 1,
+                height: 3,
+            },
+        ];
+        let mut seed = 7u64;
+        for ch in [1usize, 3, 4] {
+            // Small steps (weights between the floor and 1) and a few large ones.
+            let data: Vec<u8> = (0..mw * mh * ch)
+                .map(|i| {
+                    let jump = if lcg(&mut seed) < 0.1 { 100.0 } else { 0.0 };
+                    ((i / ch % mw) as f32 * 0.5 + lcg(&mut seed) * 8.0 + jump) as u8
+                })
+                .collect();
+            let view = View::new(&data, mw, mh, ch, mw * ch).unwrap();
+            let guide = Guide::View(view);
+            for region in regions {
+                let n = region.width * region.height;
+                let mut a = vec![0.0f32; scratch_len_for(region.width, region.height)];
+                let mut b = a.clone();
+                let mut by_view = Graph::split(&mut a, region.width, region.height);
+                by_view.weights_from_view(&maps, &view, &params, region);
+                let mut by_node = Graph::split(&mut b, region.width, region.height);
+                by_node.weights_by_node(&maps, &guide, &params, region);
+                assert_eq!(
+                    by_view.wh[..n],
+                    by_node.wh[..n],
+                    "{ch} channels, {region:?}"
+                );
+                assert_eq!(
+                    by_view.wv[..n],
+                    by_node.wv[..n],
+                    "{ch} channels, {region:?}"
+                );
+                // The large regions see both kinds of steps.
+                if n > 100 {
+                    let (wh, wv) = (&by_view.wh[..n], &by_view.wv[..n]);
+                    let between = |w: &f32| *w > params.edge_floor && *w < 1.0;
+                    assert!(wh.iter().chain(wv).any(between), "{ch} ch., {region:?}");
+                    let floor = |w: &f32| *w == params.edge_floor;
+                    assert!(wh.iter().chain(wv).any(floor), "{ch} ch., {region:?}");
+                }
+            }
         }
     }
 
