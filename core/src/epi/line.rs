@@ -303,6 +303,7 @@ impl<T: Scalar> Guide<'_, T> {
     /// where the fine residual slope is nearly unbiased on coherent texture (the crossings'
     /// residual gap is within 5 % of the shear step on 83 % / 80 % of the HCI cotton /
     /// backgammon crossings, docs/bench-epi.md, session 8). Its score becomes the top one.
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn settle(
         &mut self,
         state: &mut State<'_, T>,
@@ -1212,6 +1213,7 @@ impl<T: Scalar> LineEstimator<T> {
     /// the rest in chunks of `TAIL` and `2·TAIL` lanes, the last one overlapping its
     /// predecessor: fewer than `TAIL` samples outside `span` are computed (a short span
     /// widens to `TAIL`).
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn tensor_line<const TAPS: usize>(
         &self,
         bank: &[T],

@@ -601,6 +601,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// [`Self::weights_by_node`]), a block of columns at a time down the region
     /// ([`Self::view_weights_by_block`]) for every layout a view has (1, 3 or 4 samples
     /// per pixel).
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn weights_from_view<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -624,6 +625,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// The same values as [`colour_step`] per pixel: the largest of non-negative
     /// differences (the samples are finite) does not depend on the order it is taken in,
     /// so the differences and the largest of them run in vector lanes, a channel at a time.
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn view_weights_by_block<P: Sample, const CH: usize, const USED: usize>(
         &mut self,
         view: &View<'_, P>,
