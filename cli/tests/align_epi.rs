@@ -24,6 +24,7 @@ fn epi<S: Sample + Sync>(data: &[S], spec: &SynthSpec) -> Vec<f32> {
         params: Params::default(),
         stage: StageSelect::Epi,
         threads: None,
+        kernels: Default::default(),
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()
@@ -710,6 +711,7 @@ fn offset_sensitivity() {
                     params,
                     stage,
                     threads: None,
+                    kernels: Default::default(),
                 };
                 let d = engine::estimate(&lf, &options, &mut |_, _, _| {})
                     .unwrap()
@@ -754,6 +756,7 @@ fn engine_map(data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect
         params,
         stage,
         threads: None,
+        kernels: Default::default(),
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()
@@ -775,6 +778,7 @@ fn final_disparity() {
             params: Params::default(),
             stage: StageSelect::Full,
             threads: None,
+            kernels: Default::default(),
         };
         engine::estimate(&lf, &options, &mut |_, _, _| {})
             .unwrap()

@@ -50,6 +50,7 @@ fn epi<S: Sample + Sync>(data: &[S], layout: Layout, align: AlignMode) -> Vec<f3
         params,
         stage: StageSelect::Epi,
         threads: None,
+        kernels: Default::default(),
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()

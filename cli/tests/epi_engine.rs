@@ -17,6 +17,7 @@ fn options(threads: usize, epi: EpiParams) -> EstimateOptions {
         },
         stage: StageSelect::Epi,
         threads: Some(threads),
+        kernels: Default::default(),
     }
 }
 

@@ -39,6 +39,7 @@ pub fn run(s: &Scene, params: Params, stage: StageSelect, threads: usize) -> Est
         params,
         stage,
         threads: Some(threads),
+        kernels: Default::default(),
     };
     estimate(&lf, &options, &mut |_, _, _| {}).unwrap()
 }

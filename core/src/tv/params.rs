@@ -60,6 +60,7 @@ pub struct TvParams {
 }
 
 impl Default for TvParams {
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn default() -> Self {
         TvParams {
             lambda: 0.5,
@@ -80,6 +81,7 @@ impl Default for TvParams {
     }
 }
 
+#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Result<()> {
     if v.is_finite() && ok {
         Ok(())
@@ -90,6 +92,7 @@ fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Resu
 
 impl TvParams {
     /// Checks every parameter.
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn validate(&self) -> Result<()> {
         finite_in(
             "tv.lambda",
