@@ -17,12 +17,10 @@
 //! one portable binary with 8-lane vectors where they exist. Rust compiles a function
 //! for its caller's target features only where it is inlined into that caller, so every
 //! function a stage's entry reaches in `epi`, `refine`, `geofill`, `median`, `tv` and
-//! `align::warp` carries `#[cfg_attr(all(target_arch = "x86_64",
-//! not(debug_assertions)), inline(always))]` (a new one must too, or it runs as baseline
-//! code inside the AVX2 path; the results are the same bits either way; test
-//! `cli/tests/kernels.rs` lists any that do not). Other targets (wasm32, the firmware's
-//! Thumb) keep the compiler's own inlining, and so do unoptimised builds, whose frames
-//! would not fit a test thread's stack with everything inlined.
+//! `align::warp` carries `#[cfg_attr(target_arch = "x86_64", inline(always))]` (a new
+//! one must too, or it runs as baseline code inside the AVX2 path; the results are the
+//! same bits either way). Other targets (wasm32, the firmware's Thumb) keep the
+//! compiler's own inlining.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 

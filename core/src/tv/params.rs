@@ -60,7 +60,7 @@ pub struct TvParams {
 }
 
 impl Default for TvParams {
-    #[cfg_attr(all(target_arch = "x86_64", not(debug_assertions)), inline(always))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn default() -> Self {
         TvParams {
             lambda: 0.5,
@@ -81,7 +81,7 @@ impl Default for TvParams {
     }
 }
 
-#[cfg_attr(all(target_arch = "x86_64", not(debug_assertions)), inline(always))]
+#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Result<()> {
     if v.is_finite() && ok {
         Ok(())
@@ -92,7 +92,7 @@ fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Resu
 
 impl TvParams {
     /// Checks every parameter.
-    #[cfg_attr(all(target_arch = "x86_64", not(debug_assertions)), inline(always))]
+    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn validate(&self) -> Result<()> {
         finite_in(
             "tv.lambda",
