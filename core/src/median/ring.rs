@@ -241,7 +241,6 @@ impl<'a> RowRing<'a> {
 
 /// Zeroes a padded plane of a row of `width` columns: only its padding when the
 /// row's columns are written next (`written`), else all of it.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn clear_padding(plane: &mut [f32], width: usize, written: bool) {
     if !written {
         plane.fill(0.0);
