@@ -50,7 +50,6 @@ fn bench(c: &mut Criterion) {
             params: Params::default(),
             stage: StageSelect::Epi,
             threads: Some(threads),
-            kernels: Default::default(),
         };
         group.bench_function(format!("engine_9x9x512x512_{threads}_thread"), |b| {
             b.iter(|| estimate(&lf, &options, &mut |_, _, _| {}).unwrap())
@@ -66,7 +65,6 @@ fn bench(c: &mut Criterion) {
         },
         stage: StageSelect::Epi,
         threads: Some(1),
-        kernels: Default::default(),
     };
     group.bench_function("engine_9x9x512x512_1_thread_exhaustive", |b| {
         b.iter(|| estimate(&lf, &exhaustive, &mut |_, _, _| {}).unwrap())

@@ -26,7 +26,6 @@ fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
         params: *plan.params(),
         stage: StageSelect::Epi,
         threads: None,
-        kernels: Default::default(),
     };
     let epi_estimate = estimate(lf, &options, &mut |_, _, _| {}).unwrap();
     let mut scratch = vec![0.0f32; epi::scratch_len(plan)];

@@ -1,9 +1,7 @@
 //! Criterion benchmarks of the whole pipeline (engine, `StageSelect::Full`) on a
 //! 9×9×512×512 light field: HCI cotton when `../shared/data` is present, else a synthetic
 //! Mixed scene; 1 and 2 threads; the default pipeline (EPI → refine → TV), the `fast`
-//! preset, the refinement without propagation, and the paper's pipeline (EPI → TV), all
-//! with the kernels the CPU runs best (AVX2 where present); `{scene}_default_1t_baseline`
-//! is the default pipeline with the build's baseline kernels. Group `scalar`: the default
+//! preset, the refinement without propagation, and the paper's pipeline (EPI → TV). Group `scalar`: the default
 //! pipeline computing in `f32` and in Q16.16 fixed point, one thread, on a smaller
 //! synthetic scene (9×9×192×192 Mixed) so that the Q16.16 case stays under two minutes.
 
@@ -17,9 +15,7 @@ use lfdepth::plan::Preset;
 use lfdepth::refine::RefineParams;
 use lfdepth::synth::{self, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, LightField, Params};
-use lfdepth_cli::engine::{
-    estimate, estimate_with, EstimateOptions, Kernels, Precision, StageSelect,
-};
+use lfdepth_cli::engine::{estimate, estimate_with, EstimateOptions, Precision, StageSelect};
 
 fn pipeline(c: &mut Criterion) {
     let (views, layout, name) = tv_support::bench_scene();
@@ -56,22 +52,12 @@ fn pipeline(c: &mut Criterion) {
                 params,
                 stage: StageSelect::Full,
                 threads: Some(threads),
-                kernels: Default::default(),
             };
             group.bench_function(format!("{name}_{variant}_{threads}t"), |b| {
                 b.iter(|| estimate(&lf, &options, &mut |_, _, _| {}).unwrap())
             });
         }
     }
-    let baseline = EstimateOptions {
-        params: Params::default(),
-        stage: StageSelect::Full,
-        threads: Some(1),
-        kernels: Kernels::Baseline,
-    };
-    group.bench_function(format!("{name}_default_1t_baseline"), |b| {
-        b.iter(|| estimate(&lf, &baseline, &mut |_, _, _| {}).unwrap())
-    });
     group.finish();
 }
 
@@ -94,7 +80,6 @@ fn scalar(c: &mut Criterion) {
         params: Params::default(),
         stage: StageSelect::Full,
         threads: Some(1),
-        kernels: Default::default(),
     };
     for (name, precision) in [("f32", Precision::F32), ("q16", Precision::Q16)] {
         group.bench_function(format!("mixed{size}_{name}_1t"), |b| {

@@ -24,7 +24,6 @@ fn epi<S: Sample + Sync>(data: &[S], spec: &SynthSpec) -> Vec<f32> {
         params: Params::default(),
         stage: StageSelect::Epi,
         threads: None,
-        kernels: Default::default(),
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()
@@ -711,7 +710,6 @@ fn offset_sensitivity() {
                     params,
                     stage,
                     threads: None,
-                    kernels: Default::default(),
                 };
                 let d = engine::estimate(&lf, &options, &mut |_, _, _| {})
                     .unwrap()
@@ -756,7 +754,6 @@ fn engine_map(data: &[f32], spec: &SynthSpec, params: Params, stage: StageSelect
         params,
         stage,
         threads: None,
-        kernels: Default::default(),
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()
@@ -778,7 +775,6 @@ fn final_disparity() {
             params: Params::default(),
             stage: StageSelect::Full,
             threads: None,
-            kernels: Default::default(),
         };
         engine::estimate(&lf, &options, &mut |_, _, _| {})
             .unwrap()

@@ -50,7 +50,6 @@ fn epi<S: Sample + Sync>(data: &[S], layout: Layout, align: AlignMode) -> Vec<f3
         params,
         stage: StageSelect::Epi,
         threads: None,
-        kernels: Default::default(),
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()

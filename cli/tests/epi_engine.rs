@@ -17,7 +17,6 @@ fn options(threads: usize, epi: EpiParams) -> EstimateOptions {
         },
         stage: StageSelect::Epi,
         threads: Some(threads),
-        kernels: Default::default(),
     }
 }
 

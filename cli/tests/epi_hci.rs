@@ -27,7 +27,6 @@ fn run(scene: &str, epi: EpiParams) -> Option<(epi_support::Scores, f64)> {
         },
         stage: StageSelect::Epi,
         threads: None,
-        kernels: Default::default(),
     };
     let start = Instant::now();
     let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();

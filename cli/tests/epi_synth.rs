@@ -56,7 +56,6 @@ fn run_default(spec: &SynthSpec, views: &[u8]) -> Vec<f32> {
         params: Params::default(),
         stage: StageSelect::Epi,
         threads: None,
-        kernels: Default::default(),
     };
     estimate(&lf, &options, &mut |_, _, _| {})
         .unwrap()

@@ -45,7 +45,6 @@ fn engine(
         params,
         stage: StageSelect::Full,
         threads: Some(threads),
-        kernels: Default::default(),
     };
     estimate_with(lf, &options, precision, &mut |_, _, _| {}).unwrap()
 }
@@ -212,7 +211,6 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
         params: Params::default(),
         stage: StageSelect::Epi,
         threads: Some(2),
-        kernels: Default::default(),
     };
     let epi_f = estimate_with(&lf, &epi_only, Precision::F32, &mut |_, _, _| {}).unwrap();
     let epi_q = estimate_with(&lf, &epi_only, Precision::Q16, &mut |_, _, _| {}).unwrap();

@@ -57,7 +57,6 @@ fn stages(dir: &Path, params: Params) -> [(Vec<f32>, f64); 3] {
         params,
         stage: StageSelect::Epi,
         threads: Some(1),
-        kernels: Default::default(),
     };
     let t = Instant::now();
     let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
@@ -146,7 +145,6 @@ fn engine_scores(dir: &Path) -> ((f64, f64), (f64, f64)) {
             params,
             stage: StageSelect::Full,
             threads: None,
-            kernels: Default::default(),
         };
         let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
         assert!(e.disparity.iter().all(|v| v.is_finite()));
@@ -223,7 +221,6 @@ fn pipeline_stage_timings() {
                 params,
                 stage,
                 threads: Some(threads),
-                kernels: Default::default(),
             };
             let mut walls: Vec<Vec<(&str, f64)>> = Vec::new();
             let cpu = cpu_seconds();

@@ -126,7 +126,6 @@ fn engine_epi(dir: &std::path::Path) -> (usize, usize, Vec<f32>, Vec<f32>) {
         params: Params::default(),
         stage: StageSelect::Epi,
         threads: None,
-        kernels: Default::default(),
     };
     let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
     (e.width, e.height, e.disparity, e.confidence)

@@ -243,7 +243,6 @@ fn hci_inputs(dir: &std::path::Path) -> Scene {
         params: Params::default(),
         stage: StageSelect::Epi,
         threads: None,
-        kernels: Default::default(),
     };
     let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
     let (_, _, image) = read_rgb_png(&dir.join("input_Cam040.png"));

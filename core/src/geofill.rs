@@ -81,7 +81,6 @@ impl Default for GeoFillParams {
     /// colour edges of 8 levels, a 5 px band (wider bands reach across thin structures),
     /// and copied values (the slopes of seeds next to a band are too noisy to
     /// extrapolate over several pixels).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn default() -> Self {
         GeoFillParams {
             enabled: true,
@@ -99,7 +98,6 @@ impl Default for GeoFillParams {
 
 impl GeoFillParams {
     /// The stage switched off (the paper's pipeline has no such step).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn off() -> Self {
         GeoFillParams {
             enabled: false,
@@ -108,7 +106,6 @@ impl GeoFillParams {
     }
 
     /// Checks every parameter.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn validate(&self) -> Result<()> {
         let bad = |name, reason| Err(Error::InvalidParameter { name, reason });
         if !(self.step.is_finite() && (0.01..=16.0).contains(&self.step)) {
@@ -144,22 +141,19 @@ impl GeoFillParams {
 
 /// Scratch (`f32` elements) of [`fill`]: the geodesic distance and the offset (x, y) to
 /// the nearest seed of every pixel, `3 · pixels`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn scratch_len(plan: &Plan) -> usize {
     plan.pixels().saturating_mul(3)
 }
 
 /// `s[i]`, NaN past the end: the indices are in range (every map holds `width · height`
 /// values, checked on entry); the checked form keeps panics out of the image.
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline]
 fn at(s: &[f32], i: usize) -> f32 {
     s.get(i).copied().unwrap_or(f32::NAN)
 }
 
 /// `s[i] = v`, nothing past the end (see [`at`]).
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline]
 fn put(s: &mut [f32], i: usize, v: f32) {
     if let Some(x) = s.get_mut(i) {
         *x = v;
@@ -173,7 +167,6 @@ const BLOCKED: f32 = -1.0;
 /// `out` (same size), guided by `guide` (the centre view). `scratch` needs
 /// [`scratch_len`] elements. Pixels outside the band and non-finite values are copied
 /// unchanged; non-finite values never seed a neighbour.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn fill<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,
@@ -305,7 +298,6 @@ pub fn fill<S: Sample>(
 /// The slope at a seed from `at(k)`, the seed value `k` pixels away (`None` where there
 /// is no seed): the difference across the longest run of seeds within ±2 that contains
 /// the seed itself, 0 where it has no seed neighbour on the line.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn seed_slope(at: impl Fn(i64) -> Option<f32>) -> f32 {
     let Some(centre) = at(0) else {
         return 0.0;
@@ -339,7 +331,6 @@ fn seed_slope(at: impl Fn(i64) -> Option<f32>) -> f32 {
 /// line through the pair within 2 px of it: depth edges of real scenes sit on colour
 /// edges, so a step inside uniform colour is a misplaced (fattened) one, while a
 /// step on a colour edge is where it belongs and is left alone.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn band_distance<S: Sample>(
     guide: &View<'_, S>,
     input: &[f32],
@@ -395,7 +386,6 @@ fn band_distance<S: Sample>(
 /// rows with no dependence between neighbouring columns, so it vectorises (a raster
 /// two-pass transform chains every pixel on its left neighbour). `row` is room for one
 /// row (`width` long). Compare-and-select, not `f32::min`, which wasm lowers slowly.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn within_band(dist: &mut [f32], width: usize, band: usize, row: &mut [f32]) {
     let width = width.max(1);
     let near = |a: f32, b: f32| if b < a { b } else { a };
@@ -445,7 +435,6 @@ fn within_band(dist: &mut [f32], width: usize, band: usize, row: &mut [f32]) {
 
 /// Largest channel difference (unit intensity) between the guide's pixels `a` and `b`
 /// (0 where either is outside the view).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn colour_step<S: Sample>(guide: &View<'_, S>, a: (usize, usize), b: (usize, usize)) -> f32 {
     let stride = guide.channels();
     let used = stride.min(3);
@@ -500,7 +489,6 @@ struct Field<'a, 'g, S: Sample> {
 impl<'g, S: Sample> Field<'_, 'g, S> {
     /// One raster sweep, forward (top-left to bottom-right) or backward: every band
     /// pixel relaxes from the four neighbours the sweep has already visited.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn sweep<const BACKWARD: bool>(&mut self) -> Result<()> {
         // The common pixel layouts get a colour step of fixed length (the neighbour
         // loop is most of the stage on cotton).
@@ -514,7 +502,6 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
 
     /// [`Self::sweep`] for `CH` samples per pixel of which `USED` are compared (`CH` 0:
     /// the view's own layout, looked up per step).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn sweep_with<const BACKWARD: bool, const CH: usize, const USED: usize>(
         &mut self,
     ) -> Result<()> {
@@ -585,7 +572,6 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
         Ok(())
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn guide_row(&self, y: usize) -> Result<&'g [S]> {
         self.guide.row(y).ok_or(Error::OutOfRange {
             what: "guide row",
@@ -596,7 +582,6 @@ impl<'g, S: Sample> Field<'_, 'g, S> {
 
     /// Largest channel difference (unit intensity) between pixel `a` of row `ra` and
     /// pixel `b` of row `rb`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn colour_step(&self, ra: &[S], a: usize, rb: &[S], b: usize) -> f32 {
         let stride = self.guide.channels();
         let pa = ra

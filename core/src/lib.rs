@@ -9,18 +9,6 @@
 //! The crate is `no_std` and never allocates: every stage writes into caller-owned
 //! outputs and takes caller-owned scratch sized by its `scratch_len(&Plan)`. Kernels are
 //! generic over [`Scalar`] (`f32` or the Q16.16 fixed-point [`Q16`]).
-//!
-//! ## Why the stage modules mark their functions `#[inline(always)]` on x86-64
-//!
-//! The native engine (`lfdepth-cli`) runs each stage through a function compiled for
-//! AVX2 when the CPU has it, and through the build's baseline (SSE2) code otherwise:
-//! one portable binary with 8-lane vectors where they exist. Rust compiles a function
-//! for its caller's target features only where it is inlined into that caller, so every
-//! function a stage's entry reaches in `epi`, `refine`, `geofill`, `median`, `tv` and
-//! `align::warp` carries `#[cfg_attr(target_arch = "x86_64", inline(always))]` (a new
-//! one must too, or it runs as baseline code inside the AVX2 path; the results are the
-//! same bits either way). Other targets (wasm32, the firmware's Thumb) keep the
-//! compiler's own inlining.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 

@@ -14,7 +14,7 @@ use super::params::{parse_preset, print_alignment, AlignChoice, AlignInterp, Ali
 use super::synth::{default_misalignment, parse_scene, render};
 use super::{create_dir, CliError, ScalarArg, Stage};
 use crate::colormap;
-use crate::engine::{self, EstimateOptions, Kernels};
+use crate::engine::{self, EstimateOptions};
 use crate::io::pfm::{self, Pfm};
 use crate::progress::StageProgress;
 use crate::report;
@@ -40,10 +40,6 @@ pub struct DemoArgs {
     /// Worker threads (default: every core).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub threads: Option<u16>,
-    /// Machine code of the stages: `auto` (AVX2 where the CPU has it) or `baseline`
-    /// (the build's instruction set); the maps are the same bits either way.
-    #[arg(long, value_enum, default_value_t = Kernels::Auto)]
-    pub kernels: Kernels,
     /// Random seed of the scene's texture.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
@@ -89,7 +85,6 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
         params,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
-        kernels: args.kernels,
     };
     let mut bar = StageProgress::new(args.quiet);
     let result = engine::estimate_with(&lf, &options, args.scalar.into(), &mut |s, d, t| {
@@ -124,10 +119,7 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     );
     println!("\naccuracy against the exact ground truth:");
     print!("{}", report::scores_text(&scores));
-    match estimate.kernels {
-        Some(kernels) => println!("\ntime per stage ({} kernels):", kernels.name()),
-        None => println!("\ntime per stage:"),
-    }
+    println!("\ntime per stage:");
     print!("{}", report::timings(&estimate.timings));
     Ok(())
 }

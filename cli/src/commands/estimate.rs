@@ -9,7 +9,7 @@ use lfdepth::LightField;
 use super::params::ParamArgs;
 use super::{CliError, ScalarArg, Stage, ViewArgs};
 use crate::colormap;
-use crate::engine::{self, Estimate, EstimateOptions, Kernels, Precision};
+use crate::engine::{self, Estimate, EstimateOptions, Precision};
 use crate::io::scene::{self, Scene, Views};
 use crate::io::{pfm, png};
 use crate::progress::StageProgress;
@@ -51,10 +51,6 @@ pub struct EstimateArgs {
     /// Worker threads (default: every core).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub threads: Option<u16>,
-    /// Machine code of the stages: `auto` (AVX2 where the CPU has it) or `baseline`
-    /// (the build's instruction set); the maps are the same bits either way.
-    #[arg(long, value_enum, default_value_t = Kernels::Auto)]
-    pub kernels: Kernels,
     /// Where and how the views are named.
     #[command(flatten)]
     pub views: ViewArgs,
@@ -128,7 +124,6 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
         params: args.params.params(config)?,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
-        kernels: args.kernels,
     };
     let mut bar = StageProgress::new(args.quiet);
     let result = estimate_scene(&scene, &options, args.scalar.into(), &mut |s, d, t| {
@@ -164,9 +159,6 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
             .or_else(|| colormap::finite_range(&estimate.disparity))
             .unwrap_or((0.0, 1.0));
         png::write_disparity16(path, w, h, &estimate.disparity, min, max)?;
-    }
-    if let Some(kernels) = estimate.kernels {
-        eprintln!("stages ran the {} kernels", kernels.name());
     }
     let mut stages = vec![("load", load_time)];
     stages.extend(estimate.timings.iter().copied());

@@ -9,7 +9,7 @@ use lfdepth::metrics::{self, EvalOptions, Scores};
 use super::estimate::estimate_scene;
 use super::params::ParamArgs;
 use super::{CliError, ScalarArg, Stage, ViewArgs};
-use crate::engine::{EstimateOptions, Kernels};
+use crate::engine::EstimateOptions;
 use crate::io::pfm::{self, Pfm};
 use crate::io::png::{self, Samples};
 use crate::io::scene::{self, GROUND_TRUTH_FILE};
@@ -53,10 +53,6 @@ pub struct EvalArgs {
     /// With --dataset: worker threads (default: every core).
     #[arg(long, value_name = "N", requires = "dataset", value_parser = clap::value_parser!(u16).range(1..))]
     pub threads: Option<u16>,
-    /// With --dataset: machine code of the stages: `auto` (AVX2 where the CPU has it) or `baseline`
-    /// (the build's instruction set); the maps are the same bits either way.
-    #[arg(long, value_enum, default_value_t = Kernels::Auto, requires = "dataset")]
-    pub kernels: Kernels,
     /// With --dataset: how the views are named.
     #[command(flatten)]
     pub views: ViewArgs,
@@ -260,7 +256,6 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
             params: args.params.params(loaded.files.config.as_ref())?,
             stage: args.stage.into(),
             threads: args.threads.map(usize::from),
-            kernels: args.kernels,
         };
         let mut bar = StageProgress::new(false);
         let result = estimate_scene(&loaded, &options, args.scalar.into(), &mut |s, d, t| {

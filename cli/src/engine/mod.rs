@@ -19,9 +19,6 @@ use lfdepth::tv::{self, Guide, Maps, SolveOutput};
 use lfdepth::{refine, Homography, LightField, Params, Plan, Sample, Scalar, Q16};
 use rayon::prelude::*;
 
-mod kernels;
-pub use kernels::{avx2_available, Active, Kernels};
-
 /// How far the pipeline runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StageSelect {
@@ -41,9 +38,6 @@ pub struct EstimateOptions {
     pub stage: StageSelect,
     /// Worker threads; `None` uses every core.
     pub threads: Option<usize>,
-    /// The machine code of the stages ([`Kernels::Auto`]: AVX2 where the CPU has it);
-    /// the maps are the same bits either way.
-    pub kernels: Kernels,
 }
 
 /// The result of one estimation.
@@ -64,8 +58,6 @@ pub struct Estimate {
     /// What the alignment did (`None` when `params.align.mode` is off). A warning in it
     /// means auto mode could not align and the views were used as they are.
     pub align: Option<AlignReport>,
-    /// The kernels the stages ran.
-    pub kernels: Option<Active>,
 }
 
 /// Lines per parallel band: small enough to balance two threads on small frames, large
@@ -133,12 +125,10 @@ pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     let total = AtomicU64::new(1);
     let stage = Mutex::new(epi::STAGE_RANGE);
     let finished = AtomicBool::new(false);
-    let kernels = options.kernels.active();
     let tracker = Tracker {
         done: &done,
         total: &total,
         stage: &stage,
-        kernels,
     };
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
@@ -171,20 +161,14 @@ pub fn estimate_in<T: Scalar, S: Sample + Sync>(
                 name: "threads",
                 reason: "a worker thread failed: run with fewer threads",
             }))
-            .map(|estimate| Estimate {
-                kernels: Some(kernels),
-                ..estimate
-            })
     })
 }
 
-/// Progress shared between the workers and the reporting thread, and the kernels every
-/// stage runs ([`Active::run`]).
+/// Progress shared between the workers and the reporting thread.
 struct Tracker<'a> {
     done: &'a AtomicU64,
     total: &'a AtomicU64,
     stage: &'a Mutex<&'static str>,
-    kernels: Active,
 }
 
 impl Tracker<'_> {
@@ -305,33 +289,23 @@ fn warp_parallel<S: Sample + Sync>(
                                 what: "the aligned light field",
                             },
                         )?;
-                        tracker.kernels.run(
-                            #[inline(always)]
-                            || {
-                                align::warp_rows_with(
-                                    lf,
-                                    homographies,
-                                    view,
-                                    y..y + 1,
-                                    plan.params().align.interpolation,
-                                    row,
-                                )
-                            },
+                        align::warp_rows_with(
+                            lf,
+                            homographies,
+                            view,
+                            y..y + 1,
+                            plan.params().align.interpolation,
+                            row,
                         )?;
                     }
                     Ok::<(), lfdepth::Error>(())
                 })?;
-            tracker.kernels.run(
-                #[inline(always)]
-                || {
-                    align::finish_view(
-                        &layout,
-                        homographies,
-                        view,
-                        plan.params().align.interpolation,
-                        samples,
-                    )
-                },
+            align::finish_view(
+                &layout,
+                homographies,
+                view,
+                plan.params().align.interpolation,
+                samples,
             )?;
             tracker.add(1);
             Ok(())
@@ -387,17 +361,12 @@ fn geofill_whole<S: Sample + Sync>(
     tracker.start(geofill::STAGE, 1);
     let mut out = vec![0.0f32; plan.pixels()];
     let mut scratch = vec![0.0f32; geofill::scratch_len(plan)];
-    tracker.kernels.run(
-        #[inline(always)]
-        || {
-            geofill::fill(
-                plan,
-                &lf.center_view(),
-                &estimate.disparity,
-                &mut out,
-                &mut scratch,
-            )
-        },
+    geofill::fill(
+        plan,
+        &lf.center_view(),
+        &estimate.disparity,
+        &mut out,
+        &mut scratch,
     )?;
     estimate.disparity = out;
     tracker.add(1);
@@ -462,13 +431,8 @@ fn median_parallel<S: Sample + Sync>(
             |scratch, (index, (band, settled))| {
                 let start = index * BAND_ROWS;
                 let rows = start..(start + BAND_ROWS).min(height);
-                tracker.kernels.run(
-                    #[inline(always)]
-                    || {
-                        median::filter_pass(
-                            plan, &guide, disparity, previous, rows, band, settled, scratch,
-                        )
-                    },
+                median::filter_pass(
+                    plan, &guide, disparity, previous, rows, band, settled, scratch,
                 )?;
                 tracker.add(1);
                 Ok::<(), lfdepth::Error>(())
@@ -497,10 +461,7 @@ fn refine_parallel<T: Scalar, S: Sample + Sync>(
             || vec![T::ZERO; refine::scratch_len(plan)],
             |scratch, (index, (d, c))| {
                 let rows = refine::band_rows(plan, index)?;
-                tracker.kernels.run(
-                    #[inline(always)]
-                    || refine::refine_band(plan, lf, range, disparity, rows, d, c, scratch),
-                )?;
+                refine::refine_band(plan, lf, range, disparity, rows, d, c, scratch)?;
                 tracker.add(1);
                 Ok::<(), lfdepth::Error>(())
             },
@@ -545,23 +506,18 @@ fn tv_parallel<T: Scalar, S: Sample + Sync>(
                     let mut out = vec![0.0f32; core.width * core.height];
                     let mut history = vec![0.0f32; if sweep == 0 { iterations } else { 0 }];
                     let mut dual = vec![0.0f32; if keep_dual { 2 * out.len() } else { 0 }];
-                    tracker.kernels.run(
-                        #[inline(always)]
-                        || {
-                            tv::refine_tile(
-                                plan,
-                                &maps,
-                                &guide,
-                                index,
-                                SolveOutput {
-                                    disparity: &mut out,
-                                    stride: core.width,
-                                    history: &mut history,
-                                    dual: keep_dual.then_some(&mut dual[..]),
-                                },
-                                scratch,
-                            )
+                    tv::refine_tile(
+                        plan,
+                        &maps,
+                        &guide,
+                        index,
+                        SolveOutput {
+                            disparity: &mut out,
+                            stride: core.width,
+                            history: &mut history,
+                            dual: keep_dual.then_some(&mut dual[..]),
                         },
+                        scratch,
                     )?;
                     tracker.add(1);
                     Ok((out, history, dual))
@@ -606,10 +562,7 @@ fn estimate_epi<T: Scalar, S: Sample + Sync>(
     let start = Instant::now();
     tracker.start(epi::STAGE_RANGE, 1);
     let mut scratch = vec![T::ZERO; epi::scratch_len(plan)];
-    let hyps = tracker.kernels.run(
-        #[inline(always)]
-        || epi::hypotheses(plan, lf, &mut scratch),
-    )?;
+    let hyps = epi::hypotheses(plan, lf, &mut scratch)?;
     drop(scratch);
     tracker.add(1);
     timings.push(("epi range", start.elapsed()));
@@ -629,20 +582,15 @@ fn estimate_epi<T: Scalar, S: Sample + Sync>(
                 |scratch, (band, (d, c))| {
                     let first = band * BAND_LINES;
                     let count = d.len() / n;
-                    tracker.kernels.run(
-                        #[inline(always)]
-                        || {
-                            epi::estimate_band(
-                                plan,
-                                &hyps,
-                                lf,
-                                direction,
-                                first..first + count,
-                                d,
-                                c,
-                                scratch,
-                            )
-                        },
+                    epi::estimate_band(
+                        plan,
+                        &hyps,
+                        lf,
+                        direction,
+                        first..first + count,
+                        d,
+                        c,
+                        scratch,
                     )?;
                     tracker.add(count as u64);
                     Ok(())
@@ -677,7 +625,6 @@ fn estimate_epi<T: Scalar, S: Sample + Sync>(
         timings,
         residuals: Vec::new(),
         align: None,
-        kernels: None,
     };
     Ok((estimate, (hyps.min(), hyps.max())))
 }

@@ -39,7 +39,6 @@ pub fn run(s: &Scene, params: Params, stage: StageSelect, threads: usize) -> Est
         params,
         stage,
         threads: Some(threads),
-        kernels: Default::default(),
     };
     estimate(&lf, &options, &mut |_, _, _| {}).unwrap()
 }

@@ -67,7 +67,6 @@ pub enum Interpolation {
 /// `rows.len() · width · channels` samples, rows packed, channels as in the light field.
 /// Rectified pixel `(x, y)` takes the view's bilinear sample at `homographies[view]`
 /// applied to `(x, y)`; positions outside the view take the nearest border pixel.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn warp_rows<S: Sample, O: WarpSample>(
     lf: &LightField<'_, S>,
     homographies: &[Homography],
@@ -81,7 +80,6 @@ pub fn warp_rows<S: Sample, O: WarpSample>(
 /// [`warp_rows`] with the given interpolation. With
 /// [`Interpolation::SharpenedBilinear`] this writes the bilinear samples sharpened along
 /// the rows only; [`finish_view`] completes the view once all its rows are written.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn warp_rows_with<S: Sample, O: WarpSample>(
     lf: &LightField<'_, S>,
     homographies: &[Homography],
@@ -257,7 +255,6 @@ impl<S: Sample> Source<'_, S> {
     }
 
     /// One output row of [`Interpolation::SharpenedBilinear`]'s horizontal pass.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn sharpened_row<O: WarpSample>(&self, m: &[f32; 9], yf: f32, out_row: &mut [O]) {
         match self.channels {
             1 => self.sharpened_row_of::<O, 1>(m, yf, out_row),
@@ -303,7 +300,6 @@ impl<S: Sample> Source<'_, S> {
 /// Completes view `view` once [`warp_rows_with`] has written all its rows into `out`
 /// with `interpolation`: the column pass of [`Interpolation::SharpenedBilinear`]
 /// ([`sharpen_columns`]); the other kernels are complete after their rows, so nothing.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn finish_view<O: WarpSample + Sample>(
     layout: &crate::lightfield::Layout,
     homographies: &[Homography],
@@ -326,7 +322,6 @@ const COLUMN_BLOCK: usize = 64;
 /// `a·above + (1 − 2a)·itself + a·below` with `a` from the phase of the view's vertical
 /// coordinate at that pixel (the top and bottom rows repeat). Blocks of columns walk
 /// down the view carrying the previous row's original samples, so it needs no scratch.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn sharpen_columns<O: WarpSample + Sample>(
     layout: &crate::lightfield::Layout,
     homographies: &[Homography],
@@ -548,7 +543,6 @@ impl<S: Sample> Source<'_, S> {
 
 /// Writes rows `rows` of every rectified view into `out`, view after view (row-major
 /// grid order): `views · rows.len() · width · channels` samples.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn warp_band<S: Sample, O: WarpSample>(
     lf: &LightField<'_, S>,
     homographies: &[Homography],

@@ -28,7 +28,6 @@ pub(super) struct Band<T: Scalar> {
 
 impl<T: Scalar> Band<T> {
     /// Bands of the mixing rows `smooth[k]`, `derivative[k]` of `views` views.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn new(
         smooth: &[[f32; GRID_MAX]; GRID_MAX],
         derivative: &[[f32; GRID_MAX]; GRID_MAX],
@@ -81,7 +80,6 @@ impl<T: Scalar> Band<T> {
     }
 
     /// The compiled band width used for `taps` significant views.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn width_for(taps: usize) -> usize {
         match taps {
             0..=3 => 3,

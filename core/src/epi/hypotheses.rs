@@ -24,7 +24,6 @@ impl Hypotheses {
     /// Shears at the multiples of `params.shear_step` nearest to every disparity of
     /// `[min, max]` (a single unsheared EPI when `params.shear` is off). Estimates are
     /// clamped to `[min, max]`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn new(params: &EpiParams, min: f32, max: f32) -> Result<Self> {
         if !(min.is_finite() && max.is_finite() && min <= max)
             || min < -MAX_DISPARITY
@@ -50,7 +49,6 @@ impl Hypotheses {
 
     /// Multiples of `step` covering `[min, max]`, accepting residual slopes up to
     /// `window · step`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn sheared(min: f32, max: f32, step: f32, window: f32) -> Result<Self> {
         if !(step.is_finite() && (0.1..=2.0).contains(&step)) {
             return Err(Error::InvalidParameter {
@@ -88,7 +86,6 @@ impl Hypotheses {
     /// `grid`, the fine shears' step, so that they read the planes the fine ones read).
     /// The coarse pass's set: a range 3.65 px wide takes 2 shears where the multiples of
     /// `step` covering it take 3.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn centred(min: f32, max: f32, step: f32, window: f32, grid: f32) -> Result<Self> {
         let mut h = Self::sheared(min, max, step, window)?;
         let count = libm::ceilf((max - min) / step).max(1.0);
@@ -102,32 +99,26 @@ impl Hypotheses {
     }
 
     /// Number of shears.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn count(&self) -> usize {
         self.count
     }
     /// Shear `i` (px between adjacent views).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn shear(&self, i: usize) -> f32 {
         self.first + i as f32 * self.step
     }
     /// Smallest output disparity.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn min(&self) -> f32 {
         self.min
     }
     /// Largest output disparity.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn max(&self) -> f32 {
         self.max
     }
     /// Distance between shears (0 without shear).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn step(&self) -> f32 {
         self.step
     }
     /// Largest residual slope a hypothesis accepts.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn window(&self) -> f32 {
         self.window
     }

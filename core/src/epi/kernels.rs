@@ -15,7 +15,6 @@ pub(crate) const MAX_TAPS: usize = 2 * MAX_RADIUS + 1;
 const PRUNE: f32 = 1e-3;
 
 /// Radius of a Gaussian of standard deviation `sigma` truncated at 3σ (0 for σ ≤ 0).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn gaussian_radius(sigma: f32) -> usize {
     if sigma > 0.0 {
         libm::ceilf(3.0 * sigma) as usize
@@ -25,7 +24,6 @@ pub(crate) fn gaussian_radius(sigma: f32) -> usize {
 }
 
 /// Normalised Gaussian taps at offsets `-r..=r`, `r = gaussian_radius(sigma)`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn gaussian_f32(sigma: f32, taps: &mut [f32; MAX_TAPS]) -> usize {
     let r = gaussian_radius(sigma).min(MAX_RADIUS - 1);
     *taps = [0.0; MAX_TAPS];
@@ -66,7 +64,6 @@ enum Symmetry {
 impl<T: Scalar> Kernel<T> {
     /// Kernel from `2·radius + 1` taps that are mirror-symmetric up to rounding; the upper
     /// half is mirrored from the lower one so that the symmetry is exact.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn from_f32(taps: &[f32; MAX_TAPS], radius: usize, symmetry: Symmetry) -> Self {
         let radius = radius.min(MAX_RADIUS);
         let mut out = [T::ZERO; MAX_TAPS];
@@ -94,7 +91,6 @@ impl<T: Scalar> Kernel<T> {
     }
 
     /// Gaussian smoothing of standard deviation `sigma` (identity for σ ≤ 0).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn gaussian(sigma: f32) -> Self {
         let mut g = [0.0; MAX_TAPS];
         let r = gaussian_f32(sigma, &mut g);
@@ -103,7 +99,6 @@ impl<T: Scalar> Kernel<T> {
 
     /// Gaussian of `sigma` followed by a 3-tap kernel `three` (offsets −1, 0, +1) of the
     /// given symmetry.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn gaussian_then(sigma: f32, three: [f32; 3], symmetry: Symmetry) -> Self {
         let mut g = [0.0; MAX_TAPS];
         let r = gaussian_f32(sigma, &mut g);
@@ -155,19 +150,16 @@ impl<T: Scalar> Kernel<T> {
     }
 
     /// Gaussian-smoothed central difference `(in[t+1] − in[t−1]) / 2`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn derivative(sigma: f32) -> Self {
         Self::gaussian_then(sigma, [-0.5, 0.0, 0.5], Symmetry::Odd)
     }
 
     /// Gaussian-smoothed Scharr cross smoothing `[3, 10, 3] / 16`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn scharr_smoothing(sigma: f32) -> Self {
         Self::gaussian_then(sigma, [3.0 / 16.0, 10.0 / 16.0, 3.0 / 16.0], Symmetry::Even)
     }
 
     /// Kernel radius.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn radius(&self) -> usize {
         self.radius
     }
@@ -175,7 +167,6 @@ impl<T: Scalar> Kernel<T> {
     /// Correlates `input` with the kernel into `out` (same length), clamping indices at
     /// the borders. The summation order of a sample depends only on its position and the
     /// line length, so results never depend on how lines are grouped into bands.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn apply(&self, input: &[T], out: &mut [T]) {
         let n = input.len().min(out.len());
         self.apply_range(input, out, 0..n);
@@ -183,7 +174,6 @@ impl<T: Scalar> Kernel<T> {
 
     /// [`Kernel::apply`] for the outputs `range` only (bit-identical to the full call there;
     /// the rest of `out` is left alone).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn apply_range(&self, input: &[T], out: &mut [T], range: Range<usize>) {
         let n = input.len().min(out.len());
         let r = self.radius;
@@ -258,7 +248,6 @@ impl<T: Scalar> Kernel<T> {
     /// the same products in the same order as `apply_range` (clamped edges tap by tap, the
     /// interior centre first, then the symmetric pairs), over contiguous slices of the
     /// two halves, so the interior vectorises at half the products of the full line.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn apply_even(&self, split: &[T], n: usize, out: &mut [T]) {
         let n = n.min(split.len());
         let half = n.div_ceil(2);
@@ -304,7 +293,6 @@ impl<T: Scalar> Kernel<T> {
             return;
         };
         let len = interior.len();
-        #[cfg_attr(target_arch = "x86_64", inline(always))]
         fn window<T>(half: &[T], from: usize, len: usize) -> Option<&[T]> {
             half.get(from..).and_then(|s| s.get(..len))
         }
@@ -348,7 +336,6 @@ impl<T: Scalar> Kernel<T> {
 
 /// `split` = the even samples of `input`, then its odd ones (`input.len()` of them; for
 /// [`Kernel::apply_even`]).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn deinterleave<T: Copy>(input: &[T], split: &mut [T]) {
     let n = input.len();
     let Some((even, odd)) = split
@@ -376,7 +363,6 @@ const PAIR_BLOCK: usize = 16;
 /// input (each window of samples loaded once for both kernels), bit-identical to the two
 /// calls: every output sums the same products in the same order. Kernels of other
 /// symmetries or of different radii take the two calls.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn apply_pair<T: Scalar>(
     odd: &Kernel<T>,
     even: &Kernel<T>,
@@ -532,7 +518,6 @@ impl<T: Scalar> Kernel<T> {
 
 /// Weights `w[k]` such that Gaussian smoothing (σ = `sigma`, nearest borders) of a column of
 /// `len` values, evaluated at row `centre`, equals `Σ_k w[k]·value[k]`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn centre_weights<T: Scalar>(sigma: f32, len: usize, centre: usize, out: &mut [T]) {
     let mut g = [0.0; MAX_TAPS];
     let r = gaussian_f32(sigma, &mut g);
@@ -549,7 +534,6 @@ pub(crate) fn centre_weights<T: Scalar>(sigma: f32, len: usize, centre: usize, o
 
 /// Gaussian weights (σ = `sigma`) centred on row `centre` of `len` rows, truncated to the
 /// rows that exist and renormalised to sum to one.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn truncated_gaussian(sigma: f32, len: usize, centre: usize, out: &mut [f32]) {
     let mut g = [0.0; MAX_TAPS];
     let r = gaussian_f32(sigma, &mut g);

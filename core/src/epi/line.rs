@@ -37,7 +37,6 @@ pub(crate) struct LineEstimator<T: Scalar> {
 
 /// Whether some hypothesis of `hyps` shifts view `k` (of the centre `centre`) by a
 /// half-integer (the test [`LineEstimator::sources`] makes).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn half_shift(hyps: &Hypotheses, k: usize, centre: usize) -> bool {
     (0..hyps.count()).any(|i| {
         let offset = (k as f32 - centre as f32) * hyps.shear(i);
@@ -48,7 +47,6 @@ fn half_shift(hyps: &Hypotheses, k: usize, centre: usize) -> bool {
 /// Whether some hypothesis of `hyps` reads one of `views` views where the stored planes
 /// (`half_ready`: with the half-shifted ones) do not reach (the test
 /// [`LineEstimator::sources`] makes).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn off_planes(
     hyps: &Hypotheses,
     views: usize,
@@ -74,7 +72,6 @@ fn off_planes(
 /// (|shear| ≤ MAX_DISPARITY + 1). The coarse pass's shears are multiples of the fine
 /// step too (`Hypotheses::centred`), the range probe's are integers. Any other step may
 /// need every kind of plane.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn planes_bound(params: &EpiParams, views: usize, centre: usize) -> ([bool; GRID_MAX], bool) {
     let mut half = [false; GRID_MAX];
     if !params.shear {
@@ -92,7 +89,6 @@ fn planes_bound(params: &EpiParams, views: usize, centre: usize) -> ([bool; GRID
 }
 
 /// Whether some hypothesis of `hyps` shifts one of `views` views by a half-integer.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
     (0..views).any(|k| half_shift(hyps, k, centre))
 }
@@ -147,7 +143,6 @@ const SETTLE_COHERENCE: f32 = 0.9;
 /// orientation no window holds). Normalised by the trace so that fixed point never
 /// overflows: a, b ∈ [−1, 1], coherence √(a² + b²) ∈ [0, 1], and the slope of the dominant
 /// eigenvector is b / (a + √…) = 2Jxk / (Jxx − Jkk + √…).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn slopes<T: Scalar>(tensor: &mut Tensor<'_, T>, range: Range<usize>) {
     let Tensor {
         jxx,
@@ -303,7 +298,6 @@ impl<T: Scalar> Guide<'_, T> {
     /// where the fine residual slope is nearly unbiased on coherent texture (the crossings'
     /// residual gap is within 5 % of the shear step on 83 % / 80 % of the HCI cotton /
     /// backgammon crossings, docs/bench-epi.md, session 8). Its score becomes the top one.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn settle(
         &mut self,
         state: &mut State<'_, T>,
@@ -356,7 +350,6 @@ struct Coarse<T> {
 
 impl<T: Scalar> LineEstimator<T> {
     /// `views` cameras along the EPI, the centre one at `centre`, `channels` loaded planes.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn new(
         params: &EpiParams,
         hypotheses: Hypotheses,
@@ -471,7 +464,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// Work elements (of `T`) for a line of `n` samples.
     /// Enough for every estimator `params` can make (any range of its hypotheses, the
     /// coarse pass's and the range probe's integer shears).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn work_len(
         params: &EpiParams,
         views: usize,
@@ -483,7 +475,6 @@ impl<T: Scalar> LineEstimator<T> {
         Self::work_len_for(views, centre, channels, n, &half, fallback)
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn work_len_for(
         views: usize,
         centre: usize,
@@ -497,7 +488,6 @@ impl<T: Scalar> LineEstimator<T> {
     }
 
     /// Work elements (of `T`) this estimator needs for a line of `n` samples.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn line_work_len(&self, n: usize) -> usize {
         Self::work_len_for(
             self.views,
@@ -513,7 +503,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// of `n`, one after the other) with the samples of that view along the line, scaled
     /// intensities. Writes the
     /// disparity and the confidence of every sample into `disparity` / `confidence`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn estimate(
         &self,
         n: usize,
@@ -661,7 +650,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// The coarse pass: the gray mean of the channels' planes (the filters are linear)
     /// swept over the coarse hypotheses, every second sample scored; returns
     /// which fine hypotheses each sample needs, held in `coarse_work` (5 lines).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn coarse_guide<'w>(
         &self,
         coarse: &Coarse<T>,
@@ -798,7 +786,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// [`Self::sweep`] without a guide (every sample's candidates depend on that sample
     /// only; the odd ones are overwritten with their left neighbour's anyway), for half
     /// the smoothing and scoring.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn coarse_sweep(
         &self,
         hyps: &Hypotheses,
@@ -853,7 +840,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// hypotheses it needs (see [`Guide::needs`]); the tensor is then computed only
     /// within the outer smoothing's reach of those samples.
     #[allow(clippy::too_many_arguments)]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn sweep(
         &self,
         hyps: &Hypotheses,
@@ -932,7 +918,6 @@ impl<T: Scalar> LineEstimator<T> {
     }
 
     /// Scores hypothesis `i` of `hyps` at the samples `range` from the smoothed tensor.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn score(
         &self,
         hyps: &Hypotheses,
@@ -1027,7 +1012,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// values, selects instead of branches (the state's as bit masks, which keep the
     /// stores unconditional: a conditional store keeps the loop scalar) and the crossing's
     /// division by a safe denominator. Scores every sample of `range`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn score_lanes(
         &self,
         hyps: &Hypotheses,
@@ -1112,7 +1096,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// Where hypothesis `shear` reads every view: the stored planes at a whole-sample
     /// offset (the half-shifted ones for half-sample offsets), or, for any other fraction
     /// and for shifts beyond the stored padding, a fallback plane interpolated here.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn sources(&self, planes: &Planes, bank: &mut [T], shear: f32, slots: Range<usize>) -> Sources {
         let mut sources = Sources {
             d: [[0; GRID_MAX]; 3],
@@ -1190,7 +1173,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// The outer-weighted tensor (xx, xk, kk) of the samples `span` (at least, within the
     /// first `len` samples) into `tensor.jxx` etc., summed over the source channels and the
     /// views.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn tensor_span(
         &self,
         bank: &[T],
@@ -1213,7 +1195,6 @@ impl<T: Scalar> LineEstimator<T> {
     /// the rest in chunks of `TAIL` and `2·TAIL` lanes, the last one overlapping its
     /// predecessor: fewer than `TAIL` samples outside `span` are computed (a short span
     /// widens to `TAIL`).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn tensor_line<const TAPS: usize>(
         &self,
         bank: &[T],

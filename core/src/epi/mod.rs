@@ -125,7 +125,6 @@ pub struct EpiParams {
 }
 
 impl Default for EpiParams {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn default() -> Self {
         EpiParams {
             // Chosen on the HCI scenes (docs/bench-epi.md): less inner smoothing keeps fine
@@ -148,7 +147,6 @@ impl Default for EpiParams {
 impl EpiParams {
     /// The paper's variant: one unsheared EPI per direction, the usual scales (0.8, 1.5),
     /// coherence fusion.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn paper() -> Self {
         EpiParams {
             inner_sigma: 0.8,
@@ -163,7 +161,6 @@ impl EpiParams {
     }
 
     /// Checks every parameter.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn validate(&self) -> Result<()> {
         let within = |v: f32, lo: f32, hi: f32| v.is_finite() && v >= lo && v <= hi;
         if !within(self.inner_sigma, 0.0, 4.0) {
@@ -207,7 +204,6 @@ impl EpiParams {
 
 impl Direction {
     /// Number of lines (image rows or columns).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn lines(&self, plan: &Plan) -> usize {
         match self {
             Direction::Horizontal => plan.layout().height,
@@ -215,7 +211,6 @@ impl Direction {
         }
     }
     /// Samples per line.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn line_len(&self, plan: &Plan) -> usize {
         match self {
             Direction::Horizontal => plan.layout().width,
@@ -223,7 +218,6 @@ impl Direction {
         }
     }
     /// Views along the EPI and the centre one.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn views(&self, plan: &Plan) -> (usize, usize) {
         let g = plan.layout().grid;
         let (r0, c0) = g.center();
@@ -234,7 +228,6 @@ impl Direction {
     }
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn used_channels(plan: &Plan) -> usize {
     match plan.params().epi.color {
         ColorMode::Gray => 1,
@@ -243,7 +236,6 @@ fn used_channels(plan: &Plan) -> usize {
 }
 
 /// Scratch (elements of `T`) one band of `direction` needs; independent of the band size.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
     let (views, centre) = direction.views(plan);
     let n = direction.line_len(plan);
@@ -258,14 +250,12 @@ const VERTICAL_TILE: usize = 4;
 
 /// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`]
 /// (the serial stage's vertical tile included).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn scratch_len(plan: &Plan) -> usize {
     let tile = 2 * (VERTICAL_TILE - 1) * Direction::Vertical.line_len(plan);
     band_scratch_len(plan, Direction::Horizontal)
         .max(band_scratch_len(plan, Direction::Vertical).saturating_add(tile))
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn check_layout<S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Result<()> {
     if lf.layout() != plan.layout() {
         return Err(Error::InvalidParameter {
@@ -280,7 +270,6 @@ fn check_layout<S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Result<()> {
 /// (`(line − lines.start) · line_len + t`): for [`Direction::Vertical`] that is the
 /// transpose of the image layout. `scratch` needs [`band_scratch_len`] elements.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn estimate_band<T: Scalar, S: Sample>(
     plan: &Plan,
     hypotheses: &Hypotheses,
@@ -340,7 +329,6 @@ pub(crate) fn clamp_f32(x: f32, lo: f32, hi: f32) -> f32 {
 
 /// Converts one line to `f32`, clamped to the output range (fixed-point rounding of the
 /// range ends must not step outside it).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn write_line<T: Scalar>(h: &Hypotheses, d: &[T], c: &[T], out_d: &mut [f32], out_c: &mut [f32]) {
     let (lo, hi) = (h.min(), h.max());
     for ((o, &v), (oc, &w)) in out_d.iter_mut().zip(d).zip(out_c.iter_mut().zip(c)) {
@@ -350,8 +338,7 @@ fn write_line<T: Scalar>(h: &Hypotheses, d: &[T], c: &[T], out_d: &mut [f32], ou
 }
 
 /// Combines the horizontal `(dh, ch)` and vertical `(dv, cv)` estimates of one pixel.
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline]
 pub fn fuse(fusion: Fusion, dh: f32, ch: f32, dv: f32, cv: f32) -> (f32, f32) {
     match fusion {
         Fusion::Coherence => {
@@ -394,7 +381,6 @@ pub(crate) struct Levels<T>([T; 256]);
 impl<T: Scalar> Levels<T> {
     /// The table for samples of type `S` (`None` unless `S` is `u8`, whose `level()` is
     /// the sample itself).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn new<S: Sample>() -> Option<Self> {
         if core::any::TypeId::of::<S>() != core::any::TypeId::of::<u8>() {
             return None;
@@ -408,7 +394,6 @@ impl<T: Scalar> Levels<T> {
 }
 
 impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn new(
         plan: &Plan,
         hypotheses: Hypotheses,
@@ -438,7 +423,6 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
 
     /// Splits scratch into the line's disparity, confidence and work buffers.
     #[allow(clippy::type_complexity)]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn split_scratch<'s>(
         &self,
         scratch: &'s mut [T],
@@ -456,7 +440,6 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
     }
 
     /// Estimates line `line` into `d` / `c` (length `n`, as `T`).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn line(&self, line: usize, work: &mut [T], d: &mut [T], c: &mut [T]) -> Result<()> {
         let layout = *self.lf.layout();
         let data = self.lf.data();
@@ -518,7 +501,6 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
 /// band estimator and the stream (`crate::stream`), whose results must agree bit for bit.
 /// `what` names `data` in the error when the line runs past its end.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn load_line<T: Scalar, S: Sample>(
     data: &[S],
     what: &'static str,
@@ -578,7 +560,6 @@ pub(crate) fn load_line<T: Scalar, S: Sample>(
 
 /// The elements of `data` that `n` pixels of `channels` samples, `step` apart from
 /// `start` on, occupy; `BufferTooSmall` naming `what` when `data` ends before them.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn line_span<'d, S>(
     data: &'d [S],
     what: &'static str,
@@ -604,7 +585,6 @@ fn line_span<'d, S>(
 /// through the level table of `u8` samples: the same values. Horizontal lines (`step ==
 /// channels`) read their pixels as contiguous chunks.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn load_levels<T: Scalar, S: Sample>(
     data: &[S],
     what: &'static str,
@@ -645,7 +625,6 @@ fn load_levels<T: Scalar, S: Sample>(
 }
 
 /// Resolves the hypotheses of `plan`: the fixed range, or [`estimate_range`] for `Auto`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn hypotheses<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -669,7 +648,6 @@ const PROGRESS_LINES: usize = 32;
 
 /// The serial stage with progress: both directions over every line, fused into
 /// `disparity` / `confidence` (row-major, `plan.pixels()` each). Returns the hypotheses.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -784,7 +762,6 @@ pub const STAGE_VERTICAL: &str = "epi vertical";
 
 /// The serial stage: disparity and confidence of the centre view (row-major, `f32`,
 /// `plan.pixels()` each), computed in `T`. `scratch` needs [`scratch_len`] elements.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn estimate<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,

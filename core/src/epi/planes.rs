@@ -49,7 +49,6 @@ const ABSENT: usize = usize::MAX / 4;
 
 impl Planes {
     /// `half[k]`: view `k` has half-shifted planes; `fallback`: the fallback planes exist.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn new(
         views: usize,
         centre: usize,
@@ -86,7 +85,6 @@ impl Planes {
 
     /// Largest whole shift stored for views at most `far` from the centre: shears never
     /// exceed MAX_DISPARITY + 1 (multiples of a step ≤ 2 nearest the range).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn reach_for(far: usize) -> usize {
         libm::ceilf(far as f32 * (MAX_DISPARITY + 1.0)) as usize + 1
     }
@@ -94,7 +92,6 @@ impl Planes {
     /// Start of plane `kind` (0 derivative, 1 smoothing, 2 and 3 the same shifted by half a
     /// sample) of view `k`, channel `c`; [`ABSENT`] for a half-shifted plane the view
     /// does not have.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn plane(&self, kind: usize, k: usize, c: usize) -> usize {
         if kind < 2 {
             return ((kind * self.views + k) * self.channels + c) * self.len;
@@ -110,7 +107,6 @@ impl Planes {
 
     /// Start of the fallback plane `kind` (0 derivative, 1 smoothing) of view `k`,
     /// channel `c` ([`ABSENT`] without fallback planes).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn fallback(&self, kind: usize, k: usize, c: usize) -> usize {
         if !self.fallback {
             return ABSENT;
@@ -118,12 +114,10 @@ impl Planes {
         self.stored_len() + ((kind * self.views + k) * self.channels + c) * self.n_blocks
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn stored_len(&self) -> usize {
         2 * (self.views + self.halves) * self.channels * self.len
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn bank_len(&self) -> usize {
         let fallback = if self.fallback {
             2 * self.views * self.channels * self.n_blocks
@@ -136,7 +130,6 @@ impl Planes {
 
 /// `out[t] = input(t − offset)`, linear interpolation, clamped at the ends. Integer offsets
 /// are exact copies (no interpolation blur).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn shift<T: Scalar>(input: &[T], out: &mut [T], offset: f32) {
     let n = input.len().min(out.len());
     if n == 0 {

@@ -28,7 +28,6 @@ const MARGIN: usize = 16;
 
 /// Estimates the disparity range of the scene. `scratch` needs [`scratch_len`] elements.
 /// Returns the supported extremes when too few samples are confident to tell.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn estimate_range<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,

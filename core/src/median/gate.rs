@@ -24,7 +24,6 @@ pub(super) fn right_step(row: &[f32], x: usize, gate: f32) -> bool {
 
 /// Adds `delta` to `counts[x]` for every column `x` of row `yy` of `map` with a step
 /// above `gate` to its right or lower neighbour.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn count_steps(
     map: &[f32],
     width: usize,
@@ -63,7 +62,6 @@ pub(super) fn count_steps(
 
 /// Adds `delta` to `counts[x]` for every column `x` of row `yy` whose value in `map`
 /// differs (in any bit) from the one in `previous`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn count_changes(
     map: &[f32],
     previous: &[f32],
@@ -96,7 +94,6 @@ pub(super) struct ColumnCounts<'a> {
 
 impl<'a> ColumnCounts<'a> {
     /// No rows counted yet; `counts` needs one element per column.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn new(counts: &'a mut [f32]) -> Self {
         counts.fill(0.0);
         ColumnCounts { counts, rows: 0..0 }
@@ -105,7 +102,6 @@ impl<'a> ColumnCounts<'a> {
     /// Counts the rows `rows` instead of the previous ones (both ends may only grow, as
     /// they do from one output row to the next); `count_row(yy, counts, delta)` adds
     /// `delta` to the counts of the columns of row `yy` that have a flag.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn slide_to(
         &mut self,
         rows: Range<usize>,
@@ -146,7 +142,6 @@ pub(super) struct QuarterRowCounts<'a> {
 
 impl<'a> QuarterRowCounts<'a> {
     /// No rows counted yet; `counts` needs one element per column.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn new(counts: &'a mut [f32], radius: usize, height: usize) -> Self {
         counts.fill(0.0);
         QuarterRowCounts {
@@ -159,7 +154,6 @@ impl<'a> QuarterRowCounts<'a> {
 
     /// Counts the rows of the pixels of row `centre`; `count_row(yy, counts, delta)`
     /// adds `delta` to the counts of the columns of row `yy` that have a flag.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn move_to(&mut self, centre: usize, count_row: impl Fn(usize, &mut [f32], f32)) {
         match self.centre {
             Some(previous) if previous + 1 == centre => {
@@ -209,7 +203,6 @@ impl<'a> QuarterRowCounts<'a> {
 /// hold one with `flagged(c)`, or `None`: a flagged column `c` covers the pixels
 /// `c − reach ..= c + reach`, and flagged columns at most `2 · reach + 1` apart cover one
 /// run.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn changed_span(
     flagged: impl Fn(usize) -> bool,
     from: usize,
@@ -239,7 +232,6 @@ impl LastFlagged {
     /// Before column `x`, for a walk over the columns from `x` on: the columns from
     /// `x − reach` to `x + reach − 1` enter with `flagged` (columns further left reach
     /// no pixel of the walk).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn at(
         x: usize,
         reach: usize,

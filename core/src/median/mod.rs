@@ -79,7 +79,6 @@ pub struct MedianParams {
 }
 
 impl Default for MedianParams {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn default() -> Self {
         // Chosen by measurement (docs/bench-median.md) on the HCI scenes and the seven
         // synthetic ones, where it lowers BadPix0.07 on every scene: four passes before
@@ -102,7 +101,6 @@ impl Default for MedianParams {
 
 impl MedianParams {
     /// The stage switched off (the paper's pipeline has no such step).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn off() -> Self {
         MedianParams {
             enabled: false,
@@ -111,7 +109,6 @@ impl MedianParams {
     }
 
     /// Checks every parameter.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn validate(&self) -> Result<()> {
         let bad = |name, reason| Err(Error::InvalidParameter { name, reason });
         if !(1..=MAX_PASSES).contains(&self.passes) {
@@ -136,7 +133,6 @@ impl MedianParams {
     }
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(usize, usize)> {
     plan.params().median.validate()?;
     let (w, h) = (plan.layout().width, plan.layout().height);
@@ -160,7 +156,6 @@ fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(
 /// and [`filter`]: three counts per column (window rows with a step, rows changed since
 /// the previous pass within the window's reach and near its quarter rows) plus every window row's values, slopes and colour levels, padded by 22 columns:
 /// `3 · width + 90 · (width + 22)`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn scratch_len(plan: &Plan) -> usize {
     let width = plan.layout().width;
     width
@@ -172,7 +167,6 @@ pub fn scratch_len(plan: &Plan) -> usize {
 /// (`rows.len() · width`, row-major) with the weighted median guided by `guide`.
 /// `scratch` needs [`scratch_len`] elements. Non-finite input values are passed through
 /// untouched and never enter a neighbour's median.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn filter_rows<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,
@@ -190,7 +184,6 @@ pub fn filter_rows<S: Sample>(
 /// neighbours its slopes and steps read), so where that holds the same values as in
 /// `previous`, the previous pass computed this pixel from the same values, and it keeps
 /// its value; after the first pass only pixels near the ones that moved are filtered.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn filter_rows_again<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,
@@ -218,7 +211,6 @@ pub fn filter_rows_again<S: Sample>(
 /// for the same pixels wrote there (any banding; each pixel's byte is its own). Bytes
 /// not written by the previous pass make the output wrong, not an error.
 #[allow(clippy::too_many_arguments)] // the arguments of `filter_rows_again`, and one more
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn filter_pass<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,
@@ -249,7 +241,6 @@ pub fn filter_pass<S: Sample>(
 }
 
 #[allow(clippy::too_many_arguments)] // every entry point's arguments
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn run<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,
@@ -430,7 +421,6 @@ fn run<S: Sample>(
 }
 
 /// The whole map: `out` (row-major, `plan.pixels()`) from `input`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn filter<S: Sample>(
     plan: &Plan,
     guide: &View<'_, S>,

@@ -26,7 +26,6 @@ pub(super) const SPAN: usize = 2 * MAX_RADIUS + 1;
 const EXACT_COLUMNS: usize = (1 << 24) - 2 * LANES;
 
 /// The offsets `r − k` of the lanes of a window of radius `r` (see [`Window::offsets`]).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn lane_offsets(radius: usize) -> [f32; LANES] {
     let mut offsets = [0.0f32; LANES];
     for (k, d) in offsets.iter_mut().enumerate() {
@@ -81,7 +80,6 @@ pub(super) struct RowOrder {
 impl RowOrder {
     /// For a window of `rows` rows (at most [`SPAN`]) whose pixels lie on row
     /// `centre_row` of it.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn new(rows: usize, centre_row: usize) -> Self {
         let rows = rows.min(SPAN);
         let mut order = RowOrder {
@@ -117,7 +115,6 @@ impl RowOrder {
 /// With I the inside weight and T = I + B + A the total, the selection moves the pixel
 /// iff B ≥ ⌈T/2⌉ or T − A < ⌈T/2⌉, i.e. iff B ≥ I + A or A > I + B; both fail for
 /// every I at least as large as a partial sum that makes them fail.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn kept(below: u64, above: u64, inside: u64) -> bool {
     below < inside + above && above <= inside + below
 }
@@ -125,7 +122,6 @@ fn kept(below: u64, above: u64, inside: u64) -> bool {
 /// The votes outside `own ± snap` weigh less than `1/(q + 1)` of the rows weighed on
 /// either side (qB < I + A and qA < I + B): on the rows sampled by the first phases of
 /// [`Window::decide`], the pixel keeps its value without the rest of its window.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn clearly_kept(below: u64, above: u64, inside: u64, q: u64) -> bool {
     q * below < inside + above && q * above < inside + below
 }
@@ -156,7 +152,6 @@ pub(super) struct Window<'a, 'g, S: Sample> {
 }
 
 impl<S: Sample> Window<'_, '_, S> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn rows_and_columns(&self, x: usize, y: usize) -> (Range<usize>, Range<usize>) {
         let r = self.params.radius;
         (
@@ -166,7 +161,6 @@ impl<S: Sample> Window<'_, '_, S> {
     }
 
     /// The 8-bit colour of `(x, y)` (the channels beyond the third are ignored).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn colour(&self, x: usize, y: usize) -> [i32; 3] {
         let channels = self.guide.channels();
         let row = self.guide.row(y).unwrap_or(&[]);
@@ -209,7 +203,6 @@ impl<S: Sample> Window<'_, '_, S> {
 
     /// The offsets `x − xx` of the lanes of the pixel in column `x`, computed as the
     /// selection computes them (exact, hence `r − k`, below 2²⁴).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn offsets(&self, x: usize) -> [f32; LANES] {
         let mut dxs = self.offsets;
         if x >= EXACT_COLUMNS {
@@ -225,7 +218,6 @@ impl<S: Sample> Window<'_, '_, S> {
     /// the rows of its window at a distance from its own divisible by 4 kept it (then
     /// it keeps its value as long as those rows and the rows next to them, which their
     /// slopes read, do not change: [`super::filter_pass`]).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn value(
         &self,
         ring: &RowRing<'_>,

@@ -19,7 +19,6 @@ const PAD_LEFT: usize = super::MAX_RADIUS;
 const PAD_RIGHT: usize = LANES - 1;
 
 /// Elements of one padded row.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn stride(width: usize) -> usize {
     width.saturating_add(PAD_LEFT + PAD_RIGHT)
 }
@@ -28,7 +27,6 @@ pub(super) fn stride(width: usize) -> usize {
 const PLANES: usize = 6;
 
 /// `f32` elements a ring for rows of `width` needs.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn ring_len(width: usize) -> usize {
     stride(width).saturating_mul(PLANES * RING_ROWS)
 }
@@ -59,7 +57,6 @@ pub(super) type ColourLanes<'a> = [&'a [f32; LANES]; 3];
 
 impl<'a> RowRing<'a> {
     /// `rows` needs [`ring_len`] elements.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn new(rows: &'a mut [f32], width: usize) -> Self {
         RowRing {
             rows,
@@ -73,7 +70,6 @@ impl<'a> RowRing<'a> {
     /// Makes sure image row `yy` is in the ring; with `planar` its slopes (steps above
     /// `gate` left out), else zero slopes. Channels of the guide beyond the third are
     /// ignored, missing ones are zero.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn load<S: Sample>(
         &mut self,
         map: &[f32],
@@ -276,7 +272,6 @@ fn central(back: f32, fwd: f32, has_back: bool, has_fwd: bool, limit: f32) -> f3
 /// [`slope`] of every column of row `yy` into `sx` and `sy` (`width` each): the
 /// interior columns' x slopes and every y slope as vector code, the two end columns'
 /// x slopes by [`slope`].
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn row_slopes(
     map: &[f32],
     width: usize,

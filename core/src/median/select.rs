@@ -4,7 +4,6 @@
 /// The smallest value `v` whose weight of values `≤ v` reaches `half` (weighted
 /// quickselect with three-way partitions; `values` and `weights` are reordered).
 /// `half` must be at most the total weight and the slices non-empty and equally long.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn weighted_median(values: &mut [f32], weights: &mut [u32], half: u64) -> f32 {
     let n = values.len().min(weights.len());
     let (values, weights) = (&mut values[..n], &mut weights[..n]);
@@ -105,7 +104,6 @@ fn value_of(key: u64) -> f32 {
 /// compares than a sort for the few dozen votes of one side of a window and no
 /// mispredicted branch per key. Every access is checked (no panic path; core's
 /// `sort_unstable` keeps one, which the firmware's link check counts).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(super) fn weighted_median_of_keys(keys: &mut [u64], target: u64) -> Option<f32> {
     if target == 0 {
         // The first key of the sorted scan.

@@ -20,7 +20,6 @@ pub(super) struct Weights {
 }
 
 impl Weights {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(super) fn new(color_sigma: f32) -> Self {
         let sigma = color_sigma * 255.0;
         let two_sigma2 = 2.0 * sigma * sigma;

@@ -160,20 +160,17 @@ const REMEMBERED: usize = 4;
 /// share of the pixel's own.
 const PROPAGATION_ACCEPT: f32 = 0.7;
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn jumps(plan: &Plan) -> &'static [usize] {
     let rounds = plan.params().refine.propagation.min(JUMPS.len());
     &JUMPS[JUMPS.len() - rounds..]
 }
 
 /// Rows of context a band needs on each side.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn halo(plan: &Plan) -> usize {
     let p = &plan.params().refine;
     p.iterations * p.radius + jumps(plan).iter().sum::<usize>()
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn region_rows(plan: &Plan) -> usize {
     let rows = plan.params().refine.band_rows + 2 * halo(plan);
     rows.min(plan.layout().height)
@@ -185,7 +182,6 @@ const MEMORY: usize = 1 + REMEMBERED;
 
 /// Scratch (elements of the scalar type) one band needs: `2 + 12 + 5` values per pixel
 /// of the band and its halo; independent of the image height.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn scratch_len(plan: &Plan) -> usize {
     region_rows(plan)
         .saturating_mul(plan.layout().width)
@@ -193,7 +189,6 @@ pub fn scratch_len(plan: &Plan) -> usize {
 }
 
 /// Number of bands.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn band_count(plan: &Plan) -> usize {
     plan.layout()
         .height
@@ -201,7 +196,6 @@ pub fn band_count(plan: &Plan) -> usize {
 }
 
 /// Image rows of band `index`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn band_rows(plan: &Plan, index: usize) -> Result<Range<usize>> {
     let count = band_count(plan);
     if index >= count {
@@ -216,7 +210,6 @@ pub fn band_rows(plan: &Plan, index: usize) -> Result<Range<usize>> {
     Ok(start..(start + rows).min(plan.layout().height))
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn check_inputs<S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -271,7 +264,6 @@ struct Constants<T> {
 }
 
 impl<T: Scalar> Constants<T> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn new(p: &RefineParams, channels: usize, range: (f32, f32)) -> Self {
         let stat_scale = if p.robust_scale > 0.0 {
             STAT_SCALE
@@ -316,7 +308,6 @@ struct Counts<T> {
 }
 
 impl<T: Scalar> Counts<T> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn new(terms: &[f32; GROUPS], area: f32, shift: i32) -> Self {
         let scale = libm::ldexpf(1.0, -shift);
         Counts {
@@ -336,9 +327,8 @@ const WIDE_SHIFT: i32 = 8;
 /// The window sum of the statistics of the pixels within `gate` of `d`, over
 /// `ys × xs` of the region (`width` wide), in a fixed order so that every band sums
 /// alike. Each term is multiplied by `scale` when one is given.
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
+#[inline]
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn window_sum<T: Scalar>(
     stats: &[T],
     previous: &[T],
@@ -382,9 +372,8 @@ fn window_sum<T: Scalar>(
 }
 
 /// [`window_sum`] pixel by pixel.
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
+#[inline]
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn window_sum_each<T: Scalar>(
     stats: &[T],
     previous: &[T],
@@ -422,7 +411,6 @@ fn window_sum_each<T: Scalar>(
 /// the result in `range` (the EPI stage's output range), computing in `T`. `scratch`
 /// needs [`scratch_len`] elements.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn refine_band<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -455,7 +443,6 @@ pub fn refine_band<T: Scalar, S: Sample>(
 /// pixel). Not yet used by the pipelines: the EPI stage and the others still read the
 /// warped copy.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn refine_band_mapped<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -481,7 +468,6 @@ pub fn refine_band_mapped<T: Scalar, S: Sample>(
     )
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn check_homographies(plan: &Plan, homographies: &[Homography]) -> Result<()> {
     let views = plan.layout().grid.len();
     if homographies.len() != views {
@@ -504,7 +490,6 @@ fn check_homographies(plan: &Plan, homographies: &[Homography]) -> Result<()> {
 
 /// The body of [`refine_band`] over the views `photo` compares.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn band<T: Scalar, P: Photometric<T>>(
     plan: &Plan,
     photo: &P,
@@ -853,8 +838,7 @@ fn band<T: Scalar, P: Photometric<T>>(
 /// [`AXIS_AGREEMENT`], only the axis with the smaller error `E / A` is kept: along
 /// edges parallel to an axis, that axis' views only see aliasing and noise.
 /// Returns `(A, B, E, terms)` (the terms scaled like the statistics).
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline]
 fn select<T: Scalar>(
     sum: &[T; STATS],
     counts: &Counts<T>,
@@ -916,7 +900,6 @@ fn select<T: Scalar>(
 /// The serial stage with progress: every band in order into `out` / `confidence`
 /// (row-major, `plan.pixels()` each).
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn refine_with_progress<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
@@ -972,7 +955,6 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
 
 /// The serial stage: refines `disparity` into `out` with a new `confidence`, computing
 /// in `T`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn refine<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,

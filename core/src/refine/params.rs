@@ -16,7 +16,6 @@ pub enum ViewSet {
 impl ViewSet {
     /// Whether the view at offset `(dr, dc)` from the centre belongs to the set
     /// (the centre itself never does).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn contains(&self, dr: isize, dc: isize) -> bool {
         if dr == 0 && dc == 0 {
             return false;
@@ -59,7 +58,6 @@ pub struct RefineParams {
 }
 
 impl Default for RefineParams {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn default() -> Self {
         RefineParams {
             enabled: true,
@@ -78,13 +76,11 @@ impl Default for RefineParams {
 
 impl RefineParams {
     /// The stage switched on with the default settings (as [`Default`]).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn on() -> Self {
         Self::default()
     }
 
     /// The stage switched off: the paper's EPI → TV pipeline.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn off() -> Self {
         RefineParams {
             enabled: false,
@@ -93,7 +89,6 @@ impl RefineParams {
     }
 
     /// Checks every parameter.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn validate(&self) -> Result<()> {
         let bad = |name, reason| Err(Error::InvalidParameter { name, reason });
         if !(1..=16).contains(&self.iterations) {

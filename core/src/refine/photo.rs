@@ -42,7 +42,6 @@ pub(crate) const INTENSITY_SCALE: f32 = 16.0;
 /// a propagation decision compares costs to a share of 0.7, which the rounding of small
 /// terms flipped). Powers of two scale `f32` exactly: its decisions do not change.
 /// One (no scaling) without a robust scale (`robust` = `MAX`).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub(crate) fn cost_scale(robust: f32, memberships: f32) -> f32 {
     if !(robust > 0.0 && robust < f32::MAX && memberships > 0.0) {
         return 1.0;
@@ -72,7 +71,6 @@ struct Tap<T> {
 impl<T: Scalar> Tap<T> {
     /// One view's Cauchy-weighted residual energy over the first `n` channels,
     /// `scaled · e / (robust + e)`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn weighted_cost<const L: usize>(
         &self,
         at: &[T; L],
@@ -91,7 +89,6 @@ impl<T: Scalar> Tap<T> {
     /// Adds one view's normal-equation terms `(a, b, e)` to the sums of its groups
     /// (`out[3g..3g + 3]`), Cauchy-weighted by its residual energy `e`:
     /// `w = scaled / (robust + e)`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn add_weighted(&self, out: &mut [T], (a, b, e): (T, T, T), (robust, scaled): (T, T)) {
         let w = scaled / (robust + e);
         let (a, b, e) = (w * a, w * b, w * e);
@@ -184,7 +181,6 @@ struct Chunk<T, S, const N: usize> {
 }
 
 impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn new() -> Self {
         Chunk {
             raw: [[[S::default(); CHUNK]; N]; 3],
@@ -530,7 +526,6 @@ fn samples<S: Sample, const N: usize>(data: &[S], at: usize) -> Option<&[S; N]> 
 
 impl<T: Scalar> Views<T> {
     /// The views of `set`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub(crate) fn new(layout: &Layout, set: ViewSet) -> Self {
         let grid = layout.grid;
         let (r0, c0) = grid.center();
@@ -678,8 +673,7 @@ impl<T: Scalar> Views<T> {
     /// squared residual scale times the channels, in scaled intensity²; `scaled` the
     /// same times the statistics' power-of-two scale). Views whose
     /// samples leave the image are skipped.
-    #[cfg_attr(not(target_arch = "x86_64"), inline)]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[inline]
     pub(crate) fn pixel<S: Sample>(
         &self,
         data: &[S],
@@ -705,8 +699,7 @@ impl<T: Scalar> Views<T> {
     /// statistics read three: the derivative is not needed). `None` when the cost is not
     /// below `bar`, as soon as that is known after a chunk: every term is non-negative
     /// and rounded sums are monotonic, so the running sum is a lower bound of the cost.
-    #[cfg_attr(not(target_arch = "x86_64"), inline)]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
+    #[inline]
     pub(crate) fn cost<S: Sample>(
         &self,
         data: &[S],
@@ -807,7 +800,6 @@ impl<T: Scalar> Views<T> {
         inside(dp) && inside(dm)
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn pixel_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
         &self,
         data: &[S],
@@ -922,7 +914,6 @@ impl<T: Scalar> Views<T> {
         }
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn cost_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
         &self,
         data: &[S],
@@ -1434,7 +1425,6 @@ impl<T: Scalar> Views<T> {
 /// Every compared view as an oblique tap (axis views included): the simple path of
 /// [`Mapped`], which samples each view through its homography.
 impl<T: Scalar> Views<T> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn all_taps(&self) -> impl Iterator<Item = Tap<T>> + '_ {
         let axis = self.axis.get(..self.axis_len).unwrap_or_default();
         axis.iter()
@@ -1564,7 +1554,6 @@ impl<T: Scalar> Views<T> {
         Some([sample(d + tap.h)?, sample(d - tap.h)?, sample(d)?])
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn pixel_mapped_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
         &self,
         data: &[S],
@@ -1597,7 +1586,6 @@ impl<T: Scalar> Views<T> {
         }
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn cost_mapped_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
         &self,
         data: &[S],
@@ -1678,11 +1666,9 @@ pub(crate) struct Mapped<'a, T, S> {
 }
 
 impl<T: Scalar, S: Sample> Photometric<T> for Mapped<'_, T, S> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn views(&self) -> &Views<T> {
         &self.views
     }
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn pixel(&self, x: usize, y: usize, d: T, robust: (T, T), out: &mut [T; STATS]) {
         let v = &self.views;
         let m = (self.maps, self.interpolation == Interpolation::CatmullRom);
@@ -1693,7 +1679,6 @@ impl<T: Scalar, S: Sample> Photometric<T> for Mapped<'_, T, S> {
             _ => *out = [T::ZERO; STATS],
         }
     }
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn cost(&self, x: usize, y: usize, d: T, robust: (T, T), bar: Option<T>) -> Option<T> {
         let v = &self.views;
         let m = (self.maps, self.interpolation == Interpolation::CatmullRom);

@@ -60,7 +60,6 @@ pub struct TvParams {
 }
 
 impl Default for TvParams {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn default() -> Self {
         TvParams {
             lambda: 0.5,
@@ -81,7 +80,6 @@ impl Default for TvParams {
     }
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Result<()> {
     if v.is_finite() && ok {
         Ok(())
@@ -92,7 +90,6 @@ fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Resu
 
 impl TvParams {
     /// Checks every parameter.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn validate(&self) -> Result<()> {
         finite_in(
             "tv.lambda",

@@ -77,7 +77,6 @@ pub struct Maps<'a> {
 
 impl<'a> Maps<'a> {
     /// Checks sizes and that every value is finite (confidence is clamped to [0, 1] when used).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn new(
         width: usize,
         height: usize,
@@ -114,7 +113,6 @@ impl<'a> Maps<'a> {
     /// then starts from it and holds the flows on the edges that cross its region's border
     /// fixed at its values (an outer sweep that exchanges halos, see [`TvParams::sweeps`]):
     /// a tile no longer sees a free border, so tiled results approach the untiled one.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn with_dual(self, dual: &'a [f32]) -> Result<Self> {
         let needed = 2 * self.width * self.height;
         if dual.len() != needed {
@@ -135,12 +133,10 @@ impl<'a> Maps<'a> {
         })
     }
     /// Width in pixels.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn width(&self) -> usize {
         self.width
     }
     /// Height in pixels.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn height(&self) -> usize {
         self.height
     }
@@ -176,11 +172,9 @@ pub struct Rect {
 }
 
 impl Rect {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn pixels(&self) -> usize {
         self.width.saturating_mul(self.height)
     }
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn contains(&self, other: &Rect) -> bool {
         let end = |start: usize, len: usize| start.checked_add(len);
         match (
@@ -225,7 +219,6 @@ pub struct SolveReport {
 }
 
 /// Scratch elements (of the scalar type) a solve over `width × height` pixels needs.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn scratch_len_for(width: usize, height: usize) -> usize {
     width
         .saturating_mul(height)
@@ -236,7 +229,6 @@ pub fn scratch_len_for(width: usize, height: usize) -> usize {
 /// Solves the model on `region` (a rectangle of the maps, its border edges cut) and writes
 /// the refined disparity of `core` (inside `region`) into `out`.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn solve<S: Scalar, P: Sample>(
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
@@ -309,7 +301,6 @@ pub fn solve<S: Scalar, P: Sample>(
     Ok(report)
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn check_guide<P: Sample>(maps: &Maps<'_>, guide: &Guide<'_, P>, region: Rect) -> Result<()> {
     match guide {
         Guide::View(view) => {
@@ -406,7 +397,6 @@ struct Graph<'s, S> {
 }
 
 impl<'s, S: Scalar> Graph<'s, S> {
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn split(scratch: &'s mut [S], width: usize, height: usize) -> Self {
         let n = width * height;
         let (full, rows) = scratch.split_at_mut((n * BUFFERS).min(scratch.len()));
@@ -434,7 +424,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
 
     /// Edge weights, node constants, and the start: the dual of `D`'s smoothed gradients
     /// (`gradient_start`), or the previous sweep's dual when the maps carry one.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn setup<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -473,7 +462,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// `t_i = γκ_i/ω = σ_i / (1 − σ_i‖c_i‖²)`; in the storage of [`Graph`] the own copy
     /// of an edge takes its owning node's term (`c = −w`), the other copy its far end's
     /// (`c = +w`).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn consistent_copies(&mut self, maps: &Maps<'_>, params: &TvParams, region: Rect) {
         let (w, h) = (self.width, self.height);
         let mut row_bufs = self.rows.chunks_exact_mut(w.max(1));
@@ -546,7 +534,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
 
     /// The edge weights node by node: given weights, or a previous sweep's dual (which
     /// fixes the pairs of the region's last column and row).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn weights_by_node<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -601,7 +588,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// [`Self::weights_by_node`]), a block of columns at a time down the region
     /// ([`Self::view_weights_by_block`]) for every layout a view has (1, 3 or 4 samples
     /// per pixel).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn weights_from_view<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -625,7 +611,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// The same values as [`colour_step`] per pixel: the largest of non-negative
     /// differences (the samples are finite) does not depend on the order it is taken in,
     /// so the differences and the largest of them run in vector lanes, a channel at a time.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn view_weights_by_block<P: Sample, const CH: usize, const USED: usize>(
         &mut self,
         view: &View<'_, P>,
@@ -710,7 +695,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
 
     /// `τ` and `σ` node by node, with the fixed flows of a previous dual; returns the
     /// range of `D` over the region.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn node_constants_by_node<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -761,7 +745,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// `τ` and `σ` of every node without a previous dual (no fixed flows), a row at a
     /// time (the same values as [`Self::node_constants_by_node`]); returns the range of
     /// `D` over the region.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn node_constants_by_row(
         &mut self,
         maps: &Maps<'_>,
@@ -858,7 +841,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// `G = DUAL_SCALE · F / s_i`, so its edge weights are multiplied by `s_i` and its
     /// constraint radius is `DUAL_SCALE / s_i` (`bound`). `(WᵀF)` — the targets, the
     /// residuals, the primal — is the same function of `G` with the scaled weights.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn set_metric(&mut self, maps: &Maps<'_>, params: &TvParams, region: Rect) {
         let (w, h) = (self.width, self.height);
         let a_at = |x: usize, y: usize| {
@@ -915,7 +897,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     }
 
     /// `F / G = s_i / DUAL_SCALE` of node `i` (a power of two).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn factor(&self, i: usize) -> f32 {
         let b = self.bound.get(i).map_or(1.0, |b| b.to_f32());
         match self.norm {
@@ -926,7 +907,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
 
     /// Node `i`'s flows `(fh, fv)` (unscaled) as the start of every PPXA copy and of
     /// `F`, so that `F = ½y₁ + ¼y₂ + ¼y₃` holds from the first iteration.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn start_dual_at(&mut self, i: usize, fh: f32, fv: f32) {
         let to_g = 1.0 / self.factor(i);
         let (fh, fv) = (S::from_f32(to_g * fh), S::from_f32(to_g * fv));
@@ -954,7 +934,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// where most of the optimal dual lies, so fewer iterations reach a given distance to
     /// the minimiser than from `F = 0`. Edges that leave the region (zero weight) start
     /// at zero. The PPXA copies are set from `F` by `consistent_copies`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn gradient_start(&mut self, maps: &Maps<'_>, region: Rect, norm: TvNorm) {
         let w = self.width;
         let eps = GRADIENT_START_SCALE;
@@ -1049,7 +1028,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
         }
     }
 
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn iterate(
         &mut self,
         params: &TvParams,
@@ -1100,7 +1078,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     }
 
     /// `F = ½y₁ + ¼y₂ + ¼y₃` (the expression the iteration uses), into `y₁`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn form_average(&mut self, c: &Constants<S>) {
         let ys = self.own_h.iter().zip(self.other_h.iter());
         for (f, (&y2, &y3)) in self.y1h.iter_mut().zip(ys) {
@@ -1120,7 +1097,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// Returns `‖ΔF‖²` in the scaled units when `RECORD` (for the residual history), and
     /// when `CHECK` the weighted squared primal change `Σ a_i (xₙ − xₙ₋₁)_i²` in pixels²
     /// (stopping rule).
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn sweep<const RECORD: bool, const CHECK: bool>(
         &mut self,
         c: &Constants<S>,
@@ -1204,7 +1180,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     /// Every PPXA copy and `F` set to the previous sweep's dual (scaled), so that
     /// `F = ½y₁ + ¼y₂ + ¼y₃` holds from the start. Flows of edges that leave the region
     /// stay zero inside it: they are held fixed through the targets instead.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn warm_start(&mut self, maps: &Maps<'_>, region: Rect, dual: &[f32]) {
         let (w, h) = (self.width, self.height);
         for y in 0..h {
@@ -1225,7 +1200,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
     }
 
     /// The dual of the core, unscaled, `(F_h, F_v)` per pixel at `2 · (y · stride + x)`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn write_dual(&self, region: Rect, core: Rect, dual: &mut [f32], stride: usize) {
         for y in 0..core.height {
             for x in 0..core.width {
@@ -1245,7 +1219,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
 
     /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`.
     #[allow(clippy::too_many_arguments)]
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn write_primal<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -1301,7 +1274,6 @@ impl<'s, S: Scalar> Graph<'s, S> {
 
 /// The weights of the edges `(gx, gy) → (gx + 1, gy)` and `→ (gx, gy + 1)` of the whole
 /// map (zero where they leave it).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn edge_weights<P: Sample>(
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
@@ -1331,7 +1303,6 @@ fn edge_weights<P: Sample>(
 /// Whether the pair `(F_h, F_v)` of region node `(x, y)` is held fixed by an outer sweep:
 /// the node lies in the region's last column or row, and that is not the map's (a node on
 /// the map's border has no edge to the outside, so its pair stays free).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn fixed_pair(maps: &Maps<'_>, region: Rect, x: usize, y: usize) -> bool {
     let (gx, gy) = (region.x + x, region.y + y);
     (x + 1 == region.width && gx + 1 < maps.width)
@@ -1345,7 +1316,6 @@ fn fixed_pair(maps: &Maps<'_>, region: Rect, x: usize, y: usize) -> bool {
 /// the coupled (ℓ2) constraint of a pair is never split between a fixed and a free edge.
 /// The incidence convention is the solver's: a node's own forward edges count `−w F`, its
 /// left and upper neighbours' `+w F`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn external_flow<P: Sample>(
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
@@ -1383,8 +1353,7 @@ fn external_flow<P: Sample>(
 
 /// `a_i = m_i v_i + ℸ`: `v_i = confidence^power` where the confidence reaches the
 /// threshold, plus the weak fidelity everywhere.
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline]
 pub(crate) fn data_weight(confidence: f32, params: &TvParams) -> f32 {
     let c = confidence.clamp(0.0, 1.0);
     // The defaults (power 1, threshold 0) in a branch-free form with the same values
@@ -1418,7 +1387,6 @@ pub(crate) fn data_weight(confidence: f32, params: &TvParams) -> f32 {
 /// rounded to a power of two `s_i = 2^-k` — exact in f32 and Q16.16, so the metric
 /// changes no rounding. Below it (every node of the default pipeline's input, whose
 /// confidences are high) nothing changes.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn metric_shift(stiffness: f32) -> i32 {
     let ratio = stiffness / METRIC_STIFFNESS;
     if ratio.is_nan() || ratio <= 1.0 {
@@ -1440,7 +1408,6 @@ const METRIC_MAX_SHIFT: i32 = 6;
 const STEP_BLOCK: usize = 64;
 
 /// Edge weights to the right and down neighbours of `(x, y)` from the guide view.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn view_weights<P: Sample>(
     view: &View<'_, P>,
     x: usize,
@@ -1504,7 +1471,6 @@ const EARLY_CHECK_EVERY: usize = 2;
 /// Whether the stopping rule is evaluated after `iterations` iterations: at
 /// [`FIRST_CHECK`], then every [`EARLY_CHECK_EVERY`] up to [`EARLY_CHECKS_UNTIL`], then
 /// every [`CHECK_EVERY`].
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn is_check(iterations: usize) -> bool {
     let every = if iterations <= EARLY_CHECKS_UNTIL {
         EARLY_CHECK_EVERY
@@ -1524,7 +1490,6 @@ struct PrimalScale<'m> {
 
 impl PrimalScale<'_> {
     /// The confidences of region row `y`.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     fn row(&self, y: usize) -> &[f32] {
         let start = (self.region.y + y) * self.stride + self.region.x;
         self.confidence
@@ -1555,7 +1520,6 @@ impl PrimalScale<'_> {
 /// `Δx = λA⁻¹WᵀΔF` (unscaled). `weights` and `update` are the row's `[h, v]`, `above` the
 /// row above's vertical weights and updates (`None` on the first row); `div` is room for
 /// one row.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn primal_change_row<S: Scalar>(
     weights: [&[S]; 2],
     update: [&[S]; 2],
@@ -1619,8 +1583,7 @@ const LANES: usize = 16;
 /// `p1` is room for `p₁` (two rows). The projection couples the two components of a
 /// node, the rest does not: the horizontal and the vertical components are combined in
 /// separate passes, each few enough streams to stay in registers.
-#[cfg_attr(not(target_arch = "x86_64"), inline(never))]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline(never)]
 fn combine<S: Scalar, const RECORD: bool, const CHECK: bool>(
     c: &Constants<S>,
     state: [&mut [S]; 6],
@@ -1882,7 +1845,6 @@ fn inverse_sqrt(x: f32) -> f32 {
 
 /// Row `y` of `WᵀF` into `out` (`width` long):
 /// `(WᵀF)_i = w_h(i−1) F_h(i−1) + w_v(i−W) F_v(i−W) − w_h(i) F_h(i) − w_v(i) F_v(i)`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn divergence_row<S: Scalar>(
     y: usize,
     width: usize,
@@ -1954,7 +1916,6 @@ fn divergence_of_row<S: Scalar>(
 /// of its own colour: its own edges from `own`, its left and upper neighbours' edges from
 /// `other` (see [`Graph`]). `copies` = `[own_h, own_v, other_h, other_v]`.
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn residual_row<S: Scalar>(
     y: usize,
     width: usize,
@@ -2016,7 +1977,6 @@ fn residual_row<S: Scalar>(
 /// residuals, `below` the next row's (`None` on the last row, which has no vertical
 /// edges); the last column has no horizontal edge. All slices are one row, in the
 /// order `[own_h, own_v, other_h, other_v]`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn prox_row<S: Scalar>(
     weights: [&[S]; 2],
     copies: [&[S]; 4],
@@ -2080,7 +2040,6 @@ fn copy_row<S: Copy>(dst: &mut [S], src: &[S]) {
 }
 
 #[cfg(test)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn divergence<S: Scalar>(width: usize, wh: &[S], wv: &[S], fh: &[S], fv: &[S], out: &mut [S]) {
     for (y, row) in out.chunks_exact_mut(width).enumerate() {
         divergence_row(y, width, wh, wv, fh, fv, row);

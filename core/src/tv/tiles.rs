@@ -26,7 +26,6 @@ pub struct RefineReport {
 
 impl RefineReport {
     /// Adds one tile's report.
-    #[cfg_attr(target_arch = "x86_64", inline(always))]
     pub fn add(&mut self, tile: &SolveReport) {
         self.tiles += 1;
         self.max_iterations = self.max_iterations.max(tile.iterations);
@@ -35,14 +34,12 @@ impl RefineReport {
     }
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn region_side(tile: usize, halo: usize, len: usize) -> usize {
     tile.saturating_add(halo.saturating_mul(2)).min(len)
 }
 
 /// Scratch elements (of the scalar type) one tile needs: the same for every tile and
 /// independent of the image size beyond one tile plus halo.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn scratch_len(plan: &Plan) -> usize {
     let tv = &plan.params().tv;
     let layout = plan.layout();
@@ -53,7 +50,6 @@ pub fn scratch_len(plan: &Plan) -> usize {
 }
 
 /// Number of tiles `(columns, rows)`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn tile_count(plan: &Plan) -> (usize, usize) {
     let tile = plan.params().tv.tile.max(1);
     let layout = plan.layout();
@@ -62,7 +58,6 @@ pub fn tile_count(plan: &Plan) -> (usize, usize) {
 
 /// The core and the region (core + halo, clipped to the image) of tile `index`
 /// (row-major over [`tile_count`]).
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn tile_rects(plan: &Plan, index: usize) -> Result<(Rect, Rect)> {
     let (cols, rows) = tile_count(plan);
     if index >= cols * rows {
@@ -100,7 +95,6 @@ pub fn tile_rects(plan: &Plan, index: usize) -> Result<(Rect, Rect)> {
     Ok((core, region))
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn check_maps(plan: &Plan, maps: &Maps<'_>) -> Result<()> {
     let layout = plan.layout();
     if maps.width() != layout.width || maps.height() != layout.height {
@@ -114,7 +108,6 @@ fn check_maps(plan: &Plan, maps: &Maps<'_>) -> Result<()> {
 
 /// Solves tile `index` and writes its core into `out` (core pixel `(x, y)` at
 /// `out.disparity[y · out.stride + x]`), adding its residual history to `out.history`.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn refine_tile<S: Scalar, P: Sample>(
     plan: &Plan,
     maps: &Maps<'_>,
@@ -130,7 +123,6 @@ pub fn refine_tile<S: Scalar, P: Sample>(
 
 /// Turns a history accumulated over every tile (squared dual updates) into the RMS dual
 /// update per node and iteration — the residual norm curve.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn normalise_history(plan: &Plan, history: &mut [f32]) {
     let (cols, rows) = tile_count(plan);
     let mut nodes = 0usize;
@@ -147,7 +139,6 @@ pub fn normalise_history(plan: &Plan, history: &mut [f32]) {
 
 /// Floats of caller memory [`refine`] needs for the outer sweeps
 /// ([`super::TvParams::sweeps`]): two duals of the whole map, or nothing without sweeps.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn dual_len(plan: &Plan) -> usize {
     if plan.params().tv.sweeps == 0 {
         0
@@ -160,7 +151,6 @@ pub fn dual_len(plan: &Plan) -> usize {
 /// disparity, `history[n]` the RMS dual update at iteration `n` of the first pass (see
 /// [`normalise_history`]; pass an empty slice to skip it). `duals` ([`dual_len`] floats)
 /// carries the dual from one outer sweep to the next.
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn refine<S: Scalar, P: Sample>(
     plan: &Plan,
     maps: &Maps<'_>,
@@ -178,7 +168,6 @@ pub fn refine<S: Scalar, P: Sample>(
 /// [`refine`], reporting each tile solve to `progress` (stage [`super::STAGE`]; done out
 /// of tiles × passes); `ControlFlow::Break(())` stops with [`Error::Cancelled`].
 #[allow(clippy::too_many_arguments)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 pub fn refine_with_progress<S: Scalar, P: Sample>(
     plan: &Plan,
     maps: &Maps<'_>,
@@ -256,7 +245,6 @@ pub fn refine_with_progress<S: Scalar, P: Sample>(
     Ok(report)
 }
 
-#[cfg_attr(target_arch = "x86_64", inline(always))]
 fn tell(
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
     done: usize,

@@ -5,8 +5,7 @@ use crate::lightfield::Sample;
 
 /// Weight of the edge between two pixels whose largest channel difference is `step`
 /// (unit intensity): `max(floor, 1 / (1 + (step/σ)²))`, or 1 when `sigma` is zero.
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline]
 pub(crate) fn edge_weight(step: f32, sigma: f32, floor: f32) -> f32 {
     if sigma <= 0.0 {
         return 1.0;
@@ -22,8 +21,7 @@ pub(crate) fn edge_weight(step: f32, sigma: f32, floor: f32) -> f32 {
 
 /// Largest absolute difference over the first `channels` samples of two pixels
 /// (unit intensity).
-#[cfg_attr(not(target_arch = "x86_64"), inline)]
-#[cfg_attr(target_arch = "x86_64", inline(always))]
+#[inline]
 pub(crate) fn colour_step<P: Sample>(a: &[P], b: &[P], channels: usize) -> f32 {
     let mut step = 0.0f32;
     for (pa, pb) in a.iter().zip(b).take(channels) {
