@@ -1402,10 +1402,11 @@ mod tests {
             ]
         };
         let mut smoothed = lines(0.0);
-        let [sxx, sxk, skk] = &mut smoothed;
-        let mut whole = lines(f32::NAN);
-        {
-            let [jxx, jxk, jkk] = &mut whole;
+        // The tensor of `span` in fresh NaN lines (the smoothed lines are work space).
+        let mut tensor_of = |span: core::ops::Range<usize>| {
+            let mut out = lines(f32::NAN);
+            let [jxx, jxk, jkk] = &mut out;
+            let [sxx, sxk, skk] = &mut smoothed;
             let mut tensor = Tensor {
                 jxx,
                 jxk,
@@ -1414,24 +1415,14 @@ mod tests {
                 sxk,
                 skk,
             };
-            estimator.tensor_span(&bank, &sources, &mut tensor, 0..len, len);
-        }
+            estimator.tensor_span(&bank, &sources, &mut tensor, span, len);
+            out
+        };
+        let whole = tensor_of(0..len);
         assert!(whole.iter().flatten().all(|v| v.is_finite()));
         for start in 0..len {
             for end in start + 1..=len {
-                let mut part = lines(f32::NAN);
-                {
-                    let [jxx, jxk, jkk] = &mut part;
-                    let mut tensor = Tensor {
-                        jxx,
-                        jxk,
-                        jkk,
-                        sxx,
-                        sxk,
-                        skk,
-                    };
-                    estimator.tensor_span(&bank, &sources, &mut tensor, start..end, len);
-                }
+                let part = tensor_of(start..end);
                 for (p, w) in part.iter().zip(&whole) {
                     for t in 0..len {
                         let near = t + TAIL > start && t < end + TAIL - 1;
