@@ -45,9 +45,16 @@ use super::weights::{colour_step, edge_weight};
 const BUFFERS: usize = 11;
 
 /// Rows of the region's width the fused sweep keeps in scratch: the node residuals of
-/// two rows, one row of each proximity result, and on a checking iteration the dual
-/// update of the row (both components) and of the row above (vertical).
+/// two rows, one row of each proximity result (the last row's), and on a checking
+/// iteration the dual update of the row (both components) and of the row above
+/// (vertical).
 const ROW_BUFFERS: usize = 11;
+
+/// Elements beyond [`ROW_BUFFERS`] rows: each residual row holds one more, a zero after
+/// its last node (the residual "beyond" the last column, whose horizontal edge is cut),
+/// so that the horizontal proximity reads the far ends of a row's edges as one shifted
+/// row.
+const ROW_EXTRA: usize = 2;
 
 /// The solver iterates on `DUAL_SCALE · F` (constraint radius `DUAL_SCALE`, targets
 /// `DUAL_SCALE · τ`): every iterate scales exactly, so nothing changes in f32 (a power of
@@ -224,6 +231,7 @@ pub fn scratch_len_for(width: usize, height: usize) -> usize {
         .saturating_mul(height)
         .saturating_mul(BUFFERS)
         .saturating_add(width.saturating_mul(ROW_BUFFERS))
+        .saturating_add(ROW_EXTRA)
 }
 
 /// Solves the model on `region` (a rectangle of the maps, its border edges cut) and writes
@@ -1107,55 +1115,78 @@ impl<'s, S: Scalar> Graph<'s, S> {
             change: [0.0; LANES],
         };
         let mut primal = 0.0f32;
-        let mut row_bufs = self.rows.chunks_exact_mut(w.max(1));
+        // Two residual rows of `w + 1`, the last element zero (never written).
+        let (residuals, row_rest) = self.rows.split_at_mut((2 * (w + 1)).min(self.rows.len()));
+        let (mut s_ext, mut s_below_ext) = residuals.split_at_mut(residuals.len() / 2);
+        for s in [&mut *s_ext, &mut *s_below_ext] {
+            if let Some(last) = s.last_mut() {
+                *last = S::ZERO;
+            }
+        }
+        let mut row_bufs = row_rest.chunks_exact_mut(w.max(1));
         let mut next = || row_bufs.next().unwrap_or_default();
-        let (mut s, mut s_below) = (next(), next());
         let (p_own_h, p_own_v, p_other_h, p_other_v) = (next(), next(), next(), next());
         let (p1h, p1v) = (next(), next());
         let (dh, mut dv, mut dv_above) = (next(), next(), next());
         let (wh, wv, tau, sig) = (&*self.wh, &*self.wv, &*self.tau, &*self.sig);
         let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
-        residual_row(0, w, wh, wv, tau, sig, copies, s);
+        residual_row(0, w, wh, wv, tau, sig, copies, part_mut(s_ext, 0..w));
         for y in 0..rows {
             let below = y + 1 < rows;
             if below {
                 let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
+                let s_below = part_mut(s_below_ext, 0..w);
                 residual_row(y + 1, w, wh, wv, tau, sig, copies, s_below);
             }
             let r = y * w..(y + 1) * w;
-            prox_row(
-                [part(wh, r.clone()), part(wv, r.clone())],
-                [
-                    part(self.own_h, r.clone()),
-                    part(self.own_v, r.clone()),
-                    part(self.other_h, r.clone()),
-                    part(self.other_v, r.clone()),
-                ],
-                s,
-                if below { Some(&*s_below) } else { None },
-                [
-                    &mut *p_own_h,
-                    &mut *p_own_v,
-                    &mut *p_other_h,
-                    &mut *p_other_v,
-                ],
-            );
-            combine::<S, RECORD, CHECK>(
-                c,
-                [
-                    part_mut(self.y1h, r.clone()),
-                    part_mut(self.y1v, r.clone()),
-                    part_mut(self.own_h, r.clone()),
-                    part_mut(self.own_v, r.clone()),
-                    part_mut(self.other_h, r.clone()),
-                    part_mut(self.other_v, r.clone()),
-                ],
-                [&*p_own_h, &*p_own_v, &*p_other_h, &*p_other_v],
-                part(self.bound, r.clone()),
-                [&mut *p1h, &mut *p1v],
-                [&mut *dh, &mut *dv],
-                &mut sums,
-            );
+            let state = [
+                part_mut(self.y1h, r.clone()),
+                part_mut(self.y1v, r.clone()),
+                part_mut(self.own_h, r.clone()),
+                part_mut(self.own_v, r.clone()),
+                part_mut(self.other_h, r.clone()),
+                part_mut(self.other_v, r.clone()),
+            ];
+            let weights = [part(wh, r.clone()), part(wv, r.clone())];
+            let s = part(s_ext, 0..w);
+            if below {
+                // The proximity results are formed inside the combination (no rows of
+                // them): `s_ext` shifted by one holds each horizontal edge's far end.
+                combine_with_prox::<S, RECORD, CHECK>(
+                    c,
+                    state,
+                    weights,
+                    [s, part(s_ext, 1..w + 1), part(s_below_ext, 0..w)],
+                    part(self.bound, r.clone()),
+                    [&mut *p1h, &mut *p1v],
+                    [&mut *dh, &mut *dv],
+                    &mut sums,
+                );
+            } else {
+                // The last row has no vertical edges (no residuals below).
+                let [y1h, y1v, own_h, own_v, other_h, other_v] = state;
+                prox_row(
+                    weights,
+                    [&*own_h, &*own_v, &*other_h, &*other_v],
+                    s,
+                    None,
+                    [
+                        &mut *p_own_h,
+                        &mut *p_own_v,
+                        &mut *p_other_h,
+                        &mut *p_other_v,
+                    ],
+                );
+                combine::<S, RECORD, CHECK>(
+                    c,
+                    [y1h, y1v, own_h, own_v, other_h, other_v],
+                    [&*p_own_h, &*p_own_v, &*p_other_h, &*p_other_v],
+                    part(self.bound, r.clone()),
+                    [&mut *p1h, &mut *p1v],
+                    [&mut *dh, &mut *dv],
+                    &mut sums,
+                );
+            }
             if CHECK {
                 let above = if y > 0 {
                     Some((part(wv, r.start - w..r.start), &*dv_above))
@@ -1172,7 +1203,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                 );
                 core::mem::swap(&mut dv, &mut dv_above);
             }
-            core::mem::swap(&mut s, &mut s_below);
+            core::mem::swap(&mut s_ext, &mut s_below_ext);
         }
         (sums.change.iter().sum(), primal)
     }
@@ -1597,6 +1628,61 @@ fn combine<S: Scalar, const RECORD: bool, const CHECK: bool>(
     let [p2h, p2v, p3h, p3v] = prox;
     let [p1h, p1v] = p1;
     let [dh, dv] = delta;
+    project_row(c, [&mut *p1h, &mut *p1v], [y1h, y1v], bound);
+    combine_component::<S, RECORD, CHECK>(c, [y1h, y2h, y3h], [p1h, p2h, p3h], dh, sums);
+    combine_component::<S, RECORD, CHECK>(c, [y1v, y2v, y3v], [p1v, p2v, p3v], dv, sums);
+}
+
+/// [`combine`] with the proximity results of the two quadratic parts formed node by
+/// node as [`prox_row`] forms them, `p_own = own + w s` and `p_other = other − w s_far`,
+/// instead of read from rows of them (two passes and four streams less). `weights` =
+/// `[w_h, w_v]` of the row; `residuals` = `[s, s_right, s_below]`: the row's residuals,
+/// the same shifted by one node (the far ends of the horizontal edges; zero after the
+/// last node, whose edge is cut, so that `p_other = other − w·0 = other` there), and the
+/// next row's (the far ends of the vertical edges; not the last row).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn combine_with_prox<S: Scalar, const RECORD: bool, const CHECK: bool>(
+    c: &Constants<S>,
+    state: [&mut [S]; 6],
+    weights: [&[S]; 2],
+    residuals: [&[S]; 3],
+    bound: &[S],
+    p1: [&mut [S]; 2],
+    delta: [&mut [S]; 2],
+    sums: &mut Sums,
+) {
+    let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
+    let [wh, wv] = weights;
+    let [s, s_right, s_below] = residuals;
+    let [p1h, p1v] = p1;
+    let [dh, dv] = delta;
+    project_row(c, [&mut *p1h, &mut *p1v], [y1h, y1v], bound);
+    combine_component_with_prox::<S, RECORD, CHECK>(
+        c,
+        [y1h, y2h, y3h],
+        p1h,
+        wh,
+        [s, s_right],
+        dh,
+        sums,
+    );
+    combine_component_with_prox::<S, RECORD, CHECK>(
+        c,
+        [y1v, y2v, y3v],
+        p1v,
+        wv,
+        [s, s_below],
+        dv,
+        sums,
+    );
+}
+
+/// `p₁ = P_B(y₁)` of one row (both components) into `p1`.
+#[inline(always)]
+fn project_row<S: Scalar>(c: &Constants<S>, p1: [&mut [S]; 2], y1: [&[S]; 2], bound: &[S]) {
+    let [p1h, p1v] = p1;
+    let [y1h, y1v] = y1;
     copy_row(p1h, y1h);
     copy_row(p1v, y1v);
     let full = p1h.len() - p1h.len() % LANES;
@@ -1625,8 +1711,155 @@ fn combine<S: Scalar, const RECORD: bool, const CHECK: bool>(
         project_lanes(&mut h1, &mut v1, &[b], c.norm);
         (*h, *v) = (h1[0], v1[0]);
     }
-    combine_component::<S, RECORD, CHECK>(c, [y1h, y2h, y3h], [p1h, p2h, p3h], dh, sums);
-    combine_component::<S, RECORD, CHECK>(c, [y1v, y2v, y3v], [p1v, p2v, p3v], dv, sums);
+}
+
+/// [`combine_component`] with the proximity results formed from the weights `w` and
+/// the residuals `[s_own, s_far]` (see [`combine_with_prox`]).
+#[inline(always)]
+fn combine_component_with_prox<S: Scalar, const RECORD: bool, const CHECK: bool>(
+    c: &Constants<S>,
+    y: [&mut [S]; 3],
+    p1: &[S],
+    w: &[S],
+    s: [&[S]; 2],
+    delta: &mut [S],
+    sums: &mut Sums,
+) {
+    let [y1, y2, y3] = y;
+    let [s0, s1] = s;
+    let n = y1.len();
+    let full = n - n % LANES;
+    // One row each, all the same length (the checked splits never fail; `delta` is
+    // only written when `CHECK`).
+    let (y1, y1r) = y1.split_at_mut(full);
+    let (Some((y2, y2r)), Some((y3, y3r)), Some((p1, p1r)), Some((w, wr)), Some((s0, s0r))) = (
+        y2.split_at_mut_checked(full),
+        y3.split_at_mut_checked(full),
+        p1.split_at_checked(full),
+        w.split_at_checked(full),
+        s0.split_at_checked(full),
+    ) else {
+        return;
+    };
+    let Some((s1, s1r)) = s1.split_at_checked(full) else {
+        return;
+    };
+    if CHECK {
+        let Some((d, dr)) = delta
+            .get_mut(..n)
+            .and_then(|d| d.split_at_mut_checked(full))
+        else {
+            return;
+        };
+        combine_prox_lanes_with_delta::<S, LANES, RECORD>(
+            c,
+            [y1, y2, y3],
+            [p1, w, s0, s1],
+            d,
+            sums,
+        );
+        combine_prox_lanes_with_delta::<S, 1, RECORD>(
+            c,
+            [y1r, y2r, y3r],
+            [p1r, wr, s0r, s1r],
+            dr,
+            sums,
+        );
+    } else {
+        combine_prox_lanes::<S, LANES, RECORD>(c, [y1, y2, y3], [p1, w, s0, s1], sums);
+        combine_prox_lanes::<S, 1, RECORD>(c, [y1r, y2r, y3r], [p1r, wr, s0r, s1r], sums);
+    }
+}
+
+/// [`combine_lanes`] with the proximity results formed in the loop: `inputs` =
+/// `[p₁, w, s_own, s_far]`.
+#[inline(always)]
+fn combine_prox_lanes<S: Scalar, const L: usize, const RECORD: bool>(
+    c: &Constants<S>,
+    y: [&mut [S]; 3],
+    inputs: [&[S]; 4],
+    sums: &mut Sums,
+) {
+    let [y1, y2, y3] = y;
+    let [p1, w, s0, s1] = inputs;
+    let groups = y1
+        .chunks_exact_mut(L)
+        .zip(y2.chunks_exact_mut(L))
+        .zip(y3.chunks_exact_mut(L))
+        .zip(
+            p1.chunks_exact(L)
+                .zip(w.chunks_exact(L))
+                .zip(s0.chunks_exact(L).zip(s1.chunks_exact(L))),
+        );
+    for (((y1, y2), y3), ((p1, w), (s0, s1))) in groups {
+        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(w), Ok(s0), Ok(s1)) = (
+            <&mut [S; L]>::try_from(y1),
+            <&mut [S; L]>::try_from(y2),
+            <&mut [S; L]>::try_from(y3),
+            <&[S; L]>::try_from(p1),
+            <&[S; L]>::try_from(w),
+            <&[S; L]>::try_from(s0),
+            <&[S; L]>::try_from(s1),
+        ) else {
+            continue; // chunks_exact yields exactly L elements
+        };
+        for j in 0..L {
+            let p2 = y2[j] + w[j] * s0[j];
+            let p3 = y3[j] - w[j] * s1[j];
+            let d = combine_node(c, [&mut y1[j], &mut y2[j], &mut y3[j]], [p1[j], p2, p3]);
+            if RECORD {
+                let d = d.to_f32();
+                sums.change[j % LANES] += d * d;
+            }
+        }
+    }
+}
+
+/// [`combine_prox_lanes`] that also writes `ΔF` of every node into `delta`.
+#[inline(always)]
+fn combine_prox_lanes_with_delta<S: Scalar, const L: usize, const RECORD: bool>(
+    c: &Constants<S>,
+    y: [&mut [S]; 3],
+    inputs: [&[S]; 4],
+    delta: &mut [S],
+    sums: &mut Sums,
+) {
+    let [y1, y2, y3] = y;
+    let [p1, w, s0, s1] = inputs;
+    let groups = y1
+        .chunks_exact_mut(L)
+        .zip(y2.chunks_exact_mut(L))
+        .zip(y3.chunks_exact_mut(L))
+        .zip(
+            p1.chunks_exact(L)
+                .zip(w.chunks_exact(L))
+                .zip(s0.chunks_exact(L).zip(s1.chunks_exact(L))),
+        )
+        .zip(delta.chunks_exact_mut(L));
+    for ((((y1, y2), y3), ((p1, w), (s0, s1))), delta) in groups {
+        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(w), Ok(s0), Ok(s1), Ok(delta)) = (
+            <&mut [S; L]>::try_from(y1),
+            <&mut [S; L]>::try_from(y2),
+            <&mut [S; L]>::try_from(y3),
+            <&[S; L]>::try_from(p1),
+            <&[S; L]>::try_from(w),
+            <&[S; L]>::try_from(s0),
+            <&[S; L]>::try_from(s1),
+            <&mut [S; L]>::try_from(delta),
+        ) else {
+            continue; // chunks_exact yields exactly L elements
+        };
+        for j in 0..L {
+            let p2 = y2[j] + w[j] * s0[j];
+            let p3 = y3[j] - w[j] * s1[j];
+            let d = combine_node(c, [&mut y1[j], &mut y2[j], &mut y3[j]], [p1[j], p2, p3]);
+            delta[j] = d;
+            if RECORD {
+                let d = d.to_f32();
+                sums.change[j % LANES] += d * d;
+            }
+        }
+    }
 }
 
 /// The combination of one component (all horizontal or all vertical duals of a row).
