@@ -130,14 +130,12 @@ const COARSE_VIEWS: usize = 2;
 const NEAR: f32 = 0.15;
 /// A sample the coarse pass brackets between two fine shears is not tested at the upper
 /// one when its fine residual slope at the lower one puts it less than this many shear
-/// steps above that one with at least `SETTLE_COHERENCE` (see `Guide::settle`). At 1 (the
-/// whole bracket: any coherent residual inside the window pointing upwards) −6 % / −12 % of
-/// the fine pass's tensor samples on HCI cotton / backgammon against 0.5 (session 9;
-/// 0.5 was −8 % / −12 % against no settle, session 8), pipeline BadPix0.07 +0.020 /
-/// +0.019; 0.75 saves less for the same cost. 0.3 steps without the coherence test cost
-/// backgammon's pipeline MSE×100 +0.028, and settling residuals below the lower shear too
-/// +0.035 (docs/bench-epi.md, sessions 8 and 9).
-const FINE_NEAR: f32 = 1.0;
+/// steps above that one (the lower one is then its nearest) with at least
+/// `SETTLE_COHERENCE` (see `Guide::settle`): −8 % / −12 % of the fine pass's tensor samples
+/// on HCI cotton / backgammon; 0.3 steps without the coherence test cost backgammon's
+/// pipeline MSE×100 +0.028, and settling residuals below the lower shear too +0.035
+/// (docs/bench-epi.md, session 8).
+const FINE_NEAR: f32 = 0.5;
 /// See `FINE_NEAR`: 0.9 keeps both HCI scenes' pipeline scores within +0.02 MSE×100.
 const SETTLE_COHERENCE: f32 = 0.9;
 /// Residual slope and coherence of the smoothed tensor at the samples `range` into
