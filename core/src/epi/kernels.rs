@@ -222,7 +222,13 @@ impl<T: Scalar> Kernel<T> {
             let mut acc = [T::ZERO; BLOCK];
             let (t0, len) = if inner_len >= BLOCK {
                 let t0 = done.min(inner_len - BLOCK);
-                self.interior_block(input, base + t0, BLOCK, &mut acc);
+                // The outer smoothing's radii (σ 2, the default, and 1.5) fixed at compile
+                // time: unrolled taps, no checks per window.
+                match (self.symmetry, r) {
+                    (Symmetry::Even, 6) => self.even_block::<6>(input, base + t0, &mut acc),
+                    (Symmetry::Even, 5) => self.even_block::<5>(input, base + t0, &mut acc),
+                    _ => self.interior_block(input, base + t0, BLOCK, &mut acc),
+                }
                 (t0, BLOCK)
             } else {
                 self.interior_block(input, base, inner_len, &mut acc);
@@ -409,26 +415,58 @@ pub(crate) fn apply_pair<T: Scalar>(
     ) else {
         return;
     };
+    // The default prefilters (inner σ 0.5) have radius 2: a fixed radius unrolls the
+    // taps and keeps both blocks of sums in registers.
+    match r {
+        1 => pair_interior::<T, 1>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
+        2 => pair_interior::<T, 2>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
+        3 => pair_interior::<T, 3>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
+        _ => pair_interior::<T, 0>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
+    }
+}
+
+/// The interior outputs `r..n − r` of [`apply_pair`] (`r` the taps' count, `n > 2·r +
+/// PAIR_BLOCK`) in blocks of `PAIR_BLOCK`, the last one overlapping: `R` the radius when
+/// it is fixed at compile time (`R = r`), 0 for any.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn pair_interior<T: Scalar, const R: usize>(
+    centre: T,
+    odd_taps: &[T],
+    even_taps: &[T],
+    input: &[T],
+    out_odd: &mut [T],
+    out_even: &mut [T],
+    n: usize,
+) {
+    let r = if R > 0 { R } else { odd_taps.len() };
+    let (Some(odd_taps), Some(even_taps)) = (odd_taps.get(..r), even_taps.get(..r)) else {
+        return;
+    };
     // Interior outputs r..n − r in blocks of constant length, the last one overlapping.
     let inner_len = n - 2 * r;
     let mut done = 0;
     while done < inner_len {
         let t0 = done.min(inner_len - PAIR_BLOCK);
-        // Output r + t0 + i reads input t0 + i + r ± j.
+        // Output r + t0 + i reads input t0 + i + r ± j: all within `block` (whose length
+        // is a constant for a fixed radius, so the windows need no checks).
+        let Some(block) = input.get(t0..t0 + PAIR_BLOCK + 2 * r) else {
+            break;
+        };
         let window = |from: usize| {
-            input
+            block
                 .get(from..)
                 .and_then(|s| s.first_chunk::<PAIR_BLOCK>())
         };
         let mut acc_odd = [T::ZERO; PAIR_BLOCK];
         let mut acc_even = [T::ZERO; PAIR_BLOCK];
-        if let Some(middle) = window(t0 + r) {
+        if let Some(middle) = window(r) {
             for (a, &v) in acc_even.iter_mut().zip(middle) {
                 *a = centre * v;
             }
         }
         for (j, (&ko, &ke)) in (1..r + 1).zip(odd_taps.iter().zip(even_taps)) {
-            let (Some(below), Some(above)) = (window(t0 + r - j), window(t0 + r + j)) else {
+            let (Some(below), Some(above)) = (window(r - j), window(r + j)) else {
                 continue;
             };
             for (((ao, ae), &x), &y) in acc_odd
@@ -477,6 +515,37 @@ pub(crate) fn apply_pair<T: Scalar>(
 const BLOCK: usize = 32;
 
 impl<T: Scalar> Kernel<T> {
+    /// [`Self::interior_block`] of a whole block for an even kernel of radius `R`
+    /// (`self.radius == R`): the same products and sums in the same order, over one
+    /// checked window of constant length.
+    #[inline(always)]
+    fn even_block<const R: usize>(&self, input: &[T], t0: usize, acc: &mut [T; BLOCK]) {
+        let (Some(block), Some((&centre, upper))) = (
+            input.get(t0..t0 + BLOCK + 2 * R),
+            self.taps.get(R..).and_then(|t| t.split_first()),
+        ) else {
+            return;
+        };
+        let (Some(upper), Some(middle)) = (
+            upper.first_chunk::<R>(),
+            block.get(R..).and_then(|b| b.first_chunk::<BLOCK>()),
+        ) else {
+            return;
+        };
+        for (a, &v) in acc.iter_mut().zip(middle) {
+            *a = centre * v;
+        }
+        for (j, &k) in (1..R + 1).zip(upper) {
+            let window = |from: usize| block.get(from..).and_then(|s| s.first_chunk::<BLOCK>());
+            let (Some(below), Some(above)) = (window(R - j), window(R + j)) else {
+                continue;
+            };
+            for ((a, &x), &y) in acc.iter_mut().zip(below).zip(above) {
+                *a += k * (x + y);
+            }
+        }
+    }
+
     /// `acc[i] = Σ_j taps[j]·input[t0 + i + j]` for `i < len` (`len ≤ BLOCK`): the centre
     /// tap, then each mirrored pair of samples times its shared tap, outermost last.
     #[inline(always)]
@@ -592,6 +661,52 @@ mod tests {
     }
 
     #[test]
+    fn smoothing_sums_its_products_in_the_documented_order() {
+        // Clamped edges tap by tap from the first; the interior the centre first, then
+        // each mirrored pair, innermost first: the order every block form (fixed radii
+        // 5 and 6 included) must keep, bit for bit.
+        fn check<T: Scalar>(sigma: f32) -> usize {
+            let k = Kernel::<T>::gaussian(sigma);
+            let r = k.radius();
+            for n in [3usize, 2 * r + 1, 2 * r + 33, 100, 513] {
+                let input: std::vec::Vec<T> = (0..n)
+                    .map(|i| T::from_f32(((i * 37) % 11) as f32 * 0.3 + 0.01 * i as f32))
+                    .collect();
+                let mut out = std::vec![T::MAX; n];
+                k.apply(&input, &mut out);
+                for t in 0..n {
+                    let expected = if t < r || t + r >= n {
+                        let mut acc = T::ZERO;
+                        for j in 0..2 * r + 1 {
+                            acc += k.taps[j] * input[(t + j).saturating_sub(r).min(n - 1)];
+                        }
+                        acc
+                    } else {
+                        let mut acc = k.taps[r] * input[t];
+                        for j in 1..r + 1 {
+                            acc += k.taps[r + j] * (input[t - j] + input[t + j]);
+                        }
+                        acc
+                    };
+                    assert!(out[t] == expected, "σ {sigma} n {n} t {t}");
+                    assert_eq!(
+                        out[t].to_f32().to_bits(),
+                        expected.to_f32().to_bits(),
+                        "σ {sigma} n {n} t {t}"
+                    );
+                }
+            }
+            r
+        }
+        let mut radii = std::vec::Vec::new();
+        for sigma in [1.0f32, 1.5, 2.0, 2.5] {
+            radii.push(check::<f32>(sigma));
+            check::<crate::Q16>(sigma);
+        }
+        assert!(radii.contains(&5) && radii.contains(&6), "{radii:?}");
+    }
+
+    #[test]
     fn the_even_outputs_match_the_full_correlation_bit_for_bit() {
         fn check<T: Scalar>(k: &Kernel<T>, what: &str) {
             for n in [0usize, 1, 2, 3, 5, 6, 12, 13, 14, 15, 24, 25, 40, 101, 512] {
@@ -628,22 +743,38 @@ mod tests {
 
     #[test]
     fn the_pair_pass_matches_two_correlations_bit_for_bit() {
-        let odd = Kernel::<f32>::derivative(0.5);
-        let even = Kernel::<f32>::scharr_smoothing(0.5);
-        for n in [1usize, 7, 16, 23, 24, 40, 100, 513] {
-            let input: std::vec::Vec<f32> = (0..n)
-                .map(|i| ((i * 37) % 11) as f32 * 0.3 + 0.01 * i as f32)
-                .collect();
-            let (mut d, mut s) = (std::vec![0.0f32; n], std::vec![0.0f32; n]);
-            odd.apply(&input, &mut d);
-            even.apply(&input, &mut s);
-            let (mut pd, mut ps) = (std::vec![f32::NAN; n], std::vec![f32::NAN; n]);
-            apply_pair(&odd, &even, &input, &mut pd, &mut ps);
-            for t in 0..n {
-                assert_eq!(pd[t].to_bits(), d[t].to_bits(), "n {n} derivative {t}");
-                assert_eq!(ps[t].to_bits(), s[t].to_bits(), "n {n} smoothing {t}");
+        fn check<T: Scalar>(sigma: f32) -> usize {
+            let odd = Kernel::<T>::derivative(sigma);
+            let even = Kernel::<T>::scharr_smoothing(sigma);
+            for n in [1usize, 7, 16, 23, 24, 40, 100, 513] {
+                let input: std::vec::Vec<T> = (0..n)
+                    .map(|i| T::from_f32(((i * 37) % 11) as f32 * 0.3 + 0.01 * i as f32))
+                    .collect();
+                let (mut d, mut s) = (std::vec![T::ZERO; n], std::vec![T::ZERO; n]);
+                odd.apply(&input, &mut d);
+                even.apply(&input, &mut s);
+                let (mut pd, mut ps) = (std::vec![T::MAX; n], std::vec![T::MAX; n]);
+                apply_pair(&odd, &even, &input, &mut pd, &mut ps);
+                for t in 0..n {
+                    let bits = |v: T| v.to_f32().to_bits();
+                    assert!(pd[t] == d[t], "σ {sigma} n {n} derivative {t}");
+                    assert!(ps[t] == s[t], "σ {sigma} n {n} smoothing {t}");
+                    assert_eq!(bits(pd[t]), bits(d[t]), "σ {sigma} n {n} derivative {t}");
+                    assert_eq!(bits(ps[t]), bits(s[t]), "σ {sigma} n {n} smoothing {t}");
+                }
             }
+            odd.radius()
         }
+        // Every radius `apply_pair` fixes at compile time (1, 2, 3) and a larger one.
+        let mut radii = std::vec::Vec::new();
+        for sigma in [0.0f32, 0.3, 0.5, 0.8, 1.1, 1.5] {
+            radii.push(check::<f32>(sigma));
+            assert_eq!(check::<crate::Q16>(sigma), radii[radii.len() - 1]);
+        }
+        for r in [1, 2, 3] {
+            assert!(radii.contains(&r), "radius {r} not covered: {radii:?}");
+        }
+        assert!(radii.iter().any(|&r| r > 3), "no radius above 3: {radii:?}");
     }
 
     #[test]

@@ -281,13 +281,38 @@ struct Guide<'a, T> {
 }
 
 impl<T: Scalar> Guide<'_, T> {
-    /// Whether sample `t` needs the hypothesis `shear`.
+    /// Bit `i` set where sample `base + i` (of the 64 from `base`, within the line)
+    /// needs the hypothesis `shear`: lies closer than its reach to its estimate.
     #[inline(always)]
-    fn needs(&self, t: usize, shear: T) -> bool {
-        match (self.estimate.get(t), self.reach.get(t)) {
-            (Some(&estimate), Some(&reach)) => (shear - estimate).abs() < reach,
-            _ => true,
+    fn needs_mask(&self, shear: T, base: usize) -> u64 {
+        let (Some(estimate), Some(reach)) = (self.estimate.get(base..), self.reach.get(base..))
+        else {
+            return 0;
+        };
+        let (Some(estimate), Some(reach)) =
+            (estimate.first_chunk::<64>(), reach.first_chunk::<64>())
+        else {
+            // The line's last, partial word.
+            let mut mask = 0u64;
+            for (bit, (&e, &r)) in estimate.iter().zip(reach).take(64).enumerate() {
+                mask |= u64::from((shear - e).abs() < r) << bit;
+            }
+            return mask;
+        };
+        // Bytes first (a loop the vectoriser takes), then eight at a time into the word.
+        let mut bytes = [0u8; 64];
+        for ((b, &e), &r) in bytes.iter_mut().zip(estimate).zip(reach) {
+            *b = u8::from((shear - e).abs() < r);
         }
+        let mut mask = 0u64;
+        for (k, eight) in bytes.chunks_exact(8).enumerate() {
+            let mut word = [0u8; 8];
+            word.copy_from_slice(eight);
+            // Each byte is 0 or 1: multiplying gathers bit j of byte j into the top byte.
+            let packed = u64::from_le_bytes(word).wrapping_mul(0x0102_0408_1020_4080) >> 56;
+            mask |= packed << (8 * k);
+        }
+        mask
     }
 
     /// After hypothesis `shear` was scored at the samples `range`: a sample the coarse
@@ -837,7 +862,7 @@ impl<T: Scalar> LineEstimator<T> {
 
     /// Tests the hypotheses `hyps` on the channel planes `slots`, keeping each sample's
     /// best candidate in `state`. With a `guide`, a sample is only tested at the
-    /// hypotheses it needs (see [`Guide::needs`]); the tensor is then computed only
+    /// hypotheses it needs (see [`Guide::needs_mask`]); the tensor is then computed only
     /// within the outer smoothing's reach of those samples.
     #[allow(clippy::too_many_arguments)]
     fn sweep(
@@ -864,30 +889,50 @@ impl<T: Scalar> LineEstimator<T> {
         for i in 0..hyps.count() {
             let shear = hyps.shear(i);
             let shear_t = T::from_f32(shear);
-            let needs = |guide: &Option<Guide<'_, T>>, t: usize| match guide {
-                None => true,
-                Some(g) => g.needs(t, shear_t),
+            // The first sample at or after `from` that needs this hypothesis (`n`: none),
+            // from the needs of 64 samples at a time (`chunk`: the latest such word; the
+            // samples a run settles lie before any later query).
+            let mut chunk = (usize::MAX, 0u64);
+            let mut next_needed = |guide: &Option<Guide<'_, T>>, from: usize| -> usize {
+                let Some(g) = guide else {
+                    return from.min(n);
+                };
+                let mut at = from;
+                while at < n {
+                    let word = at / 64;
+                    if chunk.0 != word {
+                        chunk = (word, g.needs_mask(shear_t, word * 64));
+                    }
+                    let bits = chunk.1 & (u64::MAX << (at % 64));
+                    if bits != 0 {
+                        return (word * 64 + bits.trailing_zeros() as usize).min(n);
+                    }
+                    at = (word + 1) * 64;
+                }
+                n
             };
             let sources = self.sources(planes, bank, shear, slots.clone());
             let mut t = 0;
-            while t < n {
-                if !needs(&guide, t) {
-                    // Not tested here: no zero crossing with the next hypothesis.
-                    if let Some(c) = state.prev_c.get_mut(t) {
-                        *c = degenerate;
-                    }
-                    t += 1;
-                    continue;
+            let mut start = next_needed(&guide, 0);
+            loop {
+                // Not tested here: no zero crossing with the next hypothesis.
+                for c in state.prev_c.get_mut(t..start).unwrap_or_default() {
+                    *c = degenerate;
                 }
-                let start = t;
-                let mut end = t + 1;
-                let mut probe = t + 1;
-                while probe < n && probe < end + merge {
-                    if needs(&guide, probe) {
-                        end = probe + 1;
-                    }
-                    probe += 1;
+                if start >= n {
+                    break;
                 }
+                // Needed samples closer than `merge` to the run's end join it; the first
+                // one further away starts the next run.
+                let mut end = start + 1;
+                let next = loop {
+                    let next = next_needed(&guide, end);
+                    if next < n && next < end + merge {
+                        end = next + 1;
+                    } else {
+                        break next;
+                    }
+                };
                 // The outer smoothing of samples start..end reads the tensor within its
                 // reach (clamped to the line).
                 let span = start.saturating_sub(reach)..(end + reach).min(n);
@@ -908,11 +953,7 @@ impl<T: Scalar> LineEstimator<T> {
                         g.settle(state, shear_t, next, settle_below, start..end);
                     }
                 }
-                // The samples the probe passed after the run are not needed either.
-                for c in state.prev_c.get_mut(end..probe).unwrap_or_default() {
-                    *c = degenerate;
-                }
-                t = probe;
+                (t, start) = (end, next);
             }
         }
     }
