@@ -96,7 +96,7 @@
 mod params;
 mod photo;
 
-pub use params::{RefineParams, ViewSet};
+pub use params::{RefineParams, ViewSet, RESAMPLED_SLACK};
 
 use core::ops::{ControlFlow, Range};
 
@@ -422,8 +422,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
     scratch: &mut [T],
 ) -> Result<()> {
     check_inputs(plan, lf, range, disparity)?;
+    let p = &plan.params().refine;
     let photo = Rectified {
-        views: Views::<T>::new(plan.layout(), plan.params().refine.views),
+        views: Views::<T>::new(plan.layout(), p.views).with_slack(p.sampling_slack),
         data: lf.data(),
     };
     band(
