@@ -798,10 +798,14 @@ impl<T: Scalar> Views<T> {
         out: &mut [T; STATS],
     ) {
         // A layout has 1, 3 or 4 channels (`Layout::validate`): one or three are used.
-        match self.channels {
-            1 => self.pixel_channels::<S, 1, 1, 1>(data, x, y, d, robust, out),
-            3 => self.pixel_channels::<S, 3, 3, 4>(data, x, y, d, robust, out),
-            4 => self.pixel_channels::<S, 4, 3, 4>(data, x, y, d, robust, out),
+        // Without a sampling slack the code is that of the plain residual alone.
+        match (self.channels, self.slack.is_some()) {
+            (1, false) => self.pixel_channels::<S, 1, 1, 1, false>(data, x, y, d, robust, out),
+            (3, false) => self.pixel_channels::<S, 3, 3, 4, false>(data, x, y, d, robust, out),
+            (4, false) => self.pixel_channels::<S, 4, 3, 4, false>(data, x, y, d, robust, out),
+            (1, true) => self.pixel_channels::<S, 1, 1, 1, true>(data, x, y, d, robust, out),
+            (3, true) => self.pixel_channels::<S, 3, 3, 4, true>(data, x, y, d, robust, out),
+            (4, true) => self.pixel_channels::<S, 4, 3, 4, true>(data, x, y, d, robust, out),
             _ => *out = [T::ZERO; STATS],
         }
     }
@@ -823,10 +827,13 @@ impl<T: Scalar> Views<T> {
         robust: (T, T),
         bar: Option<T>,
     ) -> Option<T> {
-        match self.channels {
-            1 => self.cost_channels::<S, 1, 1, 1>(data, x, y, d, robust, bar),
-            3 => self.cost_channels::<S, 3, 3, 4>(data, x, y, d, robust, bar),
-            4 => self.cost_channels::<S, 4, 3, 4>(data, x, y, d, robust, bar),
+        match (self.channels, self.slack.is_some()) {
+            (1, false) => self.cost_channels::<S, 1, 1, 1, false>(data, x, y, d, robust, bar),
+            (3, false) => self.cost_channels::<S, 3, 3, 4, false>(data, x, y, d, robust, bar),
+            (4, false) => self.cost_channels::<S, 4, 3, 4, false>(data, x, y, d, robust, bar),
+            (1, true) => self.cost_channels::<S, 1, 1, 1, true>(data, x, y, d, robust, bar),
+            (3, true) => self.cost_channels::<S, 3, 3, 4, true>(data, x, y, d, robust, bar),
+            (4, true) => self.cost_channels::<S, 4, 3, 4, true>(data, x, y, d, robust, bar),
             _ => None,
         }
     }
@@ -914,7 +921,13 @@ impl<T: Scalar> Views<T> {
         inside(dp) && inside(dm)
     }
 
-    fn pixel_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
+    fn pixel_channels<
+        S: Sample,
+        const CH: usize,
+        const N: usize,
+        const L: usize,
+        const SLACK: bool,
+    >(
         &self,
         data: &[S],
         x: usize,
@@ -927,7 +940,13 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return;
         };
-        let slack = self.interval::<S, CH, L>(data, (x, y), &centre);
+        // `SLACK`: the views have a sampling slack (a constant, so that the plain
+        // residual's code has no trace of it).
+        let slack = if SLACK {
+            self.interval::<S, CH, L>(data, (x, y), &centre)
+        } else {
+            None
+        };
         let regular_slack = slack
             .as_ref()
             .map(|s| LaneSlack::<T, N>::new(s, |v| self.regular_in_row[v % CHUNK]));
@@ -1044,7 +1063,13 @@ impl<T: Scalar> Views<T> {
         }
     }
 
-    fn cost_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
+    fn cost_channels<
+        S: Sample,
+        const CH: usize,
+        const N: usize,
+        const L: usize,
+        const SLACK: bool,
+    >(
         &self,
         data: &[S],
         x: usize,
@@ -1057,7 +1082,13 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return below(T::ZERO).then_some(T::ZERO);
         };
-        let slack = self.interval::<S, CH, L>(data, (x, y), &centre);
+        // `SLACK`: the views have a sampling slack (a constant, so that the plain
+        // residual's code has no trace of it).
+        let slack = if SLACK {
+            self.interval::<S, CH, L>(data, (x, y), &centre)
+        } else {
+            None
+        };
         let regular_slack = slack
             .as_ref()
             .map(|s| LaneSlack::<T, N>::new(s, |v| self.regular_in_row[v % CHUNK]));
