@@ -333,7 +333,7 @@ fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
         // As below, the weight and the energy from the residual outside the centre's
         // interval (`RefineParams::sampling_slack`); the step from the residual itself
         // (from the part outside, the interval would be a dead zone of ±slack px of
-        // image motion around every match: measured, BadPix0.07 +74 … +93 % on the
+        // image motion around every match: measured, BadPix0.07 +74 … +97 % on the
         // synthetic scenes, docs/bench-align.md "Session 9").
         for v in 0..CHUNK {
             let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
