@@ -433,7 +433,7 @@ impl<T: Scalar, const L: usize> Interval<T, L> {
     #[inline(always)]
     fn outside(&self, r: T, c: usize) -> T {
         match (self.lo[2].get(c), self.hi[2].get(c)) {
-            (Some(&lo), Some(&hi)) => r - r.clamp(lo, hi),
+            (Some(&lo), Some(&hi)) => outside(r, lo, hi),
             _ => r,
         }
     }
@@ -466,8 +466,16 @@ impl<T: Scalar, const N: usize> LaneSlack<T, N> {
     /// The part of residual `r` (channel `c`, tap `v`) outside the tap's interval.
     #[inline(always)]
     fn outside(&self, r: T, c: usize, v: usize) -> T {
-        r - r.clamp(self.lo[c][v], self.hi[c][v])
+        outside(r, self.lo[c][v], self.hi[c][v])
     }
+}
+
+/// `r − clamp(r, lo, hi)` (`lo ≤ 0 ≤ hi`), the same bits, by compare and select
+/// without the NaN tests of `Scalar::clamp` (residuals are finite): vector lanes.
+#[inline(always)]
+fn outside<T: Scalar>(r: T, lo: T, hi: T) -> T {
+    let at_most = if r > hi { hi } else { r };
+    r - if at_most < lo { lo } else { at_most }
 }
 
 /// The compared views of a light field.
@@ -1229,16 +1237,19 @@ impl<T: Scalar> Views<T> {
             lo: [[T::ZERO; L]; 3],
             hi: [[T::ZERO; L]; 3],
         };
+        // Compare and select (the samples are finite: no NaN tests).
+        let lower = |a: T, b: T| if b < a { b } else { a };
+        let upper = |a: T, b: T| if b > a { b } else { a };
         for (axis, (a, b)) in [(left, right), (up, down)].into_iter().enumerate() {
             for c in 0..L {
                 let (ea, eb) = (slack * (a[c] - centre[c]), slack * (b[c] - centre[c]));
-                out.lo[axis][c] = ea.min(eb).min(T::ZERO);
-                out.hi[axis][c] = ea.max(eb).max(T::ZERO);
+                out.lo[axis][c] = lower(lower(ea, eb), T::ZERO);
+                out.hi[axis][c] = upper(upper(ea, eb), T::ZERO);
             }
         }
         for c in 0..L {
-            out.lo[2][c] = out.lo[0][c].min(out.lo[1][c]);
-            out.hi[2][c] = out.hi[0][c].max(out.hi[1][c]);
+            out.lo[2][c] = lower(out.lo[0][c], out.lo[1][c]);
+            out.hi[2][c] = upper(out.hi[0][c], out.hi[1][c]);
         }
         Some(out)
     }
