@@ -324,7 +324,9 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   // parameters only.
   const held = pool.held;
   if (held && held.views === views && held.mode === mode && held.read === read.join()) {
-    await race(pool.all({ op: "setParams", params: loaded }));
+    // Workers holding warped views compare them as the aligned pipeline does.
+    const warped = held.align ? !held.align.skipped : false;
+    await race(pool.all({ op: "setParams", params: warped ? { ...loaded, resampled: true } : loaded }));
     check();
     // The first estimate after `prepare` got them when the light field was loaded; any
     // later one from an earlier estimate.
@@ -336,18 +338,20 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   // A load request per worker. `packed`: the read views one after the other (the
   // aligner's rectified ones); null: those of the light field itself.
   const requests = (packed, count) => {
+    // The aligner's warped views are compared as the aligned pipeline does.
+    const params = packed ? { ...loaded, resampled: true } : loaded;
     if (shared) {
       let source = views;
       if (packed) {
         source = new Uint8Array(new SharedArrayBuffer(packed.length));
         source.set(packed);
       }
-      return Array.from({ length: count }, () => [{ op: "load", views: source, indices: packed ? null : read, shape, params: loaded }, []]);
+      return Array.from({ length: count }, () => [{ op: "load", views: source, indices: packed ? null : read, shape, params }, []]);
     }
     const one = packed ?? pack(views, read, viewLen);
     return Array.from({ length: count }, (_, i) => {
       const copy = i === count - 1 ? one : one.slice();
-      return [{ op: "load", views: copy, indices: null, shape, params: loaded }, [copy.buffer]];
+      return [{ op: "load", views: copy, indices: null, shape, params }, [copy.buffer]];
     });
   };
   let loadedWorkers = 0;

@@ -302,3 +302,49 @@ fn probe_margins() {
         }
     }
 }
+
+/// Session 9 (a measurement, run by hand): the refinement's sampling slack, which the
+/// pipelines give only warped views, switched on for the rectified HCI scenes too (the
+/// whole default pipeline through the engine), and the scenes forced through the
+/// aligned path (`align = on`: warped, so with the slack); BadPix0.07 / MSE×100.
+/// `cargo test --release -p lfdepth-cli --test align_hci sampling_slack_on_hci -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn sampling_slack_on_hci() {
+    for scene in ["stratified/backgammon", "training/cotton"] {
+        let Some((data, layout)) = load(&format!("hci/{scene}")) else {
+            continue;
+        };
+        let gt_path = data_dir()
+            .join("hci")
+            .join(scene)
+            .join("gt_disp_lowres.pfm");
+        let Ok(gt) = pfm::read(&gt_path) else {
+            eprintln!("SKIPPED: {} is missing", gt_path.display());
+            continue;
+        };
+        let lf = LightField::new(&data[..], layout).unwrap();
+        let mut line = format!("{scene}:");
+        for (label, slack, align) in [
+            ("default", 0.0, AlignMode::Auto),
+            ("slack 0.25", 0.25, AlignMode::Auto),
+            ("slack 0.5", 0.5, AlignMode::Auto),
+            ("align on", 0.0, AlignMode::On),
+        ] {
+            let mut params = Params::default();
+            params.refine.sampling_slack = slack;
+            params.align.mode = align;
+            let options = EstimateOptions {
+                params,
+                stage: StageSelect::Full,
+                threads: None,
+            };
+            let d = engine::estimate(&lf, &options, &mut |_, _, _| {})
+                .unwrap()
+                .disparity;
+            let s = scores(&d, &gt.data, layout);
+            line += &format!("  {label} {:.3} / {:.3}", s.badpix_007, s.mse100);
+        }
+        eprintln!("{line}");
+    }
+}

@@ -33,6 +33,7 @@ fn params_from_env() -> Params {
             confidence_scale: env_f32("RF_SCALE", r.confidence_scale),
             robust_scale: env_f32("RF_ROBUST", r.robust_scale),
             band_rows: r.band_rows,
+            sampling_slack: env_f32("RF_SLACK", r.sampling_slack),
         },
         tv: TvParams {
             lambda: env_f32("TV_LAMBDA", t.lambda),

@@ -345,6 +345,20 @@ pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
     params
 }
 
+/// The plan the stages run with on views that were warped (aligned): `plan` with the
+/// refinement's [`refine::RefineParams::sampling_slack`] at [`refine::RESAMPLED_SLACK`]
+/// unless it sets one itself. Interpolated views do not reproduce the rendered or
+/// photographed occlusion edges of the centre view, and the refinement, comparing them
+/// sample by sample, otherwise chooses differently there (docs/bench-align.md,
+/// "Session 9"). Rectified arrays (alignment off or skipped) keep `plan` itself.
+pub fn resampled_plan(plan: &Plan) -> Result<Plan> {
+    let mut params = *plan.params();
+    if params.refine.sampling_slack == 0.0 {
+        params.refine.sampling_slack = refine::RESAMPLED_SLACK;
+    }
+    Plan::new(*plan.layout(), params)
+}
+
 /// Elements of the rectified light field buffer of [`align_views`] / [`run_aligned`]:
 /// the plan's layout (same strides as the input).
 pub fn aligned_len(plan: &Plan) -> Result<usize> {
@@ -486,8 +500,9 @@ pub fn warp_views<S: Sample, A: WarpSample + Sample>(
 }
 
 /// [`run`] after the alignment prelude ([`align_views`]): the stages read the rectified
-/// views in `buffers.aligned` when the array was aligned, `lf` itself when alignment was
-/// skipped (so mode off, and auto on a rectified array, give exactly `run`'s output).
+/// views in `buffers.aligned` with the [`resampled_plan`] when the array was aligned,
+/// `lf` itself with `plan` when alignment was skipped (so mode off, and auto on a
+/// rectified array, give exactly `run`'s output).
 #[allow(clippy::too_many_arguments)]
 pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
     plan: &Plan,
@@ -508,6 +523,7 @@ pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
         )?;
     } else {
         let aligned = LightField::new(&*buffers.aligned, *plan.layout())?;
+        let plan = &resampled_plan(plan)?;
         run(
             plan, &aligned, stages, disparity, confidence, scratch, maps, history, progress,
         )?;
@@ -663,6 +679,26 @@ mod tests {
             .collect();
         diffs.sort_by(f32::total_cmp);
         diffs[diffs.len() / 2]
+    }
+
+    #[test]
+    fn warped_views_get_the_refinements_sampling_slack_unless_the_plan_sets_one() {
+        let layout = crate::Layout::packed(Grid::new(5, 5), 32, 32, 1);
+        let plan = Plan::new(layout, Params::default()).unwrap();
+        assert_eq!(plan.params().refine.sampling_slack, 0.0);
+        let resampled = resampled_plan(&plan).unwrap();
+        assert_eq!(
+            resampled.params().refine.sampling_slack,
+            refine::RESAMPLED_SLACK
+        );
+        let mut params = Params::default();
+        params.refine.sampling_slack = 0.25;
+        let own = Plan::new(layout, params).unwrap();
+        assert_eq!(resampled_plan(&own).unwrap(), own);
+        // Nothing else changes.
+        let mut back = *resampled.params();
+        back.refine.sampling_slack = 0.0;
+        assert_eq!(back, *plan.params());
     }
 
     #[test]

@@ -234,6 +234,8 @@ impl Estimator {
                     report,
                 )?;
                 self.views = rectified;
+                // The stages compare warped views from now on (`replan` keeps this).
+                self.plan = pipeline::resampled_plan(&self.plan)?;
             }
             outcome
         };
@@ -270,7 +272,13 @@ impl Estimator {
 
     /// Replaces the plan and stages (same layout, same views) and forgets the maps.
     pub(crate) fn replan(&mut self, plan: Plan, stages: Stages) {
-        self.plan = plan;
+        // Warped views keep the refinement's sampling slack (`pipeline::resampled_plan`
+        // of a valid plan only sets a valid value: the fallback never happens).
+        self.plan = if self.warped() {
+            pipeline::resampled_plan(&plan).unwrap_or(plan)
+        } else {
+            plan
+        };
         self.stages = stages;
         self.maps = None;
         self.previous = None;

@@ -95,6 +95,10 @@ export interface EstimateParams {
   /** Align the views by per-view homographies first: "off", "on", or "auto" (the
    * default: only when the array is found not to be rectified). */
   align?: "off" | "on" | "auto";
+  /** The views were warped (rectified by an alignment elsewhere, e.g. another
+   * estimator's `readViews` after `align()`): the refinement compares them with its
+   * sampling slack, as an estimator that aligned them itself does (default false). */
+  resampled?: boolean;
 }
 
 /** A progress report; return `false` from the callback to cancel. */

@@ -9,7 +9,7 @@ use wasm_bindgen::prelude::*;
 use crate::js::{error, message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 20] = [
+const PARAM_KEYS: [&str; 21] = [
     "preset",
     "range",
     "innerSigma",
@@ -30,6 +30,7 @@ const PARAM_KEYS: [&str; 20] = [
     "refineBandRows",
     "medianBeforeTv",
     "tvTile",
+    "resampled",
 ];
 
 /// The packed layout of views described by a `Shape` object.
@@ -155,6 +156,11 @@ pub fn params(object: &JsValue) -> Result<Params, JsError> {
     }
     if let Some(v) = f.count("tvTile")? {
         params.tv.tile = v;
+    }
+    // Views an aligner warped (the page's workers load its `readViews`): the refinement
+    // as `pipeline::run_aligned` runs it on them.
+    if f.boolean("resampled")? == Some(true) && params.refine.sampling_slack == 0.0 {
+        params.refine.sampling_slack = lfdepth::refine::RESAMPLED_SLACK;
     }
     Ok(params)
 }

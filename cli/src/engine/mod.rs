@@ -225,6 +225,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
         warp_parallel(plan, lf, stages, &homographies, &mut aligned, tracker)?;
         timings.push((pipeline::STAGE_WARP, start.elapsed()));
         let rectified = LightField::new(&aligned[..], layout)?;
+        let plan = &pipeline::resampled_plan(plan)?;
         run_stages::<T, f32>(plan, &rectified, stage, tracker)?
     };
     timings.append(&mut estimate.timings);

@@ -43,6 +43,13 @@
 //! that fits much worse than its opposite is dropped, and when the horizontal and
 //! vertical views disagree, only the axis with the smaller error is used.
 //!
+//! With a [`RefineParams::sampling_slack`] (the pipelines set one on warped views only)
+//! a view's residual counts in its Cauchy weight, the residual energy and the
+//! propagation's costs only by how far it falls outside the values the centre view's
+//! linear interpolation spans over `±slack` px along the view's motion (after Birchfield
+//! and Tomasi): interpolated views do not reproduce the centre view's sampled occlusion
+//! edges. The Gauss–Newton step keeps the plain residual.
+//!
 //! The output confidence is `1 / (1 + ε²/s²)` with `ε² = E / A` the squared disparity
 //! error the final residual energy `E` amounts to and `s`
 //! [`RefineParams::confidence_scale`]: near 1 where the views agree on a textured
@@ -96,7 +103,7 @@
 mod params;
 mod photo;
 
-pub use params::{RefineParams, ViewSet};
+pub use params::{RefineParams, ViewSet, RESAMPLED_SLACK};
 
 use core::ops::{ControlFlow, Range};
 
@@ -422,8 +429,9 @@ pub fn refine_band<T: Scalar, S: Sample>(
     scratch: &mut [T],
 ) -> Result<()> {
     check_inputs(plan, lf, range, disparity)?;
+    let p = &plan.params().refine;
     let photo = Rectified {
-        views: Views::<T>::new(plan.layout(), plan.params().refine.views),
+        views: Views::<T>::new(plan.layout(), p.views).with_slack(p.sampling_slack),
         data: lf.data(),
     };
     band(

@@ -55,7 +55,19 @@ pub struct RefineParams {
     pub confidence_scale: f32,
     /// Image rows per band (the unit of parallel work), 1…4096.
     pub band_rows: usize,
+    /// Sampling slack (px of image motion, 0…1): a view's residual counts only by how
+    /// far it falls outside the centre view's values over `±sampling_slack` px along
+    /// the view's motion (its linear interpolation towards the neighbours, after
+    /// Birchfield and Tomasi's sampling-insensitive dissimilarity), in the Cauchy
+    /// weights, the residual energy and the propagation's costs. For views that were
+    /// resampled (aligned arrays: the pipelines set [`RESAMPLED_SLACK`] when they
+    /// warped the views), whose occlusion edges no interpolation reproduces. Zero (the
+    /// default): the plain residual.
+    pub sampling_slack: f32,
 }
+
+/// The [`RefineParams::sampling_slack`] the pipelines use on warped views.
+pub const RESAMPLED_SLACK: f32 = 0.5;
 
 impl Default for RefineParams {
     fn default() -> Self {
@@ -70,6 +82,7 @@ impl Default for RefineParams {
             robust_scale: 0.01,
             confidence_scale: 1.0,
             band_rows: 128,
+            sampling_slack: 0.0,
         }
     }
 }
@@ -112,6 +125,9 @@ impl RefineParams {
         if !(self.robust_scale.is_finite() && (0.0..=1.0).contains(&self.robust_scale)) {
             return bad("refine.robust_scale", "must be in [0, 1] (unit intensity)");
         }
+        if !(self.sampling_slack.is_finite() && (0.0..=1.0).contains(&self.sampling_slack)) {
+            return bad("refine.sampling_slack", "must be in [0, 1] pixels");
+        }
         if !(1..=4096).contains(&self.band_rows) {
             return bad("refine.band_rows", "must be in 1..=4096");
         }
@@ -148,6 +164,20 @@ mod tests {
                     ..RefineParams::default()
                 },
                 "refine.radius",
+            ),
+            (
+                RefineParams {
+                    sampling_slack: 1.5,
+                    ..RefineParams::default()
+                },
+                "refine.sampling_slack",
+            ),
+            (
+                RefineParams {
+                    sampling_slack: f32::NAN,
+                    ..RefineParams::default()
+                },
+                "refine.sampling_slack",
             ),
         ] {
             assert!(

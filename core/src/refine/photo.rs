@@ -77,10 +77,14 @@ impl<T: Scalar> Tap<T> {
         centre: &[T; L],
         n: usize,
         (robust, scaled): (T, T),
+        slack: Option<&Interval<T, L>>,
     ) -> T {
         let mut e = T::ZERO;
         for c in 0..n.min(L) {
-            let r = at[c] - centre[c];
+            let mut r = at[c] - centre[c];
+            if let Some(s) = slack {
+                r = s.outside(r, c);
+            }
             e += r * r;
         }
         scaled / (robust + e) * e
@@ -215,6 +219,7 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
         half: T,
         robust: (T, T),
         regular: Option<(&[usize; GROUPS], Option<&[bool; CHUNK]>)>,
+        slack: Option<&LaneSlack<T, N>>,
         out: &mut [T; STATS],
     ) {
         let [t0, t1, t2] = self.scaled::<3>(levels);
@@ -229,17 +234,29 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
             offset: &self.offset,
             group: &self.group,
         };
-        statistics(&lanes, n, centre, d, half, robust, regular, out);
+        statistics(&lanes, n, centre, d, half, robust, regular, slack, out);
     }
 
     /// The weighted energies `scaled / (robust + e) · e` of the taps (gathered with
     /// `J` = 2), `e = Σ r²` at `p`; lanes past those gathered hold any value.
     #[inline(always)]
-    fn energies(&self, levels: &[T; 256], centre: &[T; N], robust: (T, T)) -> [T; CHUNK] {
+    fn energies(
+        &self,
+        levels: &[T; 256],
+        centre: &[T; N],
+        robust: (T, T),
+        slack: Option<&LaneSlack<T, N>>,
+    ) -> [T; CHUNK] {
         let [t0, t1, _] = self.scaled::<2>(levels);
         // `j` < 2 (`energies`).
         let texel = |j: usize, c: usize, v: usize| if j == 0 { t0[c][v] } else { t1[c][v] };
-        energies(&texel, &self.fraction, centre, robust)
+        energies(&texel, &self.fraction, centre, robust, slack)
+    }
+
+    /// Per lane, the slack of its axis (row taps are in the left and right groups).
+    #[inline(always)]
+    fn slack<const L: usize>(&self, slack: &Interval<T, L>) -> LaneSlack<T, N> {
+        LaneSlack::new(slack, |v| self.group.get(v).is_some_and(|&g| g < 2))
     }
 }
 
@@ -251,8 +268,24 @@ fn energies<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
     fraction: &[T; CHUNK],
     centre: &[T; N],
     (robust, scaled): (T, T),
+    slack: Option<&LaneSlack<T, N>>,
 ) -> [T; CHUNK] {
     let mut out = [T::ZERO; CHUNK];
+    if let Some(slack) = slack {
+        // The same with each residual's part inside the centre's interval taken out
+        // (`RefineParams::sampling_slack`).
+        for (v, o) in out.iter_mut().enumerate() {
+            let f = fraction[v];
+            let mut e = T::ZERO;
+            for (c, &centre) in centre.iter().enumerate() {
+                let (t0, t1) = (texel(0, c, v), texel(1, c, v));
+                let r = slack.outside(t0 + f * (t1 - t0) - centre, c, v);
+                e += r * r;
+            }
+            *o = scaled / (robust + e) * e;
+        }
+        return out;
+    }
     for (v, o) in out.iter_mut().enumerate() {
         let f = fraction[v];
         let mut e = T::ZERO;
@@ -291,32 +324,58 @@ fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
     half: T,
     (robust, scaled): (T, T),
     regular: Option<(&[usize; GROUPS], Option<&[bool; CHUNK]>)>,
+    slack: Option<&LaneSlack<T, N>>,
     out: &mut [T; STATS],
 ) {
     let texel = &lanes.texel;
     let (mut sa, mut sb, mut se) = ([T::ZERO; CHUNK], [T::ZERO; CHUNK], [T::ZERO; CHUNK]);
-    for v in 0..CHUNK {
-        let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
-        // The image at `p − ½` and `p + ½` (`t0 + f·(t1 − t0)`, `t1 + f·(t2 − t1)`)
-        // and at `p` (between t0 and t1 for f < ½, t1 and t2 above: the weights
-        // without a branch): `g = (I(p − ½) − I(p + ½)) · offset`,
-        // `r = I(p) − centre`.
-        let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
-        let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
-        for (c, &centre) in centre.iter().enumerate() {
-            let (a0, a1, a2) = (texel(0, c, v), texel(1, c, v), texel(2, c, v));
-            let (d01, d12) = (a1 - a0, a2 - a1);
-            let g = (f * (d01 - d12) - d01) * offset;
-            let r = a1 - w0 * d01 + w2 * d12 - centre;
-            gg += g * g;
-            gr += g * (g * d - r);
-            rr += r * r;
+    if let Some(slack) = slack {
+        // As below, the weight and the energy from the residual outside the centre's
+        // interval (`RefineParams::sampling_slack`); the step from the residual itself
+        // (from the part outside, the interval would be a dead zone of ±slack px of
+        // image motion around every match: measured, BadPix0.07 +74 … +97 % on the
+        // synthetic scenes, docs/bench-align.md "Session 9").
+        for v in 0..CHUNK {
+            let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
+            let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
+            let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
+            for (c, &centre) in centre.iter().enumerate() {
+                let (a0, a1, a2) = (texel(0, c, v), texel(1, c, v), texel(2, c, v));
+                let (d01, d12) = (a1 - a0, a2 - a1);
+                let g = (f * (d01 - d12) - d01) * offset;
+                let r = a1 - w0 * d01 + w2 * d12 - centre;
+                let outside = slack.outside(r, c, v);
+                gg += g * g;
+                gr += g * (g * d - r);
+                rr += outside * outside;
+            }
+            let w = scaled / (robust + rr);
+            (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
         }
-        // Cauchy weight of the view (iteratively reweighted least squares): a view
-        // that disagrees by much more than the noise (an occluder, a highlight)
-        // hardly counts.
-        let w = scaled / (robust + rr);
-        (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
+    } else {
+        for v in 0..CHUNK {
+            let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
+            // The image at `p − ½` and `p + ½` (`t0 + f·(t1 − t0)`, `t1 + f·(t2 − t1)`)
+            // and at `p` (between t0 and t1 for f < ½, t1 and t2 above: the weights
+            // without a branch): `g = (I(p − ½) − I(p + ½)) · offset`,
+            // `r = I(p) − centre`.
+            let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
+            let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
+            for (c, &centre) in centre.iter().enumerate() {
+                let (a0, a1, a2) = (texel(0, c, v), texel(1, c, v), texel(2, c, v));
+                let (d01, d12) = (a1 - a0, a2 - a1);
+                let g = (f * (d01 - d12) - d01) * offset;
+                let r = a1 - w0 * d01 + w2 * d12 - centre;
+                gg += g * g;
+                gr += g * (g * d - r);
+                rr += r * r;
+            }
+            // Cauchy weight of the view (iteratively reweighted least squares): a view
+            // that disagrees by much more than the noise (an occluder, a highlight)
+            // hardly counts.
+            let w = scaled / (robust + rr);
+            (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
+        }
     }
     if let Some((groups, seen)) = regular {
         // Lane `v` belongs to group `groups[v % GROUPS]`: each group's sums take its
@@ -357,6 +416,66 @@ fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
 #[inline(always)]
 fn used<T: Scalar, const L: usize, const N: usize>(lanes: &[T; L]) -> [T; N] {
     core::array::from_fn(|c| lanes.get(c).copied().unwrap_or(T::ZERO))
+}
+
+/// The centre view's values over `±slack` px around a pixel (its linear interpolation
+/// towards each neighbour), per axis of image motion (along x, along y, both: oblique
+/// views), as offsets `lo ≤ 0 ≤ hi` from the pixel's value, per lane: a residual within
+/// them costs nothing (`RefineParams::sampling_slack`, after Birchfield and Tomasi).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Interval<T, const L: usize> {
+    lo: [[T; L]; 3],
+    hi: [[T; L]; 3],
+}
+
+impl<T: Scalar, const L: usize> Interval<T, L> {
+    /// The part of residual `r` of lane `c` outside the oblique interval.
+    #[inline(always)]
+    fn outside(&self, r: T, c: usize) -> T {
+        match (self.lo[2].get(c), self.hi[2].get(c)) {
+            (Some(&lo), Some(&hi)) => outside(r, lo, hi),
+            _ => r,
+        }
+    }
+}
+
+/// [`Interval`] per tap of a chunk: the interval of its axis, channel, tap.
+pub(crate) struct LaneSlack<T, const N: usize> {
+    lo: [[T; CHUNK]; N],
+    hi: [[T; CHUNK]; N],
+}
+
+impl<T: Scalar, const N: usize> LaneSlack<T, N> {
+    /// The lanes' intervals: tap `v` moves along x when `in_row(v)`.
+    #[inline(always)]
+    fn new<const L: usize>(slack: &Interval<T, L>, in_row: impl Fn(usize) -> bool) -> Self {
+        let mut out = LaneSlack {
+            lo: [[T::ZERO; CHUNK]; N],
+            hi: [[T::ZERO; CHUNK]; N],
+        };
+        for v in 0..CHUNK {
+            let axis = usize::from(!in_row(v));
+            for c in 0..N.min(L) {
+                out.lo[c][v] = slack.lo[axis][c];
+                out.hi[c][v] = slack.hi[axis][c];
+            }
+        }
+        out
+    }
+
+    /// The part of residual `r` (channel `c`, tap `v`) outside the tap's interval.
+    #[inline(always)]
+    fn outside(&self, r: T, c: usize, v: usize) -> T {
+        outside(r, self.lo[c][v], self.hi[c][v])
+    }
+}
+
+/// `r − clamp(r, lo, hi)` (`lo ≤ 0 ≤ hi`), the same bits, by compare and select
+/// without the NaN tests of `Scalar::clamp` (residuals are finite): vector lanes.
+#[inline(always)]
+fn outside<T: Scalar>(r: T, lo: T, hi: T) -> T {
+    let at_most = if r > hi { hi } else { r };
+    r - if at_most < lo { lo } else { at_most }
 }
 
 /// The compared views of a light field.
@@ -409,6 +528,8 @@ pub(crate) struct Views<T> {
     /// computed in `T` as `T::from_i32(level) · unit` (a table lookup costs less than
     /// the conversion and the product, with the same bits).
     levels: [T; 256],
+    /// `RefineParams::sampling_slack` (px), when not zero.
+    slack: Option<T>,
 }
 
 /// The scaled intensity of a sample in `T`. 8-bit samples read the table of levels, so
@@ -569,6 +690,7 @@ impl<T: Scalar> Views<T> {
             y_cell: coordinate(y_last),
             half: T::from_f32(0.5),
             levels,
+            slack: None,
         };
         for r in 0..grid.rows {
             for c in 0..grid.cols {
@@ -684,10 +806,14 @@ impl<T: Scalar> Views<T> {
         out: &mut [T; STATS],
     ) {
         // A layout has 1, 3 or 4 channels (`Layout::validate`): one or three are used.
-        match self.channels {
-            1 => self.pixel_channels::<S, 1, 1, 1>(data, x, y, d, robust, out),
-            3 => self.pixel_channels::<S, 3, 3, 4>(data, x, y, d, robust, out),
-            4 => self.pixel_channels::<S, 4, 3, 4>(data, x, y, d, robust, out),
+        // Without a sampling slack the code is that of the plain residual alone.
+        match (self.channels, self.slack.is_some()) {
+            (1, false) => self.pixel_channels::<S, 1, 1, 1, false>(data, x, y, d, robust, out),
+            (3, false) => self.pixel_channels::<S, 3, 3, 4, false>(data, x, y, d, robust, out),
+            (4, false) => self.pixel_channels::<S, 4, 3, 4, false>(data, x, y, d, robust, out),
+            (1, true) => self.pixel_channels::<S, 1, 1, 1, true>(data, x, y, d, robust, out),
+            (3, true) => self.pixel_channels::<S, 3, 3, 4, true>(data, x, y, d, robust, out),
+            (4, true) => self.pixel_channels::<S, 4, 3, 4, true>(data, x, y, d, robust, out),
             _ => *out = [T::ZERO; STATS],
         }
     }
@@ -709,10 +835,13 @@ impl<T: Scalar> Views<T> {
         robust: (T, T),
         bar: Option<T>,
     ) -> Option<T> {
-        match self.channels {
-            1 => self.cost_channels::<S, 1, 1, 1>(data, x, y, d, robust, bar),
-            3 => self.cost_channels::<S, 3, 3, 4>(data, x, y, d, robust, bar),
-            4 => self.cost_channels::<S, 4, 3, 4>(data, x, y, d, robust, bar),
+        match (self.channels, self.slack.is_some()) {
+            (1, false) => self.cost_channels::<S, 1, 1, 1, false>(data, x, y, d, robust, bar),
+            (3, false) => self.cost_channels::<S, 3, 3, 4, false>(data, x, y, d, robust, bar),
+            (4, false) => self.cost_channels::<S, 4, 3, 4, false>(data, x, y, d, robust, bar),
+            (1, true) => self.cost_channels::<S, 1, 1, 1, true>(data, x, y, d, robust, bar),
+            (3, true) => self.cost_channels::<S, 3, 3, 4, true>(data, x, y, d, robust, bar),
+            (4, true) => self.cost_channels::<S, 4, 3, 4, true>(data, x, y, d, robust, bar),
             _ => None,
         }
     }
@@ -800,7 +929,13 @@ impl<T: Scalar> Views<T> {
         inside(dp) && inside(dm)
     }
 
-    fn pixel_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
+    fn pixel_channels<
+        S: Sample,
+        const CH: usize,
+        const N: usize,
+        const L: usize,
+        const SLACK: bool,
+    >(
         &self,
         data: &[S],
         x: usize,
@@ -813,6 +948,16 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return;
         };
+        // `SLACK`: the views have a sampling slack (a constant, so that the plain
+        // residual's code has no trace of it).
+        let slack = if SLACK {
+            self.interval::<S, CH, L>(data, (x, y), &centre)
+        } else {
+            None
+        };
+        let regular_slack = slack
+            .as_ref()
+            .map(|s| LaneSlack::<T, N>::new(s, |v| self.regular_in_row[v % CHUNK]));
         // The common case first: every regular tap sees the pixel, and none needs the
         // border's clamped samples.
         let mut cursor = 0;
@@ -826,6 +971,7 @@ impl<T: Scalar> Views<T> {
                     &used::<T, L, N>(&centre),
                     d,
                     (robust, scaled),
+                    regular_slack.as_ref(),
                     out,
                 )
             {
@@ -854,6 +1000,7 @@ impl<T: Scalar> Views<T> {
                     self.half,
                     (robust, scaled),
                     Some((groups, None)),
+                    regular_slack.as_ref(),
                     out,
                 ),
                 Gathered::Masked(seen) => chunk.statistics(
@@ -864,6 +1011,7 @@ impl<T: Scalar> Views<T> {
                     self.half,
                     (robust, scaled),
                     Some((groups, Some(&seen))),
+                    regular_slack.as_ref(),
                     out,
                 ),
                 Gathered::Not => {}
@@ -877,6 +1025,7 @@ impl<T: Scalar> Views<T> {
                 if n == 0 {
                     break;
                 }
+                let lane_slack = slack.as_ref().map(|s| chunk.slack(s));
                 chunk.statistics(
                     n,
                     &self.levels,
@@ -885,6 +1034,7 @@ impl<T: Scalar> Views<T> {
                     self.half,
                     (robust, scaled),
                     None,
+                    lane_slack.as_ref(),
                     out,
                 );
             }
@@ -901,8 +1051,15 @@ impl<T: Scalar> Views<T> {
                 let g = (first[c] - second[c]) * factor;
                 let r = at[c] - centre[c];
                 gg[c] = g * g;
+                match &slack {
+                    // See `statistics`.
+                    Some(s) => {
+                        let outside = s.outside(r, c);
+                        rr[c] = outside * outside;
+                    }
+                    None => rr[c] = r * r,
+                }
                 gr[c] = g * (g * d - r);
-                rr[c] = r * r;
             }
             let (mut a, mut b, mut e) = (T::ZERO, T::ZERO, T::ZERO);
             for c in 0..N.min(L) {
@@ -914,7 +1071,13 @@ impl<T: Scalar> Views<T> {
         }
     }
 
-    fn cost_channels<S: Sample, const CH: usize, const N: usize, const L: usize>(
+    fn cost_channels<
+        S: Sample,
+        const CH: usize,
+        const N: usize,
+        const L: usize,
+        const SLACK: bool,
+    >(
         &self,
         data: &[S],
         x: usize,
@@ -927,6 +1090,16 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return below(T::ZERO).then_some(T::ZERO);
         };
+        // `SLACK`: the views have a sampling slack (a constant, so that the plain
+        // residual's code has no trace of it).
+        let slack = if SLACK {
+            self.interval::<S, CH, L>(data, (x, y), &centre)
+        } else {
+            None
+        };
+        let regular_slack = slack
+            .as_ref()
+            .map(|s| LaneSlack::<T, N>::new(s, |v| self.regular_in_row[v % CHUNK]));
         // The views' weighted energies in a fixed order: a running sum of non-negative
         // terms, so a partial sum at or above the bar decides.
         let mut cost = T::ZERO;
@@ -945,7 +1118,8 @@ impl<T: Scalar> Views<T> {
                 let levels = &self.levels;
                 // `j` < 2, `c` < N ≤ 3 (`energies`).
                 let texel = |j: usize, c: usize, v: usize| unpack(words[j][v], c, levels);
-                for e in energies(&texel, &fractions, &centre_used, (robust, scaled)) {
+                let slack = regular_slack.as_ref();
+                for e in energies(&texel, &fractions, &centre_used, (robust, scaled), slack) {
                     cost += e;
                 }
                 if !below(cost) {
@@ -964,12 +1138,15 @@ impl<T: Scalar> Views<T> {
             };
             match gathered {
                 Gathered::Every => {
-                    for e in chunk.energies(&self.levels, &centre_used, (robust, scaled)) {
+                    let slack = regular_slack.as_ref();
+                    for e in chunk.energies(&self.levels, &centre_used, (robust, scaled), slack) {
                         cost += e;
                     }
                 }
                 Gathered::Masked(seen) => {
-                    let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+                    let slack = regular_slack.as_ref();
+                    let energies =
+                        chunk.energies(&self.levels, &centre_used, (robust, scaled), slack);
                     for (e, keep) in energies.into_iter().zip(seen) {
                         cost += if keep { e } else { T::ZERO };
                     }
@@ -988,7 +1165,13 @@ impl<T: Scalar> Views<T> {
                 if n == 0 {
                     break;
                 }
-                let energies = chunk.energies(&self.levels, &centre_used, (robust, scaled));
+                let lane_slack = slack.as_ref().map(|s| chunk.slack(s));
+                let energies = chunk.energies(
+                    &self.levels,
+                    &centre_used,
+                    (robust, scaled),
+                    lane_slack.as_ref(),
+                );
                 for &e in energies.get(..n).unwrap_or_default() {
                     cost += e;
                     if !below(cost) {
@@ -1008,7 +1191,7 @@ impl<T: Scalar> Views<T> {
             };
             // Counted once per group the view belongs to (two separate sums: the same
             // rounding as before).
-            let e = tap.weighted_cost(&at, &centre, N, (robust, scaled));
+            let e = tap.weighted_cost(&at, &centre, N, (robust, scaled), slack.as_ref());
             cost += e;
             if tap.second_group.is_some() {
                 cost += e;
@@ -1018,6 +1201,64 @@ impl<T: Scalar> Views<T> {
             }
         }
         below(cost).then_some(cost)
+    }
+
+    /// With a sampling slack ([`Views::with_slack`]), the centre view's [`Interval`] at
+    /// pixel `(x, y)` (value `centre`): along x and y, the values of its linear
+    /// interpolation at `±slack` px (neighbours past the image's side repeat the
+    /// pixel), and for oblique views both. `None` without a slack.
+    #[inline(always)]
+    fn interval<S: Sample, const CH: usize, const L: usize>(
+        &self,
+        data: &[S],
+        (x, y): (usize, usize),
+        centre: &[T; L],
+    ) -> Option<Interval<T, L>> {
+        let slack = self.slack?;
+        let base = self.centre + y * self.row_stride + x * CH;
+        let at = |i: usize| lanes::<T, S, CH, L>(data, i, &self.levels);
+        let left = if x > 0 { at(base - CH)? } else { *centre };
+        let right = if x <= self.x_last {
+            at(base + CH)?
+        } else {
+            *centre
+        };
+        let up = if y > 0 {
+            at(base - self.row_stride)?
+        } else {
+            *centre
+        };
+        let down = if y <= self.y_last {
+            at(base + self.row_stride)?
+        } else {
+            *centre
+        };
+        let mut out = Interval {
+            lo: [[T::ZERO; L]; 3],
+            hi: [[T::ZERO; L]; 3],
+        };
+        // Compare and select (the samples are finite: no NaN tests).
+        let lower = |a: T, b: T| if b < a { b } else { a };
+        let upper = |a: T, b: T| if b > a { b } else { a };
+        for (axis, (a, b)) in [(left, right), (up, down)].into_iter().enumerate() {
+            for c in 0..L {
+                let (ea, eb) = (slack * (a[c] - centre[c]), slack * (b[c] - centre[c]));
+                out.lo[axis][c] = lower(lower(ea, eb), T::ZERO);
+                out.hi[axis][c] = upper(upper(ea, eb), T::ZERO);
+            }
+        }
+        for c in 0..L {
+            out.lo[2][c] = lower(out.lo[0][c], out.lo[1][c]);
+            out.hi[2][c] = upper(out.hi[0][c], out.hi[1][c]);
+        }
+        Some(out)
+    }
+
+    /// These views with a sampling slack of `slack` px (`RefineParams::sampling_slack`;
+    /// zero or less: none).
+    pub(crate) fn with_slack(mut self, slack: f32) -> Self {
+        self.slack = (slack > 0.0).then(|| T::from_f32(slack));
+        self
     }
 
     /// The statistics of the [`CHUNK`] regular axis taps when every one sees pixel
@@ -1038,6 +1279,7 @@ impl<T: Scalar> Views<T> {
         centre: &[T; N],
         d: T,
         robust: (T, T),
+        slack: Option<&LaneSlack<T, N>>,
         out: &mut [T; STATS],
     ) -> bool {
         let mut words = [[0u32; CHUNK]; 3];
@@ -1056,7 +1298,9 @@ impl<T: Scalar> Views<T> {
             group: &[0; CHUNK],
         };
         let regular = Some((&self.regular_groups, None));
-        statistics(&lanes, CHUNK, centre, d, self.half, robust, regular, out);
+        statistics(
+            &lanes, CHUNK, centre, d, self.half, robust, regular, slack, out,
+        );
         true
     }
 
@@ -1609,7 +1853,7 @@ impl<T: Scalar> Views<T> {
             };
             // Counted once per group the view belongs to (two separate sums: the same
             // rounding as before).
-            let e = tap.weighted_cost(&at, &centre, N, (robust, scaled));
+            let e = tap.weighted_cost(&at, &centre, N, (robust, scaled), None);
             cost += e;
             if tap.second_group.is_some() {
                 cost += e;
@@ -1705,11 +1949,11 @@ mod tests {
     /// against tap by tap (`fill`): the same bits for every pixel, disparity and bar,
     /// borders (where the one pass masks the taps that do not see the pixel and clamps
     /// the last samples) included.
-    fn regular_matches_tap_by_tap<T: Scalar>() {
+    fn regular_matches_tap_by_tap<T: Scalar>(slack: f32) {
         let scene = strips(Grid::new(9, 9), 40, 36, 3, 0.6, &[1.8]);
-        let regular = Views::<T>::new(&scene.layout, ViewSet::Cross);
+        let regular = Views::<T>::new(&scene.layout, ViewSet::Cross).with_slack(slack);
         assert!(regular.regular, "the 9×9 cross is regular");
-        let mut by_tap = Views::<T>::new(&scene.layout, ViewSet::Cross);
+        let mut by_tap = Views::<T>::new(&scene.layout, ViewSet::Cross).with_slack(slack);
         by_tap.regular = false;
         let robust = 0.01f32 * 0.01 * 3.0 * INTENSITY_SCALE * INTENSITY_SCALE;
         let stat_robust = (T::from_f32(robust), T::from_f32(4.0 * robust));
@@ -1787,11 +2031,92 @@ mod tests {
 
     #[test]
     fn the_regular_cross_gives_the_same_f32_statistics_and_costs_as_tap_by_tap() {
-        regular_matches_tap_by_tap::<f32>();
+        regular_matches_tap_by_tap::<f32>(0.0);
+        regular_matches_tap_by_tap::<f32>(0.5);
     }
 
     #[test]
     fn the_regular_cross_gives_the_same_q16_statistics_and_costs_as_tap_by_tap() {
-        regular_matches_tap_by_tap::<Q16>();
+        regular_matches_tap_by_tap::<Q16>(0.0);
+        regular_matches_tap_by_tap::<Q16>(0.5);
+    }
+
+    /// The sampling slack only forgives: the cost and every group's residual energy
+    /// with it are at most the plain ones, for the cross and every view; it forgives something on a textured scene; and a view that is the centre
+    /// view shifted by less than the slack costs nothing at the true disparity (0) where
+    /// the plain residual does not.
+    fn slack_only_forgives<T: Scalar>() {
+        let scene = strips(Grid::new(5, 5), 32, 28, 3, 0.6, &[1.2]);
+        let robust = 0.01f32 * 0.01 * 3.0 * INTENSITY_SCALE * INTENSITY_SCALE;
+        let stat_robust = (T::from_f32(robust), T::from_f32(4.0 * robust));
+        let cost_robust = (T::from_f32(robust), T::from_f32(4096.0 * robust));
+        let (w, h) = (scene.layout.width, scene.layout.height);
+        let shifts = noise(w * h, 5);
+        for set in [ViewSet::Cross, ViewSet::All] {
+            let plain = Views::<T>::new(&scene.layout, set);
+            let slack = Views::<T>::new(&scene.layout, set).with_slack(0.5);
+            let mut forgiven = 0;
+            for y in 0..h {
+                for x in 0..w {
+                    let d = T::from_f32(4.0 * shifts[y * w + x] - 2.0);
+                    let (mut a, mut b) = ([T::ZERO; STATS], [T::ZERO; STATS]);
+                    plain.pixel(&scene.data, x, y, d, stat_robust, &mut a);
+                    slack.pixel(&scene.data, x, y, d, stat_robust, &mut b);
+                    // Within the rounding of Q16.16's weights (the weight of a large
+                    // residual is a few LSB, times that residual's energy).
+                    for g in 0..GROUPS {
+                        let (e0, e1) = (a[3 * g + 2], b[3 * g + 2]);
+                        let tolerance = T::from_f32(1.0e-3) + e0 * T::from_f32(0.02);
+                        assert!(
+                            e1 <= e0 + tolerance,
+                            "{set:?} energy at ({x}, {y}): {e1:?} > {e0:?}"
+                        );
+                    }
+                    let c0 = plain.cost(&scene.data, x, y, d, cost_robust, None);
+                    let c1 = slack.cost(&scene.data, x, y, d, cost_robust, None);
+                    let (c0, c1) = (c0.unwrap_or(T::ZERO), c1.unwrap_or(T::ZERO));
+                    let tolerance = T::from_f32(0.05);
+                    assert!(
+                        c1 <= c0 + tolerance,
+                        "{set:?} cost at ({x}, {y}): {c1:?} > {c0:?}"
+                    );
+                    forgiven += usize::from(c1 + tolerance < c0);
+                }
+            }
+            assert!(forgiven > w * h / 4, "{set:?}: {forgiven} pixels forgiven");
+        }
+        // Every view is the centre view moved by 0.2 px per grid step along x (linear interpolation
+        // of a smooth ramp image): at disparity 0 each row view's sample lies within
+        // the centre's values over ±0.5 px.
+        let grid = Grid::new(3, 5);
+        let layout = Layout::packed(grid, 24, 16, 1);
+        let mut data = std::vec![0.0f32; layout.validate().unwrap()];
+        for v in 0..grid.len() {
+            for y in 0..16 {
+                for x in 0..24 {
+                    let p = x as f32 + 0.2 * ((v % 5) as f32 - 2.0);
+                    data[v * layout.view_stride + y * 24 + x] = 0.2 + 0.02 * p;
+                }
+            }
+        }
+        let plain = Views::<T>::new(&layout, ViewSet::Cross);
+        let slack = Views::<T>::new(&layout, ViewSet::Cross).with_slack(0.5);
+        let c0 = plain
+            .cost(&data, 12, 8, T::ZERO, cost_robust, None)
+            .unwrap();
+        let c1 = slack
+            .cost(&data, 12, 8, T::ZERO, cost_robust, None)
+            .unwrap();
+        assert!(c0 > T::ZERO && c1 == T::ZERO, "{c0:?} {c1:?}");
+    }
+
+    #[test]
+    fn the_f32_sampling_slack_only_forgives() {
+        slack_only_forgives::<f32>();
+    }
+
+    #[test]
+    fn the_q16_sampling_slack_only_forgives() {
+        slack_only_forgives::<Q16>();
     }
 }
