@@ -192,6 +192,12 @@ pub struct ParamArgs {
     /// Refinement: radius of the aggregation window in px, 0…4 (default from the core).
     #[arg(long, value_name = "N")]
     pub refine_radius: Option<usize>,
+    /// Refinement: sampling slack in px of image motion, 0…1: a view's residual counts
+    /// only by how far it falls outside the centre view's values over ±F px
+    /// (Birchfield–Tomasi; 0 = the plain residual). On warped views the pipeline uses
+    /// 0.5 when this is 0 (default from the core).
+    #[arg(long, value_name = "F")]
+    pub refine_slack: Option<f32>,
     /// TV refinement: weight λ of the total variation against the EPI data term
     /// (larger = smoother; default from the core).
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
@@ -303,6 +309,7 @@ impl Default for ParamArgs {
             refine_iterations: None,
             refine_propagation: None,
             refine_radius: None,
+            refine_slack: None,
             lambda: None,
             tv_iterations: None,
             tv_tolerance: None,
@@ -360,6 +367,9 @@ impl ParamArgs {
         }
         if let Some(r) = self.refine_radius {
             params.refine.radius = r;
+        }
+        if let Some(slack) = self.refine_slack {
+            params.refine.sampling_slack = slack;
         }
         if let Some(lambda) = self.lambda {
             params.tv.lambda = lambda;
@@ -525,12 +535,14 @@ mod tests {
         assert_eq!(fast.params(None).unwrap(), expected);
         let overridden = ParamArgs {
             refine_iterations: Some(5),
+            refine_slack: Some(0.25),
             median_passes: Some(4),
             epi_color: Some(EpiColor::Gray),
             ..fast
         };
         let p = overridden.params(None).unwrap();
         assert_eq!((p.refine.iterations, p.median.passes), (5, 4));
+        assert_eq!(p.refine.sampling_slack, 0.25);
         assert_eq!(p.epi.color, ColorMode::Gray);
         assert_eq!(p.refine.propagation, expected.refine.propagation);
         for bad in [
