@@ -270,28 +270,34 @@ fn energies<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
     (robust, scaled): (T, T),
     slack: Option<&LaneSlack<T, N>>,
 ) -> [T; CHUNK] {
-    let mut out = [T::ZERO; CHUNK];
-    if let Some(slack) = slack {
-        // The same with each residual's part inside the centre's interval taken out
-        // (`RefineParams::sampling_slack`).
-        for (v, o) in out.iter_mut().enumerate() {
-            let f = fraction[v];
-            let mut e = T::ZERO;
-            for (c, &centre) in centre.iter().enumerate() {
-                let (t0, t1) = (texel(0, c, v), texel(1, c, v));
-                let r = slack.outside(t0 + f * (t1 - t0) - centre, c, v);
-                e += r * r;
-            }
-            *o = scaled / (robust + e) * e;
-        }
-        return out;
+    // With a slack, each residual's part inside the centre's interval is taken out
+    // (`RefineParams::sampling_slack`); the loop is instantiated once per case so the
+    // plain residual's code carries no test of it.
+    match slack {
+        Some(slack) => energies_of(texel, fraction, centre, (robust, scaled), |r, c, v| {
+            slack.outside(r, c, v)
+        }),
+        None => energies_of(texel, fraction, centre, (robust, scaled), |r, _, _| r),
     }
+}
+
+/// [`energies`] with `counted(r, c, v)`, the part of residual `r` (channel `c`, tap
+/// `v`) that counts.
+#[inline(always)]
+fn energies_of<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
+    texel: &F,
+    fraction: &[T; CHUNK],
+    centre: &[T; N],
+    (robust, scaled): (T, T),
+    counted: impl Fn(T, usize, usize) -> T,
+) -> [T; CHUNK] {
+    let mut out = [T::ZERO; CHUNK];
     for (v, o) in out.iter_mut().enumerate() {
         let f = fraction[v];
         let mut e = T::ZERO;
         for (c, &centre) in centre.iter().enumerate() {
             let (t0, t1) = (texel(0, c, v), texel(1, c, v));
-            let r = t0 + f * (t1 - t0) - centre;
+            let r = counted(t0 + f * (t1 - t0) - centre, c, v);
             e += r * r;
         }
         *o = scaled / (robust + e) * e;
@@ -327,56 +333,18 @@ fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
     slack: Option<&LaneSlack<T, N>>,
     out: &mut [T; STATS],
 ) {
-    let texel = &lanes.texel;
-    let (mut sa, mut sb, mut se) = ([T::ZERO; CHUNK], [T::ZERO; CHUNK], [T::ZERO; CHUNK]);
-    if let Some(slack) = slack {
-        // As below, the weight and the energy from the residual outside the centre's
-        // interval (`RefineParams::sampling_slack`); the step from the residual itself
-        // (from the part outside, the interval would be a dead zone of ±slack px of
-        // image motion around every match: measured, BadPix0.07 +74 … +97 % on the
-        // synthetic scenes, docs/bench-align.md "Session 9").
-        for v in 0..CHUNK {
-            let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
-            let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
-            let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
-            for (c, &centre) in centre.iter().enumerate() {
-                let (a0, a1, a2) = (texel(0, c, v), texel(1, c, v), texel(2, c, v));
-                let (d01, d12) = (a1 - a0, a2 - a1);
-                let g = (f * (d01 - d12) - d01) * offset;
-                let r = a1 - w0 * d01 + w2 * d12 - centre;
-                let outside = slack.outside(r, c, v);
-                gg += g * g;
-                gr += g * (g * d - r);
-                rr += outside * outside;
-            }
-            let w = scaled / (robust + rr);
-            (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
-        }
-    } else {
-        for v in 0..CHUNK {
-            let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
-            // The image at `p − ½` and `p + ½` (`t0 + f·(t1 − t0)`, `t1 + f·(t2 − t1)`)
-            // and at `p` (between t0 and t1 for f < ½, t1 and t2 above: the weights
-            // without a branch): `g = (I(p − ½) − I(p + ½)) · offset`,
-            // `r = I(p) − centre`.
-            let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
-            let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
-            for (c, &centre) in centre.iter().enumerate() {
-                let (a0, a1, a2) = (texel(0, c, v), texel(1, c, v), texel(2, c, v));
-                let (d01, d12) = (a1 - a0, a2 - a1);
-                let g = (f * (d01 - d12) - d01) * offset;
-                let r = a1 - w0 * d01 + w2 * d12 - centre;
-                gg += g * g;
-                gr += g * (g * d - r);
-                rr += r * r;
-            }
-            // Cauchy weight of the view (iteratively reweighted least squares): a view
-            // that disagrees by much more than the noise (an occluder, a highlight)
-            // hardly counts.
-            let w = scaled / (robust + rr);
-            (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
-        }
-    }
+    // With a slack, the weight and the energy come from the residual outside the
+    // centre's interval (`RefineParams::sampling_slack`) and the step from the residual
+    // itself (from the part outside, the interval would be a dead zone of ±slack px of
+    // image motion around every match: measured, BadPix0.07 +74 … +97 % on the
+    // synthetic scenes, docs/bench-align.md "Session 9"). The loop is instantiated once
+    // per case so the plain residual's code carries no test of it.
+    let [sa, sb, se] = match slack {
+        Some(slack) => lane_statistics(lanes, centre, d, half, (robust, scaled), |r, c, v| {
+            slack.outside(r, c, v)
+        }),
+        None => lane_statistics(lanes, centre, d, half, (robust, scaled), |r, _, _| r),
+    };
     if let Some((groups, seen)) = regular {
         // Lane `v` belongs to group `groups[v % GROUPS]`: each group's sums take its
         // lanes in the same order as the loop below, four groups side by side.
@@ -410,6 +378,47 @@ fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
             sums[2] += se[v];
         }
     }
+}
+
+/// Per lane of `lanes` at `d`, the Cauchy-weighted `Σ g²`, `Σ g·(g·d − r)` and energy
+/// `Σ e²` over the channels, `e = counted(r, c, v)` the part of residual `r` that counts
+/// (see [`statistics`]).
+#[inline(always)]
+fn lane_statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
+    lanes: &Lanes<'_, T, F>,
+    centre: &[T; N],
+    d: T,
+    half: T,
+    (robust, scaled): (T, T),
+    counted: impl Fn(T, usize, usize) -> T,
+) -> [[T; CHUNK]; 3] {
+    let texel = &lanes.texel;
+    let (mut sa, mut sb, mut se) = ([T::ZERO; CHUNK], [T::ZERO; CHUNK], [T::ZERO; CHUNK]);
+    for v in 0..CHUNK {
+        let (f, offset) = (lanes.fraction[v], lanes.offset[v]);
+        // The image at `p − ½` and `p + ½` (`t0 + f·(t1 − t0)`, `t1 + f·(t2 − t1)`)
+        // and at `p` (between t0 and t1 for f < ½, t1 and t2 above: the weights
+        // without a branch): `g = (I(p − ½) − I(p + ½)) · offset`,
+        // `r = I(p) − centre`.
+        let (w0, w2) = ((half - f).max(T::ZERO), (f - half).max(T::ZERO));
+        let (mut gg, mut gr, mut rr) = (T::ZERO, T::ZERO, T::ZERO);
+        for (c, &centre) in centre.iter().enumerate() {
+            let (a0, a1, a2) = (texel(0, c, v), texel(1, c, v), texel(2, c, v));
+            let (d01, d12) = (a1 - a0, a2 - a1);
+            let g = (f * (d01 - d12) - d01) * offset;
+            let r = a1 - w0 * d01 + w2 * d12 - centre;
+            let e = counted(r, c, v);
+            gg += g * g;
+            gr += g * (g * d - r);
+            rr += e * e;
+        }
+        // Cauchy weight of the view (iteratively reweighted least squares): a view
+        // that disagrees by much more than the noise (an occluder, a highlight)
+        // hardly counts.
+        let w = scaled / (robust + rr);
+        (sa[v], sb[v], se[v]) = (w * gg, w * gr, w * rr);
+    }
+    [sa, sb, se]
 }
 
 /// The first `N` lanes of `lanes`.
