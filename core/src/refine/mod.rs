@@ -351,19 +351,24 @@ fn window_sum<T: Scalar>(
         // A whole 3 × 3 window (radius 1 inside the region): its three rows come from
         // one span of each table (the first row's start to the last row's end), so
         // that the compiler proves most of the rows' bounds from the span's (measured:
-        // 212 → 198 instructions per call on cotton).
+        // 212 → 182 instructions per call on cotton).
         let at = ys.start * width + xs.start;
         let span = 2 * width + 3;
         if let (Some(ds), Some(ss)) = (
             previous.get(at..at + span),
             stats.get(at * STATS..(at + span) * STATS),
         ) {
-            for o in [0, width, 2 * width] {
-                let (Some(ds), Some(ss)) = (
-                    ds.get(o..o + 3).and_then(|s| s.first_chunk::<3>()),
-                    ss.get(o * STATS..(o + 3) * STATS)
-                        .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
-                ) else {
+            for row in 0..3 {
+                // The first and the last row are the span's ends (no offset to check).
+                let (Some(ds), Some(ss)) = (match row {
+                    0 => (ds.first_chunk::<3>(), ss.first_chunk::<{ 3 * STATS }>()),
+                    1 => (
+                        ds.get(width..).and_then(|s| s.first_chunk::<3>()),
+                        ss.get(width * STATS..)
+                            .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
+                    ),
+                    _ => (ds.last_chunk::<3>(), ss.last_chunk::<{ 3 * STATS }>()),
+                }) else {
                     return window_sum_each(stats, previous, width, ys, xs, d, gate, scale);
                 };
                 for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
