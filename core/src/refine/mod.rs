@@ -347,11 +347,51 @@ fn window_sum<T: Scalar>(
     scale: Option<T>,
 ) -> [T; STATS] {
     let mut sum = [T::ZERO; STATS];
+    if xs.len() == 3 && ys.len() == 3 {
+        // A whole 3 × 3 window (radius 1 inside the region): its three rows come from
+        // one span of each table (the first row's start to the last row's end), so
+        // that the compiler proves most of the rows' bounds from the span's (measured:
+        // 212 → 196 instructions per call on cotton).
+        let at = ys.start * width + xs.start;
+        let span = 2 * width + 3;
+        if let (Some(ds), Some(ss)) = (
+            previous.get(at..at + span),
+            stats.get(at * STATS..(at + span) * STATS),
+        ) {
+            for row in 0..3 {
+                // The first and the last row are the span's ends (no offset to check).
+                let (Some(ds), Some(ss)) = (match row {
+                    0 => (ds.first_chunk::<3>(), ss.first_chunk::<{ 3 * STATS }>()),
+                    1 => (
+                        ds.get(width..).and_then(|s| s.first_chunk::<3>()),
+                        ss.get(width * STATS..)
+                            .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
+                    ),
+                    _ => (ds.last_chunk::<3>(), ss.last_chunk::<{ 3 * STATS }>()),
+                }) else {
+                    return window_sum_each(stats, previous, width, ys, xs, d, gate, scale);
+                };
+                for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
+                    // Skipping a neighbour outside the gate is adding +0 (see below).
+                    if (p - d).abs() > gate {
+                        continue;
+                    }
+                    let terms = sum.iter_mut().zip(s);
+                    match scale {
+                        None => terms.for_each(|(s, &v)| *s += v),
+                        Some(f) => terms.for_each(|(s, &v)| *s += v * f),
+                    }
+                }
+            }
+            return sum;
+        }
+    }
     if xs.len() == 3 {
-        // Radius 1 away from the image's sides: each window row as one array of three
-        // disparities and one of their statistics. A neighbour outside the gate adds
-        // zero instead of being skipped (the sum starts at +0 and never becomes −0, so
-        // adding +0 leaves it unchanged): the same sums, without branches.
+        // Radius 1 away from the image's sides (fewer than three rows at the region's
+        // ends): each window row as one array of three disparities and one of their
+        // statistics. A neighbour outside the gate adds zero instead of being skipped
+        // (the sum starts at +0 and never becomes −0, so adding +0 leaves it
+        // unchanged): the same sums, without branches.
         for yy in ys.clone() {
             let at = yy * width + xs.start;
             let (Some(ds), Some(ss)) = (
