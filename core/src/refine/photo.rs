@@ -938,6 +938,27 @@ impl<T: Scalar> Views<T> {
         inside(dp) && inside(dm)
     }
 
+    /// The pixel's sampling-slack interval and the regular taps' lanes of it; `None`
+    /// unless `SLACK` (a constant, so that the plain residual's code has no trace of
+    /// it).
+    #[inline(always)]
+    fn slacks<S: Sample, const CH: usize, const N: usize, const L: usize, const SLACK: bool>(
+        &self,
+        data: &[S],
+        (x, y): (usize, usize),
+        centre: &[T; L],
+    ) -> (Option<Interval<T, L>>, Option<LaneSlack<T, N>>) {
+        let slack = if SLACK {
+            self.interval::<S, CH, L>(data, (x, y), centre)
+        } else {
+            None
+        };
+        let regular_slack = slack
+            .as_ref()
+            .map(|s| LaneSlack::<T, N>::new(s, |v| self.regular_in_row[v % CHUNK]));
+        (slack, regular_slack)
+    }
+
     fn pixel_channels<
         S: Sample,
         const CH: usize,
@@ -957,16 +978,7 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return;
         };
-        // `SLACK`: the views have a sampling slack (a constant, so that the plain
-        // residual's code has no trace of it).
-        let slack = if SLACK {
-            self.interval::<S, CH, L>(data, (x, y), &centre)
-        } else {
-            None
-        };
-        let regular_slack = slack
-            .as_ref()
-            .map(|s| LaneSlack::<T, N>::new(s, |v| self.regular_in_row[v % CHUNK]));
+        let (slack, regular_slack) = self.slacks::<S, CH, N, L, SLACK>(data, (x, y), &centre);
         // The common case first: every regular tap sees the pixel, and none needs the
         // border's clamped samples.
         let mut cursor = 0;
@@ -1099,16 +1111,7 @@ impl<T: Scalar> Views<T> {
         let Some((centre, xf, yf)) = self.centre::<S, CH, L>(data, x, y) else {
             return below(T::ZERO).then_some(T::ZERO);
         };
-        // `SLACK`: the views have a sampling slack (a constant, so that the plain
-        // residual's code has no trace of it).
-        let slack = if SLACK {
-            self.interval::<S, CH, L>(data, (x, y), &centre)
-        } else {
-            None
-        };
-        let regular_slack = slack
-            .as_ref()
-            .map(|s| LaneSlack::<T, N>::new(s, |v| self.regular_in_row[v % CHUNK]));
+        let (slack, regular_slack) = self.slacks::<S, CH, N, L, SLACK>(data, (x, y), &centre);
         // The views' weighted energies in a fixed order: a running sum of non-negative
         // terms, so a partial sum at or above the bar decides.
         let mut cost = T::ZERO;
