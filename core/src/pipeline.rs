@@ -353,9 +353,7 @@ pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
 /// "Session 9"). Rectified arrays (alignment off or skipped) keep `plan` itself.
 pub fn resampled_plan(plan: &Plan) -> Result<Plan> {
     let mut params = *plan.params();
-    if params.refine.sampling_slack == 0.0 {
-        params.refine.sampling_slack = refine::RESAMPLED_SLACK;
-    }
+    params.refine = params.refine.for_resampled_views();
     Plan::new(*plan.layout(), params)
 }
 

@@ -159,8 +159,8 @@ pub fn params(object: &JsValue) -> Result<Params, JsError> {
     }
     // Views an aligner warped (the page's workers load its `readViews`): the refinement
     // as `pipeline::run_aligned` runs it on them.
-    if f.boolean("resampled")? == Some(true) && params.refine.sampling_slack == 0.0 {
-        params.refine.sampling_slack = lfdepth::refine::RESAMPLED_SLACK;
+    if f.boolean("resampled")? == Some(true) {
+        params.refine = params.refine.for_resampled_views();
     }
     Ok(params)
 }

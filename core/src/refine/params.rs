@@ -88,6 +88,20 @@ impl Default for RefineParams {
 }
 
 impl RefineParams {
+    /// These parameters for views that were warped (aligned): the sampling slack at
+    /// [`RESAMPLED_SLACK`] unless they set one themselves.
+    pub fn for_resampled_views(self) -> Self {
+        let sampling_slack = if self.sampling_slack == 0.0 {
+            RESAMPLED_SLACK
+        } else {
+            self.sampling_slack
+        };
+        RefineParams {
+            sampling_slack,
+            ..self
+        }
+    }
+
     /// The stage switched on with the default settings (as [`Default`]).
     pub fn on() -> Self {
         Self::default()
