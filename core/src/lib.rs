@@ -14,10 +14,14 @@
 
 #[cfg(feature = "alloc")]
 extern crate alloc;
+// Only for the float intrinsics (`float`); everything else is `core`.
+#[cfg(all(feature = "std", not(test)))]
+extern crate std;
 
 pub mod align;
 pub mod epi;
 pub mod error;
+pub mod float;
 pub mod geofill;
 pub mod geometry;
 pub mod lightfield;

@@ -126,7 +126,7 @@ impl Scalar for f32 {
     #[inline(always)]
     fn sqrt(self) -> Self {
         if self > 0.0 {
-            libm::sqrtf(self)
+            crate::float::sqrtf(self)
         } else {
             0.0
         }

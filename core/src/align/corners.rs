@@ -38,7 +38,7 @@ fn min_eigenvalue(img: &Image<'_>, x: usize, y: usize) -> f32 {
     }
     let half_trace = 0.5 * (sxx + syy);
     let diff = 0.5 * (sxx - syy);
-    half_trace - libm::sqrtf(diff * diff + sxy * sxy)
+    half_trace - crate::float::sqrtf(diff * diff + sxy * sxy)
 }
 
 /// Up to `count` corners of `img` (a pyramid level `level`, scale `2^level`), at most one
@@ -61,7 +61,7 @@ pub fn detect(
     let count = count.clamp(1, MAX_FEATURES);
     // Grid of roughly square cells, `gx · gy ≤ count`.
     let aspect = w as f32 / h as f32;
-    let gx = (libm::sqrtf(count as f32 * aspect) as usize).clamp(1, w);
+    let gx = (crate::float::sqrtf(count as f32 * aspect) as usize).clamp(1, w);
     let gy = (count / gx).clamp(1, h);
     for cy in 0..gy {
         let (y0, y1) = (border + cy * h / gy, border + (cy + 1) * h / gy);

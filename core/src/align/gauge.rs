@@ -130,7 +130,7 @@ pub fn gauge_fit_where(
         disparity_offset: g[3],
         disparity_slope: (g[4], g[5]),
         centre: o,
-        rms: libm::sqrtf(sum / count as f32),
+        rms: crate::float::sqrtf(sum / count as f32),
     })
 }
 
@@ -184,7 +184,7 @@ pub fn reprojection_rms(
             }
         }
     }
-    (count > 0).then(|| libm::sqrtf(sum / count as f32))
+    (count > 0).then(|| crate::float::sqrtf(sum / count as f32))
 }
 
 #[cfg(test)]

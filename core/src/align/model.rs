@@ -34,7 +34,7 @@ fn normaliser(points: impl Iterator<Item = (f32, f32)> + Clone) -> Option<Mat> {
     my /= n;
     let mut dist = 0.0f32;
     for (x, y) in points {
-        dist += libm::sqrtf((x - mx) * (x - mx) + (y - my) * (y - my));
+        dist += crate::float::sqrtf((x - mx) * (x - mx) + (y - my) * (y - my));
     }
     dist /= n;
     if dist.partial_cmp(&1e-6) != Some(core::cmp::Ordering::Greater) {

@@ -358,7 +358,7 @@ impl State<'_> {
 /// point `(X, Y, d)`'s position there, `X − d·b`.
 fn reprojection_error(u: (f32, f32), (x, y, d): (f32, f32, f32), b: (f32, f32)) -> f32 {
     let (ex, ey) = (u.0 - (x - d * b.0), u.1 - (y - d * b.1));
-    libm::sqrtf(ex * ex + ey * ey)
+    crate::float::sqrtf(ex * ex + ey * ey)
 }
 
 /// `sqrt(total / count)`, infinite without observations.
@@ -366,7 +366,7 @@ fn root_mean(total: f32, count: usize) -> f32 {
     if count == 0 {
         f32::INFINITY
     } else {
-        libm::sqrtf(total / count as f32)
+        crate::float::sqrtf(total / count as f32)
     }
 }
 
@@ -726,7 +726,7 @@ fn fix_gauge(
         // Express everything in the centre view's frame: its map becomes the identity.
         Reference::CentreView => mc.try_inverse()?,
         Reference::Estimated => {
-            let s = 1.0 / libm::sqrtf(det.abs());
+            let s = 1.0 / crate::float::sqrtf(det.abs());
             Mat::new(
                 s,
                 0.0,
@@ -932,7 +932,7 @@ fn rms(
             count += k;
             rep.inliers = k as u16;
             rep.rms = if k > 0 {
-                libm::sqrtf(sum / k as f32)
+                crate::float::sqrtf(sum / k as f32)
             } else {
                 0.0
             };
@@ -1153,7 +1153,7 @@ fn snap_disparity_offset(state: &mut State<'_>, maps: &mut [Homography], step: f
         cos += libm::cosf(phase);
         count += 1.0;
     }
-    let coherence = libm::sqrtf(sin * sin + cos * cos) / count.max(1.0);
+    let coherence = crate::float::sqrtf(sin * sin + cos * cos) / count.max(1.0);
     // NaN (no solved point) compares as not coherent.
     if coherence.partial_cmp(&MIN_DISPARITY_COHERENCE) == Some(core::cmp::Ordering::Less)
         || coherence.is_nan()

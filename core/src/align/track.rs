@@ -237,7 +237,7 @@ fn ncc(
         sv += b * b;
         stv += a * b;
     }
-    let den = libm::sqrtf(st * sv);
+    let den = crate::float::sqrtf(st * sv);
     (den > 1e-12).then(|| stv / den)
 }
 

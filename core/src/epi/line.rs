@@ -426,7 +426,7 @@ impl<T: Scalar> LineEstimator<T> {
             }
             // The outer weight of view k enters as √w in both gradients, so the tensor
             // terms are plain products (w·gx² = (√w·gx)²).
-            let root = libm::sqrtf(outer_weights[k].max(0.0));
+            let root = crate::float::sqrtf(outer_weights[k].max(0.0));
             active[k] = T::from_f32(outer_weights[k]) != T::ZERO;
             for m in mix_smooth[k].iter_mut().chain(mix_derivative[k].iter_mut()) {
                 *m *= root;

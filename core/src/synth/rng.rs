@@ -53,7 +53,7 @@ impl Rng {
             return z;
         }
         // 1 − unit() lies in (0, 1], so the logarithm is finite.
-        let radius = libm::sqrt(-2.0 * libm::log(1.0 - self.unit()));
+        let radius = crate::float::sqrt(-2.0 * libm::log(1.0 - self.unit()));
         let (cos, sin) = super::trig::sincos(core::f64::consts::TAU * self.unit());
         self.spare_normal = Some(radius * sin);
         radius * cos

@@ -177,7 +177,7 @@ impl Surface {
                 if discriminant < 0.0 {
                     return None;
                 }
-                let e = (-half_b + libm::sqrt(discriminant)) / k;
+                let e = (-half_b + crate::float::sqrt(discriminant)) / k;
                 if e.is_nan() || e < 0.0 {
                     return None;
                 }
@@ -312,7 +312,7 @@ impl Surface {
                     .iter()
                     .map(|q| (q.0 - mx) * (q.0 - mx) + (q.1 - my) * (q.1 - my))
                     .fold(0.0, f64::max);
-                let reach = libm::sqrt(reach);
+                let reach = crate::float::sqrt(reach);
                 let (ax, ay) = (cx - base * u, cy - base * v);
                 let (sx, sy) = (-height * u, -height * v);
                 let length2 = sx * sx + sy * sy;
@@ -322,7 +322,7 @@ impl Surface {
                     0.0
                 };
                 let (ex, ey) = (mx - ax - t * sx, my - ay - t * sy);
-                let distance = libm::sqrt(ex * ex + ey * ey);
+                let distance = crate::float::sqrt(ex * ex + ey * ey);
                 distance > radius + reach + 1e-9
             }
         }
@@ -426,7 +426,8 @@ mod tests {
                     if let Some((d, x, y)) = s.hit(&p, xv, yv, u, v) {
                         hits += 1;
                         let rho2 = (x - cx).powi(2) + (y - cy).powi(2);
-                        let expected = base + height * libm::sqrt(1.0 - rho2 / (radius * radius));
+                        let expected =
+                            base + height * crate::float::sqrt(1.0 - rho2 / (radius * radius));
                         assert!((d - expected).abs() < 1e-9, "{d} {expected}");
                         assert!((x - (xv + d * u)).abs() < 1e-12);
                         let [x0, y0, x1, y1] = p.bounds;

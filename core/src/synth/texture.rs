@@ -66,7 +66,7 @@ impl Texture {
             energy += strength * strength * 0.5625 / 2.0;
         }
         // Normalise so the sum of waves has standard deviation ≈ `contrast`.
-        let scale = contrast / libm::sqrt(energy);
+        let scale = contrast / crate::float::sqrt(energy);
         for wave in texture.waves.iter_mut() {
             for a in wave.amplitude.iter_mut() {
                 *a *= scale;
@@ -114,10 +114,10 @@ mod tests {
             }
         }
         let count = (n * n) as f64;
-        let std = libm::sqrt(sq / count - (sum / count) * (sum / count));
+        let std = crate::float::sqrt(sq / count - (sum / count) * (sum / count));
         assert!(std > 0.12 && std < 0.3, "{std}");
         for w in &t.waves {
-            let omega = libm::sqrt(w.fx * w.fx + w.fy * w.fy);
+            let omega = crate::float::sqrt(w.fx * w.fx + w.fy * w.fy);
             assert!(omega <= core::f64::consts::TAU / SHORTEST_WAVELENGTH + 1e-12);
         }
         let g = Texture::random(&mut rng, 0.2, true);

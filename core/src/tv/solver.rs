@@ -1000,7 +1000,7 @@ impl<'s, S: Scalar> Graph<'s, S> {
                             *n2 = gh * gh + gv * gv;
                         }
                         for n in nh.iter_mut() {
-                            *n = libm::sqrtf(*n);
+                            *n = crate::float::sqrtf(*n);
                         }
                         for (n, nv) in nh.iter_mut().zip(nv.iter_mut()) {
                             *n = floor(*n);

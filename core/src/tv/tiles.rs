@@ -133,7 +133,7 @@ pub fn normalise_history(plan: &Plan, history: &mut [f32]) {
     }
     let nodes = nodes.max(1) as f32;
     for h in history.iter_mut() {
-        *h = libm::sqrtf(*h / nodes);
+        *h = crate::float::sqrtf(*h / nodes);
     }
 }
 
