@@ -418,6 +418,155 @@ fn window_sum<T: Scalar>(
     window_sum_each(stats, previous, width, ys, xs, d, gate, scale)
 }
 
+/// The total curvature `A` of a window sum (all groups).
+#[inline(always)]
+fn curvature<T: Scalar>(sum: &[T; STATS]) -> T {
+    (0..GROUPS).fold(T::ZERO, |a, g| a + sum[3 * g])
+}
+
+/// Rows `y − 1`, `y` and `y + 1` of the region's disparities and statistics (`width`
+/// wide; `None` for `y` = 0 or rows past the region).
+#[allow(clippy::type_complexity)]
+#[inline(always)]
+fn three_rows<'a, T>(
+    previous: &'a [T],
+    stats: &'a [T],
+    width: usize,
+    y: usize,
+) -> Option<([&'a [T]; 3], [&'a [[T; STATS]]; 3])> {
+    let top = y.checked_sub(1)?;
+    let ds = previous.get(top * width..)?.get(..3 * width)?;
+    let (ss, _) = stats
+        .get(top * width * STATS..)?
+        .get(..3 * width * STATS)?
+        .as_chunks::<STATS>();
+    let (d0, rest) = ds.split_at_checked(width)?;
+    let (d1, d2) = rest.split_at_checked(width)?;
+    let (s0, rest) = ss.split_at_checked(width)?;
+    let (s1, s2) = rest.split_at_checked(width)?;
+    Some(([d0, d1, d2], [s0, s1, s2]))
+}
+
+/// [`window_sum`] of a whole 3 × 3 window given as its three rows of disparities and
+/// statistics: the same terms in the same order. A neighbour outside the gate is
+/// skipped, which is adding +0 (the sum starts at +0 and never becomes −0; adding 0 to
+/// a Q16 integer is exact): the same bits.
+#[inline(never)]
+fn window_rows<T: Scalar>(
+    ds: [&[T; 3]; 3],
+    ss: [&[[T; STATS]; 3]; 3],
+    d: T,
+    gate: T,
+    scale: Option<T>,
+) -> [T; STATS] {
+    let mut sum = [T::ZERO; STATS];
+    for (ds, ss) in ds.into_iter().zip(ss) {
+        for (&p, s) in ds.iter().zip(ss) {
+            if (p - d).abs() > gate {
+                continue;
+            }
+            let terms = sum.iter_mut().zip(s);
+            match scale {
+                None => terms.for_each(|(s, &v)| *s += v),
+                Some(f) => terms.for_each(|(s, &v)| *s += v * f),
+            }
+        }
+    }
+    sum
+}
+
+/// What one pixel's Gauss–Newton update needs besides its window sum.
+struct Step<'a, T> {
+    k: &'a Constants<T>,
+    narrow: &'a Counts<T>,
+    wide: &'a Counts<T>,
+    /// Window sums whose total curvature exceeds this are summed again scaled.
+    wide_limit: T,
+    occlusion: bool,
+    range: (f32, f32),
+}
+
+impl<T: Scalar> Step<'_, T> {
+    /// The next disparity of a pixel at `d` whose window sum is `sum` (summed scaled,
+    /// with the wide counts, when `wide`), with the `E` and `A` + damping of its
+    /// confidence.
+    #[inline(always)]
+    fn next(&self, sum: &[T; STATS], wide: bool, d: T) -> (T, T, T) {
+        let k = self.k;
+        let counts = if wide { self.wide } else { self.narrow };
+        let (a, b, e, terms) = select(sum, counts, k, self.occlusion, d);
+        let damping = k.damping * terms;
+        let target = (b + damping * d) / (a + damping);
+        let step = (target - d).clamp(-k.max_step, k.max_step);
+        let next = (d + step).clamp(k.lo, k.hi);
+        let next = if next.is_finite() { next } else { d };
+        (next, e, a + damping)
+    }
+
+    /// The band's output for disparity `next`, its `E` and `A` + damping.
+    #[inline(always)]
+    fn output(&self, next: T, e: T, damped: T, out: &mut f32, confidence: &mut f32) {
+        // Fixed-point rounding of the range ends must not step outside it.
+        *out = crate::epi::clamp_f32(next.to_f32(), self.range.0, self.range.1);
+        let err2 = e / damped;
+        let c = T::ONE / (T::ONE + err2 / self.k.confidence2);
+        *confidence = if c.is_finite() {
+            c.to_f32().clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+}
+
+/// The update of a row's interior pixels (x = 1 … width − 2) from the region's rows
+/// `ds` / `ss` above, at and below it (see [`three_rows`]) into `next` (the row of the
+/// next disparities from x = 1) and, in the last iteration, `outputs` (the band's
+/// disparity and confidence rows from x = 1).
+#[inline(never)]
+fn update_row<T: Scalar>(
+    step: &Step<'_, T>,
+    ds: [&[T]; 3],
+    ss: [&[[T; STATS]]; 3],
+    next: &mut [T],
+    mut outputs: Option<(&mut [f32], &mut [f32])>,
+) {
+    let ([d0, d1, d2], [s0, s1, s2]) = (ds, ss);
+    let windows = d0
+        .windows(3)
+        .zip(d1.windows(3))
+        .zip(d2.windows(3))
+        .zip(s0.windows(3).zip(s1.windows(3)).zip(s2.windows(3)));
+    for (x, ((((d0, d1), d2), ((s0, s1), s2)), next)) in windows.zip(next).enumerate() {
+        // `windows(3)` gives three elements each: the `else` never happens.
+        let (Some(d0), Some(d1), Some(d2), Some(s0), Some(s1), Some(s2)) = (
+            d0.first_chunk::<3>(),
+            d1.first_chunk::<3>(),
+            d2.first_chunk::<3>(),
+            s0.first_chunk::<3>(),
+            s1.first_chunk::<3>(),
+            s2.first_chunk::<3>(),
+        ) else {
+            continue;
+        };
+        let d = d1[1];
+        let (ds, ss) = ([d0, d1, d2], [s0, s1, s2]);
+        let gate = step.k.gate;
+        let sum = window_rows(ds, ss, d, gate, None);
+        let (sum, wide) = if curvature(&sum) > step.wide_limit {
+            (window_rows(ds, ss, d, gate, Some(step.wide.scale)), true)
+        } else {
+            (sum, false)
+        };
+        let (n, e, damped) = step.next(&sum, wide, d);
+        *next = n;
+        if let Some((out, confidence)) = &mut outputs {
+            if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
+                step.output(n, e, damped, out, confidence);
+            }
+        }
+    }
+}
+
 /// [`window_sum`] pixel by pixel.
 #[inline]
 #[allow(clippy::too_many_arguments)]
@@ -820,8 +969,26 @@ fn band<T: Scalar, P: Photometric<T>>(
         if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
             to.copy_from_slice(from);
         }
+        let step = Step {
+            k: &k,
+            narrow: &narrow,
+            wide: &wide,
+            wide_limit,
+            occlusion: p.occlusion,
+            range,
+        };
         for y in updated {
-            for x in 0..width {
+            // A row whose pixels have whole 3 × 3 windows (radius 1, not at the
+            // region's ends): its interior pixels go to `update_row`, which walks the
+            // three rows' slices side by side (no per-window offsets or bounds checks);
+            // only the first and the last pixel take `window_sum` here.
+            let interior = if r == 1 && y + 1 < region && width >= 3 {
+                three_rows(previous, stats, width, y)
+            } else {
+                None
+            };
+            let stride = if interior.is_some() { width - 1 } else { 1 };
+            for x in (0..width).step_by(stride.max(1)) {
                 // Window sum over the neighbours whose disparity is within
                 // `WINDOW_GATE` of this pixel's: the window does not reach across depth
                 // edges.
@@ -832,7 +999,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                     y.saturating_sub(r)..(y + r + 1).min(region),
                     x.saturating_sub(r)..(x + r + 1).min(width),
                 );
-                let mut sum = window_sum(
+                let sum = window_sum(
                     stats,
                     previous,
                     width,
@@ -842,39 +1009,39 @@ fn band<T: Scalar, P: Photometric<T>>(
                     k.gate,
                     None,
                 );
-                let mut counts = &narrow;
-                let curvature = (0..GROUPS).fold(T::ZERO, |a, g| a + sum[3 * g]);
-                if curvature > wide_limit {
-                    sum = window_sum(stats, previous, width, ys, xs, d, k.gate, Some(wide.scale));
-                    counts = &wide;
-                }
-                let i = y * width + x;
-                let (a, b, e, terms) = select(&sum, counts, &k, p.occlusion, d);
-                let damping = k.damping * terms;
-                let target = (b + damping * d) / (a + damping);
-                let step = (target - d).clamp(-k.max_step, k.max_step);
-                let next = (d + step).clamp(k.lo, k.hi);
-                let next = if next.is_finite() { next } else { d };
-                if let Some(current) = current.get_mut(i) {
+                let (sum, wide_sum) = if curvature(&sum) > wide_limit {
+                    let sum =
+                        window_sum(stats, previous, width, ys, xs, d, k.gate, Some(wide.scale));
+                    (sum, true)
+                } else {
+                    (sum, false)
+                };
+                let (next, e, damped) = step.next(&sum, wide_sum, d);
+                if let Some(current) = current.get_mut(y * width + x) {
                     *current = next;
                 }
                 if last_iteration {
                     let o = (first + y - rows.start) * width + x;
-                    let (Some(out), Some(confidence)) = (out.get_mut(o), confidence.get_mut(o))
-                    else {
-                        continue;
-                    };
-                    // Fixed-point rounding of the range ends must not step outside it.
-                    *out = crate::epi::clamp_f32(next.to_f32(), range.0, range.1);
-                    let err2 = e / (a + damping);
-                    let c = T::ONE / (T::ONE + err2 / k.confidence2);
-                    *confidence = if c.is_finite() {
-                        c.to_f32().clamp(0.0, 1.0)
-                    } else {
-                        0.0
-                    };
+                    if let (Some(out), Some(confidence)) = (out.get_mut(o), confidence.get_mut(o)) {
+                        step.output(next, e, damped, out, confidence);
+                    }
                 }
             }
+            let Some((ds, ss)) = interior else {
+                continue;
+            };
+            let inner = |at: usize| at + 1..at + width - 1;
+            let next = current.get_mut(inner(y * width)).unwrap_or_default();
+            let outputs = if last_iteration {
+                let o = (first + y - rows.start) * width;
+                match (out.get_mut(inner(o)), confidence.get_mut(inner(o))) {
+                    (Some(out), Some(confidence)) => Some((out, confidence)),
+                    _ => None,
+                }
+            } else {
+                None
+            };
+            update_row(&step, ds, ss, next, outputs);
         }
     }
     Ok(())
