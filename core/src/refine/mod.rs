@@ -450,18 +450,20 @@ fn three_rows<'a, T>(
 /// [`window_sum`] of a whole 3 × 3 window given as its three rows of disparities and
 /// statistics: the same terms in the same order. A neighbour outside the gate is
 /// skipped, which is adding +0 (the sum starts at +0 and never becomes −0; adding 0 to
-/// a Q16 integer is exact): the same bits.
+/// a Q16 integer is exact): the same bits. Not inlined: inlined into the row's loop,
+/// its sums were kept in vector lanes by group (for the curvature), which cost more
+/// than the call.
+#[allow(clippy::type_complexity)]
 #[inline(never)]
 fn window_rows<T: Scalar>(
-    ds: [&[T; 3]; 3],
-    ss: [&[[T; STATS]; 3]; 3],
+    (ds, ss): &([&[T; 3]; 3], [&[[T; STATS]; 3]; 3]),
     d: T,
     gate: T,
     scale: Option<T>,
 ) -> [T; STATS] {
     let mut sum = [T::ZERO; STATS];
-    for (ds, ss) in ds.into_iter().zip(ss) {
-        for (&p, s) in ds.iter().zip(ss) {
+    for (ds, ss) in ds.iter().zip(ss) {
+        for (&p, s) in ds.iter().zip(ss.iter()) {
             if (p - d).abs() > gate {
                 continue;
             }
@@ -518,6 +520,12 @@ impl<T: Scalar> Step<'_, T> {
     }
 }
 
+/// Elements `x`, `x + 1` and `x + 2` of `row`.
+#[inline(always)]
+fn three_at<X>(row: &[X], x: usize) -> Option<&[X; 3]> {
+    row.get(x..).and_then(|r| r.first_chunk::<3>())
+}
+
 /// The update of a row's interior pixels (x = 1 … width − 2) from the region's rows
 /// `ds` / `ss` above, at and below it (see [`three_rows`]) into `next` (the row of the
 /// next disparities from x = 1) and, in the last iteration, `outputs` (the band's
@@ -530,33 +538,39 @@ fn update_row<T: Scalar>(
     next: &mut [T],
     mut outputs: Option<(&mut [f32], &mut [f32])>,
 ) {
+    let n = next.len();
+    // Every row holds the n + 2 pixels of the row's windows: the window lookups below
+    // stay inside these (their `else` never happens).
     let ([d0, d1, d2], [s0, s1, s2]) = (ds, ss);
-    let windows = d0
-        .windows(3)
-        .zip(d1.windows(3))
-        .zip(d2.windows(3))
-        .zip(s0.windows(3).zip(s1.windows(3)).zip(s2.windows(3)));
-    for (x, ((((d0, d1), d2), ((s0, s1), s2)), next)) in windows.zip(next).enumerate() {
-        // `windows(3)` gives three elements each: the `else` never happens.
+    let (Some(d0), Some(d1), Some(d2), Some(s0), Some(s1), Some(s2)) = (
+        d0.get(..n + 2),
+        d1.get(..n + 2),
+        d2.get(..n + 2),
+        s0.get(..n + 2),
+        s1.get(..n + 2),
+        s2.get(..n + 2),
+    ) else {
+        return;
+    };
+    let gate = step.k.gate;
+    for (x, next) in next.iter_mut().enumerate() {
         let (Some(d0), Some(d1), Some(d2), Some(s0), Some(s1), Some(s2)) = (
-            d0.first_chunk::<3>(),
-            d1.first_chunk::<3>(),
-            d2.first_chunk::<3>(),
-            s0.first_chunk::<3>(),
-            s1.first_chunk::<3>(),
-            s2.first_chunk::<3>(),
+            three_at(d0, x),
+            three_at(d1, x),
+            three_at(d2, x),
+            three_at(s0, x),
+            three_at(s1, x),
+            three_at(s2, x),
         ) else {
             continue;
         };
         let d = d1[1];
-        let (ds, ss) = ([d0, d1, d2], [s0, s1, s2]);
-        let gate = step.k.gate;
-        let sum = window_rows(ds, ss, d, gate, None);
-        let (sum, wide) = if curvature(&sum) > step.wide_limit {
-            (window_rows(ds, ss, d, gate, Some(step.wide.scale)), true)
-        } else {
-            (sum, false)
-        };
+        let rows = ([d0, d1, d2], [s0, s1, s2]);
+        let mut sum = window_rows(&rows, d, gate, None);
+        let wide = curvature(&sum) > step.wide_limit;
+        if wide {
+            sum = window_rows(&rows, d, gate, Some(step.wide.scale));
+        }
         let (n, e, damped) = step.next(&sum, wide, d);
         *next = n;
         if let Some((out, confidence)) = &mut outputs {
