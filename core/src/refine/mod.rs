@@ -333,7 +333,8 @@ const WIDE_SHIFT: i32 = 8;
 
 /// The window sum of the statistics of the pixels within `gate` of `d`, over
 /// `ys × xs` of the region (`width` wide), in a fixed order so that every band sums
-/// alike. Each term is multiplied by `scale` when one is given.
+/// alike. Each term is multiplied by `scale` when one is given. (A row's interior
+/// pixels at radius 1 take [`update_row`]'s [`window_rows`] instead.)
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn window_sum<T: Scalar>(
@@ -347,45 +348,6 @@ fn window_sum<T: Scalar>(
     scale: Option<T>,
 ) -> [T; STATS] {
     let mut sum = [T::ZERO; STATS];
-    if xs.len() == 3 && ys.len() == 3 {
-        // A whole 3 × 3 window (radius 1 inside the region): its three rows come from
-        // one span of each table (the first row's start to the last row's end), so
-        // that the compiler proves most of the rows' bounds from the span's (measured:
-        // 212 → 196 instructions per call on cotton).
-        let at = ys.start * width + xs.start;
-        let span = 2 * width + 3;
-        if let (Some(ds), Some(ss)) = (
-            previous.get(at..at + span),
-            stats.get(at * STATS..(at + span) * STATS),
-        ) {
-            for row in 0..3 {
-                // The first and the last row are the span's ends (no offset to check).
-                let (Some(ds), Some(ss)) = (match row {
-                    0 => (ds.first_chunk::<3>(), ss.first_chunk::<{ 3 * STATS }>()),
-                    1 => (
-                        ds.get(width..).and_then(|s| s.first_chunk::<3>()),
-                        ss.get(width * STATS..)
-                            .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
-                    ),
-                    _ => (ds.last_chunk::<3>(), ss.last_chunk::<{ 3 * STATS }>()),
-                }) else {
-                    return window_sum_each(stats, previous, width, ys, xs, d, gate, scale);
-                };
-                for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
-                    // Skipping a neighbour outside the gate is adding +0 (see below).
-                    if (p - d).abs() > gate {
-                        continue;
-                    }
-                    let terms = sum.iter_mut().zip(s);
-                    match scale {
-                        None => terms.for_each(|(s, &v)| *s += v),
-                        Some(f) => terms.for_each(|(s, &v)| *s += v * f),
-                    }
-                }
-            }
-            return sum;
-        }
-    }
     if xs.len() == 3 {
         // Radius 1 away from the image's sides (fewer than three rows at the region's
         // ends): each window row as one array of three disparities and one of their
