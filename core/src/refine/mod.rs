@@ -461,8 +461,18 @@ impl<T: Scalar> Step<'_, T> {
         let (a, b, e, terms) = select(sum, counts, k, self.occlusion, d);
         let damping = k.damping * terms;
         let target = (b + damping * d) / (a + damping);
-        let step = (target - d).clamp(-k.max_step, k.max_step);
-        let next = (d + step).clamp(k.lo, k.hi);
+        // `Scalar::clamp` (`max`, then `min`; a NaN gives the lower bound) as compares
+        // that the compiler keeps as one `max` / `min` instruction each, with the same
+        // bits: for the step they differ from `Scalar::max` / `min` only where the
+        // value equals a bound (the same bits: `±max_step` is not zero), or on a NaN
+        // bound (never); for the range they are `Scalar::max` / `min` of a value that
+        // is not NaN (`d` is finite and the step is clamped).
+        let (raw, max_step) = (target - d, k.max_step);
+        let step = if raw > -max_step { raw } else { -max_step };
+        let step = if step < max_step { step } else { max_step };
+        let next = d + step;
+        let next = if k.lo > next { k.lo } else { next };
+        let next = if k.hi < next { k.hi } else { next };
         let next = if next.is_finite() { next } else { d };
         (next, e, a + damping)
     }
