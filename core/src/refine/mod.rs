@@ -395,17 +395,14 @@ fn three_rows<'a, T>(
     stats: &'a [T],
     width: usize,
     y: usize,
-) -> Option<([&'a [T]; 3], [&'a [[T; STATS]]; 3])> {
+) -> Option<([&'a [T]; 3], [&'a [T]; 3])> {
     let top = y.checked_sub(1)?;
     let ds = previous.get(top * width..)?.get(..3 * width)?;
-    let (ss, _) = stats
-        .get(top * width * STATS..)?
-        .get(..3 * width * STATS)?
-        .as_chunks::<STATS>();
+    let ss = stats.get(top * width * STATS..)?.get(..3 * width * STATS)?;
     let (d0, rest) = ds.split_at_checked(width)?;
     let (d1, d2) = rest.split_at_checked(width)?;
-    let (s0, rest) = ss.split_at_checked(width)?;
-    let (s1, s2) = rest.split_at_checked(width)?;
+    let (s0, rest) = ss.split_at_checked(width * STATS)?;
+    let (s1, s2) = rest.split_at_checked(width * STATS)?;
     Some(([d0, d1, d2], [s0, s1, s2]))
 }
 
@@ -418,14 +415,14 @@ fn three_rows<'a, T>(
 #[allow(clippy::type_complexity)]
 #[inline(never)]
 fn window_rows<T: Scalar>(
-    (ds, ss): &([&[T; 3]; 3], [&[[T; STATS]; 3]; 3]),
+    (ds, ss): &([&[T; 3]; 3], [&[T; 3 * STATS]; 3]),
     d: T,
     gate: T,
     scale: Option<T>,
 ) -> [T; STATS] {
     let mut sum = [T::ZERO; STATS];
     for (ds, ss) in ds.iter().zip(ss) {
-        for (&p, s) in ds.iter().zip(ss.iter()) {
+        for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
             if (p - d).abs() > gate {
                 continue;
             }
@@ -498,6 +495,13 @@ fn three_at<X>(row: &[X], x: usize) -> Option<&[X; 3]> {
     row.get(x..).and_then(|r| r.first_chunk::<3>())
 }
 
+/// The statistics of elements `x`, `x + 1` and `x + 2` of a row of statistics.
+#[inline(always)]
+fn three_stats_at<T>(row: &[T], x: usize) -> Option<&[T; 3 * STATS]> {
+    row.get(x * STATS..)
+        .and_then(|r| r.first_chunk::<{ 3 * STATS }>())
+}
+
 /// The update of a row's interior pixels (x = 1 … width − 2) from the region's rows
 /// `ds` / `ss` above, at and below it (see [`three_rows`]) into `next` (the row of the
 /// next disparities from x = 1) and, in the last iteration, `outputs` (the band's
@@ -506,7 +510,7 @@ fn three_at<X>(row: &[X], x: usize) -> Option<&[X; 3]> {
 fn update_row<T: Scalar>(
     step: &Step<'_, T>,
     ds: [&[T]; 3],
-    ss: [&[[T; STATS]]; 3],
+    ss: [&[T]; 3],
     next: &mut [T],
     mut outputs: Option<(&mut [f32], &mut [f32])>,
 ) {
@@ -518,9 +522,9 @@ fn update_row<T: Scalar>(
         d0.get(..n + 2),
         d1.get(..n + 2),
         d2.get(..n + 2),
-        s0.get(..n + 2),
-        s1.get(..n + 2),
-        s2.get(..n + 2),
+        s0.get(..(n + 2) * STATS),
+        s1.get(..(n + 2) * STATS),
+        s2.get(..(n + 2) * STATS),
     ) else {
         return;
     };
@@ -530,9 +534,9 @@ fn update_row<T: Scalar>(
             three_at(d0, x),
             three_at(d1, x),
             three_at(d2, x),
-            three_at(s0, x),
-            three_at(s1, x),
-            three_at(s2, x),
+            three_stats_at(s0, x),
+            three_stats_at(s1, x),
+            three_stats_at(s2, x),
         ) else {
             continue;
         };
