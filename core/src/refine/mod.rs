@@ -333,7 +333,8 @@ const WIDE_SHIFT: i32 = 8;
 
 /// The window sum of the statistics of the pixels within `gate` of `d`, over
 /// `ys × xs` of the region (`width` wide), in a fixed order so that every band sums
-/// alike. Each term is multiplied by `scale` when one is given.
+/// alike. Each term is multiplied by `scale` when one is given. (A row's interior
+/// pixels at radius 1 take [`update_row`]'s [`window_rows`] instead.)
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn window_sum<T: Scalar>(
@@ -347,45 +348,6 @@ fn window_sum<T: Scalar>(
     scale: Option<T>,
 ) -> [T; STATS] {
     let mut sum = [T::ZERO; STATS];
-    if xs.len() == 3 && ys.len() == 3 {
-        // A whole 3 × 3 window (radius 1 inside the region): its three rows come from
-        // one span of each table (the first row's start to the last row's end), so
-        // that the compiler proves most of the rows' bounds from the span's (measured:
-        // 212 → 196 instructions per call on cotton).
-        let at = ys.start * width + xs.start;
-        let span = 2 * width + 3;
-        if let (Some(ds), Some(ss)) = (
-            previous.get(at..at + span),
-            stats.get(at * STATS..(at + span) * STATS),
-        ) {
-            for row in 0..3 {
-                // The first and the last row are the span's ends (no offset to check).
-                let (Some(ds), Some(ss)) = (match row {
-                    0 => (ds.first_chunk::<3>(), ss.first_chunk::<{ 3 * STATS }>()),
-                    1 => (
-                        ds.get(width..).and_then(|s| s.first_chunk::<3>()),
-                        ss.get(width * STATS..)
-                            .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
-                    ),
-                    _ => (ds.last_chunk::<3>(), ss.last_chunk::<{ 3 * STATS }>()),
-                }) else {
-                    return window_sum_each(stats, previous, width, ys, xs, d, gate, scale);
-                };
-                for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
-                    // Skipping a neighbour outside the gate is adding +0 (see below).
-                    if (p - d).abs() > gate {
-                        continue;
-                    }
-                    let terms = sum.iter_mut().zip(s);
-                    match scale {
-                        None => terms.for_each(|(s, &v)| *s += v),
-                        Some(f) => terms.for_each(|(s, &v)| *s += v * f),
-                    }
-                }
-            }
-            return sum;
-        }
-    }
     if xs.len() == 3 {
         // Radius 1 away from the image's sides (fewer than three rows at the region's
         // ends): each window row as one array of three disparities and one of their
@@ -416,6 +378,183 @@ fn window_sum<T: Scalar>(
         return sum;
     }
     window_sum_each(stats, previous, width, ys, xs, d, gate, scale)
+}
+
+/// The total curvature `A` of a window sum (all groups).
+#[inline(always)]
+fn curvature<T: Scalar>(sum: &[T; STATS]) -> T {
+    (0..GROUPS).fold(T::ZERO, |a, g| a + sum[3 * g])
+}
+
+/// Rows `y − 1`, `y` and `y + 1` of the region's disparities and statistics (`width`
+/// wide; `None` for `y` = 0 or rows past the region).
+#[allow(clippy::type_complexity)]
+#[inline(always)]
+fn three_rows<'a, T>(
+    previous: &'a [T],
+    stats: &'a [T],
+    width: usize,
+    y: usize,
+) -> Option<([&'a [T]; 3], [&'a [T]; 3])> {
+    let top = y.checked_sub(1)?;
+    let ds = previous.get(top * width..)?.get(..3 * width)?;
+    let ss = stats.get(top * width * STATS..)?.get(..3 * width * STATS)?;
+    let (d0, rest) = ds.split_at_checked(width)?;
+    let (d1, d2) = rest.split_at_checked(width)?;
+    let (s0, rest) = ss.split_at_checked(width * STATS)?;
+    let (s1, s2) = rest.split_at_checked(width * STATS)?;
+    Some(([d0, d1, d2], [s0, s1, s2]))
+}
+
+/// [`window_sum`] of a whole 3 × 3 window given as its three rows of disparities and
+/// statistics: the same terms in the same order. A neighbour outside the gate is
+/// skipped, which is adding +0 (the sum starts at +0 and never becomes −0; adding 0 to
+/// a Q16 integer is exact): the same bits. Not inlined: inlined into the row's loop,
+/// its sums were kept in vector lanes by group (for the curvature), which cost more
+/// than the call.
+#[allow(clippy::type_complexity)]
+#[inline(never)]
+fn window_rows<T: Scalar>(
+    (ds, ss): &([&[T; 3]; 3], [&[T; 3 * STATS]; 3]),
+    d: T,
+    gate: T,
+    scale: Option<T>,
+) -> [T; STATS] {
+    let mut sum = [T::ZERO; STATS];
+    for (ds, ss) in ds.iter().zip(ss) {
+        for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
+            if (p - d).abs() > gate {
+                continue;
+            }
+            let terms = sum.iter_mut().zip(s);
+            match scale {
+                None => terms.for_each(|(s, &v)| *s += v),
+                Some(f) => terms.for_each(|(s, &v)| *s += v * f),
+            }
+        }
+    }
+    sum
+}
+
+/// What one pixel's Gauss–Newton update needs besides its window sum.
+struct Step<'a, T> {
+    k: &'a Constants<T>,
+    narrow: &'a Counts<T>,
+    wide: &'a Counts<T>,
+    /// Window sums whose total curvature exceeds this are summed again scaled.
+    wide_limit: T,
+    occlusion: bool,
+    range: (f32, f32),
+}
+
+impl<T: Scalar> Step<'_, T> {
+    /// The next disparity of a pixel at `d` whose window sum is `sum` (summed scaled,
+    /// with the wide counts, when `wide`), with the `E` and `A` + damping of its
+    /// confidence.
+    #[inline(always)]
+    fn next(&self, sum: &[T; STATS], wide: bool, d: T) -> (T, T, T) {
+        let k = self.k;
+        let counts = if wide { self.wide } else { self.narrow };
+        let (a, b, e, terms) = select(sum, counts, k, self.occlusion, d);
+        let damping = k.damping * terms;
+        let target = (b + damping * d) / (a + damping);
+        // `Scalar::clamp` (`max`, then `min`; a NaN gives the lower bound) as compares
+        // that the compiler keeps as one `max` / `min` instruction each, with the same
+        // bits: for the step they differ from `Scalar::max` / `min` only where the
+        // value equals a bound (the same bits: `±max_step` is not zero), or on a NaN
+        // bound (never); for the range they are `Scalar::max` / `min` of a value that
+        // is not NaN (`d` is finite and the step is clamped).
+        let (raw, max_step) = (target - d, k.max_step);
+        let step = if raw > -max_step { raw } else { -max_step };
+        let step = if step < max_step { step } else { max_step };
+        let next = d + step;
+        let next = if k.lo > next { k.lo } else { next };
+        let next = if k.hi < next { k.hi } else { next };
+        let next = if next.is_finite() { next } else { d };
+        (next, e, a + damping)
+    }
+
+    /// The band's output for disparity `next`, its `E` and `A` + damping.
+    #[inline(always)]
+    fn output(&self, next: T, e: T, damped: T, out: &mut f32, confidence: &mut f32) {
+        // Fixed-point rounding of the range ends must not step outside it.
+        *out = crate::epi::clamp_f32(next.to_f32(), self.range.0, self.range.1);
+        let err2 = e / damped;
+        let c = T::ONE / (T::ONE + err2 / self.k.confidence2);
+        *confidence = if c.is_finite() {
+            c.to_f32().clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+}
+
+/// Elements `x`, `x + 1` and `x + 2` of `row`.
+#[inline(always)]
+fn three_at<X>(row: &[X], x: usize) -> Option<&[X; 3]> {
+    row.get(x..).and_then(|r| r.first_chunk::<3>())
+}
+
+/// The statistics of elements `x`, `x + 1` and `x + 2` of a row of statistics.
+#[inline(always)]
+fn three_stats_at<T>(row: &[T], x: usize) -> Option<&[T; 3 * STATS]> {
+    row.get(x * STATS..)
+        .and_then(|r| r.first_chunk::<{ 3 * STATS }>())
+}
+
+/// The update of a row's interior pixels (x = 1 … width − 2) from the region's rows
+/// `ds` / `ss` above, at and below it (see [`three_rows`]) into `next` (the row of the
+/// next disparities from x = 1) and, in the last iteration, `outputs` (the band's
+/// disparity and confidence rows from x = 1).
+#[inline(never)]
+fn update_row<T: Scalar>(
+    step: &Step<'_, T>,
+    ds: [&[T]; 3],
+    ss: [&[T]; 3],
+    next: &mut [T],
+    mut outputs: Option<(&mut [f32], &mut [f32])>,
+) {
+    let n = next.len();
+    // Every row holds the n + 2 pixels of the row's windows: the window lookups below
+    // stay inside these (their `else` never happens).
+    let ([d0, d1, d2], [s0, s1, s2]) = (ds, ss);
+    let (Some(d0), Some(d1), Some(d2), Some(s0), Some(s1), Some(s2)) = (
+        d0.get(..n + 2),
+        d1.get(..n + 2),
+        d2.get(..n + 2),
+        s0.get(..(n + 2) * STATS),
+        s1.get(..(n + 2) * STATS),
+        s2.get(..(n + 2) * STATS),
+    ) else {
+        return;
+    };
+    let gate = step.k.gate;
+    for (x, next) in next.iter_mut().enumerate() {
+        let (Some(d0), Some(d1), Some(d2), Some(s0), Some(s1), Some(s2)) = (
+            three_at(d0, x),
+            three_at(d1, x),
+            three_at(d2, x),
+            three_stats_at(s0, x),
+            three_stats_at(s1, x),
+            three_stats_at(s2, x),
+        ) else {
+            continue;
+        };
+        let d = d1[1];
+        let rows = ([d0, d1, d2], [s0, s1, s2]);
+        let mut sum = window_rows(&rows, d, gate, None);
+        let wide = curvature(&sum) > step.wide_limit;
+        if wide {
+            sum = window_rows(&rows, d, gate, Some(step.wide.scale));
+        }
+        let (n, e, damped) = step.next(&sum, wide, d);
+        *next = n;
+        if let Some((out, confidence)) = &mut outputs {
+            if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
+                step.output(n, e, damped, out, confidence);
+            }
+        }
+    }
 }
 
 /// [`window_sum`] pixel by pixel.
@@ -820,8 +959,26 @@ fn band<T: Scalar, P: Photometric<T>>(
         if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
             to.copy_from_slice(from);
         }
+        let step = Step {
+            k: &k,
+            narrow: &narrow,
+            wide: &wide,
+            wide_limit,
+            occlusion: p.occlusion,
+            range,
+        };
         for y in updated {
-            for x in 0..width {
+            // A row whose pixels have whole 3 × 3 windows (radius 1, not at the
+            // region's ends): its interior pixels go to `update_row`, which walks the
+            // three rows' slices side by side (no per-window offsets or bounds checks);
+            // only the first and the last pixel take `window_sum` here.
+            let interior = if r == 1 && y + 1 < region && width >= 3 {
+                three_rows(previous, stats, width, y)
+            } else {
+                None
+            };
+            let stride = if interior.is_some() { width - 1 } else { 1 };
+            for x in (0..width).step_by(stride.max(1)) {
                 // Window sum over the neighbours whose disparity is within
                 // `WINDOW_GATE` of this pixel's: the window does not reach across depth
                 // edges.
@@ -832,7 +989,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                     y.saturating_sub(r)..(y + r + 1).min(region),
                     x.saturating_sub(r)..(x + r + 1).min(width),
                 );
-                let mut sum = window_sum(
+                let sum = window_sum(
                     stats,
                     previous,
                     width,
@@ -842,39 +999,39 @@ fn band<T: Scalar, P: Photometric<T>>(
                     k.gate,
                     None,
                 );
-                let mut counts = &narrow;
-                let curvature = (0..GROUPS).fold(T::ZERO, |a, g| a + sum[3 * g]);
-                if curvature > wide_limit {
-                    sum = window_sum(stats, previous, width, ys, xs, d, k.gate, Some(wide.scale));
-                    counts = &wide;
-                }
-                let i = y * width + x;
-                let (a, b, e, terms) = select(&sum, counts, &k, p.occlusion, d);
-                let damping = k.damping * terms;
-                let target = (b + damping * d) / (a + damping);
-                let step = (target - d).clamp(-k.max_step, k.max_step);
-                let next = (d + step).clamp(k.lo, k.hi);
-                let next = if next.is_finite() { next } else { d };
-                if let Some(current) = current.get_mut(i) {
+                let (sum, wide_sum) = if curvature(&sum) > wide_limit {
+                    let sum =
+                        window_sum(stats, previous, width, ys, xs, d, k.gate, Some(wide.scale));
+                    (sum, true)
+                } else {
+                    (sum, false)
+                };
+                let (next, e, damped) = step.next(&sum, wide_sum, d);
+                if let Some(current) = current.get_mut(y * width + x) {
                     *current = next;
                 }
                 if last_iteration {
                     let o = (first + y - rows.start) * width + x;
-                    let (Some(out), Some(confidence)) = (out.get_mut(o), confidence.get_mut(o))
-                    else {
-                        continue;
-                    };
-                    // Fixed-point rounding of the range ends must not step outside it.
-                    *out = crate::epi::clamp_f32(next.to_f32(), range.0, range.1);
-                    let err2 = e / (a + damping);
-                    let c = T::ONE / (T::ONE + err2 / k.confidence2);
-                    *confidence = if c.is_finite() {
-                        c.to_f32().clamp(0.0, 1.0)
-                    } else {
-                        0.0
-                    };
+                    if let (Some(out), Some(confidence)) = (out.get_mut(o), confidence.get_mut(o)) {
+                        step.output(next, e, damped, out, confidence);
+                    }
                 }
             }
+            let Some((ds, ss)) = interior else {
+                continue;
+            };
+            let inner = |at: usize| at + 1..at + width - 1;
+            let next = current.get_mut(inner(y * width)).unwrap_or_default();
+            let outputs = if last_iteration {
+                let o = (first + y - rows.start) * width;
+                match (out.get_mut(inner(o)), confidence.get_mut(inner(o))) {
+                    (Some(out), Some(confidence)) => Some((out, confidence)),
+                    _ => None,
+                }
+            } else {
+                None
+            };
+            update_row(&step, ds, ss, next, outputs);
         }
     }
     Ok(())
