@@ -889,13 +889,14 @@ impl<T: Scalar> LineEstimator<T> {
         for i in 0..hyps.count() {
             let shear = hyps.shear(i);
             let shear_t = T::from_f32(shear);
-            // The first sample at or after `from` that needs this hypothesis (`n`: none),
-            // from the needs of 64 samples at a time (`chunk`: the latest such word; the
-            // samples a run settles lie before any later query).
+            // The first sample at or after `from` that needs this hypothesis (`needed`) or
+            // does not (`!needed`), `n` where none does, from the needs of 64 samples at a
+            // time (`chunk`: the latest such word; the samples a run settles lie before any
+            // later query).
             let mut chunk = (usize::MAX, 0u64);
-            let mut next_needed = |guide: &Option<Guide<'_, T>>, from: usize| -> usize {
+            let mut find = |guide: &Option<Guide<'_, T>>, from: usize, needed: bool| -> usize {
                 let Some(g) = guide else {
-                    return from.min(n);
+                    return if needed { from.min(n) } else { n };
                 };
                 let mut at = from;
                 while at < n {
@@ -903,7 +904,9 @@ impl<T: Scalar> LineEstimator<T> {
                     if chunk.0 != word {
                         chunk = (word, g.needs_mask(shear_t, word * 64));
                     }
-                    let bits = chunk.1 & (u64::MAX << (at % 64));
+                    // Past the line's end a word has no needs: its `!needed` bits stop there.
+                    let wanted = if needed { chunk.1 } else { !chunk.1 };
+                    let bits = wanted & (u64::MAX << (at % 64));
                     if bits != 0 {
                         return (word * 64 + bits.trailing_zeros() as usize).min(n);
                     }
@@ -913,7 +916,7 @@ impl<T: Scalar> LineEstimator<T> {
             };
             let sources = self.sources(planes, bank, shear, slots.clone());
             let mut t = 0;
-            let mut start = next_needed(&guide, 0);
+            let mut start = find(&guide, 0, true);
             loop {
                 // Not tested here: no zero crossing with the next hypothesis.
                 for c in state.prev_c.get_mut(t..start).unwrap_or_default() {
@@ -923,10 +926,12 @@ impl<T: Scalar> LineEstimator<T> {
                     break;
                 }
                 // Needed samples closer than `merge` to the run's end join it; the first
-                // one further away starts the next run.
+                // one further away starts the next run. (A needed sample right after the
+                // end joins it: the run skips each stretch of them at once.)
                 let mut end = start + 1;
                 let next = loop {
-                    let next = next_needed(&guide, end);
+                    end = find(&guide, end, false);
+                    let next = find(&guide, end, true);
                     if next < n && next < end + merge {
                         end = next + 1;
                     } else {
