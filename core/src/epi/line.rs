@@ -811,25 +811,35 @@ impl<T: Scalar> LineEstimator<T> {
         let widen = T::from_f32(0.25 * h.step());
         let low = |least: T, low: T| if low < least { low } else { least };
         let high = |most: T, high: T| if high > most { high } else { most };
-        for (((estimate, reach), lower), upper) in compact_d
-            .chunks(32)
-            .zip(compact_reach.chunks(32))
-            .zip(lower.iter_mut())
-            .zip(upper.iter_mut())
-        {
+        // (Words and quads by index: a zip of `chunks` divides by the chunk size where it
+        // is not inlined, a panic path the firmware's link rejects.)
+        for (w, (lower, upper)) in lower.iter_mut().zip(upper.iter_mut()).enumerate() {
+            let span = 32 * w..(32 * w + 32).min(half);
+            let (Some(estimate), Some(reach)) =
+                (compact_d.get(span.clone()), compact_reach.get(span))
+            else {
+                continue;
+            };
             let mut least = [T::MAX; 4];
             let mut most = [T::ZERO - T::MAX; 4];
-            let (whole, rest) = (estimate.chunks_exact(4), reach.chunks_exact(4));
-            let (last_e, last_r) = (whole.remainder(), rest.remainder());
-            for (e, r) in whole.zip(rest) {
-                let (Some(e), Some(r)) = (e.first_chunk::<4>(), r.first_chunk::<4>()) else {
+            let quads = estimate.len().min(reach.len()) / 4;
+            for q in 0..quads {
+                let (Some(e), Some(r)) = (
+                    estimate.get(4 * q..).and_then(<[T]>::first_chunk::<4>),
+                    reach.get(4 * q..).and_then(<[T]>::first_chunk::<4>),
+                ) else {
                     continue;
                 };
-                for k in 0..4 {
-                    least[k] = low(least[k], e[k] - r[k]);
-                    most[k] = high(most[k], e[k] + r[k]);
+                for (((least, most), &e), &r) in least.iter_mut().zip(most.iter_mut()).zip(e).zip(r)
+                {
+                    *least = low(*least, e - r);
+                    *most = high(*most, e + r);
                 }
             }
+            let (last_e, last_r) = (
+                estimate.get(4 * quads..).unwrap_or_default(),
+                reach.get(4 * quads..).unwrap_or_default(),
+            );
             for ((&e, &r), (least, most)) in last_e
                 .iter()
                 .zip(last_r)
