@@ -278,6 +278,12 @@ struct State<'a, T> {
 struct Guide<'a, T> {
     estimate: &'a mut [T],
     reach: &'a mut [T],
+    /// Per 64-sample word of the line: no sample of it needs a shear at or below
+    /// `lower[w]` or at or above `upper[w]` (the least `estimate − reach` and the largest
+    /// `estimate + reach` of its samples, widened by a quarter step, far more than any
+    /// rounding of the test in [`Self::needs_mask`]; settling only shrinks a reach).
+    lower: &'a mut [T],
+    upper: &'a mut [T],
 }
 
 impl<T: Scalar> Guide<'_, T> {
@@ -285,6 +291,14 @@ impl<T: Scalar> Guide<'_, T> {
     /// needs the hypothesis `shear`: lies closer than its reach to its estimate.
     #[inline(always)]
     fn needs_mask(&self, shear: T, base: usize) -> u64 {
+        let word = base / 64;
+        let (Some(&lower), Some(&upper)) = (self.lower.get(word), self.upper.get(word)) else {
+            return 0;
+        };
+        // Most words lie far from most shears: no sample to test.
+        if (shear <= lower) | (shear >= upper) {
+            return 0;
+        }
         let (Some(estimate), Some(reach)) = (self.estimate.get(base..), self.reach.get(base..))
         else {
             return 0;
@@ -746,28 +760,9 @@ impl<T: Scalar> LineEstimator<T> {
             prev_c: prev_c.get_mut(..half).ok_or(short)?,
         };
         self.coarse_sweep(&coarse.hypotheses, c_n, planes, bank, tensor, &mut compact);
-        // Spread to the line: the samples between the scored ones take their left
-        // neighbour's estimate (backwards: sample m is read before 2m and 2m + 1 are
-        // written).
-        for line in [&mut *estimate, &mut *score] {
-            for m in (0..half).rev() {
-                let Some(&v) = line.get(m) else {
-                    continue;
-                };
-                for o in line.get_mut(2 * m..(2 * m + 2).min(n)).unwrap_or_default() {
-                    *o = v;
-                }
-            }
-        }
-        let state = State {
-            best_d: estimate,
-            best_c: reach,
-            score,
-            prev_r,
-            prev_c,
-        };
         // Estimates clamped to the fine shears (each sample then needs at least the
-        // nearest one), reach per sample (the coherence's slot is reused).
+        // nearest one), reach per sample (the coherence's slot is reused), at the scored
+        // samples (compact), then spread to the line.
         let h = &self.hypotheses;
         let (first, last) = (
             T::from_f32(h.shear(0)),
@@ -775,11 +770,17 @@ impl<T: Scalar> LineEstimator<T> {
         );
         let single = T::from_f32(SINGLE);
         let inverse_step = 1.0 / h.step();
-        for ((d, reach), &score) in state
-            .best_d
+        let (Some(compact_d), Some(compact_reach), Some(compact_score)) = (
+            estimate.get_mut(..half),
+            reach.get_mut(..half),
+            score.get(..half),
+        ) else {
+            return Err(short);
+        };
+        for ((d, reach), &score) in compact_d
             .iter_mut()
-            .zip(state.best_c.iter_mut())
-            .zip(state.score.iter())
+            .zip(compact_reach.iter_mut())
+            .zip(compact_score)
         {
             *d = d.clamp(first, last);
             // Steps from the first fine shear (≥ 0 after the clamp); the nearest shear is
@@ -799,9 +800,75 @@ impl<T: Scalar> LineEstimator<T> {
                 coarse.reach
             };
         }
+        // Each word's bounds (see `Guide::lower`) from its 32 compact samples, in four
+        // running minima / maxima by plain selects (`minps` / `maxps`; a NaN estimate,
+        // needed by no shear, fails the comparisons and is skipped).
+        let words = n.div_ceil(64);
+        let (lower, upper) = (
+            prev_r.get_mut(..words).ok_or(short)?,
+            prev_c.get_mut(..words).ok_or(short)?,
+        );
+        let widen = T::from_f32(0.25 * h.step());
+        let low = |least: T, low: T| if low < least { low } else { least };
+        let high = |most: T, high: T| if high > most { high } else { most };
+        // (Words and quads by index: a zip of `chunks` divides by the chunk size where it
+        // is not inlined, a panic path the firmware's link rejects.)
+        for (w, (lower, upper)) in lower.iter_mut().zip(upper.iter_mut()).enumerate() {
+            let span = 32 * w..(32 * w + 32).min(half);
+            let (Some(estimate), Some(reach)) =
+                (compact_d.get(span.clone()), compact_reach.get(span))
+            else {
+                continue;
+            };
+            let mut least = [T::MAX; 4];
+            let mut most = [T::ZERO - T::MAX; 4];
+            let quads = estimate.len().min(reach.len()) / 4;
+            for q in 0..quads {
+                let (Some(e), Some(r)) = (
+                    estimate.get(4 * q..).and_then(<[T]>::first_chunk::<4>),
+                    reach.get(4 * q..).and_then(<[T]>::first_chunk::<4>),
+                ) else {
+                    continue;
+                };
+                for (((least, most), &e), &r) in least.iter_mut().zip(most.iter_mut()).zip(e).zip(r)
+                {
+                    *least = low(*least, e - r);
+                    *most = high(*most, e + r);
+                }
+            }
+            let (last_e, last_r) = (
+                estimate.get(4 * quads..).unwrap_or_default(),
+                reach.get(4 * quads..).unwrap_or_default(),
+            );
+            for ((&e, &r), (least, most)) in last_e
+                .iter()
+                .zip(last_r)
+                .zip(least.iter_mut().zip(most.iter_mut()))
+            {
+                *least = low(*least, e - r);
+                *most = high(*most, e + r);
+            }
+            *lower = least.iter().fold(T::MAX, |a, &b| low(a, b)) - widen;
+            *upper = most.iter().fold(T::ZERO - T::MAX, |a, &b| high(a, b)) + widen;
+        }
+        // Spread to the line: the samples between the scored ones take their left
+        // neighbour's estimate and reach (backwards: sample m is read before 2m and
+        // 2m + 1 are written).
+        for line in [&mut *estimate, &mut *reach] {
+            for m in (0..half).rev() {
+                let Some(&v) = line.get(m) else {
+                    continue;
+                };
+                for o in line.get_mut(2 * m..(2 * m + 2).min(n)).unwrap_or_default() {
+                    *o = v;
+                }
+            }
+        }
         Ok(Guide {
-            estimate: state.best_d,
-            reach: state.best_c,
+            estimate,
+            reach,
+            lower,
+            upper,
         })
     }
 
@@ -889,13 +956,14 @@ impl<T: Scalar> LineEstimator<T> {
         for i in 0..hyps.count() {
             let shear = hyps.shear(i);
             let shear_t = T::from_f32(shear);
-            // The first sample at or after `from` that needs this hypothesis (`n`: none),
-            // from the needs of 64 samples at a time (`chunk`: the latest such word; the
-            // samples a run settles lie before any later query).
+            // The first sample at or after `from` that needs this hypothesis (`needed`) or
+            // does not (`!needed`), `n` where none does, from the needs of 64 samples at a
+            // time (`chunk`: the latest such word; the samples a run settles lie before any
+            // later query).
             let mut chunk = (usize::MAX, 0u64);
-            let mut next_needed = |guide: &Option<Guide<'_, T>>, from: usize| -> usize {
+            let mut find = |guide: &Option<Guide<'_, T>>, from: usize, needed: bool| -> usize {
                 let Some(g) = guide else {
-                    return from.min(n);
+                    return if needed { from.min(n) } else { n };
                 };
                 let mut at = from;
                 while at < n {
@@ -903,7 +971,9 @@ impl<T: Scalar> LineEstimator<T> {
                     if chunk.0 != word {
                         chunk = (word, g.needs_mask(shear_t, word * 64));
                     }
-                    let bits = chunk.1 & (u64::MAX << (at % 64));
+                    // Past the line's end a word has no needs: its `!needed` bits stop there.
+                    let wanted = if needed { chunk.1 } else { !chunk.1 };
+                    let bits = wanted & (u64::MAX << (at % 64));
                     if bits != 0 {
                         return (word * 64 + bits.trailing_zeros() as usize).min(n);
                     }
@@ -913,7 +983,7 @@ impl<T: Scalar> LineEstimator<T> {
             };
             let sources = self.sources(planes, bank, shear, slots.clone());
             let mut t = 0;
-            let mut start = next_needed(&guide, 0);
+            let mut start = find(&guide, 0, true);
             loop {
                 // Not tested here: no zero crossing with the next hypothesis.
                 for c in state.prev_c.get_mut(t..start).unwrap_or_default() {
@@ -923,10 +993,12 @@ impl<T: Scalar> LineEstimator<T> {
                     break;
                 }
                 // Needed samples closer than `merge` to the run's end join it; the first
-                // one further away starts the next run.
+                // one further away starts the next run. (A needed sample right after the
+                // end joins it: the run skips each stretch of them at once.)
                 let mut end = start + 1;
                 let next = loop {
-                    let next = next_needed(&guide, end);
+                    end = find(&guide, end, false);
+                    let next = find(&guide, end, true);
                     if next < n && next < end + merge {
                         end = next + 1;
                     } else {
