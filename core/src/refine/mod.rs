@@ -426,14 +426,21 @@ fn window_rows<T: Scalar>(
             if (p - d).abs() > gate {
                 continue;
             }
-            let terms = sum.iter_mut().zip(s);
-            match scale {
-                None => terms.for_each(|(s, &v)| *s += v),
-                Some(f) => terms.for_each(|(s, &v)| *s += v * f),
-            }
+            add_stats(&mut sum, s, scale);
         }
     }
     sum
+}
+
+/// Adds one pixel's statistics to a window's sum, scaled by `scale` when given (the
+/// wide windows' re-sum).
+#[inline(always)]
+fn add_stats<T: Scalar>(sum: &mut [T; STATS], stat: &[T], scale: Option<T>) {
+    let terms = sum.iter_mut().zip(stat);
+    match scale {
+        None => terms.for_each(|(s, &v)| *s += v),
+        Some(f) => terms.for_each(|(s, &v)| *s += v * f),
+    }
 }
 
 /// What one pixel's Gauss–Newton update needs besides its window sum.
@@ -582,11 +589,7 @@ fn window_sum_each<T: Scalar>(
             let Some(stat) = stats.get(j * STATS..(j + 1) * STATS) else {
                 continue;
             };
-            let terms = sum.iter_mut().zip(stat);
-            match scale {
-                None => terms.for_each(|(s, &v)| *s += v),
-                Some(f) => terms.for_each(|(s, &v)| *s += v * f),
-            }
+            add_stats(&mut sum, stat, scale);
         }
     }
     sum
