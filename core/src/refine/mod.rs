@@ -455,6 +455,16 @@ struct Step<'a, T> {
 }
 
 impl<T: Scalar> Step<'_, T> {
+    /// The next disparity of a pixel at `d` (with the `E` and `A` + damping of its
+    /// confidence) from its plain window sum `sum`, or, when the sum's total curvature
+    /// exceeds `wide_limit`, from `scaled(wide scale)`, the window summed again scaled.
+    #[inline(always)]
+    fn update(&self, d: T, sum: [T; STATS], scaled: impl FnOnce(T) -> [T; STATS]) -> (T, T, T) {
+        let wide = curvature(&sum) > self.wide_limit;
+        let sum = if wide { scaled(self.wide.scale) } else { sum };
+        self.next(&sum, wide, d)
+    }
+
     /// The next disparity of a pixel at `d` whose window sum is `sum` (summed scaled,
     /// with the wide counts, when `wide`), with the `E` and `A` + damping of its
     /// confidence.
@@ -549,12 +559,8 @@ fn update_row<T: Scalar>(
         };
         let d = d1[1];
         let rows = ([d0, d1, d2], [s0, s1, s2]);
-        let mut sum = window_rows(&rows, d, gate, None);
-        let wide = curvature(&sum) > step.wide_limit;
-        if wide {
-            sum = window_rows(&rows, d, gate, Some(step.wide.scale));
-        }
-        let (n, e, damped) = step.next(&sum, wide, d);
+        let sum = window_rows(&rows, d, gate, None);
+        let (n, e, damped) = step.update(d, sum, |f| window_rows(&rows, d, gate, Some(f)));
         *next = n;
         if let Some((out, confidence)) = &mut outputs {
             if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
@@ -1002,14 +1008,9 @@ fn band<T: Scalar, P: Photometric<T>>(
                     k.gate,
                     None,
                 );
-                let (sum, wide_sum) = if curvature(&sum) > wide_limit {
-                    let sum =
-                        window_sum(stats, previous, width, ys, xs, d, k.gate, Some(wide.scale));
-                    (sum, true)
-                } else {
-                    (sum, false)
-                };
-                let (next, e, damped) = step.next(&sum, wide_sum, d);
+                let (next, e, damped) = step.update(d, sum, |f| {
+                    window_sum(stats, previous, width, ys, xs, d, k.gate, Some(f))
+                });
                 if let Some(current) = current.get_mut(y * width + x) {
                     *current = next;
                 }
