@@ -519,10 +519,32 @@ fn three_stats_at<T>(row: &[T], x: usize) -> Option<&[T; 3 * STATS]> {
         .and_then(|r| r.first_chunk::<{ 3 * STATS }>())
 }
 
+/// With [`RefineParams::skip_settled`], what a row's update keeps of the iteration
+/// before: the rows `moved` above, at and below it (from x = 0: how far each pixel
+/// moved in the iteration before; a window whose pixels all moved by less than
+/// `settled` kept its statistics) and the `E` and `A` + damping of the row's pixels
+/// (from x = 1 in [`update_row`], as `next`), which a skipped pixel's confidence reuses
+/// and an updated pixel's overwrites when `store`.
+struct Kept<'a, T> {
+    moved: [&'a [T]; 3],
+    e: &'a mut [T],
+    damped: &'a mut [T],
+    settled: T,
+    store: bool,
+}
+
+/// Whether every pixel of a window moved by less than `settled` (`moved`: the window's
+/// values).
+#[inline(always)]
+fn settled_window<T: Scalar>(moved: impl IntoIterator<Item = T>, settled: T) -> bool {
+    moved.into_iter().fold(true, |all, m| all & (m < settled))
+}
+
 /// The update of a row's interior pixels (x = 1 … width − 2) from the region's rows
 /// `ds` / `ss` above, at and below it (see [`three_rows`]) into `next` (the row of the
 /// next disparities from x = 1) and, in the last iteration, `outputs` (the band's
-/// disparity and confidence rows from x = 1).
+/// disparity and confidence rows from x = 1); with `kept`, a pixel whose window settled
+/// keeps its disparity (`next` holds it already) and its confidence.
 #[inline(never)]
 fn update_row<T: Scalar>(
     step: &Step<'_, T>,
@@ -530,6 +552,7 @@ fn update_row<T: Scalar>(
     ss: [&[T]; 3],
     next: &mut [T],
     mut outputs: Option<(&mut [f32], &mut [f32])>,
+    mut kept: Option<Kept<'_, T>>,
 ) {
     let n = next.len();
     // Every row holds the n + 2 pixels of the row's windows: the window lookups below
@@ -558,10 +581,36 @@ fn update_row<T: Scalar>(
             continue;
         };
         let d = d1[1];
+        if let Some(kept) = &mut kept {
+            let [m0, m1, m2] = kept.moved;
+            let (Some(m0), Some(m1), Some(m2)) =
+                (three_at(m0, x), three_at(m1, x), three_at(m2, x))
+            else {
+                continue;
+            };
+            let window = m0.iter().chain(m1).chain(m2).copied();
+            if settled_window(window, kept.settled) {
+                if let (Some((out, confidence)), Some(&e), Some(&damped)) =
+                    (&mut outputs, kept.e.get(x), kept.damped.get(x))
+                {
+                    if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
+                        step.output(d, e, damped, out, confidence);
+                    }
+                }
+                continue;
+            }
+        }
         let rows = ([d0, d1, d2], [s0, s1, s2]);
         let sum = window_rows(&rows, d, gate, None);
         let (n, e, damped) = step.update(d, sum, |f| window_rows(&rows, d, gate, Some(f)));
         *next = n;
+        if let Some(kept) = &mut kept {
+            if kept.store {
+                if let (Some(ke), Some(kd)) = (kept.e.get_mut(x), kept.damped.get_mut(x)) {
+                    (*ke, *kd) = (e, damped);
+                }
+            }
+        }
         if let Some((out, confidence)) = &mut outputs {
             if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
                 step.output(n, e, damped, out, confidence);
@@ -920,6 +969,8 @@ fn band<T: Scalar, P: Photometric<T>>(
             }
         }
     }
+    // See `RefineParams::skip_settled` (nothing settles before the second iteration).
+    let skip = p.skip_settled && p.iterations > 1;
     for iteration in 0..p.iterations {
         // Rows whose statistics the remaining iterations can still reach the band from.
         let measured = near((p.iterations - iteration) * r);
@@ -950,8 +1001,18 @@ fn band<T: Scalar, P: Photometric<T>>(
                 ) else {
                     continue;
                 };
-                if iteration > 0 && (now - before).abs() < settled {
-                    continue;
+                if iteration > 0 {
+                    let moved = (now - before).abs();
+                    // How far the pixel moved, for the windows of `skip_settled` (the
+                    // first plane of `memory`: the propagation's state is no longer read).
+                    if skip {
+                        if let Some(m) = memory.get_mut(i) {
+                            *m = moved;
+                        }
+                    }
+                    if moved < settled {
+                        continue;
+                    }
                 }
                 // The propagation measured them at this disparity (the same bits as now):
                 // `memory` covers these rows when there was a propagation.
@@ -965,9 +1026,20 @@ fn band<T: Scalar, P: Photometric<T>>(
             }
         }
         let span = measured.start * width..measured.end * width;
-        if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
+        if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span.clone()))
+        {
             to.copy_from_slice(from);
         }
+        // With `skip_settled`, `memory` holds three planes from here: how far each pixel
+        // moved in the iteration before (`MAX`: not measured before, i.e. in the first
+        // iteration), and each pixel's last `E` and `A` + damping, which a pixel whose
+        // window settled keeps for its confidence.
+        let (moved, planes) = memory.split_at_mut_checked(pixels).unwrap_or_default();
+        let (kept_e, kept_damped) = planes.split_at_mut_checked(pixels).unwrap_or_default();
+        if skip && iteration == 0 {
+            moved.get_mut(span).unwrap_or_default().fill(T::MAX);
+        }
+        let store = skip && !last_iteration;
         let step = Step {
             k: &k,
             narrow: &narrow,
@@ -991,13 +1063,35 @@ fn band<T: Scalar, P: Photometric<T>>(
                 // Window sum over the neighbours whose disparity is within
                 // `WINDOW_GATE` of this pixel's: the window does not reach across depth
                 // edges.
-                let Some(&d) = previous.get(y * width + x) else {
+                let j = y * width + x;
+                let Some(&d) = previous.get(j) else {
                     continue;
                 };
                 let (ys, xs) = (
                     y.saturating_sub(r)..(y + r + 1).min(region),
                     x.saturating_sub(r)..(x + r + 1).min(width),
                 );
+                if skip {
+                    let window = ys.clone().flat_map(|yy| {
+                        let row = moved.get(yy * width..(yy + 1) * width).unwrap_or_default();
+                        row.get(xs.clone()).unwrap_or_default().iter().copied()
+                    });
+                    // `current` holds `d` already (copied above).
+                    if settled_window(window, settled) {
+                        if last_iteration {
+                            let o = (first + y - rows.start) * width + x;
+                            if let (Some(out), Some(confidence), Some(&e), Some(&damped)) = (
+                                out.get_mut(o),
+                                confidence.get_mut(o),
+                                kept_e.get(j),
+                                kept_damped.get(j),
+                            ) {
+                                step.output(d, e, damped, out, confidence);
+                            }
+                        }
+                        continue;
+                    }
+                }
                 let sum = window_sum(
                     stats,
                     previous,
@@ -1011,8 +1105,13 @@ fn band<T: Scalar, P: Photometric<T>>(
                 let (next, e, damped) = step.update(d, sum, |f| {
                     window_sum(stats, previous, width, ys, xs, d, k.gate, Some(f))
                 });
-                if let Some(current) = current.get_mut(y * width + x) {
+                if let Some(current) = current.get_mut(j) {
                     *current = next;
+                }
+                if let (true, Some(ke), Some(kd)) =
+                    (store, kept_e.get_mut(j), kept_damped.get_mut(j))
+                {
+                    (*ke, *kd) = (e, damped);
                 }
                 if last_iteration {
                     let o = (first + y - rows.start) * width + x;
@@ -1035,7 +1134,31 @@ fn band<T: Scalar, P: Photometric<T>>(
             } else {
                 None
             };
-            update_row(&step, ds, ss, next, outputs);
+            let kept = if skip {
+                let rows = y
+                    .checked_sub(1)
+                    .and_then(|top| moved.get(top * width..(y + 2) * width));
+                let mut rows = rows.unwrap_or_default().chunks_exact(width);
+                match (
+                    rows.next(),
+                    rows.next(),
+                    rows.next(),
+                    kept_e.get_mut(inner(y * width)),
+                    kept_damped.get_mut(inner(y * width)),
+                ) {
+                    (Some(m0), Some(m1), Some(m2), Some(e), Some(damped)) => Some(Kept {
+                        moved: [m0, m1, m2],
+                        e,
+                        damped,
+                        settled,
+                        store,
+                    }),
+                    _ => None,
+                }
+            } else {
+                None
+            };
+            update_row(&step, ds, ss, next, outputs, kept);
         }
     }
     Ok(())

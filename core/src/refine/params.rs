@@ -64,6 +64,13 @@ pub struct RefineParams {
     /// warped the views), whose occlusion edges no interpolation reproduces. Zero (the
     /// default): the plain residual.
     pub sampling_slack: f32,
+    /// In the Gauss–Newton iterations after the first, a pixel whose whole window kept
+    /// its statistics (each of its pixels moved by less than the settle threshold in
+    /// the iteration before, so that its window sums would change only by the window
+    /// gate and the damping) keeps its disparity and the previous iteration's
+    /// confidence instead of being updated again. Off: every pixel is updated in every
+    /// iteration (the maps of before this switch, bit for bit).
+    pub skip_settled: bool,
 }
 
 /// The [`RefineParams::sampling_slack`] the pipelines use on warped views.
@@ -83,6 +90,7 @@ impl Default for RefineParams {
             confidence_scale: 1.0,
             band_rows: 128,
             sampling_slack: 0.0,
+            skip_settled: true,
         }
     }
 }
