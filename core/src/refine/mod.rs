@@ -520,30 +520,23 @@ fn three_stats_at<T>(row: &[T], x: usize) -> Option<&[T; 3 * STATS]> {
 }
 
 /// With [`RefineParams::skip_settled`], what a row's update keeps of the iteration
-/// before: the rows `moved` above, at and below it (from x = 0: how far each pixel
-/// moved in the iteration before; a window whose pixels all moved by less than
-/// `settled` kept its statistics) and the `E` and `A` + damping of the row's pixels
-/// (from x = 1 in [`update_row`], as `next`), which a skipped pixel's confidence reuses
-/// and an updated pixel's overwrites when `store`.
-struct Kept<'a, T> {
-    moved: [&'a [T]; 3],
+/// before: after the first iteration the rows `moved` above, at and below it (from
+/// x = 0: how far each pixel moved in the iteration before; a window whose pixels all
+/// moved by less than `settled` kept its statistics), and the `E` and `A` + damping of
+/// the row's pixels (from x = 1 in [`update_row`], as `next`), which a skipped pixel's
+/// confidence reuses and an updated pixel's overwrites when `store`.
+struct Reuse<'a, T> {
+    moved: Option<[&'a [T]; 3]>,
     e: &'a mut [T],
     damped: &'a mut [T],
     settled: T,
     store: bool,
 }
 
-/// Whether every pixel of a window moved by less than `settled` (`moved`: the window's
-/// values).
-#[inline(always)]
-fn settled_window<T: Scalar>(moved: impl IntoIterator<Item = T>, settled: T) -> bool {
-    moved.into_iter().fold(true, |all, m| all & (m < settled))
-}
-
 /// The update of a row's interior pixels (x = 1 … width − 2) from the region's rows
 /// `ds` / `ss` above, at and below it (see [`three_rows`]) into `next` (the row of the
 /// next disparities from x = 1) and, in the last iteration, `outputs` (the band's
-/// disparity and confidence rows from x = 1); with `kept`, a pixel whose window settled
+/// disparity and confidence rows from x = 1); with `reuse`, a pixel whose window settled
 /// keeps its disparity (`next` holds it already) and its confidence.
 #[inline(never)]
 fn update_row<T: Scalar>(
@@ -551,8 +544,8 @@ fn update_row<T: Scalar>(
     ds: [&[T]; 3],
     ss: [&[T]; 3],
     next: &mut [T],
-    mut outputs: Option<(&mut [f32], &mut [f32])>,
-    mut kept: Option<Kept<'_, T>>,
+    outputs: Option<(&mut [f32], &mut [f32])>,
+    reuse: Option<Reuse<'_, T>>,
 ) {
     let n = next.len();
     // Every row holds the n + 2 pixels of the row's windows: the window lookups below
@@ -569,7 +562,48 @@ fn update_row<T: Scalar>(
         return;
     };
     let gate = step.k.gate;
+    let mut outputs =
+        outputs.and_then(|(out, confidence)| Some((out.get_mut(..n)?, confidence.get_mut(..n)?)));
+    let mut reuse = reuse.and_then(|r| {
+        let moved = match r.moved {
+            Some([m0, m1, m2]) => Some([m0.get(..n + 2)?, m1.get(..n + 2)?, m2.get(..n + 2)?]),
+            None => None,
+        };
+        Some((
+            moved,
+            r.e.get_mut(..n)?,
+            r.damped.get_mut(..n)?,
+            r.settled,
+            r.store,
+        ))
+    });
+    // Whether a pixel of column `x` (of the rows' n + 2) in the three rows moved by
+    // `settled` or more; the window of pixel x spans columns x … x + 2.
+    let column = |m: &[&[T]; 3], settled: T, x: usize| {
+        m.iter()
+            .any(|row| row.get(x).is_none_or(|&v| !(v < settled)))
+    };
+    let mut moved = match &reuse {
+        Some((Some(m), .., settled, _)) => [column(m, *settled, 0), column(m, *settled, 1)],
+        _ => [true; 2],
+    };
     for (x, next) in next.iter_mut().enumerate() {
+        if let Some((Some(m), e, damped, settled, _)) = &reuse {
+            let right = column(m, *settled, x + 2);
+            let window = moved[0] | moved[1] | right;
+            moved = [moved[1], right];
+            // `next` holds the pixel's disparity already.
+            if !window {
+                if let (Some((out, confidence)), Some(&d), Some(&e), Some(&damped)) =
+                    (&mut outputs, d1.get(x + 1), e.get(x), damped.get(x))
+                {
+                    if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
+                        step.output(d, e, damped, out, confidence);
+                    }
+                }
+                continue;
+            }
+        }
         let (Some(d0), Some(d1), Some(d2), Some(s0), Some(s1), Some(s2)) = (
             three_at(d0, x),
             three_at(d1, x),
@@ -581,34 +615,13 @@ fn update_row<T: Scalar>(
             continue;
         };
         let d = d1[1];
-        if let Some(kept) = &mut kept {
-            let [m0, m1, m2] = kept.moved;
-            let (Some(m0), Some(m1), Some(m2)) =
-                (three_at(m0, x), three_at(m1, x), three_at(m2, x))
-            else {
-                continue;
-            };
-            let window = m0.iter().chain(m1).chain(m2).copied();
-            if settled_window(window, kept.settled) {
-                if let (Some((out, confidence)), Some(&e), Some(&damped)) =
-                    (&mut outputs, kept.e.get(x), kept.damped.get(x))
-                {
-                    if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
-                        step.output(d, e, damped, out, confidence);
-                    }
-                }
-                continue;
-            }
-        }
         let rows = ([d0, d1, d2], [s0, s1, s2]);
         let sum = window_rows(&rows, d, gate, None);
         let (n, e, damped) = step.update(d, sum, |f| window_rows(&rows, d, gate, Some(f)));
         *next = n;
-        if let Some(kept) = &mut kept {
-            if kept.store {
-                if let (Some(ke), Some(kd)) = (kept.e.get_mut(x), kept.damped.get_mut(x)) {
-                    (*ke, *kd) = (e, damped);
-                }
+        if let Some((_, ke, kd, _, true)) = &mut reuse {
+            if let (Some(ke), Some(kd)) = (ke.get_mut(x), kd.get_mut(x)) {
+                (*ke, *kd) = (e, damped);
             }
         }
         if let Some((out, confidence)) = &mut outputs {
@@ -1026,20 +1039,16 @@ fn band<T: Scalar, P: Photometric<T>>(
             }
         }
         let span = measured.start * width..measured.end * width;
-        if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span.clone()))
-        {
+        if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
             to.copy_from_slice(from);
         }
         // With `skip_settled`, `memory` holds three planes from here: how far each pixel
-        // moved in the iteration before (`MAX`: not measured before, i.e. in the first
+        // moved in the iteration before (written by the statistics pass after the first
         // iteration), and each pixel's last `E` and `A` + damping, which a pixel whose
         // window settled keeps for its confidence.
         let (moved, planes) = memory.split_at_mut_checked(pixels).unwrap_or_default();
         let (kept_e, kept_damped) = planes.split_at_mut_checked(pixels).unwrap_or_default();
-        if skip && iteration == 0 {
-            moved.get_mut(span).unwrap_or_default().fill(T::MAX);
-        }
-        let store = skip && !last_iteration;
+        let (check, store) = (skip && iteration > 0, skip && !last_iteration);
         let step = Step {
             k: &k,
             narrow: &narrow,
@@ -1071,13 +1080,13 @@ fn band<T: Scalar, P: Photometric<T>>(
                     y.saturating_sub(r)..(y + r + 1).min(region),
                     x.saturating_sub(r)..(x + r + 1).min(width),
                 );
-                if skip {
-                    let window = ys.clone().flat_map(|yy| {
+                if check {
+                    let mut window = ys.clone().flat_map(|yy| {
                         let row = moved.get(yy * width..(yy + 1) * width).unwrap_or_default();
-                        row.get(xs.clone()).unwrap_or_default().iter().copied()
+                        row.get(xs.clone()).unwrap_or_default().iter()
                     });
                     // `current` holds `d` already (copied above).
-                    if settled_window(window, settled) {
+                    if window.all(|&m| m < settled) {
                         if last_iteration {
                             let o = (first + y - rows.start) * width + x;
                             if let (Some(out), Some(confidence), Some(&e), Some(&damped)) = (
@@ -1134,20 +1143,20 @@ fn band<T: Scalar, P: Photometric<T>>(
             } else {
                 None
             };
-            let kept = if skip {
-                let rows = y
-                    .checked_sub(1)
-                    .and_then(|top| moved.get(top * width..(y + 2) * width));
-                let mut rows = rows.unwrap_or_default().chunks_exact(width);
+            let reuse = if skip {
+                let moved = check
+                    .then(|| {
+                        let rows = moved.get(y.checked_sub(1)? * width..(y + 2) * width)?;
+                        let mut rows = rows.chunks_exact(width);
+                        Some([rows.next()?, rows.next()?, rows.next()?])
+                    })
+                    .flatten();
                 match (
-                    rows.next(),
-                    rows.next(),
-                    rows.next(),
                     kept_e.get_mut(inner(y * width)),
                     kept_damped.get_mut(inner(y * width)),
                 ) {
-                    (Some(m0), Some(m1), Some(m2), Some(e), Some(damped)) => Some(Kept {
-                        moved: [m0, m1, m2],
+                    (Some(e), Some(damped)) => Some(Reuse {
+                        moved,
                         e,
                         damped,
                         settled,
@@ -1158,7 +1167,7 @@ fn band<T: Scalar, P: Photometric<T>>(
             } else {
                 None
             };
-            update_row(&step, ds, ss, next, outputs, kept);
+            update_row(&step, ds, ss, next, outputs, reuse);
         }
     }
     Ok(())
