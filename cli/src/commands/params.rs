@@ -198,13 +198,13 @@ pub struct ParamArgs {
     /// 0.5 when this is 0 (default from the core).
     #[arg(long, value_name = "F")]
     pub refine_slack: Option<f32>,
-    /// Refinement: 1 = after the first Gauss–Newton iteration, a pixel whose whole
-    /// window kept its statistics (each pixel moved by less than the settle threshold)
-    /// keeps its disparity and confidence instead of being updated again; 0 = update
-    /// every pixel in every iteration (the maps of before, bit for bit; default from the
-    /// core).
-    #[arg(long, value_name = "0|1")]
-    pub refine_skip_settled: Option<u8>,
+    /// Refinement: settled windows in px, 0…1: after the first Gauss–Newton iteration,
+    /// a pixel that kept its statistics and whose window's other pixels each moved by
+    /// less than F px (at least the settle threshold) keeps its disparity and confidence
+    /// instead of being updated again; 0 = update every pixel in every iteration (the
+    /// maps of before, bit for bit; default from the core).
+    #[arg(long, value_name = "F")]
+    pub refine_skip_settled: Option<f32>,
     /// TV refinement: weight λ of the total variation against the EPI data term
     /// (larger = smoother; default from the core).
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
@@ -379,15 +379,8 @@ impl ParamArgs {
         if let Some(slack) = self.refine_slack {
             params.refine.sampling_slack = slack;
         }
-        match self.refine_skip_settled {
-            Some(0) => params.refine.skip_settled = false,
-            Some(1) => params.refine.skip_settled = true,
-            Some(_) => {
-                return Err(CliError::Usage(
-                    "--refine-skip-settled takes 0 (off) or 1 (on)".into(),
-                ))
-            }
-            None => {}
+        if let Some(moved) = self.refine_skip_settled {
+            params.refine.skip_settled = moved;
         }
         if let Some(lambda) = self.lambda {
             params.tv.lambda = lambda;

@@ -103,7 +103,7 @@
 mod params;
 mod photo;
 
-pub use params::{RefineParams, ViewSet, RESAMPLED_SLACK};
+pub use params::{RefineParams, ViewSet, RESAMPLED_SLACK, SKIP_SETTLED};
 
 use core::ops::{ControlFlow, Range};
 
@@ -530,6 +530,8 @@ struct Reuse<'a, T> {
     e: &'a mut [T],
     damped: &'a mut [T],
     settled: T,
+    /// The largest move of the window's other pixels (at least `settled`).
+    loose: T,
     store: bool,
 }
 
@@ -573,7 +575,7 @@ fn update_row<T: Scalar>(
             moved,
             r.e.get_mut(..n)?,
             r.damped.get_mut(..n)?,
-            r.settled,
+            (r.settled, r.loose),
             r.store,
         ))
     });
@@ -584,13 +586,14 @@ fn update_row<T: Scalar>(
             .any(|row| row.get(x).is_none_or(|&v| !(v < settled)))
     };
     let mut moved = match &reuse {
-        Some((Some(m), .., settled, _)) => [column(m, *settled, 0), column(m, *settled, 1)],
+        Some((Some(m), _, _, (_, loose), _)) => [column(m, *loose, 0), column(m, *loose, 1)],
         _ => [true; 2],
     };
     for (x, next) in next.iter_mut().enumerate() {
-        if let Some((Some(m), e, damped, settled, _)) = &reuse {
-            let right = column(m, *settled, x + 2);
-            let window = moved[0] | moved[1] | right;
+        if let Some((Some(m), e, damped, (settled, loose), _)) = &reuse {
+            let right = column(m, *loose, x + 2);
+            let centre = m[1].get(x + 1).is_none_or(|&v| !(v < *settled));
+            let window = moved[0] | moved[1] | right | centre;
             moved = [moved[1], right];
             // `next` holds the pixel's disparity already.
             if !window {
@@ -983,7 +986,8 @@ fn band<T: Scalar, P: Photometric<T>>(
         }
     }
     // See `RefineParams::skip_settled` (nothing settles before the second iteration).
-    let skip = p.skip_settled && p.iterations > 1;
+    let skip = p.skip_settled > 0.0 && p.iterations > 1;
+    let skip_moved = T::from_f32(p.skip_settled);
     for iteration in 0..p.iterations {
         // Rows whose statistics the remaining iterations can still reach the band from.
         let measured = near((p.iterations - iteration) * r);
@@ -1049,6 +1053,11 @@ fn band<T: Scalar, P: Photometric<T>>(
         let (moved, planes) = memory.split_at_mut_checked(pixels).unwrap_or_default();
         let (kept_e, kept_damped) = planes.split_at_mut_checked(pixels).unwrap_or_default();
         let (check, store) = (skip && iteration > 0, skip && !last_iteration);
+        let loose = if skip_moved > settled {
+            skip_moved
+        } else {
+            settled
+        };
         let step = Step {
             k: &k,
             narrow: &narrow,
@@ -1086,7 +1095,8 @@ fn band<T: Scalar, P: Photometric<T>>(
                         row.get(xs.clone()).unwrap_or_default().iter()
                     });
                     // `current` holds `d` already (copied above).
-                    if window.all(|&m| m < settled) {
+                    let centre = moved.get(j).is_some_and(|&m| m < settled);
+                    if centre && window.all(|&m| m < loose) {
                         if last_iteration {
                             let o = (first + y - rows.start) * width + x;
                             if let (Some(out), Some(confidence), Some(&e), Some(&damped)) = (
@@ -1160,6 +1170,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                         e,
                         damped,
                         settled,
+                        loose,
                         store,
                     }),
                     _ => None,
