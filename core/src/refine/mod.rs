@@ -36,6 +36,10 @@
 //! 2·10⁻² px, before the last iteration) in the previous iteration keeps its `A, B, E`:
 //! to first order `B` does not depend on `d`, and the skipped sampling is most of an
 //! iteration's cost once the map has settled (measured on HCI, `docs/bench-refine.md`).
+//! After the first iteration, a pixel that kept its statistics and whose window's other
+//! pixels moved by less than [`RefineParams::skip_settled`] (0.05 px) is not updated
+//! again: it keeps its disparity and the confidence of its last update (its window
+//! sums would change only by those moves, the gate and the damping).
 //! The window only takes neighbours within `WINDOW_GATE` of the pixel's disparity (it
 //! never straddles a depth edge); the step is clamped to
 //! [`RefineParams::max_step`] and the result to the EPI range. Views are summed in four
@@ -521,10 +525,11 @@ fn three_stats_at<T>(row: &[T], x: usize) -> Option<&[T; 3 * STATS]> {
 
 /// With [`RefineParams::skip_settled`], what a row's update keeps of the iteration
 /// before: after the first iteration the rows `moved` above, at and below it (from
-/// x = 0: how far each pixel moved in the iteration before; a window whose pixels all
-/// moved by less than `settled` kept its statistics), and the `E` and `A` + damping of
-/// the row's pixels (from x = 1 in [`update_row`], as `next`), which a skipped pixel's
-/// confidence reuses and an updated pixel's overwrites when `store`.
+/// x = 0: how far each pixel moved in the iteration before; a pixel that moved by less
+/// than `settled` kept its statistics, and its window settled when the other pixels
+/// moved by less than `loose`), and the `E` and `A` + damping of the row's pixels (from
+/// x = 1 in [`update_row`], as `next`), which a skipped pixel's confidence reuses and
+/// an updated pixel's overwrites when `store`.
 struct Reuse<'a, T> {
     moved: Option<[&'a [T]; 3]>,
     e: &'a mut [T],
@@ -580,10 +585,9 @@ fn update_row<T: Scalar>(
         ))
     });
     // Whether a pixel of column `x` (of the rows' n + 2) in the three rows moved by
-    // `settled` or more; the window of pixel x spans columns x … x + 2.
-    let column = |m: &[&[T]; 3], settled: T, x: usize| {
-        m.iter()
-            .any(|row| row.get(x).is_none_or(|&v| !(v < settled)))
+    // `limit` or more; the window of pixel x spans columns x … x + 2.
+    let column = |m: &[&[T]; 3], limit: T, x: usize| {
+        m.iter().any(|row| row.get(x).is_none_or(|&v| !(v < limit)))
     };
     let mut moved = match &reuse {
         Some((Some(m), _, _, (_, loose), _)) => [column(m, *loose, 0), column(m, *loose, 1)],
