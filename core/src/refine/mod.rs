@@ -1161,8 +1161,9 @@ fn band<T: Scalar, P: Photometric<T>>(
                 let moved = check
                     .then(|| {
                         let rows = moved.get(y.checked_sub(1)? * width..(y + 2) * width)?;
-                        let mut rows = rows.chunks_exact(width);
-                        Some([rows.next()?, rows.next()?, rows.next()?])
+                        let (m0, rest) = rows.split_at_checked(width)?;
+                        let (m1, m2) = rest.split_at_checked(width)?;
+                        Some([m0, m1, m2])
                     })
                     .flatten();
                 match (
