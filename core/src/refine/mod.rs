@@ -585,9 +585,10 @@ fn update_row<T: Scalar>(
         ))
     });
     // Whether a pixel of column `x` (of the rows' n + 2) in the three rows moved by
-    // `limit` or more; the window of pixel x spans columns x … x + 2.
+    // `limit` or more (moves are never NaN); the window of pixel x spans columns
+    // x … x + 2.
     let column = |m: &[&[T]; 3], limit: T, x: usize| {
-        m.iter().any(|row| row.get(x).is_none_or(|&v| !(v < limit)))
+        m.iter().any(|row| row.get(x).is_none_or(|&v| v >= limit))
     };
     let mut moved = match &reuse {
         Some((Some(m), _, _, (_, loose), _)) => [column(m, *loose, 0), column(m, *loose, 1)],
@@ -596,7 +597,7 @@ fn update_row<T: Scalar>(
     for (x, next) in next.iter_mut().enumerate() {
         if let Some((Some(m), e, damped, (settled, loose), _)) = &reuse {
             let right = column(m, *loose, x + 2);
-            let centre = m[1].get(x + 1).is_none_or(|&v| !(v < *settled));
+            let centre = m[1].get(x + 1).is_none_or(|&v| v >= *settled);
             let window = moved[0] | moved[1] | right | centre;
             moved = [moved[1], right];
             // `next` holds the pixel's disparity already.
