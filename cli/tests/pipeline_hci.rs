@@ -34,6 +34,7 @@ fn params_from_env() -> Params {
             robust_scale: env_f32("RF_ROBUST", r.robust_scale),
             band_rows: r.band_rows,
             sampling_slack: env_f32("RF_SLACK", r.sampling_slack),
+            skip_settled: env_f32("RF_SKIP", r.skip_settled),
         },
         tv: TvParams {
             lambda: env_f32("TV_LAMBDA", t.lambda),

@@ -198,6 +198,13 @@ pub struct ParamArgs {
     /// 0.5 when this is 0 (default from the core).
     #[arg(long, value_name = "F")]
     pub refine_slack: Option<f32>,
+    /// Refinement: settled windows in px, 0…1: after the first Gauss–Newton iteration,
+    /// a pixel that kept its statistics and whose window's other pixels each moved by
+    /// less than F px (at least the settle threshold) keeps its disparity and confidence
+    /// instead of being updated again; 0 = update every pixel in every iteration (the
+    /// maps of before, bit for bit; default from the core).
+    #[arg(long, value_name = "F")]
+    pub refine_skip_settled: Option<f32>,
     /// TV refinement: weight λ of the total variation against the EPI data term
     /// (larger = smoother; default from the core).
     #[arg(long, value_name = "F", allow_hyphen_values = true)]
@@ -310,6 +317,7 @@ impl Default for ParamArgs {
             refine_propagation: None,
             refine_radius: None,
             refine_slack: None,
+            refine_skip_settled: None,
             lambda: None,
             tv_iterations: None,
             tv_tolerance: None,
@@ -370,6 +378,9 @@ impl ParamArgs {
         }
         if let Some(slack) = self.refine_slack {
             params.refine.sampling_slack = slack;
+        }
+        if let Some(moved) = self.refine_skip_settled {
+            params.refine.skip_settled = moved;
         }
         if let Some(lambda) = self.lambda {
             params.tv.lambda = lambda;

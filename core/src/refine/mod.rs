@@ -36,6 +36,10 @@
 //! 2·10⁻² px, before the last iteration) in the previous iteration keeps its `A, B, E`:
 //! to first order `B` does not depend on `d`, and the skipped sampling is most of an
 //! iteration's cost once the map has settled (measured on HCI, `docs/bench-refine.md`).
+//! After the first iteration, a pixel that kept its statistics and whose window's other
+//! pixels moved by less than [`RefineParams::skip_settled`] (0.05 px) is not updated
+//! again: it keeps its disparity and the confidence of its last update (its window
+//! sums would change only by those moves, the gate and the damping).
 //! The window only takes neighbours within `WINDOW_GATE` of the pixel's disparity (it
 //! never straddles a depth edge); the step is clamped to
 //! [`RefineParams::max_step`] and the result to the EPI range. Views are summed in four
@@ -103,7 +107,7 @@
 mod params;
 mod photo;
 
-pub use params::{RefineParams, ViewSet, RESAMPLED_SLACK};
+pub use params::{RefineParams, ViewSet, RESAMPLED_SLACK, SKIP_SETTLED};
 
 use core::ops::{ControlFlow, Range};
 
@@ -519,17 +523,36 @@ fn three_stats_at<T>(row: &[T], x: usize) -> Option<&[T; 3 * STATS]> {
         .and_then(|r| r.first_chunk::<{ 3 * STATS }>())
 }
 
+/// With [`RefineParams::skip_settled`], what a row's update keeps of the iteration
+/// before: after the first iteration the rows `moved` above, at and below it (from
+/// x = 0: how far each pixel moved in the iteration before; a pixel that moved by less
+/// than `settled` kept its statistics, and its window settled when the other pixels
+/// moved by less than `loose`), and the `E` and `A` + damping of the row's pixels (from
+/// x = 1 in [`update_row`], as `next`), which a skipped pixel's confidence reuses and
+/// an updated pixel's overwrites when `store`.
+struct Reuse<'a, T> {
+    moved: Option<[&'a [T]; 3]>,
+    e: &'a mut [T],
+    damped: &'a mut [T],
+    settled: T,
+    /// The largest move of the window's other pixels (at least `settled`).
+    loose: T,
+    store: bool,
+}
+
 /// The update of a row's interior pixels (x = 1 … width − 2) from the region's rows
 /// `ds` / `ss` above, at and below it (see [`three_rows`]) into `next` (the row of the
 /// next disparities from x = 1) and, in the last iteration, `outputs` (the band's
-/// disparity and confidence rows from x = 1).
+/// disparity and confidence rows from x = 1); with `reuse`, a pixel whose window settled
+/// keeps its disparity (`next` holds it already) and its confidence.
 #[inline(never)]
 fn update_row<T: Scalar>(
     step: &Step<'_, T>,
     ds: [&[T]; 3],
     ss: [&[T]; 3],
     next: &mut [T],
-    mut outputs: Option<(&mut [f32], &mut [f32])>,
+    outputs: Option<(&mut [f32], &mut [f32])>,
+    reuse: Option<Reuse<'_, T>>,
 ) {
     let n = next.len();
     // Every row holds the n + 2 pixels of the row's windows: the window lookups below
@@ -546,7 +569,49 @@ fn update_row<T: Scalar>(
         return;
     };
     let gate = step.k.gate;
+    let mut outputs =
+        outputs.and_then(|(out, confidence)| Some((out.get_mut(..n)?, confidence.get_mut(..n)?)));
+    let mut reuse = reuse.and_then(|r| {
+        let moved = match r.moved {
+            Some([m0, m1, m2]) => Some([m0.get(..n + 2)?, m1.get(..n + 2)?, m2.get(..n + 2)?]),
+            None => None,
+        };
+        Some((
+            moved,
+            r.e.get_mut(..n)?,
+            r.damped.get_mut(..n)?,
+            (r.settled, r.loose),
+            r.store,
+        ))
+    });
+    // Whether a pixel of column `x` (of the rows' n + 2) in the three rows moved by
+    // `limit` or more (moves are never NaN); the window of pixel x spans columns
+    // x … x + 2.
+    let column = |m: &[&[T]; 3], limit: T, x: usize| {
+        m.iter().any(|row| row.get(x).is_none_or(|&v| v >= limit))
+    };
+    let mut moved = match &reuse {
+        Some((Some(m), _, _, (_, loose), _)) => [column(m, *loose, 0), column(m, *loose, 1)],
+        _ => [true; 2],
+    };
     for (x, next) in next.iter_mut().enumerate() {
+        if let Some((Some(m), e, damped, (settled, loose), _)) = &reuse {
+            let right = column(m, *loose, x + 2);
+            let centre = m[1].get(x + 1).is_none_or(|&v| v >= *settled);
+            let window = moved[0] | moved[1] | right | centre;
+            moved = [moved[1], right];
+            // `next` holds the pixel's disparity already.
+            if !window {
+                if let (Some((out, confidence)), Some(&d), Some(&e), Some(&damped)) =
+                    (&mut outputs, d1.get(x + 1), e.get(x), damped.get(x))
+                {
+                    if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
+                        step.output(d, e, damped, out, confidence);
+                    }
+                }
+                continue;
+            }
+        }
         let (Some(d0), Some(d1), Some(d2), Some(s0), Some(s1), Some(s2)) = (
             three_at(d0, x),
             three_at(d1, x),
@@ -562,6 +627,11 @@ fn update_row<T: Scalar>(
         let sum = window_rows(&rows, d, gate, None);
         let (n, e, damped) = step.update(d, sum, |f| window_rows(&rows, d, gate, Some(f)));
         *next = n;
+        if let Some((_, ke, kd, _, true)) = &mut reuse {
+            if let (Some(ke), Some(kd)) = (ke.get_mut(x), kd.get_mut(x)) {
+                (*ke, *kd) = (e, damped);
+            }
+        }
         if let Some((out, confidence)) = &mut outputs {
             if let (Some(out), Some(confidence)) = (out.get_mut(x), confidence.get_mut(x)) {
                 step.output(n, e, damped, out, confidence);
@@ -920,6 +990,9 @@ fn band<T: Scalar, P: Photometric<T>>(
             }
         }
     }
+    // See `RefineParams::skip_settled` (nothing settles before the second iteration).
+    let skip = p.skip_settled > 0.0 && p.iterations > 1;
+    let skip_moved = T::from_f32(p.skip_settled);
     for iteration in 0..p.iterations {
         // Rows whose statistics the remaining iterations can still reach the band from.
         let measured = near((p.iterations - iteration) * r);
@@ -950,8 +1023,18 @@ fn band<T: Scalar, P: Photometric<T>>(
                 ) else {
                     continue;
                 };
-                if iteration > 0 && (now - before).abs() < settled {
-                    continue;
+                if iteration > 0 {
+                    let moved = (now - before).abs();
+                    // How far the pixel moved, for the windows of `skip_settled` (the
+                    // first plane of `memory`: the propagation's state is no longer read).
+                    if skip {
+                        if let Some(m) = memory.get_mut(i) {
+                            *m = moved;
+                        }
+                    }
+                    if moved < settled {
+                        continue;
+                    }
                 }
                 // The propagation measured them at this disparity (the same bits as now):
                 // `memory` covers these rows when there was a propagation.
@@ -968,6 +1051,18 @@ fn band<T: Scalar, P: Photometric<T>>(
         if let (Some(to), Some(from)) = (previous.get_mut(span.clone()), current.get(span)) {
             to.copy_from_slice(from);
         }
+        // With `skip_settled`, `memory` holds three planes from here: how far each pixel
+        // moved in the iteration before (written by the statistics pass after the first
+        // iteration), and each pixel's last `E` and `A` + damping, which a pixel whose
+        // window settled keeps for its confidence.
+        let (moved, planes) = memory.split_at_mut_checked(pixels).unwrap_or_default();
+        let (kept_e, kept_damped) = planes.split_at_mut_checked(pixels).unwrap_or_default();
+        let (check, store) = (skip && iteration > 0, skip && !last_iteration);
+        let loose = if skip_moved > settled {
+            skip_moved
+        } else {
+            settled
+        };
         let step = Step {
             k: &k,
             narrow: &narrow,
@@ -991,13 +1086,36 @@ fn band<T: Scalar, P: Photometric<T>>(
                 // Window sum over the neighbours whose disparity is within
                 // `WINDOW_GATE` of this pixel's: the window does not reach across depth
                 // edges.
-                let Some(&d) = previous.get(y * width + x) else {
+                let j = y * width + x;
+                let Some(&d) = previous.get(j) else {
                     continue;
                 };
                 let (ys, xs) = (
                     y.saturating_sub(r)..(y + r + 1).min(region),
                     x.saturating_sub(r)..(x + r + 1).min(width),
                 );
+                if check {
+                    let mut window = ys.clone().flat_map(|yy| {
+                        let row = moved.get(yy * width..(yy + 1) * width).unwrap_or_default();
+                        row.get(xs.clone()).unwrap_or_default().iter()
+                    });
+                    // `current` holds `d` already (copied above).
+                    let centre = moved.get(j).is_some_and(|&m| m < settled);
+                    if centre && window.all(|&m| m < loose) {
+                        if last_iteration {
+                            let o = (first + y - rows.start) * width + x;
+                            if let (Some(out), Some(confidence), Some(&e), Some(&damped)) = (
+                                out.get_mut(o),
+                                confidence.get_mut(o),
+                                kept_e.get(j),
+                                kept_damped.get(j),
+                            ) {
+                                step.output(d, e, damped, out, confidence);
+                            }
+                        }
+                        continue;
+                    }
+                }
                 let sum = window_sum(
                     stats,
                     previous,
@@ -1011,8 +1129,13 @@ fn band<T: Scalar, P: Photometric<T>>(
                 let (next, e, damped) = step.update(d, sum, |f| {
                     window_sum(stats, previous, width, ys, xs, d, k.gate, Some(f))
                 });
-                if let Some(current) = current.get_mut(y * width + x) {
+                if let Some(current) = current.get_mut(j) {
                     *current = next;
+                }
+                if let (true, Some(ke), Some(kd)) =
+                    (store, kept_e.get_mut(j), kept_damped.get_mut(j))
+                {
+                    (*ke, *kd) = (e, damped);
                 }
                 if last_iteration {
                     let o = (first + y - rows.start) * width + x;
@@ -1035,7 +1158,33 @@ fn band<T: Scalar, P: Photometric<T>>(
             } else {
                 None
             };
-            update_row(&step, ds, ss, next, outputs);
+            let reuse = if skip {
+                let moved = check
+                    .then(|| {
+                        let rows = moved.get(y.checked_sub(1)? * width..(y + 2) * width)?;
+                        let (m0, rest) = rows.split_at_checked(width)?;
+                        let (m1, m2) = rest.split_at_checked(width)?;
+                        Some([m0, m1, m2])
+                    })
+                    .flatten();
+                match (
+                    kept_e.get_mut(inner(y * width)),
+                    kept_damped.get_mut(inner(y * width)),
+                ) {
+                    (Some(e), Some(damped)) => Some(Reuse {
+                        moved,
+                        e,
+                        damped,
+                        settled,
+                        loose,
+                        store,
+                    }),
+                    _ => None,
+                }
+            } else {
+                None
+            };
+            update_row(&step, ds, ss, next, outputs, reuse);
         }
     }
     Ok(())

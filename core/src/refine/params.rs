@@ -64,7 +64,20 @@ pub struct RefineParams {
     /// warped the views), whose occlusion edges no interpolation reproduces. Zero (the
     /// default): the plain residual.
     pub sampling_slack: f32,
+    /// Settled windows (px, 0…1; 0 = off): in the Gauss–Newton iterations after the
+    /// first, a pixel that kept its statistics (it moved by less than the settle
+    /// threshold, 10⁻² px, 2·10⁻² before the last iteration) and whose window's other
+    /// pixels each moved by less than this (or the settle threshold, where that is
+    /// larger) keeps its disparity and the previous iteration's confidence instead of
+    /// being updated again: its window sums would change only by those small moves (to
+    /// first order the statistics' `B` does not depend on `d`), the window gate and the
+    /// damping. 0 updates every pixel in every iteration (the maps of before this
+    /// parameter, bit for bit). Measured on HCI in `docs/bench-refine.md` ("Session 11").
+    pub skip_settled: f32,
 }
+
+/// The default [`RefineParams::skip_settled`] (px).
+pub const SKIP_SETTLED: f32 = 0.05;
 
 /// The [`RefineParams::sampling_slack`] the pipelines use on warped views.
 pub const RESAMPLED_SLACK: f32 = 0.5;
@@ -83,6 +96,7 @@ impl Default for RefineParams {
             confidence_scale: 1.0,
             band_rows: 128,
             sampling_slack: 0.0,
+            skip_settled: SKIP_SETTLED,
         }
     }
 }
@@ -142,6 +156,9 @@ impl RefineParams {
         if !(self.sampling_slack.is_finite() && (0.0..=1.0).contains(&self.sampling_slack)) {
             return bad("refine.sampling_slack", "must be in [0, 1] pixels");
         }
+        if !(self.skip_settled.is_finite() && (0.0..=1.0).contains(&self.skip_settled)) {
+            return bad("refine.skip_settled", "must be in [0, 1] pixels");
+        }
         if !(1..=4096).contains(&self.band_rows) {
             return bad("refine.band_rows", "must be in 1..=4096");
         }
@@ -192,6 +209,13 @@ mod tests {
                     ..RefineParams::default()
                 },
                 "refine.sampling_slack",
+            ),
+            (
+                RefineParams {
+                    skip_settled: -0.1,
+                    ..RefineParams::default()
+                },
+                "refine.skip_settled",
             ),
         ] {
             assert!(

@@ -369,3 +369,38 @@ fn mapped_refinement_rejects_bad_homographies() {
     }
     assert!(run_mapped::<f32>(&scene, &away, Interpolation::CatmullRom, &input).is_ok());
 }
+
+#[test]
+fn settled_windows_give_bit_identical_maps_in_any_band_and_stay_close_to_every_update() {
+    // Radius 1: the rows' interior pixels take `update_row`, the sides `window_sum`.
+    let scene = strips(Grid::new(9, 9), 40, 37, 3, 0.3, &[0.0, 1.0]);
+    let input = perturbed(&scene, 0.3, 5);
+    let mut maps = Vec::new();
+    for skip_settled in [SKIP_SETTLED, 0.01, 0.0] {
+        let wide = RefineParams {
+            band_rows: 100,
+            skip_settled,
+            ..RefineParams::default()
+        };
+        let (dw, cw) = run(&scene, wide, &input);
+        for band_rows in [1, 5, 16] {
+            let (d, c) = run(&scene, RefineParams { band_rows, ..wide }, &input);
+            assert!(d.iter().zip(&dw).all(|(a, b)| a.to_bits() == b.to_bits()));
+            assert!(c.iter().zip(&cw).all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        maps.push((dw, cw));
+    }
+    let off = &maps[2];
+    let most = |a: &[f32], b: &[f32], tol: f32| {
+        a.iter()
+            .zip(b)
+            .filter(|(x, y)| (*x - *y).abs() <= tol)
+            .count()
+            * 100
+            >= 99 * a.len()
+    };
+    for on in &maps[..2] {
+        assert!(most(&on.0, &off.0, 0.01), "disparities");
+        assert!(most(&on.1, &off.1, 0.05), "confidences");
+    }
+}
