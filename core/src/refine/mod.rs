@@ -390,6 +390,18 @@ fn curvature<T: Scalar>(sum: &[T; STATS]) -> T {
     (0..GROUPS).fold(T::ZERO, |a, g| a + sum[3 * g])
 }
 
+/// Rows `y − 1`, `y` and `y + 1` of a plane whose rows are `row_len` long (`None` for
+/// `y` = 0 or rows past the plane).
+#[inline(always)]
+fn rows_around<T>(plane: &[T], row_len: usize, y: usize) -> Option<[&[T]; 3]> {
+    let rows = plane
+        .get(y.checked_sub(1)? * row_len..)?
+        .get(..3 * row_len)?;
+    let (r0, rest) = rows.split_at_checked(row_len)?;
+    let (r1, r2) = rest.split_at_checked(row_len)?;
+    Some([r0, r1, r2])
+}
+
 /// Rows `y − 1`, `y` and `y + 1` of the region's disparities and statistics (`width`
 /// wide; `None` for `y` = 0 or rows past the region).
 #[allow(clippy::type_complexity)]
@@ -400,14 +412,10 @@ fn three_rows<'a, T>(
     width: usize,
     y: usize,
 ) -> Option<([&'a [T]; 3], [&'a [T]; 3])> {
-    let top = y.checked_sub(1)?;
-    let ds = previous.get(top * width..)?.get(..3 * width)?;
-    let ss = stats.get(top * width * STATS..)?.get(..3 * width * STATS)?;
-    let (d0, rest) = ds.split_at_checked(width)?;
-    let (d1, d2) = rest.split_at_checked(width)?;
-    let (s0, rest) = ss.split_at_checked(width * STATS)?;
-    let (s1, s2) = rest.split_at_checked(width * STATS)?;
-    Some(([d0, d1, d2], [s0, s1, s2]))
+    Some((
+        rows_around(previous, width, y)?,
+        rows_around(stats, width * STATS, y)?,
+    ))
 }
 
 /// [`window_sum`] of a whole 3 × 3 window given as its three rows of disparities and
@@ -1159,14 +1167,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                 None
             };
             let reuse = if skip {
-                let moved = check
-                    .then(|| {
-                        let rows = moved.get(y.checked_sub(1)? * width..(y + 2) * width)?;
-                        let (m0, rest) = rows.split_at_checked(width)?;
-                        let (m1, m2) = rest.split_at_checked(width)?;
-                        Some([m0, m1, m2])
-                    })
-                    .flatten();
+                let moved = check.then(|| rows_around(moved, width, y)).flatten();
                 match (
                     kept_e.get_mut(inner(y * width)),
                     kept_damped.get_mut(inner(y * width)),
