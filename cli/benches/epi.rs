@@ -10,7 +10,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use lfdepth::epi::{self, Direction, EpiParams, Search};
 use lfdepth::synth::{render, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, Layout, LightField, Params, Plan, Scalar, Q16};
-use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
 fn scene() -> (SynthSpec, Vec<u8>) {
     let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), 512, 512);
@@ -48,7 +48,7 @@ fn bench(c: &mut Criterion) {
     for threads in [1usize, 2] {
         let options = EstimateOptions {
             params: Params::default(),
-            stage: StageSelect::Epi,
+            stage: Stages::Epi,
             threads: Some(threads),
         };
         group.bench_function(format!("engine_9x9x512x512_{threads}_thread"), |b| {
@@ -63,7 +63,7 @@ fn bench(c: &mut Criterion) {
             },
             ..Params::default()
         },
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: Some(1),
     };
     group.bench_function("engine_9x9x512x512_1_thread_exhaustive", |b| {
@@ -78,11 +78,22 @@ fn bench(c: &mut Criterion) {
     let mut d = vec![0.0; plan.pixels()];
     let mut conf = vec![0.0; plan.pixels()];
     let mut scratch = vec![Q16::ZERO; lfdepth::pipeline::scratch_len(&plan)];
+    let mut maps =
+        vec![
+            0.0f32;
+            lfdepth::pipeline::stage_map_scratch_len(&plan, lfdepth::pipeline::Stages::Epi)
+        ];
     group.bench_function("core_serial_q16_9x9x512x512", |b| {
         b.iter(|| {
-            lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut conf, &mut scratch, &mut |_| {
-                ControlFlow::Continue(())
-            })
+            lfdepth::pipeline::estimate(
+                &plan,
+                &lf,
+                &mut d,
+                &mut conf,
+                &mut scratch,
+                &mut maps,
+                &mut |_| ControlFlow::Continue(()),
+            )
             .unwrap()
         })
     });

@@ -17,14 +17,14 @@ use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use lfdepth::median::{self, MedianParams};
 use lfdepth::{epi, geofill, refine, LightField, Params, Plan};
-use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
 /// The median's input in the default pipeline: EPI, the photometric refinement, then the
 /// geodesic refill when enabled.
 fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
     let options = EstimateOptions {
         params: *plan.params(),
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: None,
     };
     let epi_estimate = estimate(lf, &options, &mut |_, _, _| {}).unwrap();

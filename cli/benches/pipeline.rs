@@ -1,4 +1,4 @@
-//! Criterion benchmarks of the whole pipeline (engine, `StageSelect::Full`) on a
+//! Criterion benchmarks of the whole pipeline (engine, `Stages::Full`) on a
 //! 9×9×512×512 light field: HCI cotton when `../shared/data` is present, else a synthetic
 //! Mixed scene; 1 and 2 threads; the default pipeline (EPI → refine → TV), the `fast`
 //! preset, the refinement without propagation, and the paper's pipeline (EPI → TV). Group `scalar`: the default
@@ -15,7 +15,7 @@ use lfdepth::plan::Preset;
 use lfdepth::refine::RefineParams;
 use lfdepth::synth::{self, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, LightField, Params};
-use lfdepth_cli::engine::{estimate, estimate_with, EstimateOptions, Precision, StageSelect};
+use lfdepth_cli::engine::{estimate, estimate_with, EstimateOptions, Precision, Stages};
 
 fn pipeline(c: &mut Criterion) {
     let (views, layout, name) = tv_support::bench_scene();
@@ -50,7 +50,7 @@ fn pipeline(c: &mut Criterion) {
         for (variant, params) in variants {
             let options = EstimateOptions {
                 params,
-                stage: StageSelect::Full,
+                stage: Stages::Full,
                 threads: Some(threads),
             };
             group.bench_function(format!("{name}_{variant}_{threads}t"), |b| {
@@ -78,7 +78,7 @@ fn scalar(c: &mut Criterion) {
         .warm_up_time(Duration::from_secs(2));
     let options = EstimateOptions {
         params: Params::default(),
-        stage: StageSelect::Full,
+        stage: Stages::Full,
         threads: Some(1),
     };
     for (name, precision) in [("f32", Precision::F32), ("q16", Precision::Q16)] {

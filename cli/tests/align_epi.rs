@@ -14,7 +14,7 @@ use lfdepth::align::{
 use lfdepth::metrics::{self, EvalOptions, BORDER};
 use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{pipeline, Grid, Homography, LightField, Params, Plan, Sample};
-use lfdepth_cli::engine::{self, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{self, EstimateOptions, Stages};
 
 const SIZE: usize = 384;
 
@@ -22,7 +22,7 @@ fn epi<S: Sample + Sync>(data: &[S], spec: &SynthSpec) -> Vec<f32> {
     let lf = LightField::new(data, spec.layout()).unwrap();
     let options = EstimateOptions {
         params: Params::default(),
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: None,
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
@@ -218,13 +218,13 @@ fn the_final_disparity_of_aligned_arrays_is_within_ten_percent() {
         let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
         let name = scene.name();
         let reference = badpix(
-            &engine_map(&ideal, &spec, Params::default(), StageSelect::Full),
+            &engine_map(&ideal, &spec, Params::default(), Stages::Full),
             &gt,
             n,
         );
         let mut params = Params::default();
         params.align.mode = AlignMode::On;
-        let raw = engine_map(&misaligned, &spec, params, StageSelect::Full);
+        let raw = engine_map(&misaligned, &spec, params, Stages::Full);
         // The engine's estimate is the core's, bit for bit (`align_synthetic`): the same
         // homographies give the gauge plane its map was computed in.
         let plan = Plan::new(spec.layout(), params).unwrap();
@@ -757,7 +757,7 @@ fn offset_sensitivity() {
             let plan = lfdepth::Plan::new(spec.layout(), Params::default()).unwrap();
             let mut scratch = vec![0.0f32; lfdepth::epi::scratch_len(&plan)];
             let range = lfdepth::epi::estimate_range(&plan, &lf, &mut scratch).unwrap();
-            let run = |params: Params, stage: StageSelect| {
+            let run = |params: Params, stage: Stages| {
                 let options = EstimateOptions {
                     params,
                     stage,
@@ -778,11 +778,11 @@ fn offset_sensitivity() {
             let mut fixed_exh = fixed;
             fixed_exh.epi.search = Search::Exhaustive;
             let cases = [
-                ("epi", run(Params::default(), StageSelect::Epi)),
-                ("epi fixed range", run(fixed, StageSelect::Epi)),
-                ("epi exhaustive", run(exhaustive, StageSelect::Epi)),
-                ("epi fixed+exh", run(fixed_exh, StageSelect::Epi)),
-                ("full", run(Params::default(), StageSelect::Full)),
+                ("epi", run(Params::default(), Stages::Epi)),
+                ("epi fixed range", run(fixed, Stages::Epi)),
+                ("epi exhaustive", run(exhaustive, Stages::Epi)),
+                ("epi fixed+exh", run(fixed_exh, Stages::Epi)),
+                ("full", run(Params::default(), Stages::Full)),
             ];
             let mut line = format!(
                 "{} offset {delta:+.3}: range ({:.3}, {:.3})",
@@ -804,7 +804,7 @@ fn engine_map<S: Sample + Sync>(
     data: &[S],
     spec: &SynthSpec,
     params: Params,
-    stage: StageSelect,
+    stage: Stages,
 ) -> Vec<f32> {
     let lf = LightField::new(data, spec.layout()).unwrap();
     let options = EstimateOptions {
@@ -817,7 +817,7 @@ fn engine_map<S: Sample + Sync>(
         .disparity
 }
 
-/// The final disparity (every stage, `StageSelect::Full`) of the aligned arrays against
+/// The final disparity (every stage, `Stages::Full`) of the aligned arrays against
 /// the rectified one (a measurement, run by hand): the pipeline's cross-only estimate
 /// and every view, bilinear, sharpened bilinear (the default) and Catmull–Rom, after
 /// the unobservable disparity plane.
@@ -833,16 +833,15 @@ fn final_disparity() {
         let plan = Plan::new(spec.layout(), Params::default()).unwrap();
         let options = EstimateOptions {
             params: *pipeline::resampled_plan(&plan).unwrap().params(),
-            stage: StageSelect::Full,
+            stage: Stages::Full,
             threads: None,
         };
         engine::estimate(&lf, &options, &mut |_, _, _| {})
             .unwrap()
             .disparity
     };
-    let rectified = |data: &[f32], spec: &SynthSpec| {
-        engine_map(data, spec, Params::default(), StageSelect::Full)
-    };
+    let rectified =
+        |data: &[f32], spec: &SynthSpec| engine_map(data, spec, Params::default(), Stages::Full);
     for scene in [SceneKind::Planes, SceneKind::Mixed] {
         let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
         let name = scene.name();
@@ -920,11 +919,11 @@ fn final_stages() {
         p
     };
     let variants = [
-        ("EPI", Params::default(), StageSelect::Epi),
-        ("full", Params::default(), StageSelect::Full),
-        ("full, no refine", no_refine, StageSelect::Full),
-        ("full, no geofill/median", refine_only, StageSelect::Full),
-        ("full, no median", no_median, StageSelect::Full),
+        ("EPI", Params::default(), Stages::Epi),
+        ("full", Params::default(), Stages::Full),
+        ("full, no refine", no_refine, Stages::Full),
+        ("full, no geofill/median", refine_only, Stages::Full),
+        ("full, no median", no_median, Stages::Full),
     ];
     for scene in [SceneKind::Planes, SceneKind::Mixed] {
         let (spec, ideal, misaligned, gt, truth) = scenes(scene, n);
@@ -1366,9 +1365,7 @@ fn session7_probe() {
                         "{name} {frame:?} {label} (gauge offset {:.3}, translation ({:.3}, {:.3}), scale {:.5}):",
                         g.disparity_offset, g.translation.0, g.translation.1, g.scale
                     );
-                    for (stage_name, stage) in
-                        [("EPI", StageSelect::Epi), ("full", StageSelect::Full)]
-                    {
+                    for (stage_name, stage) in [("EPI", Stages::Epi), ("full", Stages::Full)] {
                         let raw = run(&warped, &spec, Params::default(), stage);
                         let own: Vec<f32> = raw
                             .iter()
@@ -1438,7 +1435,7 @@ fn session7_probe() {
         if only.contains("bs") {
             inputs.push(("B-spline", warp_bspline(&lf, &truth)));
         }
-        for (label, stage) in [("EPI", StageSelect::Epi), ("full", StageSelect::Full)] {
+        for (label, stage) in [("EPI", Stages::Epi), ("full", Stages::Full)] {
             let mut line = format!("{name} {label}:");
             let mut reference = 0.0;
             for (k, (input, data)) in inputs.iter().enumerate() {
@@ -1497,7 +1494,7 @@ fn session9_probe() {
         let true_warp = warp_all(&lf, &truth, how);
         let est_warp = warp_all(&lf, &est, how);
         let reference = badpix(
-            &engine_map(&ideal_f, &spec, Params::default(), StageSelect::Full),
+            &engine_map(&ideal_f, &spec, Params::default(), Stages::Full),
             &gt,
             n,
         );
@@ -1511,7 +1508,7 @@ fn session9_probe() {
                 ("true H", &true_warp, false),
                 ("estimated H", &est_warp, true),
             ] {
-                let mut d = engine_map(data, &spec, p, StageSelect::Full);
+                let mut d = engine_map(data, &spec, p, Stages::Full);
                 if gauge {
                     d = fix(d);
                 }

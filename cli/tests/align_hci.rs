@@ -13,7 +13,7 @@ use lfdepth::align::{
 use lfdepth::metrics::{self, EvalOptions, Scores, BORDER};
 use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{Homography, Layout, LightField, Params, Sample};
-use lfdepth_cli::engine::{self, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{self, EstimateOptions, Stages};
 use lfdepth_cli::io::pfm;
 use lfdepth_cli::io::scene::{self, LoadOptions, Views};
 
@@ -48,7 +48,7 @@ fn epi<S: Sample + Sync>(data: &[S], layout: Layout, align: AlignMode) -> Vec<f3
     params.align.mode = align;
     let options = EstimateOptions {
         params,
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: None,
     };
     engine::estimate(&lf, &options, &mut |_, _, _| {})
@@ -336,7 +336,7 @@ fn sampling_slack_on_hci() {
             params.align.mode = align;
             let options = EstimateOptions {
                 params,
-                stage: StageSelect::Full,
+                stage: Stages::Full,
                 threads: None,
             };
             let d = engine::estimate(&lf, &options, &mut |_, _, _| {})

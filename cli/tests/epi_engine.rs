@@ -7,7 +7,7 @@ use std::ops::ControlFlow;
 
 use lfdepth::epi::{DisparityRange, EpiParams, Search};
 use lfdepth::{Grid, LightField, Params, Plan};
-use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
 fn options(threads: usize, epi: EpiParams) -> EstimateOptions {
     EstimateOptions {
@@ -15,7 +15,7 @@ fn options(threads: usize, epi: EpiParams) -> EstimateOptions {
             epi,
             ..Params::default()
         },
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: Some(threads),
     }
 }
@@ -36,9 +36,20 @@ fn any_thread_count_gives_the_serial_core_result_bit_for_bit() {
     let mut d = vec![0.0; plan.pixels()];
     let mut c = vec![0.0; plan.pixels()];
     let mut scratch = vec![0.0f32; lfdepth::pipeline::scratch_len(&plan)];
-    lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut scratch, &mut |_| {
-        ControlFlow::Continue(())
-    })
+    let mut maps =
+        vec![
+            0.0f32;
+            lfdepth::pipeline::stage_map_scratch_len(&plan, lfdepth::pipeline::Stages::Epi)
+        ];
+    lfdepth::pipeline::estimate(
+        &plan,
+        &lf,
+        &mut d,
+        &mut c,
+        &mut scratch,
+        &mut maps,
+        &mut |_| ControlFlow::Continue(()),
+    )
     .unwrap();
     for threads in [1, 2, 3] {
         let mut reports = 0;
@@ -71,7 +82,7 @@ fn full_stage_outputs_stay_inside_the_given_range() {
         ..EpiParams::default()
     };
     let mut opts = options(2, epi);
-    opts.stage = StageSelect::Full;
+    opts.stage = Stages::Full;
     let e = estimate(&lf, &opts, &mut |_, _, _| {}).unwrap();
     assert!(e.disparity.iter().all(|v| (0.0..=1.0).contains(v)));
     assert!(e.confidence.iter().all(|v| (0.0..=1.0).contains(v)));

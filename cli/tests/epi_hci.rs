@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use lfdepth::epi::{ColorMode, DisparityRange, EpiParams, Fusion, Search};
 use lfdepth::{LightField, Params};
-use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
 const SCENES: [(&str, f64); 2] = [("stratified/backgammon", 4.70), ("training/cotton", 13.9)];
 
@@ -25,7 +25,7 @@ fn run(scene: &str, epi: EpiParams) -> Option<(epi_support::Scores, f64)> {
             epi,
             ..Params::default()
         },
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: None,
     };
     let start = Instant::now();

@@ -9,7 +9,7 @@ use lfdepth::metrics::{evaluate, scratch_len, EvalOptions};
 use lfdepth::synth::{render, SceneKind, SynthSpec};
 use lfdepth::Scalar;
 use lfdepth::{Grid, Homography, LightField, Params, Plan, Q16};
-use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
 fn scene(kind: SceneKind, min: f32, max: f32, size: usize) -> (SynthSpec, Vec<u8>, Vec<f32>) {
     let mut spec = SynthSpec::new(kind, Grid::new(9, 9), size, size);
@@ -54,7 +54,7 @@ fn run_default(spec: &SynthSpec, views: &[u8]) -> Vec<f32> {
     let lf = LightField::new(views, spec.layout()).unwrap();
     let options = EstimateOptions {
         params: Params::default(),
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: None,
     };
     estimate(&lf, &options, &mut |_, _, _| {})
@@ -174,12 +174,19 @@ fn fixed_point_is_within_a_hundredth_of_f32_on_99_percent() {
             let mut d = vec![0.0; plan.pixels()];
             let mut c = vec![0.0; plan.pixels()];
             let mut go = |_| ControlFlow::Continue(());
+            let mut maps =
+                vec![
+                    0.0f32;
+                    lfdepth::pipeline::stage_map_scratch_len(&plan, lfdepth::pipeline::Stages::Epi)
+                ];
             if fixed {
                 let mut s = vec![Q16::ZERO; lfdepth::pipeline::scratch_len(&plan)];
-                lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut s, &mut go).unwrap();
+                lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut s, &mut maps, &mut go)
+                    .unwrap();
             } else {
                 let mut s = vec![0.0f32; lfdepth::pipeline::scratch_len(&plan)];
-                lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut s, &mut go).unwrap();
+                lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut s, &mut maps, &mut go)
+                    .unwrap();
             }
             d
         };

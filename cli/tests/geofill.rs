@@ -9,7 +9,7 @@ use lfdepth::refine::RefineParams;
 use lfdepth::synth::SceneKind;
 use lfdepth::tv::TvParams;
 use lfdepth::Params;
-use lfdepth_cli::engine::StageSelect;
+use lfdepth_cli::engine::Stages;
 use synth_support::{errors, run, scene};
 
 fn params(fill: bool) -> Params {
@@ -50,8 +50,8 @@ fn refill_fixes_low_texture_edges_and_spares_the_others() {
         SceneKind::Mixed,
     ] {
         let s = scene(kind, 64);
-        let with = errors(&s, &run(&s, params(true), StageSelect::Full, 2).disparity);
-        let without = errors(&s, &run(&s, params(false), StageSelect::Full, 2).disparity);
+        let with = errors(&s, &run(&s, params(true), Stages::Full, 2).disparity);
+        let without = errors(&s, &run(&s, params(false), Stages::Full, 2).disparity);
         eprintln!(
             "{}: refill bad {:.4} rms {:.4}, none bad {:.4} rms {:.4}",
             kind.name(),

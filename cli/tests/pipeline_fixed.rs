@@ -17,7 +17,7 @@ use lfdepth::refine::{self, RefineParams};
 use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::{LightField, Params, Plan, Scalar, Q16};
-use lfdepth_cli::engine::{estimate_with, Estimate, EstimateOptions, Precision, StageSelect};
+use lfdepth_cli::engine::{estimate_with, Estimate, EstimateOptions, Precision};
 use tv_support::{cpu_seconds, load_hci, read_pfm, scores, shared_data};
 
 fn synthetic(kind: SceneKind, size: usize) -> (Vec<u8>, SynthSpec) {
@@ -43,7 +43,7 @@ fn engine(
 ) -> Estimate {
     let options = EstimateOptions {
         params,
-        stage: StageSelect::Full,
+        stage: Stages::Full,
         threads: Some(threads),
     };
     estimate_with(lf, &options, precision, &mut |_, _, _| {}).unwrap()
@@ -209,7 +209,7 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
     // Each stage from the same f32 input.
     let epi_only = EstimateOptions {
         params: Params::default(),
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: Some(2),
     };
     let epi_f = estimate_with(&lf, &epi_only, Precision::F32, &mut |_, _, _| {}).unwrap();

@@ -10,7 +10,7 @@ use std::time::Instant;
 use lfdepth::refine::{self, RefineParams, ViewSet};
 use lfdepth::tv::{self, Guide, Maps, TvParams};
 use lfdepth::{LightField, Params, Plan};
-use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 use tv_support::*;
 
 fn params_from_env() -> Params {
@@ -57,7 +57,7 @@ fn stages(dir: &Path, params: Params) -> [(Vec<f32>, f64); 3] {
     let plan = Plan::new(layout, params).unwrap();
     let options = EstimateOptions {
         params,
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: Some(1),
     };
     let t = Instant::now();
@@ -145,7 +145,7 @@ fn engine_scores(dir: &Path) -> ((f64, f64), (f64, f64)) {
     let run = |params: Params| {
         let options = EstimateOptions {
             params,
-            stage: StageSelect::Full,
+            stage: Stages::Full,
             threads: None,
         };
         let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
@@ -210,14 +210,10 @@ fn pipeline_stage_timings() {
     let repeats = 5;
     for threads in [1, 2] {
         for (name, params, stage) in [
-            ("epi only", Params::default(), StageSelect::Epi),
-            ("paper epi+tv", paper, StageSelect::Full),
-            (
-                "refine without propagation",
-                no_propagation,
-                StageSelect::Full,
-            ),
-            ("default", Params::default(), StageSelect::Full),
+            ("epi only", Params::default(), Stages::Epi),
+            ("paper epi+tv", paper, Stages::Full),
+            ("refine without propagation", no_propagation, Stages::Full),
+            ("default", Params::default(), Stages::Full),
         ] {
             let options = EstimateOptions {
                 params,

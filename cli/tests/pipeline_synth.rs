@@ -12,7 +12,6 @@ use lfdepth::refine::RefineParams;
 use lfdepth::synth::SceneKind;
 use lfdepth::tv::TvParams;
 use lfdepth::{LightField, Params, Plan};
-use lfdepth_cli::engine::StageSelect;
 use synth_support::{errors, run, scene, Scene};
 
 fn params() -> Params {
@@ -35,7 +34,7 @@ fn params() -> Params {
 fn refinement_lowers_the_epi_error_on_smooth_scenes() {
     for kind in [SceneKind::Slanted, SceneKind::Spheres] {
         let s = scene(kind, 64);
-        let epi = run(&s, params(), StageSelect::Epi, 2);
+        let epi = run(&s, params(), Stages::Epi, 2);
         let no_tv = Params {
             tv: TvParams {
                 max_iterations: 1,
@@ -45,7 +44,7 @@ fn refinement_lowers_the_epi_error_on_smooth_scenes() {
             median: MedianParams::off(),
             ..params()
         };
-        let refined = run(&s, no_tv, StageSelect::Full, 2);
+        let refined = run(&s, no_tv, Stages::Full, 2);
         let (before, after) = (errors(&s, &epi.disparity), errors(&s, &refined.disparity));
         eprintln!(
             "{}: EPI bad {:.3} rms {:.4} → refined bad {:.3} rms {:.4}",
@@ -91,15 +90,24 @@ fn engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipeline() 
 /// The engine with 1, 2 and 3 threads and the serial core pipeline compute the same bits;
 /// returns the disparity.
 fn check_engine_against_core(s: &Scene, params: Params) -> Vec<f32> {
-    let reference = run(s, params, StageSelect::Full, 1);
+    let reference = run(s, params, Stages::Full, 1);
     let names: Vec<&str> = reference.timings.iter().map(|t| t.0).collect();
     assert_eq!(
         names,
-        ["epi range", "epi", "refine", "geofill", "median", "tv"]
+        [
+            "epi range",
+            "epi horizontal",
+            "epi vertical",
+            "fuse",
+            "refine",
+            "geofill",
+            "median",
+            "tv"
+        ]
     );
     assert!(!reference.residuals.is_empty());
     for threads in [2, 3] {
-        let e = run(s, params, StageSelect::Full, threads);
+        let e = run(s, params, Stages::Full, threads);
         let same = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
         assert!(
             same(&e.disparity, &reference.disparity),
@@ -158,9 +166,12 @@ fn paper_pipeline_stays_selectable() {
         tv: params().tv,
         ..Params::paper()
     };
-    let e = run(&s, paper, StageSelect::Full, 2);
+    let e = run(&s, paper, Stages::Full, 2);
     let names: Vec<&str> = e.timings.iter().map(|t| t.0).collect();
-    assert_eq!(names, ["epi range", "epi", "tv"]);
+    assert_eq!(
+        names,
+        ["epi range", "epi horizontal", "epi vertical", "fuse", "tv"]
+    );
 }
 
 /// The edge-snapping median moves fattened depth edges back onto colour edges: on the
@@ -169,12 +180,12 @@ fn paper_pipeline_stays_selectable() {
 fn median_lowers_the_error_at_depth_edges() {
     for kind in [SceneKind::Occlusion, SceneKind::Thin, SceneKind::Planes] {
         let s = scene(kind, 64);
-        let with = run(&s, params(), StageSelect::Full, 2);
+        let with = run(&s, params(), Stages::Full, 2);
         let without = Params {
             median: MedianParams::off(),
             ..params()
         };
-        let without = run(&s, without, StageSelect::Full, 2);
+        let without = run(&s, without, Stages::Full, 2);
         let (a, b) = (errors(&s, &with.disparity), errors(&s, &without.disparity));
         eprintln!(
             "{}: median bad {:.4} rms {:.4}, none bad {:.4} rms {:.4}",

@@ -119,12 +119,12 @@ fn tv_hci_dev_harness() {
 
 /// The engine's EPI stage on an HCI scene: (disparity, confidence).
 fn engine_epi(dir: &std::path::Path) -> (usize, usize, Vec<f32>, Vec<f32>) {
-    use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+    use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
     let (views, layout) = load_hci(dir);
     let lf = lfdepth::LightField::new(&views, layout).unwrap();
     let options = EstimateOptions {
         params: Params::default(),
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: None,
     };
     let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();

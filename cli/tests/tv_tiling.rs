@@ -236,12 +236,12 @@ fn fixed_point_stays_within_a_hundredth_of_a_pixel_of_f32() {
 
 /// The engine's EPI stage on an HCI scene: (width, height, disparity, confidence, image).
 fn hci_inputs(dir: &std::path::Path) -> Scene {
-    use lfdepth_cli::engine::{estimate, EstimateOptions, StageSelect};
+    use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
     let (views, layout) = load_hci(dir);
     let lf = lfdepth::LightField::new(&views, layout).unwrap();
     let options = EstimateOptions {
         params: Params::default(),
-        stage: StageSelect::Epi,
+        stage: Stages::Epi,
         threads: None,
     };
     let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();

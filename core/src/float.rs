@@ -36,6 +36,19 @@ pub fn sqrt(x: f64) -> f64 {
     }
 }
 
+/// `x.clamp(lo, hi)` without `f32::clamp`'s panic on `lo > hi` or a NaN bound (equal to it
+/// otherwise, NaN `x` included): keeps the panic out of the firmware image.
+#[inline(always)]
+pub(crate) fn clamp_f32(x: f32, lo: f32, hi: f32) -> f32 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,193 +1,68 @@
-//! The core entry point: runs the stages over a light field into caller-owned maps,
-//! serially, with progress reports that can cancel:
-//! (alignment, [`run_aligned`] only) → EPI → photometric refinement (when
-//! `params.refine.enabled`) → geodesic refill of the band around depth steps (when
-//! `params.geofill.enabled`) → edge-snapping weighted median (when
-//! `params.median.enabled`, before or after TV) → TV.
+//! The core entry point: runs the [`Schedule`] of a plan over a light field into
+//! caller-owned maps, one part after another, with progress reports that can cancel
+//! (core's serial driver; the firmware's whole-frame path), and the alignment prelude
+//! that comes before it ([`run_aligned`]).
 
 use core::ops::ControlFlow;
 
 use crate::align::{self, AlignMode, AlignParams, AlignReport, AlignedViews, WarpSample};
-use crate::epi;
 use crate::error::{check_map_lengths, check_scratch, Error, Result};
-use crate::geofill;
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample};
-use crate::median;
 use crate::plan::Plan;
-use crate::refine;
+use crate::progress::report;
+pub use crate::progress::Progress;
 use crate::scalar::Scalar;
-use crate::tv::{self, Guide, Maps};
+pub use crate::schedule::Stages;
+use crate::schedule::{PartOutput, PartScratch, Schedule, State};
 
-/// A progress report: `done` of `total` units of `stage` are finished.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Progress {
-    /// Name of the running stage (e.g. [`epi::STAGE_HORIZONTAL`], [`refine::STAGE`],
-    /// [`tv::STAGE`]).
-    pub stage: &'static str,
-    /// Units finished.
-    pub done: u64,
-    /// Units in the stage.
-    pub total: u64,
+/// The serial schedule of `stages` (one part at a time).
+fn serial(plan: &Plan, stages: Stages) -> Result<Schedule> {
+    Schedule::new(plan, stages, 1)
 }
 
-/// How far [`run`] goes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stages {
-    /// The initial EPI disparity only.
-    Epi,
-    /// EPI → refinement (when enabled) → TV.
-    Full,
-}
-
-/// Scratch (elements of `T`) [`run`] needs for the EPI, refinement and TV kernels
-/// ([`Stages::Epi`] and [`estimate`] need only `epi::scratch_len`).
+/// Scratch (elements of `T`) [`run`] needs for [`Stages::Full`] (every kernel, one part
+/// at a time).
 pub fn scratch_len(plan: &Plan) -> usize {
-    epi::scratch_len(plan)
-        .max(tv::scratch_len(plan))
-        .max(refine::scratch_len(plan))
+    stage_scratch_len(plan, Stages::Full)
 }
 
-/// Scratch (elements of `T`) [`run`] needs for `stages`: the EPI kernels alone for
-/// [`Stages::Epi`], the larger of EPI and TV for [`Stages::Full`].
+/// Scratch (elements of `T`) [`run`] needs for `stages`.
 pub fn stage_scratch_len(plan: &Plan, stages: Stages) -> usize {
-    match stages {
-        Stages::Epi => epi::scratch_len(plan),
-        Stages::Full => scratch_len(plan),
-    }
+    serial(plan, stages).map_or(usize::MAX, |s| s.max_scratch_len().kernel)
 }
 
-/// Scratch (`f32` elements) [`run`] needs for the intermediate maps (disparity and
-/// confidence between the stages), the TV duals and the weighted median's rows (which
-/// the geodesic refill, running before both, borrows when enabled).
+/// Scratch (`f32` elements) [`run`] needs for [`Stages::Full`]: the run's state
+/// ([`Schedule::state_len`]), one part's outputs and one part's map scratch.
 pub fn map_scratch_len(plan: &Plan) -> usize {
-    let tail = tv::dual_len(plan)
-        .saturating_add(median_map_len(plan))
-        .saturating_add(median::scratch_len(plan));
-    let tail = if plan.params().geofill.enabled {
-        tail.max(geofill::scratch_len(plan))
-    } else {
-        tail
+    stage_map_scratch_len(plan, Stages::Full)
+}
+
+/// [`map_scratch_len`] for `stages`.
+pub fn stage_map_scratch_len(plan: &Plan, stages: Stages) -> usize {
+    let Ok(schedule) = serial(plan, stages) else {
+        return usize::MAX;
     };
-    plan.pixels().saturating_mul(2).saturating_add(tail)
-}
-
-/// The weighted median's copy of the map two passes back (see
-/// [`median::filter_rows_again`]), or nothing when the median is off.
-fn median_map_len(plan: &Plan) -> usize {
-    if plan.params().median.enabled {
-        plan.pixels()
-    } else {
-        0
-    }
-}
-
-/// Every pass of the weighted median: `input` holds the map and receives the result, as
-/// does `output`; `previous` keeps each pass's input for the next, which then filters
-/// only near the pixels that moved (the same bits as a full pass).
-fn median_passes<S: Sample>(
-    plan: &Plan,
-    lf: &LightField<'_, S>,
-    input: &mut [f32],
-    output: &mut [f32],
-    previous: &mut [f32],
-    scratch: &mut [f32],
-    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
-) -> Result<()> {
-    let passes = plan.params().median.passes;
-    let guide = lf.center_view();
-    let rows = 0..plan.layout().height;
-    // One length check up front lets the copies below go without their own.
-    if output.len() != input.len() || previous.len() != input.len() {
-        return Err(Error::OutputSize {
-            what: "the median maps",
-            needed: input.len(),
-            got: output.len().min(previous.len()),
-        });
-    }
-    for pass in 0..passes {
-        report(progress, median::STAGE, pass, passes)?;
-        if pass == 0 {
-            median::filter(plan, &guide, input, output, scratch)?;
-        } else {
-            median::filter_rows_again(
-                plan,
-                &guide,
-                input,
-                previous,
-                rows.clone(),
-                output,
-                scratch,
-            )?;
-        }
-        previous.copy_from_slice(input);
-        input.copy_from_slice(output);
-    }
-    report(progress, median::STAGE, passes, passes)
-}
-
-fn report(
-    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
-    stage: &'static str,
-    done: usize,
-    total: usize,
-) -> Result<()> {
-    match progress(Progress {
-        stage,
-        done: done as u64,
-        total: total as u64,
-    }) {
-        ControlFlow::Continue(()) => Ok(()),
-        ControlFlow::Break(()) => Err(Error::Cancelled),
-    }
+    let Ok(part) = schedule.max_part_len() else {
+        return usize::MAX;
+    };
+    schedule
+        .state_len()
+        .saturating_add(part.total())
+        .saturating_add(schedule.max_scratch_len().maps)
 }
 
 /// Runs `stages`: the disparity (`f32`, row-major, `plan.pixels()`) and its confidence in
 /// `[0, 1]` for the centre view of `lf`, every stage computing in `T` (the maps between
-/// the stages are `f32`). `scratch` needs [`scratch_len`] elements, `maps`
-/// [`map_scratch_len`]; `history` receives the TV residual norm per iteration (pass an
-/// empty slice to skip it). `progress` is called as work completes; returning
+/// the stages are `f32`). `scratch` needs [`stage_scratch_len`] elements, `maps`
+/// [`stage_map_scratch_len`]; `history` receives the TV residual norm per iteration (pass
+/// an empty slice to skip it). `progress` is called as work completes; returning
 /// `ControlFlow::Break(())` stops with [`crate::Error::Cancelled`].
 #[allow(clippy::too_many_arguments)]
 pub fn run<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
-    scratch: &mut [T],
-    maps: &mut [f32],
-    history: &mut [f32],
-    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
-) -> Result<()> {
-    let needed = stage_scratch_len(plan, stages);
-    check_scratch(needed, scratch.len())?;
-    let hyps = epi::estimate_with_progress(plan, lf, disparity, confidence, scratch, progress)?;
-    if stages == Stages::Epi {
-        return Ok(());
-    }
-    regularize(
-        plan,
-        lf,
-        (hyps.min(), hyps.max()),
-        disparity,
-        confidence,
-        scratch,
-        maps,
-        history,
-        progress,
-    )
-}
-
-/// Every stage after the EPI one, in place: `disparity` and `confidence` hold the EPI
-/// result (from [`run`] with [`Stages::Epi`], or from EPI bands run elsewhere, e.g. in
-/// other workers) measured over `range` (the hypothesis range), and receive the final
-/// result. `scratch`, `maps` and `history` as in [`run`].
-#[allow(clippy::too_many_arguments)]
-pub fn regularize<T: Scalar, S: Sample>(
-    plan: &Plan,
-    lf: &LightField<'_, S>,
-    range: (f32, f32),
     disparity: &mut [f32],
     confidence: &mut [f32],
     scratch: &mut [T],
@@ -203,79 +78,60 @@ pub fn regularize<T: Scalar, S: Sample>(
             ("the confidence", confidence.len()),
         ],
     )?;
-    let needed = scratch_len(plan);
-    check_scratch(needed, scratch.len())?;
-    let needed = map_scratch_len(plan);
+    let schedule = serial(plan, stages)?;
+    let most = schedule.max_scratch_len();
+    check_scratch(most.kernel, scratch.len())?;
+    let needed = stage_map_scratch_len(plan, stages);
     check_scratch(needed, maps.len())?;
     let too_small = Error::ScratchTooSmall {
         needed,
         got: maps.len(),
     };
-    let (mid_d, rest) = maps.split_at_mut_checked(pixels).ok_or(too_small)?;
-    let (mid_c, rest) = rest.split_at_mut_checked(pixels).ok_or(too_small)?;
-    if plan.params().refine.enabled {
-        refine::refine_with_progress(plan, lf, range, disparity, mid_d, mid_c, scratch, progress)?;
-    } else {
-        mid_d.copy_from_slice(disparity);
-        mid_c.copy_from_slice(confidence);
-    }
-    confidence.copy_from_slice(mid_c);
-    if plan.params().geofill.enabled {
-        // The refill writes through `disparity`, which TV overwrites next; its scratch
-        // is the duals', the median's copy and the median's rows, all still unused.
-        report(progress, geofill::STAGE, 0, 1)?;
-        geofill::fill(plan, &lf.center_view(), mid_d, disparity, rest)?;
-        mid_d.copy_from_slice(disparity);
-        report(progress, geofill::STAGE, 1, 1)?;
-    }
-    let (duals, rest) = rest
-        .split_at_mut_checked(tv::dual_len(plan))
+    let (state_maps, rest) = maps
+        .split_at_mut_checked(schedule.state_len())
         .ok_or(too_small)?;
-    let (median_previous, median_scratch) = rest
-        .split_at_mut_checked(median_map_len(plan))
+    let (part_buffer, map_scratch) = rest
+        .split_at_mut_checked(schedule.max_part_len()?.total())
         .ok_or(too_small)?;
-    let median = plan.params().median;
-    if median.enabled && median.before_tv {
-        median_passes(
-            plan,
-            lf,
-            mid_d,
-            disparity,
-            median_previous,
-            median_scratch,
-            progress,
-        )?;
+    let mut state = State::new(&schedule, state_maps)?;
+    for &step in schedule.steps() {
+        let parts = schedule.parts(step);
+        for index in 0..parts {
+            report(progress, step.stage(), index, parts)?;
+            let mut out = PartOutput::split(part_buffer, schedule.part_len(step, index)?)?;
+            let scratch = PartScratch {
+                kernel: &mut *scratch,
+                maps: &mut *map_scratch,
+                flags: &mut [],
+            };
+            schedule.run_part(step, index, lf, &state, &mut out, scratch)?;
+            schedule.place(step, index, &out, &mut state)?;
+        }
+        report(progress, step.stage(), parts, parts)?;
+        schedule.finish(step, &mut state);
     }
-
-    let layout = plan.layout();
-    let tv_maps = Maps::new(layout.width, layout.height, mid_d, mid_c)?;
-    let guide = Guide::View(lf.center_view());
-    tv::refine_with_progress(
-        plan, &tv_maps, &guide, disparity, history, scratch, duals, progress,
-    )?;
-    if median.enabled && !median.before_tv {
-        mid_d.copy_from_slice(disparity);
-        median_passes(
-            plan,
-            lf,
-            mid_d,
-            disparity,
-            median_previous,
-            median_scratch,
-            progress,
-        )?;
+    if stages == Stages::Full {
+        let curve = state.history();
+        for (i, h) in history.iter_mut().enumerate() {
+            *h = curve.get(i).copied().unwrap_or(0.0);
+        }
     }
+    disparity.copy_from_slice(state.disparity());
+    confidence.copy_from_slice(state.confidence());
     Ok(())
 }
 
-/// The EPI stage alone (`run` with [`Stages::Epi`], which needs no map scratch):
-/// disparity and confidence of the centre view. `scratch` needs [`scratch_len`] elements.
+/// The EPI stage alone (`run` with [`Stages::Epi`]): disparity and confidence of the
+/// centre view. `scratch` needs [`stage_scratch_len`] elements, `maps`
+/// [`stage_map_scratch_len`] of [`Stages::Epi`].
+#[allow(clippy::too_many_arguments)]
 pub fn estimate<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     disparity: &mut [f32],
     confidence: &mut [f32],
     scratch: &mut [T],
+    maps: &mut [f32],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
     run(
@@ -285,7 +141,7 @@ pub fn estimate<T: Scalar, S: Sample>(
         disparity,
         confidence,
         scratch,
-        &mut [],
+        maps,
         &mut [],
         progress,
     )
@@ -346,7 +202,7 @@ pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
 }
 
 /// The plan the stages run with on views that were warped (aligned): `plan` with the
-/// refinement's [`refine::RefineParams::sampling_slack`] at [`refine::RESAMPLED_SLACK`]
+/// refinement's [`crate::refine::RefineParams::sampling_slack`] at [`crate::refine::RESAMPLED_SLACK`]
 /// unless it sets one itself. Interpolated views do not reproduce the rendered or
 /// photographed occlusion edges of the centre view, and the refinement, comparing them
 /// sample by sample, otherwise chooses differently there (docs/bench-align.md,
@@ -540,7 +396,8 @@ mod tests {
     use crate::epi::test_scenes::strips;
     use crate::lightfield::Grid;
     use crate::plan::Params;
-    use crate::refine::{RefineParams, ViewSet};
+    use crate::refine::{self, RefineParams, ViewSet};
+    use crate::tv;
 
     #[test]
     fn full_pipeline_runs_every_stage_and_can_be_cancelled() {
@@ -641,6 +498,7 @@ mod tests {
         let mut d = vec![0.0; plan.pixels()];
         let mut c = vec![0.0; plan.pixels()];
         let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        let mut maps = vec![0.0f32; stage_map_scratch_len(&plan, Stages::Epi)];
         let r = run_aligned(
             &plan,
             &lf,
@@ -649,7 +507,7 @@ mod tests {
             &mut d,
             &mut c,
             &mut scratch,
-            &mut [],
+            &mut maps,
             &mut [],
             &mut |_| ControlFlow::Continue(()),
         );
@@ -662,9 +520,16 @@ mod tests {
         let mut d = vec![0.0; plan.pixels()];
         let mut c = vec![0.0; plan.pixels()];
         let mut scratch = vec![0.0f32; scratch_len(&plan)];
-        estimate(&plan, &lf, &mut d, &mut c, &mut scratch, &mut |_| {
-            ControlFlow::Continue(())
-        })
+        let mut maps = vec![0.0f32; stage_map_scratch_len(&plan, Stages::Epi)];
+        estimate(
+            &plan,
+            &lf,
+            &mut d,
+            &mut c,
+            &mut scratch,
+            &mut maps,
+            &mut |_| ControlFlow::Continue(()),
+        )
         .unwrap();
         d
     }

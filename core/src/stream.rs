@@ -25,10 +25,9 @@
 use core::ops::Range;
 
 use crate::align::AlignMode;
-use crate::epi::{
-    clamp_f32, fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator,
-};
+use crate::epi::{fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator};
 use crate::error::{check_scratch, checked_product, Error, Result};
+use crate::float::clamp_f32;
 use crate::lightfield::{Grid, Layout, Sample, View};
 use crate::plan::{Params, Plan};
 use crate::scalar::Scalar;

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use lfdepth::Grid;
 
-use crate::engine::{Precision, StageSelect};
+use crate::engine::{Precision, Stages};
 use crate::io::IoError;
 
 /// Dense disparity (depth) from light fields: EPI structure tensor + weighted
@@ -73,11 +73,11 @@ pub enum Stage {
     Full,
 }
 
-impl From<Stage> for StageSelect {
+impl From<Stage> for Stages {
     fn from(s: Stage) -> Self {
         match s {
-            Stage::Epi => StageSelect::Epi,
-            Stage::Full => StageSelect::Full,
+            Stage::Epi => Stages::Epi,
+            Stage::Full => Stages::Full,
         }
     }
 }

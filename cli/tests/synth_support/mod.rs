@@ -4,7 +4,7 @@
 
 use lfdepth::synth::{self, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography, LightField, Params};
-use lfdepth_cli::engine::{estimate, Estimate, EstimateOptions, StageSelect};
+use lfdepth_cli::engine::{estimate, Estimate, EstimateOptions, Stages};
 
 pub struct Scene {
     pub spec: SynthSpec,
@@ -33,7 +33,7 @@ pub fn scene_seeded(kind: SceneKind, size: usize, seed: u64) -> Scene {
 }
 
 /// The rayon engine on `s`.
-pub fn run(s: &Scene, params: Params, stage: StageSelect, threads: usize) -> Estimate {
+pub fn run(s: &Scene, params: Params, stage: Stages, threads: usize) -> Estimate {
     let lf = LightField::new(&s.views, s.spec.layout()).unwrap();
     let options = EstimateOptions {
         params,

@@ -1079,7 +1079,7 @@ fn alternate<M: ViewMap>(
             (threshold * 0.5).max(params.inlier_threshold)
         } else {
             let sigma = 1.4826 * median_residual(state, maps, params.inlier_threshold);
-            crate::epi::clamp_f32(CLIP_SIGMAS * sigma, MIN_CLIP, params.inlier_threshold)
+            crate::float::clamp_f32(CLIP_SIGMAS * sigma, MIN_CLIP, params.inlier_threshold)
         };
         let settled = (next - threshold).abs() <= 0.05 * threshold;
         threshold = next;

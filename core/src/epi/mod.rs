@@ -20,9 +20,10 @@ pub use range::{estimate_range, RANGE_LINE_STEP};
 use core::ops::{ControlFlow, Range};
 
 use crate::error::{check_scratch, Error, Result};
+use crate::float::clamp_f32;
 use crate::lightfield::{LightField, Sample};
-use crate::pipeline::Progress;
 use crate::plan::Plan;
+use crate::progress::Progress;
 use crate::scalar::Scalar;
 // The stream (crate::stream) runs lines over its own band buffers.
 pub(crate) use line::LineEstimator;
@@ -312,19 +313,6 @@ pub fn estimate_band<T: Scalar, S: Sample>(
         );
     }
     Ok(())
-}
-
-/// `x.clamp(lo, hi)` without `f32::clamp`'s panic on `lo > hi` or a NaN bound (equal to it
-/// otherwise, NaN `x` included): keeps the panic out of the firmware image.
-#[inline(always)]
-pub(crate) fn clamp_f32(x: f32, lo: f32, hi: f32) -> f32 {
-    if x < lo {
-        lo
-    } else if x > hi {
-        hi
-    } else {
-        x
-    }
 }
 
 /// Converts one line to `f32`, clamped to the output range (fixed-point rounding of the
@@ -759,6 +747,8 @@ pub const STAGE_RANGE: &str = "epi range";
 pub const STAGE_HORIZONTAL: &str = "epi horizontal";
 /// See [`STAGE_RANGE`].
 pub const STAGE_VERTICAL: &str = "epi vertical";
+/// See [`STAGE_RANGE`].
+pub const STAGE_FUSE: &str = "fuse";
 
 /// The serial stage: disparity and confidence of the centre view (row-major, `f32`,
 /// `plan.pixels()` each), computed in `T`. `scratch` needs [`scratch_len`] elements.

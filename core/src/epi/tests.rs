@@ -247,15 +247,27 @@ fn bad_buffers_and_cancellation_are_errors() {
     )
     .is_err());
     let mut calls = 0;
-    let r = crate::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut scratch, &mut |p| {
-        calls += 1;
-        assert!(p.done <= p.total);
-        if p.stage == STAGE_VERTICAL {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
-        }
-    });
+    let mut maps = std::vec![
+        0.0f32;
+        crate::pipeline::stage_map_scratch_len(&plan, crate::pipeline::Stages::Epi)
+    ];
+    let r = crate::pipeline::estimate(
+        &plan,
+        &lf,
+        &mut d,
+        &mut c,
+        &mut scratch,
+        &mut maps,
+        &mut |p| {
+            calls += 1;
+            assert!(p.done <= p.total);
+            if p.stage == STAGE_VERTICAL {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        },
+    );
     assert_eq!(r, Err(Error::Cancelled));
     assert!(calls >= 3);
     let other = Layout::packed(Grid::new(3, 3), 17, 16, 1);

@@ -27,6 +27,7 @@
 use core::ops::Range;
 
 mod gate;
+mod passes;
 mod pixel;
 mod ring;
 mod select;
@@ -40,6 +41,8 @@ use gate::{ColumnCounts, LastFlagged, QuarterRowCounts};
 use pixel::{RowIndices, RowOrder, Window};
 use ring::RowRing;
 use weights::Weights;
+
+pub use passes::{band_scratch_len, filter_band};
 
 /// Progress stage name.
 pub const STAGE: &str = "median";

@@ -115,8 +115,8 @@ use crate::align::Interpolation;
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample, GRID_MAX};
-use crate::pipeline::Progress;
 use crate::plan::Plan;
+use crate::progress::Progress;
 use crate::scalar::Scalar;
 use photo::{Mapped, Photometric, Rectified, Views, GROUPS, INTENSITY_SCALE, STATS};
 
@@ -507,7 +507,7 @@ impl<T: Scalar> Step<'_, T> {
     #[inline(always)]
     fn output(&self, next: T, e: T, damped: T, out: &mut f32, confidence: &mut f32) {
         // Fixed-point rounding of the range ends must not step outside it.
-        *out = crate::epi::clamp_f32(next.to_f32(), self.range.0, self.range.1);
+        *out = crate::float::clamp_f32(next.to_f32(), self.range.0, self.range.1);
         let err2 = e / damped;
         let c = T::ONE / (T::ONE + err2 / self.k.confidence2);
         *confidence = if c.is_finite() {

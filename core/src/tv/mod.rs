@@ -58,6 +58,8 @@
 
 /// Progress stage name.
 pub const STAGE: &str = "tv";
+/// Most outer sweeps ([`TvParams::sweeps`]).
+pub const MAX_SWEEPS: usize = 8;
 
 mod params;
 pub mod solver;

@@ -163,7 +163,7 @@ impl TvParams {
                 reason: "must be at most 256 pixels",
             });
         }
-        if self.sweeps > 8 {
+        if self.sweeps > super::MAX_SWEEPS {
             return Err(Error::InvalidParameter {
                 name: "tv.sweeps",
                 reason: "must be at most 8 outer sweeps",

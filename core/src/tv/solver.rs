@@ -33,8 +33,8 @@
 
 use core::ops::Range;
 
-use crate::epi::clamp_f32;
 use crate::error::{check_scratch, checked_product, Error, Result};
+use crate::float::clamp_f32;
 use crate::lightfield::{Sample, View};
 use crate::scalar::Scalar;
 

@@ -5,8 +5,8 @@ use core::ops::ControlFlow;
 
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::Sample;
-use crate::pipeline::Progress;
 use crate::plan::Plan;
+use crate::progress::Progress;
 use crate::scalar::Scalar;
 
 use super::solver::{scratch_len_for, solve, Guide, Maps, Rect, SolveOutput, SolveReport};

@@ -1,0 +1,109 @@
+//! Every pass of the weighted median over one band of rows, from the map before the
+//! first pass: the one median path of every driver (the whole map is one band).
+//!
+//! A pixel's value after one pass depends only on the input within `radius + 1` rows of
+//! it, so pass `k` of `n` filters the band's rows grown by `(n − 1 − k) · (radius + 1)`
+//! on each side (clipped to the image), and bands are independent: no map travels
+//! between passes, and the result is the same for any banding.
+
+use core::ops::Range;
+
+use crate::error::{Error, Result};
+use crate::lightfield::{Sample, View};
+use crate::plan::Plan;
+
+/// Map scratch (`f32` elements) of [`filter_band`]: three maps (the pass's input, the
+/// previous pass's input and the output) and the filter's own [`super::scratch_len`].
+pub fn band_scratch_len(plan: &Plan) -> usize {
+    plan.pixels()
+        .saturating_mul(3)
+        .saturating_add(super::scratch_len(plan))
+}
+
+/// Every pass of the median over image rows `rows` of `input` (row-major, the map
+/// before the first pass) into `out` (`rows.len() · width`, row-major). `maps` needs
+/// [`band_scratch_len`] elements. `settled` is empty, or one byte per pixel of the map:
+/// each pass then remembers which pixels its decision settled, and the next skips them
+/// while their rows keep their values (faster, the same result; `super::filter_pass`).
+pub fn filter_band<S: Sample>(
+    plan: &Plan,
+    guide: &View<'_, S>,
+    input: &[f32],
+    rows: Range<usize>,
+    out: &mut [f32],
+    maps: &mut [f32],
+    settled: &mut [u8],
+) -> Result<()> {
+    let layout = plan.layout();
+    let (width, height) = (layout.width, layout.height);
+    let pixels = plan.pixels();
+    if rows.start > rows.end || rows.end > height {
+        return Err(Error::OutOfRange {
+            what: "median band end row",
+            index: rows.end,
+            len: height,
+        });
+    }
+    let band = rows.start * width..rows.end * width;
+    if input.len() != pixels || out.len() != band.len() {
+        return Err(Error::OutputSize {
+            what: "the median band",
+            needed: band.len(),
+            got: out.len(),
+        });
+    }
+    let params = plan.params().median;
+    let passes = if params.enabled { params.passes } else { 0 };
+    if passes == 0 {
+        out.copy_from_slice(&input[band]);
+        return Ok(());
+    }
+    let needed = band_scratch_len(plan);
+    let too_small = Error::ScratchTooSmall {
+        needed,
+        got: maps.len(),
+    };
+    let (mut current, rest) = maps.split_at_mut_checked(pixels).ok_or(too_small)?;
+    let (mut before, rest) = rest.split_at_mut_checked(pixels).ok_or(too_small)?;
+    let (mut next, scratch) = rest.split_at_mut_checked(pixels).ok_or(too_small)?;
+    let remember = !settled.is_empty();
+    if remember && settled.len() != pixels {
+        return Err(Error::OutputSize {
+            what: "the median's settled pixels (one byte per pixel of the map)",
+            needed: pixels,
+            got: settled.len(),
+        });
+    }
+    let reach = params.radius + 1;
+    // Only the rows a later pass reads are ever written: pass k's rows lie within pass
+    // k − 1's, grown by the reach of one pass, so no pass reads a row it did not fill.
+    let first = rows.start.saturating_sub((passes - 1) * reach) * width;
+    let last = ((rows.end + (passes - 1) * reach).min(height)) * width;
+    current[first..last].copy_from_slice(&input[first..last]);
+    for pass in 0..passes {
+        let grow = (passes - 1 - pass) * reach;
+        let pass_rows = rows.start.saturating_sub(grow)..(rows.end + grow).min(height);
+        let span = pass_rows.start * width..pass_rows.end * width;
+        let previous = (pass > 0).then_some(&*before);
+        let flags = if remember {
+            settled.get_mut(span.clone())
+        } else {
+            None
+        };
+        super::run(
+            plan,
+            guide,
+            current,
+            previous,
+            pass_rows,
+            &mut next[span],
+            flags,
+            scratch,
+        )?;
+        // next → current → before; the oldest map receives the next pass.
+        core::mem::swap(&mut before, &mut current);
+        core::mem::swap(&mut current, &mut next);
+    }
+    out.copy_from_slice(&current[band]);
+    Ok(())
+}

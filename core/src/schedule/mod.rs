@@ -1,0 +1,735 @@
+//! The one description of a run: the steps of the pipeline for a [`Plan`], each a stage
+//! over independent parts, what each part reads and writes, and how its result is
+//! placed. Every driver walks this list — core's serial [`crate::pipeline::run`], the
+//! CLI's thread pool, the page's workers — and none of them names a stage: adding,
+//! removing or reordering a stage edits [`Schedule::new`] and the step's arms here.
+//!
+//! # The maps of a run ([`State`])
+//! A run carries two pairs of maps, *current* and *other* (disparity and confidence,
+//! `plan.pixels()` each), the TV duals between its outer sweeps, its residual history
+//! and the EPI hypotheses. A step's parts read the run's state and write their own
+//! outputs ([`PartOutput`], sized by [`Schedule::part_len`]); [`Schedule::place`] puts
+//! a part's output into the state, and [`Schedule::finish`] closes the step (swaps the
+//! map it wrote with the one it read). A part never reads what a `place` of the same
+//! step writes (the fusion reads and writes only its own rows of the current maps), so
+//! a driver may place each part as soon as it ran, or all of them after the step: the
+//! result is the same bits for any number of threads or workers (the determinism
+//! contract, `docs/ARCHITECTURE.md`), as long as parts are placed in index order (the
+//! TV residual histories are summed in tile order).
+//!
+//! # Scratch
+//! Each step states its per-part scratch ([`Schedule::scratch_len`]): kernel scalars
+//! (`T`), `f32` maps and optional flag bytes. A driver gives each concurrent part its
+//! own; core's serial driver gives one of each, sized for every step
+//! ([`Schedule::max_scratch_len`]).
+
+use core::ops::Range;
+
+use crate::epi::{self, Direction, Hypotheses};
+use crate::error::{Error, Result};
+use crate::geofill;
+use crate::lightfield::{LightField, Sample};
+use crate::median;
+use crate::plan::Plan;
+use crate::refine;
+use crate::scalar::Scalar;
+use crate::tv::{self, Guide, Maps, Rect, SolveOutput};
+
+mod state;
+
+pub use state::{Cursor, State, StateMaps};
+use state::{CURRENT_C, CURRENT_D, OTHER_C, OTHER_D};
+
+/// How far a run goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stages {
+    /// The initial EPI disparity only.
+    Epi,
+    /// Every enabled stage: EPI → refinement → refill → median → TV (→ median).
+    Full,
+}
+
+/// Lines (rows or columns) per part of an EPI step and rows per part of the fusion:
+/// small enough to balance two threads on small frames and to cancel quickly, large
+/// enough that per-part overhead (scratch, progress) is negligible.
+pub const BAND_LINES: usize = 16;
+
+/// Most steps of a run: range, two EPI directions, fusion, refinement, refill, two
+/// medians and TV with at most [`tv::MAX_SWEEPS`] outer sweeps.
+pub const MAX_STEPS: usize = 8 + tv::MAX_SWEEPS + 1;
+
+/// One step of a run: a stage over independent parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// The disparity range to test (the EPI hypotheses): one part.
+    Range,
+    /// EPI estimates of one direction in bands of [`BAND_LINES`] lines: horizontal
+    /// lines into the current maps (row-major), vertical ones into the other maps
+    /// (transposed: line after line).
+    Epi(Direction),
+    /// Fuses the horizontal and vertical estimates into the current maps, in bands of
+    /// [`BAND_LINES`] rows.
+    Fuse,
+    /// Photometric refinement in the plan's refine bands.
+    Refine,
+    /// Geodesic refill of the band around depth steps: one whole-map part (its sweeps
+    /// run in one raster order).
+    Refill,
+    /// Every weighted-median pass, in row bands ([`median::filter_band`]).
+    Median,
+    /// One outer sweep of TV over its tiles (sweep 0 is the first solve).
+    Tv {
+        /// The sweep, `0..=sweeps`.
+        sweep: usize,
+    },
+}
+
+impl Step {
+    /// The stage's name in progress reports and timings.
+    pub fn stage(self) -> &'static str {
+        match self {
+            Step::Range => epi::STAGE_RANGE,
+            Step::Epi(Direction::Horizontal) => epi::STAGE_HORIZONTAL,
+            Step::Epi(Direction::Vertical) => epi::STAGE_VERTICAL,
+            Step::Fuse => epi::STAGE_FUSE,
+            Step::Refine => refine::STAGE,
+            Step::Refill => geofill::STAGE,
+            Step::Median => median::STAGE,
+            Step::Tv { .. } => tv::STAGE,
+        }
+    }
+}
+
+/// What one part of a step reads besides the light field: the maps of the run's
+/// [`State`] a driver must hand to the part (the page sends them to its workers).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Reads {
+    /// The current disparity.
+    pub disparity: bool,
+    /// The current confidence.
+    pub confidence: bool,
+    /// The other pair of maps (the transposed vertical EPI estimates).
+    pub other: bool,
+    /// The previous sweep's TV dual.
+    pub dual: bool,
+}
+
+/// Lengths (`f32` elements) of one part's outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PartLen {
+    /// Disparity (or, for [`Step::Range`], the range's two ends).
+    pub disparity: usize,
+    /// Confidence.
+    pub confidence: usize,
+    /// TV residual history (first sweep only).
+    pub history: usize,
+    /// TV dual for the next sweep (every sweep but the last).
+    pub dual: usize,
+}
+
+impl PartLen {
+    /// All four together.
+    pub fn total(&self) -> usize {
+        self.disparity
+            .saturating_add(self.confidence)
+            .saturating_add(self.history)
+            .saturating_add(self.dual)
+    }
+    fn max(self, other: PartLen) -> PartLen {
+        PartLen {
+            disparity: self.disparity.max(other.disparity),
+            confidence: self.confidence.max(other.confidence),
+            history: self.history.max(other.history),
+            dual: self.dual.max(other.dual),
+        }
+    }
+}
+
+/// Scratch one part of a step needs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScratchLen {
+    /// Elements of the kernel scalar `T`.
+    pub kernel: usize,
+    /// `f32` elements.
+    pub maps: usize,
+    /// Bytes of flags (optional: a part given none computes the same result, slower).
+    pub flags: usize,
+}
+
+impl ScratchLen {
+    fn max(self, other: ScratchLen) -> ScratchLen {
+        ScratchLen {
+            kernel: self.kernel.max(other.kernel),
+            maps: self.maps.max(other.maps),
+            flags: self.flags.max(other.flags),
+        }
+    }
+}
+
+/// Where one part's output goes in the maps of the run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    /// Lines `start..end` of a map (image rows, or for vertical EPI lines, columns
+    /// stored line after line).
+    Lines(usize, usize),
+    /// A rectangle of the image (a TV tile's core).
+    Rect(Rect),
+    /// Not a map region: the EPI range.
+    Range,
+}
+
+/// One part's outputs, `PartLen` elements each.
+pub struct PartOutput<'a> {
+    /// Disparity of the part's region, row-major (for [`Step::Range`]: `[min, max]`).
+    pub disparity: &'a mut [f32],
+    /// Confidence of the part's region.
+    pub confidence: &'a mut [f32],
+    /// TV residual history (squared dual updates per iteration, added to).
+    pub history: &'a mut [f32],
+    /// TV dual of the region for the next sweep.
+    pub dual: &'a mut [f32],
+}
+
+impl<'a> PartOutput<'a> {
+    /// Cuts a part's outputs of `len` from the front of `buffer`.
+    pub fn split(buffer: &'a mut [f32], len: PartLen) -> Result<Self> {
+        let short = Error::ScratchTooSmall {
+            needed: len.total(),
+            got: buffer.len(),
+        };
+        let (disparity, rest) = buffer.split_at_mut_checked(len.disparity).ok_or(short)?;
+        let (confidence, rest) = rest.split_at_mut_checked(len.confidence).ok_or(short)?;
+        let (history, rest) = rest.split_at_mut_checked(len.history).ok_or(short)?;
+        let (dual, _) = rest.split_at_mut_checked(len.dual).ok_or(short)?;
+        Ok(PartOutput {
+            disparity,
+            confidence,
+            history,
+            dual,
+        })
+    }
+}
+
+/// One part's scratch ([`ScratchLen`]).
+pub struct PartScratch<'a, T> {
+    /// Kernel scalars.
+    pub kernel: &'a mut [T],
+    /// `f32` maps.
+    pub maps: &'a mut [f32],
+    /// Flag bytes (may be empty).
+    pub flags: &'a mut [u8],
+}
+
+/// The steps of one run of a plan (see the module documentation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Schedule {
+    plan: Plan,
+    steps: heapless::Vec<Step, MAX_STEPS>,
+    median_rows: usize,
+}
+
+impl Schedule {
+    /// The steps of `stages` for `plan`. `workers` (≥ 1) is how many parts of a step the
+    /// driver runs at once: it sets the weighted median's row bands (one per worker, at
+    /// least [`BAND_LINES`] rows: each band re-filters the rows its later passes read),
+    /// never the result.
+    pub fn new(plan: &Plan, stages: Stages, workers: usize) -> Result<Self> {
+        let mut steps = heapless::Vec::new();
+        let mut push = |step| {
+            steps.push(step).map_err(|_| Error::InvalidParameter {
+                name: "tv.sweeps",
+                reason: "makes more steps than a run holds: use fewer sweeps",
+            })
+        };
+        push(Step::Range)?;
+        push(Step::Epi(Direction::Horizontal))?;
+        push(Step::Epi(Direction::Vertical))?;
+        push(Step::Fuse)?;
+        let params = plan.params();
+        if stages == Stages::Full {
+            if params.refine.enabled {
+                push(Step::Refine)?;
+            }
+            if params.geofill.enabled {
+                push(Step::Refill)?;
+            }
+            let median = params.median.enabled && params.median.passes > 0;
+            if median && params.median.before_tv {
+                push(Step::Median)?;
+            }
+            for sweep in 0..=params.tv.sweeps {
+                push(Step::Tv { sweep })?;
+            }
+            if median && !params.median.before_tv {
+                push(Step::Median)?;
+            }
+        }
+        let height = plan.layout().height;
+        let median_rows = height
+            .div_ceil(workers.max(1))
+            .max(BAND_LINES)
+            .min(height.max(1));
+        Ok(Schedule {
+            plan: *plan,
+            steps,
+            median_rows,
+        })
+    }
+
+    /// The plan.
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    /// The steps, in the order they run.
+    pub fn steps(&self) -> &[Step] {
+        &self.steps
+    }
+
+    /// Floats of a run's [`State`]: four maps, the two TV duals when TV sweeps, and the
+    /// residual history.
+    pub fn state_len(&self) -> usize {
+        self.plan
+            .pixels()
+            .saturating_mul(4)
+            .saturating_add(self.dual_len().saturating_mul(2))
+            .saturating_add(self.history_len())
+    }
+
+    pub(crate) fn dual_len(&self) -> usize {
+        if self.plan.params().tv.sweeps > 0 && self.steps.contains(&Step::Tv { sweep: 0 }) {
+            self.plan.pixels().saturating_mul(2)
+        } else {
+            0
+        }
+    }
+
+    pub(crate) fn history_len(&self) -> usize {
+        self.plan.params().tv.max_iterations
+    }
+
+    /// Number of parts of `step`.
+    pub fn parts(&self, step: Step) -> usize {
+        let layout = self.plan.layout();
+        match step {
+            Step::Range | Step::Refill => 1,
+            Step::Epi(direction) => direction.lines(&self.plan).div_ceil(BAND_LINES),
+            Step::Fuse => layout.height.div_ceil(BAND_LINES),
+            Step::Refine => refine::band_count(&self.plan),
+            Step::Median => layout.height.div_ceil(self.median_rows),
+            Step::Tv { .. } => {
+                let (cols, rows) = tv::tile_count(&self.plan);
+                cols.saturating_mul(rows)
+            }
+        }
+    }
+
+    /// The region part `index` of `step` writes.
+    pub fn region(&self, step: Step, index: usize) -> Result<Region> {
+        let parts = self.parts(step);
+        if index >= parts {
+            return Err(Error::OutOfRange {
+                what: "part of a step",
+                index,
+                len: parts,
+            });
+        }
+        let lines = |size: usize, total: usize| {
+            let start = index * size;
+            Region::Lines(start, (start + size).min(total))
+        };
+        let height = self.plan.layout().height;
+        Ok(match step {
+            Step::Range => Region::Range,
+            Step::Epi(direction) => lines(BAND_LINES, direction.lines(&self.plan)),
+            Step::Fuse => lines(BAND_LINES, height),
+            Step::Refine => {
+                let rows = refine::band_rows(&self.plan, index)?;
+                Region::Lines(rows.start, rows.end)
+            }
+            Step::Refill => Region::Lines(0, height),
+            Step::Median => lines(self.median_rows, height),
+            Step::Tv { .. } => Region::Rect(tv::tile_rects(&self.plan, index)?.0),
+        })
+    }
+
+    /// What the parts of `step` read from the run's state.
+    pub fn reads(&self, step: Step) -> Reads {
+        let none = Reads::default();
+        match step {
+            Step::Range | Step::Epi(_) => none,
+            Step::Fuse => Reads {
+                disparity: true,
+                confidence: true,
+                other: true,
+                dual: false,
+            },
+            Step::Refine | Step::Refill | Step::Median => Reads {
+                disparity: true,
+                ..none
+            },
+            Step::Tv { sweep } => Reads {
+                disparity: true,
+                confidence: true,
+                dual: sweep > 0,
+                ..none
+            },
+        }
+    }
+
+    /// Lengths of part `index`'s outputs.
+    pub fn part_len(&self, step: Step, index: usize) -> Result<PartLen> {
+        let region = self.region(step, index)?;
+        let line_len = match step {
+            Step::Epi(direction) => direction.line_len(&self.plan),
+            _ => self.plan.layout().width,
+        };
+        let both = |len: usize| PartLen {
+            disparity: len,
+            confidence: len,
+            ..PartLen::default()
+        };
+        Ok(match (step, region) {
+            (_, Region::Range) => PartLen {
+                disparity: 2,
+                ..PartLen::default()
+            },
+            (Step::Tv { sweep }, Region::Rect(core)) => {
+                let len = core.width * core.height;
+                PartLen {
+                    disparity: len,
+                    history: if sweep == 0 { self.history_len() } else { 0 },
+                    dual: if sweep < self.plan.params().tv.sweeps {
+                        2 * len
+                    } else {
+                        0
+                    },
+                    ..PartLen::default()
+                }
+            }
+            (Step::Refill | Step::Median, Region::Lines(start, end)) => PartLen {
+                disparity: (end - start) * line_len,
+                ..PartLen::default()
+            },
+            (_, Region::Lines(start, end)) => both((end - start) * line_len),
+            (_, Region::Rect(core)) => both(core.width * core.height),
+        })
+    }
+
+    /// The largest [`Schedule::part_len`] of any part of any step.
+    pub fn max_part_len(&self) -> Result<PartLen> {
+        let mut most = PartLen::default();
+        for &step in &self.steps {
+            for index in 0..self.parts(step) {
+                most = most.max(self.part_len(step, index)?);
+            }
+        }
+        Ok(most)
+    }
+
+    /// Scratch one part of `step` needs, computing in `T`.
+    pub fn scratch_len(&self, step: Step) -> ScratchLen {
+        let plan = &self.plan;
+        let none = ScratchLen::default();
+        match step {
+            Step::Range => ScratchLen {
+                kernel: epi::scratch_len(plan),
+                ..none
+            },
+            Step::Epi(direction) => ScratchLen {
+                kernel: epi::band_scratch_len(plan, direction),
+                ..none
+            },
+            Step::Fuse => none,
+            Step::Refine => ScratchLen {
+                kernel: refine::scratch_len(plan),
+                ..none
+            },
+            Step::Refill => ScratchLen {
+                maps: geofill::scratch_len(plan),
+                ..none
+            },
+            Step::Median => ScratchLen {
+                maps: median::band_scratch_len(plan),
+                flags: plan.pixels(),
+                ..none
+            },
+            Step::Tv { .. } => ScratchLen {
+                kernel: tv::scratch_len(plan),
+                ..none
+            },
+        }
+    }
+
+    /// The largest [`Schedule::scratch_len`] of any step: one part at a time needs no
+    /// more.
+    pub fn max_scratch_len(&self) -> ScratchLen {
+        self.steps
+            .iter()
+            .fold(ScratchLen::default(), |most, &step| {
+                most.max(self.scratch_len(step))
+            })
+    }
+
+    /// Runs part `index` of `step` over `lf` (computing in `T`) from `state` into `out`
+    /// ([`Schedule::part_len`]) with `scratch` ([`Schedule::scratch_len`]; `flags` may
+    /// be empty).
+    pub fn run_part<T: Scalar, S: Sample>(
+        &self,
+        step: Step,
+        index: usize,
+        lf: &LightField<'_, S>,
+        state: &State<'_>,
+        out: &mut PartOutput<'_>,
+        scratch: PartScratch<'_, T>,
+    ) -> Result<()> {
+        let plan = &self.plan;
+        let region = self.region(step, index)?;
+        let range = || {
+            state.hypotheses().ok_or(Error::InvalidParameter {
+                name: "schedule",
+                reason: "a step after the range ran before it: run the steps in order",
+            })
+        };
+        let layout = plan.layout();
+        let (width, height) = (layout.width, layout.height);
+        let lines = match region {
+            Region::Lines(start, end) => start..end,
+            _ => 0..0,
+        };
+        match step {
+            Step::Range => {
+                let hypotheses = epi::hypotheses(plan, lf, scratch.kernel)?;
+                write_range(&mut *out.disparity, (hypotheses.min(), hypotheses.max()))
+            }
+            Step::Epi(direction) => epi::estimate_band(
+                plan,
+                &range()?,
+                lf,
+                direction,
+                lines,
+                &mut *out.disparity,
+                &mut *out.confidence,
+                scratch.kernel,
+            ),
+            Step::Fuse => fuse_rows(
+                plan,
+                state,
+                lines,
+                &mut *out.disparity,
+                &mut *out.confidence,
+                (width, height),
+            ),
+            Step::Refine => {
+                let h = range()?;
+                refine::refine_band(
+                    plan,
+                    lf,
+                    (h.min(), h.max()),
+                    state.disparity(),
+                    lines,
+                    &mut *out.disparity,
+                    &mut *out.confidence,
+                    scratch.kernel,
+                )
+            }
+            Step::Refill => geofill::fill(
+                plan,
+                &lf.center_view(),
+                state.disparity(),
+                &mut *out.disparity,
+                scratch.maps,
+            ),
+            Step::Median => median::filter_band(
+                plan,
+                &lf.center_view(),
+                state.disparity(),
+                lines,
+                &mut *out.disparity,
+                scratch.maps,
+                match scratch.flags.get_mut(..plan.pixels()) {
+                    Some(flags) => flags,
+                    None => &mut [],
+                },
+            ),
+            Step::Tv { sweep } => {
+                let maps = Maps::new(width, height, state.disparity(), state.confidence())?;
+                let maps = if sweep > 0 {
+                    maps.with_dual(state.dual())?
+                } else {
+                    maps
+                };
+                let core = match region {
+                    Region::Rect(core) => core,
+                    _ => return Err(Error::SizeOverflow { what: "a TV tile" }),
+                };
+                out.history.fill(0.0);
+                tv::refine_tile(
+                    plan,
+                    &maps,
+                    &Guide::View(lf.center_view()),
+                    index,
+                    SolveOutput {
+                        disparity: &mut *out.disparity,
+                        stride: core.width,
+                        history: &mut *out.history,
+                        dual: (!out.dual.is_empty()).then_some(&mut *out.dual),
+                    },
+                    scratch.kernel,
+                )
+                .map(|_| ())
+            }
+        }
+    }
+
+    /// Places part `index`'s output (as [`Schedule::run_part`] wrote it) into `state`.
+    /// Parts of a step must be placed in index order.
+    pub fn place(
+        &self,
+        step: Step,
+        index: usize,
+        part: &PartOutput<'_>,
+        state: &mut State<'_>,
+    ) -> Result<()> {
+        let width = self.plan.layout().width;
+        match (step, self.region(step, index)?) {
+            (_, Region::Range) => {
+                let (&[min, max], _) =
+                    part.disparity
+                        .split_first_chunk::<2>()
+                        .ok_or(Error::OutputSize {
+                            what: "the range part",
+                            needed: 2,
+                            got: part.disparity.len(),
+                        })?;
+                state.set_hypotheses(Hypotheses::new(&self.plan.params().epi, min, max)?);
+                Ok(())
+            }
+            (Step::Tv { sweep }, Region::Rect(core)) => {
+                let sweeps = self.plan.params().tv.sweeps;
+                for y in 0..core.height {
+                    let at = (core.y + y) * width + core.x;
+                    let src = y * core.width..(y + 1) * core.width;
+                    put(state.map_mut(OTHER_D), at, &part.disparity[src.clone()])?;
+                    if sweep < sweeps {
+                        put(
+                            state.next_dual_mut(),
+                            2 * at,
+                            &part.dual[2 * src.start..2 * src.end],
+                        )?;
+                    }
+                }
+                if sweep == 0 {
+                    for (h, t) in state.history_mut().iter_mut().zip(part.history.iter()) {
+                        *h += t;
+                    }
+                }
+                Ok(())
+            }
+            (_, Region::Rect(_)) => Err(Error::SizeOverflow { what: "a part" }),
+            (step, Region::Lines(start, _)) => {
+                let line_len = match step {
+                    Step::Epi(direction) => direction.line_len(&self.plan),
+                    _ => width,
+                };
+                let at = start * line_len;
+                let (d, c) = match step {
+                    Step::Epi(Direction::Horizontal) | Step::Fuse => (CURRENT_D, CURRENT_C),
+                    _ => (OTHER_D, OTHER_C),
+                };
+                put(state.map_mut(d), at, part.disparity)?;
+                if !part.confidence.is_empty() {
+                    put(state.map_mut(c), at, part.confidence)?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Closes `step` once every part is placed: the maps it wrote become the current
+    /// ones, and after the last TV sweep the residual history is normalised.
+    pub fn finish(&self, step: Step, state: &mut State<'_>) {
+        let swap_d = |state: &mut State<'_>| state.swap_maps(CURRENT_D, OTHER_D);
+        match step {
+            Step::Range | Step::Epi(_) | Step::Fuse => {}
+            Step::Refine => {
+                swap_d(state);
+                state.swap_maps(CURRENT_C, OTHER_C);
+            }
+            Step::Refill | Step::Median => swap_d(state),
+            Step::Tv { sweep } => {
+                if sweep < self.plan.params().tv.sweeps {
+                    state.swap_duals();
+                } else {
+                    swap_d(state);
+                    tv::normalise_history(&self.plan, state.history_mut());
+                }
+            }
+        }
+    }
+}
+
+fn write_range(out: &mut [f32], (min, max): (f32, f32)) -> Result<()> {
+    match out {
+        [lo, hi, ..] => {
+            (*lo, *hi) = (min, max);
+            Ok(())
+        }
+        _ => Err(Error::OutputSize {
+            what: "the range part",
+            needed: 2,
+            got: out.len(),
+        }),
+    }
+}
+
+fn put(map: &mut [f32], at: usize, values: &[f32]) -> Result<()> {
+    let got = map.len();
+    map.get_mut(at..at.saturating_add(values.len()))
+        .ok_or(Error::OutputSize {
+            what: "a map of the run",
+            needed: at.saturating_add(values.len()),
+            got,
+        })?
+        .copy_from_slice(values);
+    Ok(())
+}
+
+/// Fuses rows `rows` of the horizontal estimates (the current maps) with the vertical
+/// ones (the other maps, transposed) into `disparity` / `confidence` (the rows' pixels).
+fn fuse_rows(
+    plan: &Plan,
+    state: &State<'_>,
+    rows: Range<usize>,
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    (width, height): (usize, usize),
+) -> Result<()> {
+    let fusion = plan.params().epi.fusion;
+    let (dh, ch) = (state.disparity(), state.confidence());
+    let (dv, cv) = state.other();
+    let needed = rows.len() * width;
+    if disparity.len() != needed || confidence.len() != needed {
+        return Err(Error::OutputSize {
+            what: "the fused rows",
+            needed,
+            got: disparity.len().min(confidence.len()),
+        });
+    }
+    for (i, y) in rows.enumerate() {
+        for x in 0..width {
+            let p = y * width + x;
+            let t = x * height + y;
+            let (Some(&dh), Some(&ch), Some(&dv), Some(&cv)) =
+                (dh.get(p), ch.get(p), dv.get(t), cv.get(t))
+            else {
+                return Err(Error::SizeOverflow { what: "the fusion" });
+            };
+            let o = i * width + x;
+            if let (Some(d), Some(c)) = (disparity.get_mut(o), confidence.get_mut(o)) {
+                (*d, *c) = epi::fuse(fusion, dh, ch, dv, cv);
+            }
+        }
+    }
+    Ok(())
+}
