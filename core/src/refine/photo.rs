@@ -1201,8 +1201,8 @@ impl<T: Scalar> Views<T> {
             else {
                 continue;
             };
-            // Counted once per group the view belongs to (two separate sums: the same
-            // rounding as before).
+            // Counted once per group the view belongs to (two separate sums, so the
+            // rounding matches summing each group on its own).
             let e = tap.weighted_cost(&at, &centre, N, (robust, scaled), slack.as_ref());
             cost += e;
             if tap.second_group.is_some() {
@@ -1863,8 +1863,8 @@ impl<T: Scalar> Views<T> {
             else {
                 continue;
             };
-            // Counted once per group the view belongs to (two separate sums: the same
-            // rounding as before).
+            // Counted once per group the view belongs to (two separate sums, so the
+            // rounding matches summing each group on its own).
             let e = tap.weighted_cost(&at, &centre, N, (robust, scaled), None);
             cost += e;
             if tap.second_group.is_some() {
