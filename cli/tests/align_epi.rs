@@ -2,7 +2,7 @@
 //! (`lfdepth::synth`) rendered rectified and misaligned (2°, 3 px, 1 %, perspective);
 //! the misaligned array, aligned and warped as the pipeline does (its default
 //! interpolation, into `f32`), is scored against the perfectly aligned array (goal: BadPix0.07 within 10 %
-//! relative; measured numbers in docs/bench-align.md) and against a warp with the true
+//! relative; measured numbers in docs/stages/align.md) and against a warp with the true
 //! homographies. The disparity plane that no image can observe (see `align::gauge_fit`)
 //! is removed before scoring and reported.
 //! Run with `cargo test --release` (skipped in debug builds: too slow there).
@@ -184,13 +184,11 @@ fn aligned_arrays_score_like_rectified_ones() {
                 model == AlignModel::PlanePatches || score <= 1.03 * ideal_score,
                 "{name} {model:?}/{frame:?}/{views:?}: {score} vs {ideal_score} with the true homographies"
             );
-            // The goal is 10 % relative BadPix0.07. Measured with the session-4 EPI stage:
-            // +7.3 … +8.8 % for every per-view variant except `planes` with the cross
-            // (the pipeline's default), +10.8 % — the EPI stage's own gains moved the
-            // rectified reference (2.81 → 2.63) more than the warped array, and the true
-            // homographies in the same gauge score the same (+10.4 %): what is left is
-            // the bilinear warp. So this guards against regressions at 12 %; the goal
-            // itself is reported as missed there (docs/bench-align.md). On `planes` the
+            // The goal is 10 % relative BadPix0.07. Measured: +7.3 … +8.8 % for every
+            // per-view variant except `planes` with the cross (the pipeline's default),
+            // +10.8 %, where the true homographies in the same gauge score the same
+            // (+10.4 %): what is left is the bilinear warp. So this guards against
+            // regressions at 12 % (docs/stages/align.md). On `planes` the
             // gauge offset on the EPI stage's shears (`AlignParams::disparity_step`)
             // matters: without it the unobservable offset alone cost 6–12 %.
             assert!(
@@ -205,8 +203,8 @@ fn aligned_arrays_score_like_rectified_ones() {
 /// misaligned arrays through the CLI engine with `align = on` (the pipeline's defaults:
 /// cross-only estimate, sharpened bilinear warp, the refinement's sampling slack on the
 /// warped views), after the unobservable disparity plane, within 10 % relative
-/// BadPix0.07 of the perfectly aligned scene through the same engine (measured
-/// session 9: `planes` +6.4 %, `mixed` −0.7 %; docs/bench-align.md).
+/// BadPix0.07 of the perfectly aligned scene through the same engine (measured:
+/// `planes` +6.4 %, `mixed` −0.7 %; docs/stages/align.md).
 #[test]
 fn the_final_disparity_of_aligned_arrays_is_within_ten_percent() {
     if cfg!(debug_assertions) {
@@ -967,7 +965,7 @@ fn final_stages() {
 /// homographies (`refine_band_mapped`, one interpolation of the input, bilinear and
 /// Catmull–Rom); on its warped copy (true homographies, bilinear: two interpolations).
 /// Asserted: through the homographies with Catmull–Rom within the bounds measured
-/// (docs/bench-align.md, "Session 4b") and better than the warped copy.
+/// (docs/stages/align.md) and better than the warped copy.
 /// `cargo test --release -p lfdepth-cli --test align_epi refine_through_homographies -- --nocapture`
 #[test]
 fn refine_through_homographies() {
@@ -1273,12 +1271,12 @@ fn sharpen_adaptive(data: &mut [f32], l: &lfdepth::Layout, hs: &[Homography], k:
     }
 }
 
-/// Session 7 probe: what matched blur and sharper kernels do to the final disparity
-/// with the true homographies.
-/// `cargo test --release -p lfdepth-cli --test align_epi session7_probe -- --ignored --nocapture`
+/// What matched blur and sharper kernels do to the final disparity with the true
+/// homographies (a measurement, run by hand; `PROBE` picks the variants).
+/// `cargo test --release -p lfdepth-cli --test align_epi warp_kernels_and_blur_final_disparity -- --ignored --nocapture`
 #[test]
 #[ignore]
-fn session7_probe() {
+fn warp_kernels_and_blur_final_disparity() {
     let n = SIZE;
     let run = engine_map;
     let only = std::env::var("PROBE").unwrap_or_default();
@@ -1454,15 +1452,15 @@ fn session7_probe() {
     }
 }
 
-/// Session 9: the refinement's sampling slack (`RefineParams::sampling_slack`) on the
-/// rectified scene, on the views warped with the TRUE homographies and with the
+/// The refinement's sampling slack (`RefineParams::sampling_slack`) on the rectified
+/// scene (a measurement, run by hand), on the views warped with the TRUE homographies and with the
 /// pipeline's estimated ones (cross, sharpened bilinear, after the gauge plane), whole
 /// pipeline; BadPix0.07 near depth steps / elsewhere in brackets. `SLACK` (comma list,
 /// default `0,0.5`) picks the slacks.
-/// `cargo test --release -p lfdepth-cli --test align_epi session9_probe -- --ignored --nocapture`
+/// `cargo test --release -p lfdepth-cli --test align_epi sampling_slack_on_synthetic_arrays -- --ignored --nocapture`
 #[test]
 #[ignore]
-fn session9_probe() {
+fn sampling_slack_on_synthetic_arrays() {
     let n = SIZE;
     let slacks: Vec<f32> = std::env::var("SLACK")
         .unwrap_or_else(|_| "0,0.5".into())

@@ -3,7 +3,7 @@
 //! pipeline output bit-identical to alignment off), and HCI scenes misaligned with the
 //! homographies `lfdepth synth --misalign` uses (at 2°, 3 px, 1 %, perspective 0.002)
 //! must be realigned to within 0.1 px reprojection error; their EPI accuracy before and
-//! after is printed (docs/bench-align.md). Heavy: run with `cargo test --release`.
+//! after is printed (docs/stages/align.md). Heavy: run with `cargo test --release`.
 
 use std::path::PathBuf;
 
@@ -303,7 +303,7 @@ fn probe_margins() {
     }
 }
 
-/// Session 9 (a measurement, run by hand): the refinement's sampling slack, which the
+/// A measurement, run by hand: the refinement's sampling slack, which the
 /// pipelines give only warped views, switched on for the rectified HCI scenes too (the
 /// whole default pipeline through the engine), and the scenes forced through the
 /// aligned path (`align = on`: warped, so with the slack); BadPix0.07 / MSE×100.

@@ -61,7 +61,7 @@ fn misaligned_9x9_arrays_reproject_within_a_tenth_of_a_pixel() {
         &[(SceneKind::Mixed, 1)]
     } else {
         // Not `planes`: its large planes straddle the plane-patch grid, and that model
-        // then misfits (measured 0.17 px; docs/bench-align.md).
+        // then misfits (measured 0.17 px; docs/stages/align.md).
         &[(SceneKind::Mixed, 1), (SceneKind::Mixed, 2)]
     };
     for &(scene, seed) in cases {
@@ -219,7 +219,7 @@ fn the_parallel_estimate_is_bit_identical_for_any_thread_count() {
 
 /// How much of the estimate is per-view tracking (what `ParallelViews` spreads over
 /// threads) and how much is the serial alternation: on-CPU time of this thread inside
-/// and outside the view maps (a measurement for docs/bench-align.md, run by hand).
+/// and outside the view maps (a measurement for docs/stages/align.md, run by hand).
 /// `cargo test --release -p lfdepth-cli --test align_synthetic parallel_share -- --ignored --nocapture`
 #[test]
 #[ignore]

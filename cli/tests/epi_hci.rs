@@ -65,7 +65,7 @@ fn default_epi_stage_beats_the_sheared_numpy_reference() {
     }
 }
 
-/// The variants compared in docs/bench-epi.md:
+/// The variants compared in docs/stages/epi.md:
 /// `cargo test --release -p lfdepth-cli --test epi_hci -- --ignored --nocapture`.
 #[test]
 #[ignore]

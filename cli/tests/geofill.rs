@@ -37,7 +37,7 @@ fn params(fill: bool) -> Params {
 /// clearly; on the scenes whose depth steps sit on colour edges it changes little
 /// (no more than 0.2 points of BadPix0.07 and 2 % of RMS). The mixed scene is printed
 /// only: at 64² its BadPix0.07 rises by ~0.4 points, at 128² it falls or stays
-/// (docs/bench-fill.md).
+/// (docs/stages/refill.md).
 #[test]
 fn refill_fixes_low_texture_edges_and_spares_the_others() {
     for kind in [

@@ -290,8 +290,8 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_both_hci_scenes() {
         {
             assert!(*share >= 0.99, "{scene}, {what}: {share} within 0.02 px");
         }
-        // With the median: measured 99.999 % / 99.205 % (docs/bench-fixed.md; cotton was
-        // 98.996 % before the EPI stage's intensity scale went from 64 to 128).
+        // With the median: measured 99.999 % / 99.205 % (docs/stages/fixed-point.md; with
+        // the EPI stage's intensity scale at 64 instead of 128, cotton scores 98.996 %).
         assert!(
             shares[4] >= 0.99,
             "{scene}, default pipeline: {} within 0.02 px",

@@ -168,7 +168,7 @@ fn full_pipeline_accuracy_on_both_hci_scenes() {
         return;
     };
     // The goal: beat SPO (2.55 / 3.24 and 2.59 / 1.31) on both scenes. Measured
-    // with the geodesic refill (docs/bench-fill.md): 2.04 / 3.07 and 2.06 / 1.15.
+    // with the geodesic refill (docs/stages/refill.md): 2.04 / 3.07 and 2.06 / 1.15.
     for (scene, bad_max, mse_max) in [
         ("stratified/backgammon", 2.55, 3.24),
         ("training/cotton", 2.59, 1.31),

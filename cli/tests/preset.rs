@@ -145,9 +145,8 @@ fn fast_preset_still_beats_spo_on_the_shared_hci_scenes() {
         "fast",
         "--json",
     ]);
-    // What the preset promises (Preset::Fast): below SPO on both scenes. Measured at
-    // session 6 (docs/bench-pipeline.md): backgammon 2.258 % / 3.140, cotton 2.364 % /
-    // 1.154 (BadPix0.07 / MSE×100).
+    // What the preset promises (Preset::Fast): below SPO on both scenes (measured
+    // values in docs/BENCHMARKS.md, "Presets"; BadPix0.07 / MSE×100).
     let spo = [
         ("stratified/backgammon", 2.55, 3.24),
         ("training/cotton", 2.59, 1.31),

@@ -4,7 +4,7 @@
 //! legacy SSE encoding (`sqrtss` / `sqrtsd`). In a build for a CPU with AVX (the native
 //! build, `.cargo/config.toml`) the code around it uses the VEX encoding, and a legacy SSE
 //! instruction after a 256-bit one pays the SSE/AVX transition: the TV stage's gradient
-//! start ran 4–5× slower for it on this machine (docs/bench-tv.md, session 10). The
+//! start ran 4–5× slower for it on an AVX2 host (docs/stages/tv.md). The
 //! standard library's `sqrt` is the compiler's intrinsic instead: encoded for the target,
 //! free to vectorise, and the same IEEE-754 correctly rounded root, so every result is bit
 //! for bit libm's (tested below). Without the `std` feature (firmware, the wasm package)

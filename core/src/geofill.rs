@@ -25,7 +25,7 @@
 //! while the path to the foreground crosses the colour edge, so the depth step moves
 //! back onto the colour edge. (A prototype with the weighted median of all seeds within
 //! 14 px, weighted by the exponential of the straight-line colour path, measured the
-//! same effect; docs/bench-fill.md.)
+//! same effect; docs/stages/refill.md.)
 //!
 //! The sweeps run over the whole map in one order, so the stage is not banded: it is
 //! one serial call, bit-identical however the caller schedules the other stages.
@@ -76,7 +76,7 @@ pub struct GeoFillParams {
 }
 
 impl Default for GeoFillParams {
-    /// Chosen by measurement on HCI cotton and backgammon (docs/bench-fill.md): steps
+    /// Chosen by measurement on HCI cotton and backgammon (docs/stages/refill.md): steps
     /// above 0.8 px (smaller ones are slants and noise that the median and TV handle),
     /// colour edges of 8 levels, a 5 px band (wider bands reach across thin structures),
     /// and copied values (the slopes of seeds next to a band are too noisy to

@@ -144,7 +144,7 @@ fuzz_target!(|input: Input| {
             layout.view_stride = view.get();
         }
     }
-    // TvParams has no fields yet: add them here as the TV stage defines them.
+    // Only the EPI parameters are fuzzed; the other stages take their defaults.
     let params = Params {
         epi: input.epi.params(),
         ..Params::default()

@@ -3,7 +3,7 @@
 // running a 10 ms timer while estimating (how long the page froze at worst), per stage
 // shown in the progress text when the gap ended, and the size of the .wasm. `isolated`
 // serves the page with COOP/COEP (cross-origin isolated: the workers read the views from
-// a SharedArrayBuffer); `transport` says which path ran (absent on pages before session 5),
+// a SharedArrayBuffer); `transport` says which path ran,
 // `unaccounted_ms` the estimate's time outside every stage row, `estimate_cpu_ms` the CPU
 // time all the browser's processes spent while it estimated (Linux /proc); `again` also
 // times a second estimate of the same scene with another λ (`second`); `settled` clicks
@@ -76,7 +76,7 @@ try {
   await page.goto(`${server.origin}/${query}`);
   await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 600_000 });
   // `settled`: click only once the page has handed the views to its workers (as a user
-  // who looks at the light field first; pages before session 5 have no such step).
+  // who looks at the light field first; a page without that step reports no state).
   if (flags.includes("settled")) {
     await page.waitForFunction(() => ["done", "failed", undefined].includes(document.getElementById("load-info")?.dataset.prepared), null, { timeout: 600_000 });
   }

@@ -325,7 +325,7 @@ test("the align control exists, reaches the workers' requests and aligns a misal
   assert.match(on.info, /Aligned: reprojection [\d.]+ px → 0\.0\d+ px/);
   assert.ok(on.timings.some((t) => t.startsWith("warp")), on.timings.join("; "));
   // Aligned, the page scores after removing the disparity plane no image can observe
-  // (docs/bench-align.md) and says so; unaligned it scores the map as it is.
+  // (docs/stages/align.md) and says so; unaligned it scores the map as it is.
   assert.equal(off.gauge, undefined);
   assert.ok(Number.isFinite(Number(on.gauge)), on.scores);
   assert.match(on.scores, /after removing the disparity plane alignment cannot observe/);

@@ -34,8 +34,8 @@ test("the full pipeline (EPI → refine → median → TV) beats the EPI stage a
   const full = new lf.Estimator(scene.views, shape).estimate();
   const epiScores = lf.evaluate(epi.disparity, scene.groundTruth, SIZE, SIZE);
   const scores = lf.evaluate(full.disparity, scene.groundTruth, SIZE, SIZE);
-  // Measured (defaults, session 4): EPI BadPix(0.07) 10.2 %, MSE×100 32.9; full
-  // pipeline 2.8 %, 9.1, Q25 0.04.
+  // Loose bounds: the full pipeline scores a few per cent BadPix(0.07) here, and must
+  // beat the EPI stage alone.
   assert.ok(scores.badpix007 < 5, `BadPix(0.07) ${scores.badpix007}`);
   assert.ok(scores.mse100 < 15, `MSE×100 ${scores.mse100}`);
   assert.ok(scores.badpix007 <= epiScores.badpix007, `BadPix(0.07) ${scores.badpix007} vs EPI ${epiScores.badpix007}`);
@@ -49,9 +49,8 @@ test("the full pipeline (EPI → refine → median → TV) beats the EPI stage a
   const r = full.residuals;
   assert.ok(r.length > 1 && r.length <= 300, `${r.length} TV iterations`);
   for (const v of r) assert.ok(Number.isFinite(v) && v >= 0);
-  // TV's PPXA copies start at their fixed point for the start dual (session 6), so the
-  // curve starts lower and the stopping rule ends it sooner: measured 0.0115 → 0.0031
-  // (was 0.13 → 0.0007 from the old start). It must still fall, and stop by the rule.
+  // TV's PPXA copies start at their fixed point for the start dual, so the curve
+  // starts low (measured 0.0115 → 0.0031). It must still fall, and stop by the rule.
   assert.ok(r[r.length - 1] < r[0] / 2, `residual ${r[0]} → ${r[r.length - 1]}`);
   assert.ok(r.length < 300, `TV ran all ${r.length} iterations: the stopping rule never held`);
   // Fewer iterations stop the curve there; refine: false skips the refine stage.

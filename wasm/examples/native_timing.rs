@@ -1,5 +1,5 @@
 //! Native single-threaded timing of the same work the wasm `Estimator.estimate()` does,
-//! for `docs/bench-web.md` (run by `tests/bench/wasm-vs-native.mjs`, which times the wasm
+//! for `docs/stages/web.md` (run by `tests/bench/wasm-vs-native.mjs`, which times the wasm
 //! side on the same scene):
 //!
 //! ```text

@@ -44,7 +44,7 @@ pub struct DemoArgs {
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
     /// Estimator parameters: `default` (the most accurate) or `fast`
-    /// (docs/bench-pipeline.md, "Session 6").
+    /// (docs/BENCHMARKS.md, "Presets").
     #[arg(long, value_name = "NAME", default_value = "default", value_parser = parse_preset)]
     pub preset: Preset,
     /// Misalign the views by small random homographies (what `lfdepth synth --misalign`

@@ -157,7 +157,7 @@ pub fn print_alignment(report: Option<&AlignReport>) {
 #[derive(Clone, Debug, Args)]
 pub struct ParamArgs {
     /// Start from a named set of parameters: `default` (the most accurate) or `fast`
-    /// (docs/bench-pipeline.md, "Session 6"). Every other estimator flag overrides the
+    /// (docs/BENCHMARKS.md, "Presets"). Every other estimator flag overrides the
     /// preset's value, wherever it stands on the command line.
     #[arg(long, value_name = "NAME", default_value = "default", value_parser = parse_preset)]
     pub preset: Preset,

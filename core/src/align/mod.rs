@@ -172,7 +172,7 @@ pub struct AlignParams {
     /// 0.26–0.48 px at the corners of the synthetic 384² arrays, whose centre camera is
     /// exact; within that the centre camera is the better frame, and its view is then
     /// not resampled (final disparity +28.6 / +26.7 % → +21.3 / +17.8 % BadPix0.07 against
-    /// the rectified arrays, docs/bench-align.md "Session 7"). A centre camera further
+    /// the rectified arrays, docs/stages/align.md). A centre camera further
     /// off keeps the estimated frame.
     pub centre_anchor: f32,
 }

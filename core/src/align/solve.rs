@@ -42,9 +42,9 @@ pub enum ViewSet {
     Cross,
     /// The views one and two steps from the centre along the axes and the four corner
     /// views: enough to tell a rectified array from a misaligned one, cheaply; the
-    /// nearer views predict the parallax in the outer ones. (Until session 4 also the
-    /// four edge middles, on the axes like the nearer views: 16 views, and 256 corners
-    /// instead of [`PROBE_FEATURES`]; 24 ms per 9×9×512² array instead of 9.)
+    /// nearer views predict the parallax in the outer ones. (Adding the four edge
+    /// middles, 16 views, with 256 corners instead of [`PROBE_FEATURES`] costs 24 ms per
+    /// 9×9×512² array instead of 9.)
     Probe,
 }
 
@@ -1136,7 +1136,7 @@ fn alternate<M: ViewMap>(
 /// shear; the offset is unobservable, so the estimate may as well put the scene's
 /// dominant disparities there (measured on the synthetic `planes` array: a rectified
 /// scene shifted by 0.1 px off the shears scores +12 % BadPix0.07 in the EPI stage,
-/// docs/bench-align.md, Session 4). Points with too few views are left out. Only
+/// docs/stages/align.md). Points with too few views are left out. Only
 /// when the phases cluster (their mean vector at least [`MIN_DISPARITY_COHERENCE`]
 /// long): disparities spread over every phase gain nothing from the move (measured:
 /// the rectified `mixed` array scores within ±2 % at any offset), and then the

@@ -40,7 +40,7 @@ pub enum Interpolation {
     /// 2 × 2 taps: cheap, but it low-passes the texture by a shift-dependent amount
     /// (a half-pixel shift averages two pixels), which the EPI stage sees as noise in
     /// the slopes and the photometric refinement as a mismatch with the unwarped centre
-    /// view at occlusion edges (synthetic arrays, docs/bench-align.md: the final
+    /// view at occlusion edges (synthetic arrays, docs/stages/align.md: the final
     /// disparity +53 % / +39 % BadPix0.07 against the rectified array, where
     /// [`Interpolation::SharpenedBilinear`] gives +29 % / +27 %). The fastest: 55 ms for
     /// the 17 cross views of a 9×9×512² array, one thread.
@@ -58,7 +58,7 @@ pub enum Interpolation {
     /// [`sharpen_columns`] once all its rows are written (`pipeline::warp_views` and the
     /// CLI do). The default: 93 ms for the 17 cross views of a 9×9×512² array, one
     /// thread (Catmull–Rom 125 ms, bilinear 55 ms); the final disparity scores like
-    /// Catmull–Rom's (docs/bench-align.md, "Session 7").
+    /// Catmull–Rom's (docs/stages/align.md).
     #[default]
     SharpenedBilinear,
 }

@@ -7,7 +7,7 @@ use crate::scalar::Scalar;
 
 /// Mixing entries below this fraction of their row's largest are dropped: the inner
 /// Gaussian's 3σ tails (≈ 3·10⁻⁴ of the centre at σ = 0.5) would otherwise widen every
-/// row by two views for no measurable change (docs/bench-epi.md).
+/// row by two views for no measurable change (docs/stages/epi.md).
 const PRUNE: f32 = 1e-3;
 
 /// The across-view gradients of every view as bands of `taps` consecutive views: view `k`

@@ -100,11 +100,12 @@ const SINGLE: f32 = -1.0;
 const OUT_OF_WINDOW: f32 = -2.0;
 const DEGENERATE: f32 = -3.0;
 /// Traces up to this are degenerate (no texture): 10⁻⁶ at an intensity scale of 64, scaled
-/// with the trace (the square of the intensity scale) so that `f32` decides as before.
+/// with the trace (the square of the intensity scale) so that `f32` decides the same at
+/// any intensity scale.
 const TINY_TRACE: f32 = 1e-6 * (INTENSITY_SCALE / 64.0) * (INTENSITY_SCALE / 64.0);
 /// Samples per register block of the tensor sums: the gradients and sums of a block are
 /// accumulated over every channel and view before they are stored (8: 123–124 ms,
-/// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/bench-epi.md).
+/// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/stages/epi.md).
 pub(super) const BLOCK: usize = 16;
 /// Samples the tensor kernel keeps in registers at a time (a divisor of `BLOCK`).
 const LANES: usize = 16;
@@ -114,7 +115,7 @@ const LANES: usize = 16;
 const TAIL: usize = 4;
 /// The coarse pass tests shears `COARSE_STEPS` shear steps apart (at most 2 px, the
 /// largest step the residual window still covers), as few as cover the range centred on
-/// it: 2 and 3 steps gave the same HCI scores as 4 (docs/bench-epi.md).
+/// it: 2 and 3 steps gave the same HCI scores as 4 (docs/stages/epi.md).
 const COARSE_STEPS: f32 = 4.0;
 // The coarse pass scores every second sample along the line (the tensor is smoothed over
 // ±3·outer_sigma samples anyway); the others take their left neighbour's: see
@@ -125,8 +126,7 @@ const COARSE_VIEWS: usize = 2;
 /// tested at that shear only (its residual there is small, and so is the residual's
 /// slope-proportional bias the zero crossing cancels): 31 % / 37 % of the samples of HCI
 /// cotton / backgammon, ≈ −5 % CPU, and both HCI scenes a little better, stage and
-/// pipeline; 0.2 and 0.25 cost cotton's pipeline MSE +0.03 / +0.08 (docs/bench-epi.md,
-/// session 5).
+/// pipeline; 0.2 and 0.25 cost cotton's pipeline MSE +0.03 / +0.08 (docs/stages/epi.md).
 const NEAR: f32 = 0.15;
 /// A sample the coarse pass brackets between two fine shears is not tested at the upper
 /// one when its fine residual slope at the lower one puts it less than this many shear
@@ -134,7 +134,7 @@ const NEAR: f32 = 0.15;
 /// `SETTLE_COHERENCE` (see `Guide::settle`): −8 % / −12 % of the fine pass's tensor samples
 /// on HCI cotton / backgammon; 0.3 steps without the coherence test cost backgammon's
 /// pipeline MSE×100 +0.028, and settling residuals below the lower shear too +0.035
-/// (docs/bench-epi.md, session 8).
+/// (docs/stages/epi.md).
 const FINE_NEAR: f32 = 0.5;
 /// See `FINE_NEAR`: 0.9 keeps both HCI scenes' pipeline scores within +0.02 MSE×100.
 const SETTLE_COHERENCE: f32 = 0.9;
@@ -336,7 +336,7 @@ impl<T: Scalar> Guide<'_, T> {
     /// hypothesis: its zero crossing with `next` would lie within `below` of `shear`,
     /// where the fine residual slope is nearly unbiased on coherent texture (the crossings'
     /// residual gap is within 5 % of the shear step on 83 % / 80 % of the HCI cotton /
-    /// backgammon crossings, docs/bench-epi.md, session 8). Its score becomes the top one.
+    /// backgammon crossings, docs/stages/epi.md). Its score becomes the top one.
     fn settle(
         &mut self,
         state: &mut State<'_, T>,

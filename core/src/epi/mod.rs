@@ -33,9 +33,9 @@ pub(crate) use line::LineEstimator;
 /// 64 rather than 16 (a power of two: `f32` results are bit-identical): on weak texture
 /// (HCI cotton) the trace at 16 kept too few bits, and Q16.16 agreed with `f32` within
 /// 0.02 px on 96.3 % of pixels, at 64 on 99.8 %; the largest trace is then 142 on the HCI
-/// scenes and 1661 on binary 0/255 noise, far below 32768 (docs/bench-fixed.md).
+/// scenes and 1661 on binary 0/255 noise, far below 32768 (docs/stages/fixed-point.md).
 /// 128 (four times those traces, below 2^15 on 9-view EPIs by the bound in
-/// docs/bench-fixed.md; Q16 saturates, never wraps, beyond):
+/// docs/stages/fixed-point.md; Q16 saturates, never wraps, beyond):
 /// the Q16.16 EPI map agrees on 99.86 % of cotton, where 64 gave 99.70 %.
 pub const INTENSITY_SCALE: f32 = 128.0;
 
@@ -128,7 +128,7 @@ pub struct EpiParams {
 impl Default for EpiParams {
     fn default() -> Self {
         EpiParams {
-            // Chosen on the HCI scenes (docs/bench-epi.md): less inner smoothing keeps fine
+            // Chosen on the HCI scenes (docs/stages/epi.md): less inner smoothing keeps fine
             // texture, more outer smoothing steadies weakly textured surfaces, and half-pixel
             // shears keep residual slopes small.
             inner_sigma: 0.5,

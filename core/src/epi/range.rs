@@ -10,7 +10,7 @@ use crate::plan::{Params, Plan};
 use crate::scalar::Scalar;
 
 /// Every how many lines the range probe looks (16 rather than 8: a third of the probe's
-/// time; the HCI ranges moved by at most one 0.05 px bin, docs/bench-epi.md).
+/// time; the HCI ranges moved by at most one 0.05 px bin, docs/stages/epi.md).
 pub const RANGE_LINE_STEP: usize = 16;
 /// Probed disparities (integer shears ±PROBE_REACH, each accepting ±1 px residuals).
 const PROBE_REACH: f32 = 4.0;
@@ -41,7 +41,7 @@ pub fn estimate_range<T: Scalar, S: Sample>(
     let mut histogram = [0u32; BINS];
     let mut total = 0u64;
     // The probe runs on the gray mean of the channels (a third of the work of the colour
-    // tensor; the range ends are padded histogram windows, docs/bench-epi.md).
+    // tensor; the range ends are padded histogram windows, docs/stages/epi.md).
     let gray = Plan::new(
         *plan.layout(),
         Params {

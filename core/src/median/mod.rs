@@ -83,7 +83,7 @@ pub struct MedianParams {
 
 impl Default for MedianParams {
     fn default() -> Self {
-        // Chosen by measurement (docs/bench-median.md) on the HCI scenes and the seven
+        // Chosen by measurement (docs/stages/median.md) on the HCI scenes and the seven
         // synthetic ones, where it lowers BadPix0.07 on every scene: four passes before
         // TV move fattened bands of up to ~5 px back onto their colour edges; σ = 0.04
         // (10 levels) separates the sides of soft edges; the 0.2 px step gate skips

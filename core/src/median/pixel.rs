@@ -243,7 +243,7 @@ impl<S: Sample> Window<'_, '_, S> {
     /// half) less than a third ([`clearly_kept`]). Most pixels near a depth edge are
     /// settled by a part of their window; only the others classify and weigh the rest.
     /// (These shortcuts change the output only where the sampled rows disagree strongly
-    /// with the others; the shares were chosen on the HCI scenes, docs/bench-median.md.)
+    /// with the others; the shares were chosen on the HCI scenes, docs/stages/median.md.)
     fn decide(
         &self,
         ring: &RowRing<'_>,
@@ -472,7 +472,7 @@ impl<S: Sample> Window<'_, '_, S> {
 
     /// The value of the pixel `(x, y)` of finite value `own`: the weighted median of its
     /// window's votes when that differs from `own` by more than `snap`, else `own`
-    /// (every vote weighed and selected, as the stage was first written).
+    /// (every vote weighed and selected: the plain form of the rule).
     fn select(&self, ring: &RowRing<'_>, x: usize, y: usize, own: f32) -> f32 {
         let p = &self.params;
         let (ys, xs) = self.rows_and_columns(x, y);

@@ -78,7 +78,7 @@ impl Weights {
         // A compare and select, not `f32::min`: the same value for every input (NaN
         // included: both give `cap`), but `min`'s NaN rule has no single wasm SIMD
         // instruction, and its lowering there made the median 2× slower in the browser
-        // (docs/bench-median.md, session 5).
+        // (docs/stages/median.md).
         let clamped = if d2 < self.cap { d2 } else { self.cap };
         ((clamped + TWO_23).to_bits() & 0x007F_FFFF) >> self.shift
     }

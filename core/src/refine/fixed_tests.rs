@@ -74,7 +74,7 @@ fn agreement(a: &[f32], b: &[f32], tol: f32) -> (f32, f32) {
 fn q16_pipeline_stays_within_two_hundredths_of_f32_on_synthetic_scenes() {
     // Low-texture at 64²: at 32² its one textured patch and the borders leave too few
     // pixels where the views carry information (measured 98.2 % at 32², 99.2 % at 64²,
-    // 99.5 % at 256²; see docs/bench-fixed.md).
+    // 99.5 % at 256²; see docs/stages/fixed-point.md).
     for (scene, size, seed) in [
         (SceneKind::Planes, 32, 1),
         (SceneKind::Slanted, 32, 2),
@@ -87,9 +87,9 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_synthetic_scenes() {
         let rendered = render(scene, size, seed);
         // EPI → refine → TV against the 99 % goal, and the default pipeline with the
         // (f32) weighted median, which spreads the few differing pixels over its windows.
-        // Measured (docs/bench-refine.md): without the median 99.93–100 %, with it
-        // 99.56–100 % (97.97–100 % before the propagation costs and the statistics were
-        // scaled up in Q16).
+        // Measured (docs/stages/refine.md): without the median 99.93–100 %, with it
+        // 99.56–100 % (97.97–100 % without scaling the propagation costs and the
+        // statistics up in Q16).
         let no_median = Params {
             median: crate::median::MedianParams::off(),
             ..Params::default()
@@ -138,7 +138,7 @@ fn q16_refinement_stays_within_two_hundredths_of_f32_from_the_same_input() {
             100.0 * share,
             100.0 * confidence_share
         );
-        // Measured 100 % on every scene (docs/bench-refine.md).
+        // Measured 100 % on every scene (docs/stages/refine.md).
         assert!(share >= 0.995, "{}: {share} (max {max})", scene.name());
         assert!(
             confidence_share >= 0.99,

@@ -35,7 +35,7 @@
 //! curvature. A pixel that moved by less than `SETTLED` (10⁻² px; `SETTLED_EARLY`,
 //! 2·10⁻² px, before the last iteration) in the previous iteration keeps its `A, B, E`:
 //! to first order `B` does not depend on `d`, and the skipped sampling is most of an
-//! iteration's cost once the map has settled (measured on HCI, `docs/bench-refine.md`).
+//! iteration's cost once the map has settled (measured on HCI, `docs/stages/refine.md`).
 //! After the first iteration, a pixel that kept its statistics and whose window's other
 //! pixels moved by less than [`RefineParams::skip_settled`] (0.05 px) is not updated
 //! again: it keeps its disparity and the confidence of its last update (its window
@@ -102,7 +102,7 @@
 //!   (49152 at reach 4), so a pixel whose views see full-contrast edges at the largest
 //!   reach can saturate; on HCI the largest view term is 779 unscaled (3116 scaled).
 //!
-//! The tests (`fixed_tests`) and `docs/bench-fixed.md` measure Q16.16 against `f32`.
+//! The tests (`fixed_tests`) and `docs/stages/fixed-point.md` measure Q16.16 against `f32`.
 
 mod params;
 mod photo;
@@ -139,7 +139,7 @@ const AXIS_AGREEMENT: f32 = 0.05;
 const STAT_SCALE: f32 = 4.0;
 /// A pixel whose disparity moved by less than this (px) in a Gauss–Newton iteration
 /// keeps its statistics for the last one. 10⁻² px skips 66 % of the later iterations'
-/// sampling on HCI cotton (10⁻³: 24 %); the score changes are in `docs/bench-refine.md`.
+/// sampling on HCI cotton (10⁻³: 24 %); the score changes are in `docs/stages/refine.md`.
 const SETTLED: f32 = 1.0e-2;
 /// As [`SETTLED`], for the iterations before the last: their statistics only steer
 /// an intermediate step, which the last iteration measures again where it moved by
@@ -154,8 +154,8 @@ const DAMPING_PER_TERM: f32 = 1.0e-6;
 const JUMPS: [usize; 4] = [8, 4, 2, 1];
 /// A neighbour offers its disparity to the propagation only when it differs from the
 /// pixel's by more than this (px): smaller corrections are left to the Gauss–Newton
-/// iterations (each moves up to `max_step`). (Measured on HCI, `docs/bench-refine.md`:
-/// the window gate 0.1 as before → 0.25 makes the stage 1.25× faster, cotton
+/// iterations (each moves up to `max_step`). (Measured on HCI, `docs/stages/refine.md`:
+/// 0.25 instead of 0.1 (the window gate) makes the stage 1.25× faster, cotton
 /// BadPix0.07 2.066 → 2.067 and MSE×100 1.158 → 1.077, backgammon 2.045 → 2.061 /
 /// 3.065; 0.3 cost cotton +0.04 BadPix0.07.)
 const PROPAGATION_OFFER: f32 = 0.25;
@@ -710,7 +710,7 @@ pub fn refine_band<T: Scalar, S: Sample>(
 /// rectify them; every compared view (the centre one too) is sampled through its
 /// homography at the disparity-shifted position, one interpolation of the input instead
 /// of a second one of a warped copy (which spreads occlusion edges by a different
-/// amount in every view: docs/bench-align.md, "Session 4b"), with `interpolation`
+/// amount in every view: docs/stages/align.md), with `interpolation`
 /// (Catmull–Rom keeps the texture's contrast at every sub-pixel phase, which the
 /// Gauss–Newton steps need: it loses much less to the misalignment than bilinear).
 /// Slower than the rectified path (three samples and three projections per view and
@@ -928,7 +928,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                 // difference within the offer's gate) offers nothing: on a slanted
                 // surface their disparities are those of other points of the same
                 // plane, which do not fit this pixel better (cotton: 9 % fewer first-round
-                // costs, BadPix0.07 1.910 → 1.892, `docs/bench-refine.md`).
+                // costs, BadPix0.07 1.910 → 1.892, `docs/stages/refine.md`).
                 let bent = (
                     (candidates[0] + candidates[1] - own - own).abs() > k.offer,
                     (candidates[2] + candidates[3] - own - own).abs() > k.offer,
@@ -988,7 +988,7 @@ fn band<T: Scalar, P: Photometric<T>>(
                         }
                     } else {
                         // The newest first, the oldest dropped (element by element:
-                        // `rotate_right` was a call per rejection).
+                        // `rotate_right` costs a call per rejection).
                         for j in (2..MEMORY).rev() {
                             kept[j] = kept[j - 1];
                         }

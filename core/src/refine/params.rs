@@ -71,8 +71,8 @@ pub struct RefineParams {
     /// larger) keeps its disparity and the previous iteration's confidence instead of
     /// being updated again: its window sums would change only by those small moves (to
     /// first order the statistics' `B` does not depend on `d`), the window gate and the
-    /// damping. 0 updates every pixel in every iteration (the maps of before this
-    /// parameter, bit for bit). Measured on HCI in `docs/bench-refine.md` ("Session 11").
+    /// damping. 0 updates every pixel in every iteration. Measured on HCI in
+    /// `docs/stages/refine.md`.
     pub skip_settled: f32,
 }
 

@@ -337,7 +337,7 @@ fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
     // centre's interval (`RefineParams::sampling_slack`) and the step from the residual
     // itself (from the part outside, the interval would be a dead zone of ±slack px of
     // image motion around every match: measured, BadPix0.07 +74 … +97 % on the
-    // synthetic scenes, docs/bench-align.md "Session 9"). The loop is instantiated once
+    // synthetic scenes, docs/stages/refine.md). The loop is instantiated once
     // per case so the plain residual's code carries no test of it.
     let [sa, sb, se] = match slack {
         Some(slack) => lane_statistics(lanes, centre, d, half, (robust, scaled), |r, c, v| {
@@ -1201,8 +1201,8 @@ impl<T: Scalar> Views<T> {
             else {
                 continue;
             };
-            // Counted once per group the view belongs to (two separate sums: the same
-            // rounding as before).
+            // Counted once per group the view belongs to (two separate sums, so the
+            // rounding matches summing each group on its own).
             let e = tap.weighted_cost(&at, &centre, N, (robust, scaled), slack.as_ref());
             cost += e;
             if tap.second_group.is_some() {
@@ -1863,8 +1863,8 @@ impl<T: Scalar> Views<T> {
             else {
                 continue;
             };
-            // Counted once per group the view belongs to (two separate sums: the same
-            // rounding as before).
+            // Counted once per group the view belongs to (two separate sums, so the
+            // rounding matches summing each group on its own).
             let e = tap.weighted_cost(&at, &centre, N, (robust, scaled), None);
             cost += e;
             if tap.second_group.is_some() {
@@ -1912,7 +1912,7 @@ impl<T: Scalar, S: Sample> Photometric<T> for Rectified<'_, T, S> {
 /// Input views of an aligned array, each read through its homography (rectified → view
 /// pixels, as the warp) at the disparity-shifted position: one interpolation of the
 /// input, where the warped copy would be interpolated a second time (its occlusion
-/// edges spread by a different amount in every view; docs/bench-align.md). Every view
+/// edges spread by a different amount in every view; docs/stages/align.md). Every view
 /// takes three samples (the derivative by a central difference) with `interpolation`.
 pub(crate) struct Mapped<'a, T, S> {
     pub views: Views<T>,

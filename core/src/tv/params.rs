@@ -35,11 +35,11 @@ pub struct TvParams {
     /// Stop a tile when one iteration moves the primal by less than this, in pixels, RMS
     /// over the tile's region with each pixel weighted by its data weight `a_i` (≤ 1 + ℸ):
     /// `√(Σ a_i (xₙ − xₙ₋₁)_i² / n)` with `x = D − λA⁻¹WᵀF` (checked every fourth
-    /// iteration). Zero runs every iteration. The default 7e-4 (4e-4 until session 6,
-    /// then 5e-4) became affordable when the PPXA copies started at their fixed point
-    /// for the start dual (and the start's scale ε 0.05): the default pipeline's TV runs
-    /// 1.14× (cotton) to 1.34× (backgammon) fewer cycles than at 5e-4 with BadPix0.07
-    /// −0.013 / +0.006 points on the HCI scenes (docs/bench-tv.md).
+    /// iteration). Zero runs every iteration. The default 7e-4 is affordable because
+    /// the PPXA copies start at their fixed point for the start dual (and the start's
+    /// scale ε is 0.05): the default pipeline's TV runs 1.14× (cotton) to 1.34×
+    /// (backgammon) fewer cycles than at 5e-4 with BadPix0.07 −0.013 / +0.006 points on
+    /// the HCI scenes (docs/stages/tv.md).
     pub tolerance: f32,
     /// PPXA step γ.
     pub step: f32,

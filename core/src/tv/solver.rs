@@ -66,7 +66,7 @@ const DUAL_SCALE: f32 = 32.0;
 /// `F = g / max(ε, ‖g‖)` (see `Graph::gradient_start`): steps of `D` larger than this
 /// start saturated. 0.02 px measured best of 0.005 / 0.02 / 0.1 / 0.5 on the HCI scenes
 /// with every PPXA copy started at `F`; with the copies at their fixed point
-/// (`consistent_copies`) 0.05 of 0.01 / 0.02 / 0.05 / 0.1 (docs/bench-tv.md).
+/// (`consistent_copies`) 0.05 of 0.01 / 0.02 / 0.05 / 0.1 (docs/stages/tv.md).
 const GRADIENT_START_SCALE: f32 = 0.05;
 
 /// The per-pixel inputs of the stage: EPI disparity and confidence, row-major, top row
