@@ -1,14 +1,12 @@
-// Runs the pipeline over a WorkerPool: the alignment (unless `params.align` is "off")
-// on one worker, every worker holding only the views the stages read (`handOver`:
-// shared, or copied and transferred); the disparity range on one worker, then the
-// horizontal and vertical EPI bands spread over all of them, then the fusion, then the
-// refine bands, the weighted-median row bands (every pass at once) and the TV tiles, each
-// stage spread over all of them too. Every part is the core's own band/tile function,
-// put together as the serial core does (TV histories summed in tile order), so the
-// result is bit-identical to `Estimator.estimate()` whatever the number of workers.
+// Runs the core's schedule over a WorkerPool: the alignment (unless `params.align` is
+// "off") on one worker, every worker holding only the views the stages read (`handOver`:
+// shared, or copied and transferred); then every step of the schedule in order, its
+// inputs handed to the workers that run its parts, its parts spread over them and placed
+// in part order by the page's own `Run`. The steps, their parts and their placing are the
+// core's: this file names no stage, and its result is bit-identical to
+// `Estimator.estimate()` whatever the number of workers.
 
-/** Lines per band: small enough to balance the workers and to cancel quickly. */
-export const BAND_LINES = 16;
+import { Run } from "./pkg/lfdepth_wasm.js";
 
 /** True when this page may share memory with its workers (it is cross-origin
  * isolated: served with COOP `same-origin` and COEP `require-corp`). */
@@ -31,30 +29,17 @@ export class Cancelled extends Error {
  * @param {import("./pool.js").WorkerPool} pool
  * @param {{views: Uint8Array, shape: object}} lightField
  * @param {object} params  EstimateParams of the wasm package
- * @param {{stages: string[], onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
- *   `stages`: the stage names of `stageNames()` (the EPI ones, starting with "epi", are
- *   range, horizontal and vertical in that order).
+ * @param {{onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
  * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], timings: {stage: string, ms: number}[], align: object | null, transport: object}>}
  *   `align`: `{ skipped, warning, rms, identityRms }` of the alignment, null when "off".
  *   `transport`: how the views reached the workers (see `handOver`).
  */
-export async function estimate(pool, lightField, params, { stages, onProgress: report, signal }) {
-  // Bands still in flight when cancelled finish in their workers; say nothing of them.
+export async function estimate(pool, lightField, params, { onProgress: report, signal }) {
+  // Parts still in flight when cancelled finish in their workers; say nothing of them.
   const onProgress = (stage, fraction) => signal.aborted || report(stage, fraction);
-  const [rangeStage, horizontalStage, verticalStage] = stages.filter((s) => s.startsWith("epi"));
-  // The core's names of the later stages (as `stageNames()` lists them).
-  const [refineStage, geofillStage, medianStage, tvStage] = ["refine", "geofill", "median", "tv"];
   const timings = [];
   const check = () => {
     if (signal.aborted) throw new Cancelled();
-  };
-  const timed = async (stage, work) => {
-    const start = performance.now();
-    onProgress(stage, 0);
-    const result = await work();
-    timings.push({ stage, ms: performance.now() - start });
-    onProgress(stage, 1);
-    return result;
   };
   // In-flight parts cannot be interrupted inside their worker: each finishes there and
   // its reply is ignored; no further part is dispatched; the page returns at once.
@@ -66,150 +51,57 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     abort(new Cancelled());
   };
   signal.addEventListener("abort", onAbort);
+  const race = (p) => Promise.race([aborted, p]);
+  let run = null;
   try {
     const loaded = loadedParams(pool, lightField, params);
-    const { align, timings: alignTimings, transport } = await handOver(pool, lightField, params, loaded, { onProgress, race: (p) => Promise.race([aborted, p]), check });
+    const { align, timings: alignTimings, transport, workerParams } = await handOver(pool, lightField, params, loaded, { onProgress, race, check });
     timings.push(...alignTimings);
     check();
-    const { range } = await timed(rangeStage, () => pool.run({ op: "range" }));
-    check();
-    const [min, max] = range;
-    const { width, height } = lightField.shape;
-    const bands = (stage, direction, lines, n) =>
-      timed(stage, async () => {
-        const disparity = new Float32Array(lines * n);
-        const confidence = new Float32Array(lines * n);
-        let done = 0;
-        const jobs = [];
-        for (let start = 0; start < lines; start += BAND_LINES) {
-          const end = Math.min(lines, start + BAND_LINES);
-          jobs.push(
-            pool.run({ op: "band", direction, start, end, min, max }).then((band) => {
-              disparity.set(band.disparity, start * n);
-              confidence.set(band.confidence, start * n);
-              done += end - start;
-              onProgress(stage, done / lines);
-            }),
-          );
-        }
-        await Promise.all(jobs);
-        return [disparity, confidence];
-      });
-    const [dh, ch] = await bands(horizontalStage, "horizontal", height, width);
-    check();
-    const [dv, cv] = await bands(verticalStage, "vertical", width, height);
-    check();
-    const fused = await timed("fuse", () =>
-      pool.run({ op: "fuse", params, width, height, dh, ch, dv, cv }, [dh.buffer, ch.buffer, dv.buffer, cv.buffer]),
-    );
-    check();
-    // The later stages by parts, in the order of the core's `pipeline::regularize`:
-    // refine bands, the geodesic refill (when on), then each median pass (before TV unless `median.beforeTv` is false),
-    // then TV tiles. Each stage's input maps go to every worker once; its parts then
-    // spread over the pool. Cancel drops the queued parts and ignores the in-flight ones.
-    const plan = await pool.run({ op: "parts" });
-    check();
-    // Sends `maps` to every worker, then parts `0..count` over the pool; `place` puts
-    // each reply in the result, `progress` gets the share of parts done.
-    const parts = async (maps, count, request, place, progress) => {
-      await Promise.race([aborted, pool.all({ op: "maps", ...maps })]);
+    const workers = pool.size;
+    run = new Run(lightField.shape, workerParams, workers);
+    for (let step = 0; step < run.steps; step++) {
+      const stage = run.stage(step);
+      const parts = run.parts(step);
+      const start = performance.now();
+      onProgress(stage, 0);
+      // A step with fewer parts than workers hands its inputs to as many workers only.
+      const used = Math.min(workers, parts);
+      const inputs = run.inputs(step);
+      await race(Promise.all(Array.from({ length: used }, (_, w) => pool.to(w, { op: "inputs", workers, inputs }))));
       check();
+      const outputs = new Array(parts);
       let done = 0;
       const jobs = [];
-      for (let index = 0; index < count; index++) {
+      for (let index = 0; index < parts; index++) {
+        const request = { op: "part", workers, step, index };
+        const job = used < workers ? pool.to(index % used, request) : pool.run(request);
         jobs.push(
-          pool.run(request(index)).then((reply) => {
+          job.then((reply) => {
             if (signal.aborted) return;
-            place(index, reply);
-            progress(++done / count);
+            outputs[index] = reply.output;
+            onProgress(stage, ++done / parts);
           }),
         );
       }
-      await Promise.race([aborted, Promise.all(jobs)]);
+      await race(Promise.all(jobs));
       check();
-    };
-    let disparity = fused.disparity;
-    let confidence = fused.confidence;
-    if (plan.refineBands > 0) {
-      const refined = new Float32Array(width * height);
-      const refinedConfidence = new Float32Array(width * height);
-      await timed(refineStage, () =>
-        parts(
-          { disparity, confidence },
-          plan.refineBands,
-          (index) => ({ op: "refineBand", index, min, max }),
-          (index, band) => {
-            const offset = plan.refineRows[index][0] * width;
-            refined.set(band.disparity, offset);
-            refinedConfidence.set(band.confidence, offset);
-          },
-          (fraction) => onProgress(refineStage, fraction),
-        ),
-      );
-      disparity = refined;
-      confidence = refinedConfidence;
+      // Placed in part order: the TV histories are summed in tile order, as the core does.
+      outputs.forEach((output, index) => run.place(step, index, output));
+      run.finish(step);
+      const ms = performance.now() - start;
+      const last = timings[timings.length - 1];
+      if (last && last.stage === stage) last.ms += ms;
+      else timings.push({ stage, ms });
+      onProgress(stage, 1);
     }
-    // The geodesic refill: one whole-map part (its sweeps have one order).
-    if (plan.geofill) {
-      let filled = disparity;
-      await timed(geofillStage, () =>
-        parts(
-          { disparity, confidence },
-          1,
-          () => ({ op: "geofill" }),
-          (_, reply) => {
-            filled = reply.disparity;
-          },
-          (fraction) => onProgress(geofillStage, fraction),
-        ),
-      );
-      disparity = filled;
-    }
-    // Every pass in one part per row band (wasm `medianAllPassesRows`): a band filters,
-    // pass after pass, the rows a later pass reads, so no map travels between passes
-    // (a copy of the whole map to every worker and a round trip per band for each pass
-    // cost more than the band's halo rows). One band per worker, at least BAND_LINES rows.
-    const medianRows = Math.max(BAND_LINES, Math.ceil(height / pool.size));
-    const median = () =>
-      timed(medianStage, async () => {
-        const filtered = new Float32Array(width * height);
-        await parts(
-          { disparity, confidence },
-          Math.ceil(height / medianRows),
-          (index) => ({ op: "medianAllPassesRows", start: index * medianRows, end: Math.min(height, (index + 1) * medianRows) }),
-          (index, reply) => filtered.set(reply.disparity, index * medianRows * width),
-          (fraction) => onProgress(medianStage, fraction),
-        );
-        disparity = filtered;
-      });
-    if (plan.medianPasses > 0 && plan.medianBeforeTv) await median();
-    const regularized = new Float32Array(width * height);
-    const histories = new Float32Array(plan.tvTiles * plan.tvIterations);
-    await timed(tvStage, () =>
-      parts(
-        { disparity, confidence },
-        plan.tvTiles,
-        (index) => ({ op: "tvTile", index }),
-        (index, tile) => {
-          for (let y = 0; y < tile.height; y++) {
-            regularized.set(tile.disparity.subarray(y * tile.width, (y + 1) * tile.width), (tile.y + y) * width + tile.x);
-          }
-          histories.set(tile.history, index * plan.tvIterations);
-        },
-        (fraction) => onProgress(tvStage, fraction),
-      ),
-    );
-    disparity = regularized;
-    const { residuals } = await pool.run({ op: "residuals", histories }, [histories.buffer]);
-    check();
-    if (plan.medianPasses > 0 && !plan.medianBeforeTv) await median();
-    // Free the per-worker maps; the views stay for the next estimate (`handOver`).
-    pool.all({ op: "clearMaps" });
+    // Free the per-worker inputs; the views stay for the next estimate (`handOver`).
+    pool.all({ op: "clearInputs" });
     return {
-      disparity,
-      confidence,
-      residuals,
-      range,
+      disparity: run.disparity,
+      confidence: run.confidence,
+      residuals: run.residuals,
+      range: Array.from(run.range),
       timings,
       align,
       transport,
@@ -218,6 +110,7 @@ export async function estimate(pool, lightField, params, { stages, onProgress: r
     if (signal.aborted) throw new Cancelled();
     throw e;
   } finally {
+    run?.free();
     signal.removeEventListener("abort", onAbort);
   }
 }
@@ -326,13 +219,14 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   if (held && held.views === views && held.mode === mode && held.read === read.join()) {
     // Workers holding warped views compare them as the aligned pipeline does.
     const warped = held.align ? !held.align.skipped : false;
-    await race(pool.all({ op: "setParams", params: warped ? { ...loaded, resampled: true } : loaded }));
+    const workerParams = warped ? { ...loaded, resampled: true } : loaded;
+    await race(pool.all({ op: "setParams", params: workerParams }));
     check();
     // The first estimate after `prepare` got them when the light field was loaded; any
     // later one from an earlier estimate.
     const transport = { ...held.transport, reused: true, prepared: held.prepared };
     if (!prepared) held.prepared = false;
-    return { align: held.align, timings: [{ stage: "load", ms: performance.now() - start }], transport };
+    return { align: held.align, timings: [{ stage: "load", ms: performance.now() - start }], transport, workerParams };
   }
   pool.held = null;
   // A load request per worker. `packed`: the read views one after the other (the
@@ -405,7 +299,9 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   timings.push({ stage: "load", ms: Math.max(0, performance.now() - start - computing) });
   const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen, reused: false, prepared: false };
   pool.held = { views, mode, read: read.join(), align, transport, prepared };
-  return { align, timings, transport };
+  // Workers holding warped views compare them as the aligned pipeline does.
+  const workerParams = align && !align.skipped ? { ...loaded, resampled: true } : loaded;
+  return { align, timings, transport, workerParams };
 }
 
 /** Bytes copied between two yields of the page's thread. */

@@ -212,13 +212,10 @@ async function run() {
   const controller = new AbortController();
   state.controller = controller;
   const stages = stageNames();
-  // The EPI stages run in the workers, then the fusion, then refine, median and TV, each
-  // spread over the workers.
-  // Alignment (on one worker) comes first, then every worker loads the rectified views.
+  // Alignment (on one worker) comes first, then every worker loads the views, then the
+  // steps of the core's schedule in the order of `stageNames()`.
   const alignStages = ["align", "warp"];
-  const epiStages = stages.filter((s) => s.startsWith("epi"));
-  const later = stages.filter((s) => !epiStages.includes(s) && !alignStages.includes(s));
-  const order = [...alignStages, "load", ...epiStages, "fuse", ...later];
+  const order = [...alignStages, "load", ...stages.filter((s) => !alignStages.includes(s))];
   const share = (1 - WEIGHTS.load - WEIGHTS.fuse) / stages.length;
   const weight = (s) => WEIGHTS[s] ?? share;
   const onProgress = (stage, fraction) => {
@@ -231,7 +228,7 @@ async function run() {
   const start = performance.now();
   try {
     const p = params();
-    const result = await estimate(await pool(), state.lightField, p, { stages, onProgress, signal: controller.signal });
+    const result = await estimate(await pool(), state.lightField, p, { onProgress, signal: controller.signal });
     showAlignment(result.align);
     showTransport(result.transport);
     const total = performance.now() - start;

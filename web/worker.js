@@ -1,10 +1,10 @@
 // A module worker: receives the compiled WebAssembly.Module once, then answers requests
-// (alignment, the views the stages read, EPI bands, ranges, synthetic views, fusion,
-// refine bands, median row bands, TV tiles) one at a time. Its estimator stays between
+// (alignment, the views the stages read, the inputs and parts of the core's schedule,
+// synthetic views) one at a time. Its estimator stays between
 // estimates (engine.js reuses it for the same light field). Every request
 // carries an `id` and gets exactly one reply with the same id: `{ id, ok: true, ... }` or
 // `{ id, ok: false, message }`; a long request may first send `{ id, progress }` reports.
-import { initSync, Estimator, readViews, renderView, renderGroundTruth, fuseBands } from "./pkg/lfdepth_wasm.js";
+import { initSync, Estimator, readViews, renderView, renderGroundTruth } from "./pkg/lfdepth_wasm.js";
 
 let estimator = null;
 
@@ -105,61 +105,15 @@ const handlers = {
       if (!kept) aligner.free();
     }
   },
-  range() {
-    return { range: Array.from(requireEstimator().disparityRange()) };
-  },
-  band({ direction, start, end, min, max }) {
-    const band = requireEstimator().estimateBand(direction, start, end, min, max);
-    const disparity = band.disparity;
-    const confidence = band.confidence;
-    band.free();
-    return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
-  },
-  fuse({ params, width, height, dh, ch, dv, cv }) {
-    const [disparity, confidence] = fuseBands(params, width, height, dh, ch, dv, cv);
-    return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
-  },
-  parts() {
-    const e = requireEstimator();
-    const refineRows = Array.from({ length: e.refineBands }, (_, index) => Array.from(e.refineBandRange(index)));
-    return {
-      refineBands: e.refineBands,
-      refineRows,
-      geofill: e.geofill,
-      medianPasses: e.medianPasses,
-      medianBeforeTv: e.medianBeforeTv,
-      tvTiles: e.tvTiles,
-      tvIterations: e.tvIterations,
-    };
-  },
-  maps({ disparity, confidence }) {
-    requireEstimator().setMaps(disparity, confidence);
+  /** The inputs of a step of the core's schedule (`Run.inputs`). */
+  inputs({ workers, inputs }) {
+    requireEstimator().setInputs(workers, inputs);
     return {};
   },
-  refineBand({ index, min, max }) {
-    const band = requireEstimator().refineBand(index, min, max);
-    const disparity = band.disparity;
-    const confidence = band.confidence;
-    band.free();
-    return { disparity, confidence, transfer: [disparity.buffer, confidence.buffer] };
-  },
-  geofill() {
-    const disparity = requireEstimator().geofillMap();
-    return { disparity, transfer: [disparity.buffer] };
-  },
-  medianAllPassesRows({ start, end }) {
-    const disparity = requireEstimator().medianAllPassesRows(start, end);
-    return { disparity, transfer: [disparity.buffer] };
-  },
-  tvTile({ index }) {
-    const tile = requireEstimator().tvTile(index);
-    const reply = { x: tile.x, y: tile.y, width: tile.width, height: tile.height, disparity: tile.disparity, history: tile.history };
-    tile.free();
-    return { ...reply, transfer: [reply.disparity.buffer, reply.history.buffer] };
-  },
-  residuals({ histories }) {
-    const residuals = requireEstimator().tvResiduals(histories);
-    return { residuals, transfer: [residuals.buffer] };
+  /** One part of a step: the array the page's `Run.place` takes. */
+  part({ workers, step, index }) {
+    const output = requireEstimator().runPart(workers, step, index);
+    return { output, transfer: [output.buffer] };
   },
   view({ spec, row, col }) {
     const view = renderView(spec, row, col);
@@ -174,8 +128,8 @@ const handlers = {
     requireEstimator().setParams(params);
     return {};
   },
-  clearMaps() {
-    estimator?.clearMaps();
+  clearInputs() {
+    estimator?.clearInputs();
     return {};
   },
 };

@@ -1,5 +1,5 @@
 //! The whole-frame pipeline (`pipeline::run_aligned`: alignment prelude → EPI → refine →
-//! weighted median → TV) on a small synthetic frame held in fixed memory. The stream is
+//! refill → weighted median → TV) on a small synthetic frame held in fixed memory. The stream is
 //! the firmware's way to process a large frame in bounded memory; this entry exists so
 //! that the panic-free link check (`--features panic-free,whole-frame`) also covers every
 //! whole-frame public entry point, with the default parameters (every stage on).
@@ -23,9 +23,9 @@ pub const HEIGHT: usize = 32;
 const GRID: Grid = Grid::new(9, 9);
 const VIEWS: usize = 81 * WIDTH * HEIGHT;
 const KERNEL_ELEMENTS: usize = 48 * 1024;
-// The map scratch: two maps, the TV duals and the median's previous pass (7,996 at
-// 32×32 with `Params::default()`).
-const MAP_ELEMENTS: usize = 8 * 1024;
+// The map scratch: the run's state (four maps and the TV history), one part's outputs
+// and the weighted median's three maps (14,772 at 32×32 with `Params::default()`).
+const MAP_ELEMENTS: usize = 16 * 1024;
 const ALIGN_ELEMENTS: usize = 128 * 1024;
 const HISTORY: usize = 300;
 

@@ -410,12 +410,12 @@ for (const stage of ["refine", "tv"]) {
   test(`Cancel during ${stage} dispatches no further part and the page stays usable`, async () => {
     const page = await context.newPage();
     page.on("pageerror", (e) => consoleErrors.push(e.message));
-    // Record every stage part the page sends its workers.
+    // Record the step of every part the page sends its workers.
     await page.addInitScript(() => {
       window.__parts = [];
       const post = Worker.prototype.postMessage;
       Worker.prototype.postMessage = function (message, ...rest) {
-        if (["refineBand", "medianAllPassesRows", "tvTile"].includes(message?.op)) window.__parts.push(message.op);
+        if (message?.op === "part") window.__parts.push(message.step);
         return post.call(this, message, ...rest);
       };
     });
@@ -424,9 +424,18 @@ for (const stage of ["refine", "tv"]) {
     await page.goto(`${server.origin}/?scene=slanted&size=512&grid=9&workers=2`);
     await page.waitForFunction(() => document.body.dataset.state === "idle" && !document.getElementById("run").disabled, null, { timeout: 120_000 });
     await page.click("#run");
-    const ops = { refine: "refineBand", tv: "tvTile" };
+    // The schedule's step of each stage, from the core (the page has initialised the
+    // package on its thread).
+    const steps = await page.evaluate(async () => {
+      const lf = await import("./pkg/lfdepth_wasm.js");
+      const run = new lf.Run({ rows: 9, cols: 9, width: 512, height: 512, channels: 3 }, {}, 2);
+      const names = Array.from({ length: run.steps }, (_, k) => run.stage(k));
+      run.free();
+      return names;
+    });
+    const step = (name) => steps.indexOf(name);
     // Cancel once the stage's first parts are out.
-    await page.waitForFunction((op) => window.__parts.includes(op), ops[stage], { timeout: 120_000, polling: 5 });
+    await page.waitForFunction((k) => window.__parts.includes(k), step(stage), { timeout: 120_000, polling: 5 });
     // Cancel and count the parts sent so far in one turn of the page's event loop.
     const sent = await page.evaluate(() => {
       document.getElementById("cancel").click();
@@ -439,8 +448,8 @@ for (const stage of ["refine", "tv"]) {
     await page.waitForTimeout(1500);
     const after = await page.evaluate(() => window.__parts);
     assert.equal(after.length, sent, after.join());
-    if (stage === "refine") assert.ok(!after.includes("medianAllPassesRows") && !after.includes("tvTile"), after.join());
-    else assert.ok(after.filter((op) => op === "tvTile").length < 16, after.join());
+    if (stage === "refine") assert.ok(!after.includes(step("median")) && !after.includes(step("tv")), after.join());
+    else assert.ok(after.filter((k) => k === step("tv")).length < 16, after.join());
     assert.equal(await page.isDisabled("#run"), false);
     assert.equal(await page.isDisabled("#cancel"), true);
     await page.click("#run");

@@ -41,7 +41,7 @@ test("a misaligned scene aligns and scores close to the rectified one", () => {
   assert.deepEqual(rectified.result.disparity, plain.disparity);
 });
 
-test("align() hands the rectified views to the band path, which then matches estimate()", () => {
+test("align() hands the rectified views to the parts of the schedule, which then match estimate()", () => {
   const params = { stage: "epi", align: "on" };
   const aligner = new lf.Estimator(bent.views, shape, params);
   const report = aligner.align();
@@ -50,13 +50,17 @@ test("align() hands the rectified views to the band path, which then matches est
   const rectified = aligner.views;
   assert.equal(rectified.length, bent.views.length);
   const serial = new lf.Estimator(bent.views, shape, params).estimate().disparity;
-  const bands = new lf.Estimator(rectified, shape, { stage: "epi", align: "off" });
-  const [min, max] = bands.disparityRange();
-  const part = (direction, lines) => bands.estimateBand(direction, 0, lines, min, max);
-  const h = part("horizontal", SIZE);
-  const v = part("vertical", SIZE);
-  const [disparity] = lf.fuseBands({ stage: "epi" }, SIZE, SIZE, h.disparity, h.confidence, v.disparity, v.confidence);
+  const worker = new lf.Estimator(rectified, shape, { stage: "epi", align: "off", resampled: true });
+  const run = new lf.Run(shape, { stage: "epi", resampled: true }, 1);
+  for (let step = 0; step < run.steps; step++) {
+    worker.setInputs(1, run.inputs(step));
+    for (let index = 0; index < run.parts(step); index++) run.place(step, index, worker.runPart(1, step, index));
+    run.finish(step);
+  }
+  const disparity = run.disparity;
   assert.ok(disparity.every((d, i) => Object.is(d, serial[i])));
+  run.free();
+  worker.free();
 });
 
 test("bad align values and textureless views are Errors that say what to change", () => {

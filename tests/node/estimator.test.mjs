@@ -1,5 +1,5 @@
-// The wasm package from Node: accuracy on a synthetic scene, band/serial equality,
-// progress and cancel, and errors that say what to change.
+// The wasm package from Node: accuracy on a synthetic scene, the schedule by parts equal
+// to the serial pipeline, progress and cancel, and errors that say what to change.
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import lf from "./pkg.mjs";
@@ -23,7 +23,7 @@ test("the EPI stage alone is within its accuracy bound", () => {
   assert.equal(scores.invalidPct, 0);
   for (const c of result.confidence) assert.ok(c >= 0 && c <= 1);
   // Alignment (auto by default) checks the array, finds it rectified and skips the warp.
-  assert.deepEqual(result.timings.map((t) => t.stage), ["align", ...lf.stageNames().filter((s) => s.startsWith("epi"))]);
+  assert.deepEqual(result.timings.map((t) => t.stage), ["align", ...lf.stageNames().filter((s) => s.startsWith("epi") || s === "fuse")]);
   assert.equal(result.align.skipped, true);
   for (const t of result.timings) assert.ok(t.ms >= 0);
   assert.equal(result.residuals.length, 0, "no TV stage with stage: \"epi\"");
@@ -59,173 +59,79 @@ test("the full pipeline (EPI → refine → median → TV) beats the EPI stage a
   assert.ok(!short.timings.some((t) => t.stage === "refine"));
 });
 
-test("bands in any split, fused, are bit-identical to the serial EPI stage", () => {
-  const params = { fusion: "weighted", stage: "epi" };
-  const estimator = new lf.Estimator(scene.views, shape, params);
-  const serial = estimator.estimate();
-  const [min, max] = estimator.disparityRange();
-  assert.ok(min < max && min >= -8 && max <= 8);
-  for (const bandLines of [1, 7, 32, SIZE]) {
-    const maps = {};
-    for (const direction of ["horizontal", "vertical"]) {
-      const lines = estimator.lines(direction);
-      const n = estimator.lineLength(direction);
-      const d = new Float32Array(lines * n);
-      const c = new Float32Array(lines * n);
-      for (let start = 0; start < lines; start += bandLines) {
-        const end = Math.min(lines, start + bandLines);
-        const band = estimator.estimateBand(direction, start, end, min, max);
-        d.set(band.disparity, start * n);
-        c.set(band.confidence, start * n);
+/** Runs every step of the core's schedule by parts as web/engine.js does: a `Run` on
+ * "the page" places the parts, `workers` estimators run them (each step's inputs handed
+ * to every one), parts dispatched in reverse order and placed in index order. */
+function byParts(params, workers) {
+  const run = new lf.Run(shape, params, workers);
+  const estimators = Array.from({ length: workers }, () => new lf.Estimator(scene.views, shape, { ...params, align: "off" }));
+  const stages = [];
+  try {
+    for (let step = 0; step < run.steps; step++) {
+      stages.push(run.stage(step));
+      const inputs = run.inputs(step);
+      for (const e of estimators) e.setInputs(workers, inputs);
+      const parts = run.parts(step);
+      const outputs = new Array(parts);
+      for (let index = parts - 1; index >= 0; index--) {
+        outputs[index] = estimators[index % workers].runPart(workers, step, index);
       }
-      maps[direction] = [d, c];
+      outputs.forEach((output, index) => run.place(step, index, output));
+      run.finish(step);
     }
-    const [disparity, confidence] = lf.fuseBands(params, SIZE, SIZE, ...maps.horizontal, ...maps.vertical);
-    assert.deepEqual(new Uint8Array(disparity.buffer), new Uint8Array(serial.disparity.buffer), `bands of ${bandLines}`);
-    assert.deepEqual(new Uint8Array(confidence.buffer), new Uint8Array(serial.confidence.buffer));
+    return { disparity: run.disparity, confidence: run.confidence, residuals: run.residuals, range: run.range, stages };
+  } finally {
+    run.free();
+    for (const e of estimators) e.free();
   }
-});
-
-test("bands, fused, then refineAndRegularize are bit-identical to the full serial pipeline", () => {
-  const estimator = new lf.Estimator(scene.views, shape);
-  const serial = estimator.estimate();
-  const [min, max] = estimator.disparityRange();
-  const maps = {};
-  for (const direction of ["horizontal", "vertical"]) {
-    const band = estimator.estimateBand(direction, 0, estimator.lines(direction), min, max);
-    maps[direction] = [band.disparity, band.confidence];
-  }
-  const [d, c] = lf.fuseBands(undefined, SIZE, SIZE, ...maps.horizontal, ...maps.vertical);
-  const stages = new Set();
-  const result = estimator.refineAndRegularize(d, c, min, max, (p) => { stages.add(p.stage); });
-  assert.deepEqual([...stages], ["refine", "geofill", "median", "tv"]);
-  assert.deepEqual(result.timings.map((t) => t.stage), ["refine", "geofill", "median", "tv"]);
-  assert.deepEqual(new Uint8Array(result.disparity.buffer), new Uint8Array(serial.disparity.buffer));
-  assert.deepEqual(new Uint8Array(result.confidence.buffer), new Uint8Array(serial.confidence.buffer));
-  assert.deepEqual(result.residuals, serial.residuals);
-  assert.throws(() => estimator.refineAndRegularize(d.subarray(1), c, min, max), /disparity has 16383 values but the view has 16384/);
-  assert.throws(() => estimator.refineAndRegularize(d, c, min, max, () => false), /cancelled/);
-});
-
-/** The stages after EPI by parts (refine bands, the refill, median row bands pass after
- * pass, TV tiles in any order) put together as web/engine.js does. */
-function byParts(estimator, d, c, min, max, bandLines) {
-  const pixels = SIZE * SIZE;
-  const shuffled = (n) => Array.from({ length: n }, (_, i) => i).reverse();
-  let disparity = d;
-  let confidence = c;
-  if (estimator.refineBands > 0) {
-    estimator.setMaps(disparity, confidence);
-    const refined = new Float32Array(pixels);
-    const refinedConfidence = new Float32Array(pixels);
-    for (const index of shuffled(estimator.refineBands)) {
-      const [start] = estimator.refineBandRange(index);
-      const band = estimator.refineBand(index, min, max);
-      refined.set(band.disparity, start * SIZE);
-      refinedConfidence.set(band.confidence, start * SIZE);
-    }
-    disparity = refined;
-    confidence = refinedConfidence;
-  }
-  // The geodesic refill: one whole-map part, as web/engine.js runs it.
-  if (estimator.geofill) {
-    estimator.setMaps(disparity, confidence);
-    disparity = estimator.geofillMap();
-  }
-  const median = () => {
-    const input = disparity;
-    // Passes after the first are told the map the pass before read (they recompute
-    // only near what moved): the result must not change.
-    let previous = null;
-    for (let pass = 0; pass < estimator.medianPasses; pass++) {
-      estimator.setMaps(disparity, confidence);
-      if (previous) estimator.setPreviousDisparity(previous);
-      else estimator.clearPreviousDisparity();
-      const filtered = new Float32Array(pixels);
-      for (let start = 0; start < SIZE; start += bandLines) {
-        filtered.set(estimator.medianRows(start, Math.min(SIZE, start + bandLines)), start * SIZE);
-      }
-      previous = disparity;
-      disparity = filtered;
-    }
-    estimator.clearPreviousDisparity();
-    // Every pass at once per row band, as web/engine.js runs it: the same map.
-    estimator.setMaps(input, confidence);
-    const allPasses = new Float32Array(pixels);
-    for (let start = 0; start < SIZE; start += bandLines) {
-      allPasses.set(estimator.medianAllPassesRows(start, Math.min(SIZE, start + bandLines)), start * SIZE);
-    }
-    assert.deepEqual(new Uint8Array(allPasses.buffer), new Uint8Array(disparity.buffer));
-  };
-  if (estimator.medianBeforeTv) median();
-  estimator.setMaps(disparity, confidence);
-  const regularized = new Float32Array(pixels);
-  const histories = new Float32Array(estimator.tvTiles * estimator.tvIterations);
-  for (const index of shuffled(estimator.tvTiles)) {
-    const tile = estimator.tvTile(index);
-    for (let y = 0; y < tile.height; y++) {
-      regularized.set(tile.disparity.subarray(y * tile.width, (y + 1) * tile.width), (tile.y + y) * SIZE + tile.x);
-    }
-    histories.set(tile.history, index * estimator.tvIterations);
-  }
-  disparity = regularized;
-  const residuals = estimator.tvResiduals(histories);
-  if (!estimator.medianBeforeTv) median();
-  return { disparity, confidence, residuals };
 }
 
+const bytes = (a) => new Uint8Array(a.buffer, a.byteOffset, a.byteLength);
+
 for (const [name, params] of [
+  ["the EPI stage, weighted fusion", { fusion: "weighted", stage: "epi" }],
   ["defaults (one band, one tile)", {}],
   ["small bands and tiles", { refineBandRows: 24, tvTile: 40 }],
   ["median after TV", { refineBandRows: 50, tvTile: 48, medianBeforeTv: false, iterations: 60 }],
   ["no refine, no median", { refine: false, median: false, tvTile: 64 }],
 ]) {
-  test(`refine bands, median rows and TV tiles are bit-identical to refineAndRegularize and estimate: ${name}`, () => {
-    const estimator = new lf.Estimator(scene.views, shape, params);
-    const serial = estimator.estimate();
-    const [min, max] = estimator.disparityRange();
-    const maps = {};
-    for (const direction of ["horizontal", "vertical"]) {
-      const band = estimator.estimateBand(direction, 0, estimator.lines(direction), min, max);
-      maps[direction] = [band.disparity, band.confidence];
+  test(`the schedule by parts on 1, 2 and 3 workers is bit-identical to estimate(): ${name}`, () => {
+    const serial = new lf.Estimator(scene.views, shape, { ...params, align: "off" }).estimate();
+    for (const workers of [1, 2, 3]) {
+      const parts = byParts(params, workers);
+      assert.deepEqual(bytes(parts.disparity), bytes(serial.disparity), `disparity, ${workers} workers`);
+      assert.deepEqual(bytes(parts.confidence), bytes(serial.confidence), `confidence, ${workers} workers`);
+      assert.deepEqual(bytes(parts.residuals), bytes(serial.residuals), `residuals, ${workers} workers`);
+      assert.deepEqual([...new Set(parts.stages)], serial.timings.map((t) => t.stage));
+      assert.equal(parts.range.length, 2);
     }
-    const [d, c] = lf.fuseBands(params, SIZE, SIZE, ...maps.horizontal, ...maps.vertical);
-    const whole = estimator.refineAndRegularize(d, c, min, max);
-    const bytes = (a) => new Uint8Array(a.buffer, a.byteOffset, a.byteLength);
-    for (const bandLines of [16, 7]) {
-      const parts = byParts(estimator, d, c, min, max, bandLines);
-      assert.deepEqual(bytes(parts.disparity), bytes(whole.disparity), `disparity, median bands of ${bandLines}`);
-      assert.deepEqual(bytes(parts.confidence), bytes(whole.confidence));
-      assert.deepEqual(bytes(parts.residuals), bytes(whole.residuals));
-      assert.deepEqual(bytes(parts.disparity), bytes(serial.disparity));
-      assert.deepEqual(bytes(parts.residuals), bytes(serial.residuals));
-    }
-    assert.ok(whole.residuals.length > 0, "TV ran");
+    if (params.stage !== "epi") assert.ok(serial.residuals.length > 0, "TV ran");
   });
 }
 
-test("stage parts report how the stages are cut and reject bad requests", () => {
-  const estimator = new lf.Estimator(scene.views, shape, { refineBandRows: 24, tvTile: 40 });
-  assert.equal(estimator.refineBands, Math.ceil(SIZE / 24));
-  assert.deepEqual(Array.from(estimator.refineBandRange(5)), [120, 128]);
-  assert.equal(estimator.tvTiles, Math.ceil(SIZE / 40) ** 2);
-  assert.equal(estimator.medianPasses, 4);
-  assert.equal(estimator.medianBeforeTv, true);
-  assert.equal(new lf.Estimator(scene.views, shape, { refine: false, median: false }).refineBands, 0);
-  assert.equal(new lf.Estimator(scene.views, shape, { median: false }).medianPasses, 0);
-  assert.throws(() => estimator.refineBand(0, -1, 1), /no maps set: call setMaps/);
-  const zeros = new Float32Array(SIZE * SIZE);
-  assert.throws(() => estimator.setMaps(zeros.subarray(1), zeros), /disparity has 16383 values/);
-  estimator.setMaps(zeros, zeros);
-  assert.throws(() => estimator.refineBand(6, -1, 1), /refine band/);
-  assert.throws(() => estimator.tvTile(16), /tile/);
-  assert.throws(() => estimator.medianRows(10, 200), /median band end row/);
-  assert.throws(() => estimator.medianAllPassesRows(10, 200), /median rows 10\.\.200: need start ≤ end ≤ the height, 128/);
-  assert.throws(() => estimator.medianAllPassesRows(20, 10), /median rows 20\.\.10/);
-  assert.throws(() => estimator.setPreviousDisparity(zeros.subarray(2)), /previous disparity has 16382 values/);
-  assert.throws(() => estimator.tvResiduals(new Float32Array(3)), /histories has 3 values/);
+test("a run lists its steps and parts, and bad requests say what to change", () => {
+  const run = new lf.Run(shape, { refineBandRows: 24, tvTile: 40 }, 2);
+  const stages = Array.from({ length: run.steps }, (_, k) => run.stage(k));
+  assert.deepEqual(stages, ["epi range", "epi horizontal", "epi vertical", "fuse", "refine", "geofill", "median", "tv"]);
+  assert.equal(run.parts(stages.indexOf("refine")), Math.ceil(SIZE / 24));
+  assert.equal(run.parts(stages.indexOf("tv")), Math.ceil(SIZE / 40) ** 2);
+  assert.equal(run.parts(0), 1);
+  assert.throws(() => run.stage(run.steps), /step 8 does not exist: the run has 8 steps/);
+  assert.throws(() => run.place(0, 0, new Float32Array(3)), /part 0 has 3 values but its step's parts have 2/);
+  const estimator = new lf.Estimator(scene.views, shape, { refineBandRows: 24, tvTile: 40, align: "off" });
+  // The refinement needs the range, which only the first step gives.
+  estimator.setInputs(2, run.inputs(0));
+  assert.throws(() => estimator.runPart(2, stages.indexOf("refine"), 0), /range ran before it: run the steps in order/);
+  assert.throws(() => estimator.runPart(2, 0, 1), /part of a step/);
+  assert.throws(() => estimator.setInputs(2, { disparity: new Float32Array(5) }), /map of the run/);
+  assert.throws(() => estimator.setInputs(2, { range: [1] }), /\[min, max\]/);
+  const sweeps = new lf.Run(shape, { median: false, refine: false }, 1);
+  assert.deepEqual(Array.from({ length: sweeps.steps }, (_, k) => sweeps.stage(k)), ["epi range", "epi horizontal", "epi vertical", "fuse", "geofill", "tv"]);
   assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /tv.tile/);
   assert.throws(() => new lf.Estimator(scene.views, shape, { preset: "quick" }), /params.preset `quick` is unknown: use one of "default", "fast"/);
+  run.free();
+  sweeps.free();
+  estimator.free();
 });
 
 test("params.preset: \"default\" is the defaults, \"fast\" changes the later stages, other keys override it", () => {
@@ -236,10 +142,15 @@ test("params.preset: \"default\" is the defaults, \"fast\" changes the later sta
   assert.notDeepEqual(fast, defaults);
   // The EPI stage is the same in both presets.
   assert.deepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi" }));
-  // The fast preset runs three median passes, not four; an explicit key wins over it.
-  assert.equal(new lf.Estimator(scene.views, shape, { preset: "fast" }).medianPasses, 3);
-  assert.equal(new lf.Estimator(scene.views, shape, { preset: "fast", median: false }).medianPasses, 0);
-  assert.equal(new lf.Estimator(scene.views, shape, {}).medianPasses, 4);
+  // An explicit key wins over the preset: the fast preset without its median.
+  const stages = (params) => {
+    const run = new lf.Run(shape, params, 1);
+    const names = Array.from({ length: run.steps }, (_, k) => run.stage(k));
+    run.free();
+    return names;
+  };
+  assert.ok(stages({ preset: "fast" }).includes("median"));
+  assert.ok(!stages({ preset: "fast", median: false }).includes("median"));
 });
 
 test("Uint8ClampedArray views give the same result as Uint8Array", () => {
@@ -289,8 +200,8 @@ test("bad input throws an Error whose message says what to change", () => {
     [() => new lf.Estimator(scene.views, shape, { range: "wide" }), /"auto" or \[min, max\]/],
     [() => new lf.Estimator(scene.views, shape, { fusion: "max" }), /"coherence" or "weighted"/],
     [() => new lf.Estimator(scene.views, shape).estimate(42), /onProgress must be a function/],
-    [() => new lf.Estimator(scene.views, shape).estimateBand("diagonal", 0, 1, -1, 1), /"horizontal" or "vertical"/],
-    [() => new lf.Estimator(scene.views, shape).estimateBand("vertical", 0, SIZE + 1, -1, 1), /outside the 128 lines/],
+    [() => new lf.Estimator(scene.views, shape).runPart(1, 99, 0), /step 99 does not exist/],
+    [() => new lf.Run(shape, { lamda: 2 }, 1), /unknown key `lamda`/],
     [() => lf.synthesize({ ...spec, scene: "moon" }), /unknown: use one of planes, slanted/],
     [() => lf.synthesize({ ...spec, disparityMax: 9 }), /within -4..4/],
     [() => lf.evaluate(new Float32Array(5), scene.groundTruth, SIZE, SIZE), /estimate has 5 elements but must have exactly 16384/],

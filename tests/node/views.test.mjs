@@ -94,10 +94,10 @@ test("setParams runs new parameters over the views held, with the bits of a new 
     const fresh = new lf.Estimator(views, shape, next).estimate();
     assert.ok(same(r.disparity, fresh.disparity) && same(r.confidence, fresh.confidence) && same(r.residuals, fresh.residuals), JSON.stringify(next));
   }
-  // The maps of setMaps are forgotten (they belonged to the old parameters).
-  held.setMaps(new Float32Array(80 * 64), new Float32Array(80 * 64));
+  // The inputs of setInputs are forgotten (they belonged to the old parameters).
+  held.setInputs(1, { range: new Float32Array([-1, 1]) });
   held.setParams(first);
-  assert.throws(() => held.tvTile(0), /no maps set/);
+  assert.throws(() => held.runPart(1, 1, 0), /range ran before it/);
   assert.throws(() => held.setParams({ align: "auto" }), /pass params\.align "off"/);
   assert.throws(() => held.setParams({ align: "off", lambda: -1 }), /lambda|λ/i);
   // An aligned estimator keeps its rectified views: no second alignment.

@@ -3,7 +3,7 @@
 use core::ops::ControlFlow;
 
 use lfdepth::align::{self, AlignMode, AlignReport};
-use lfdepth::epi::{self, Direction, Hypotheses};
+use lfdepth::epi;
 use lfdepth::pipeline::{self, Progress, Stages};
 use lfdepth::tv;
 use lfdepth::{median, refine, Homography, Layout, LightField, Plan};
@@ -11,6 +11,7 @@ use wasm_bindgen::prelude::*;
 
 use crate::js::{self, error, message};
 use crate::params;
+use crate::run::WorkerRun;
 
 /// The progress stage names of the core pipeline, in the order they run.
 #[wasm_bindgen(js_name = stageNames)]
@@ -21,6 +22,7 @@ pub fn stage_names() -> Vec<String> {
         epi::STAGE_RANGE,
         epi::STAGE_HORIZONTAL,
         epi::STAGE_VERTICAL,
+        epi::STAGE_FUSE,
         refine::STAGE,
         lfdepth::geofill::STAGE,
         median::STAGE,
@@ -29,16 +31,6 @@ pub fn stage_names() -> Vec<String> {
     .iter()
     .map(|s| s.to_string())
     .collect()
-}
-
-fn direction(name: &str) -> Result<Direction, JsError> {
-    match name {
-        "horizontal" => Ok(Direction::Horizontal),
-        "vertical" => Ok(Direction::Vertical),
-        _ => Err(message(&format!(
-            "direction `{name}` is unknown: use \"horizontal\" or \"vertical\""
-        ))),
-    }
 }
 
 /// Wall time of one stage.
@@ -159,42 +151,18 @@ impl AlignResult {
     }
 }
 
-/// Disparity and confidence of one band, line after line (for "vertical" bands that is
-/// the transpose of the image layout).
-#[wasm_bindgen]
-pub struct Band {
-    pub(crate) disparity: Vec<f32>,
-    pub(crate) confidence: Vec<f32>,
-}
-
-#[wasm_bindgen]
-impl Band {
-    /// Disparity, `lines · lineLength`.
-    #[wasm_bindgen(getter)]
-    pub fn disparity(&self) -> js_sys::Float32Array {
-        js_sys::Float32Array::from(&self.disparity[..])
-    }
-    /// Confidence, `lines · lineLength`.
-    #[wasm_bindgen(getter)]
-    pub fn confidence(&self) -> js_sys::Float32Array {
-        js_sys::Float32Array::from(&self.confidence[..])
-    }
-}
-
 /// Disparity of the centre view of a light field held in wasm memory.
 #[wasm_bindgen]
 pub struct Estimator {
-    views: Vec<u8>,
-    layout: Layout,
+    pub(crate) views: Vec<u8>,
+    pub(crate) layout: Layout,
     pub(crate) plan: Plan,
     stages: Stages,
     /// Set once the alignment prelude ran: `views` are then the rectified views.
     aligned: Option<AlignResult>,
-    /// The maps the stage parts (`refineBand`, `medianRows`, `tvTile`) read, set by
-    /// `setMaps`: disparity then confidence, `plan.pixels()` each.
-    pub(crate) maps: Option<(Vec<f32>, Vec<f32>)>,
-    /// The map the previous median pass read (see `setPreviousDisparity`).
-    pub(crate) previous: Option<Vec<f32>>,
+    /// The schedule and the inputs of the parts this worker runs (`setInputs`,
+    /// `runPart`).
+    pub(crate) run: Option<WorkerRun>,
     /// True when only the views the stages read are held (`fromReadViews`; the others
     /// are zero).
     pub(crate) partial: bool,
@@ -264,8 +232,7 @@ impl Estimator {
             plan,
             stages,
             aligned: None,
-            maps: None,
-            previous: None,
+            run: None,
             partial,
         }
     }
@@ -280,8 +247,7 @@ impl Estimator {
             plan
         };
         self.stages = stages;
-        self.maps = None;
-        self.previous = None;
+        self.run = None;
     }
 
     /// True when the alignment rectified the views (only those the stages read).
@@ -302,16 +268,6 @@ impl Estimator {
     /// How far `estimate` goes.
     pub(crate) fn stages(&self) -> Stages {
         self.stages
-    }
-
-    pub(crate) fn light_field(&self) -> Result<LightField<'_, u8>, JsError> {
-        LightField::new(&self.views, self.layout).map_err(error)
-    }
-
-    /// The core's hypotheses for `[min, max]`: the same ones the serial pipeline uses
-    /// when it resolved that range.
-    fn hypotheses(&self, min: f32, max: f32) -> Result<Hypotheses, JsError> {
-        Hypotheses::new(&self.plan.params().epi, min, max).map_err(error)
     }
 }
 
@@ -358,12 +314,10 @@ impl Estimator {
         let pixels = self.plan.pixels();
         let mut disparity = vec![0.0f32; pixels];
         let mut confidence = vec![0.0f32; pixels];
-        let (mut maps, mut history) = match self.stages {
-            Stages::Epi => (Vec::new(), Vec::new()),
-            Stages::Full => (
-                vec![0.0f32; pipeline::map_scratch_len(&self.plan)],
-                vec![0.0f32; self.plan.params().tv.max_iterations],
-            ),
+        let mut maps = vec![0.0f32; pipeline::stage_map_scratch_len(&self.plan, self.stages)];
+        let mut history = match self.stages {
+            Stages::Epi => Vec::new(),
+            Stages::Full => vec![0.0f32; self.plan.params().tv.max_iterations],
         };
         let timings = with_progress(on_progress, |report| {
             self.align_views(report)?;
@@ -395,8 +349,7 @@ impl Estimator {
     /// The alignment prelude alone, on this thread (what `estimate()` runs first): with
     /// `params.align` "on", or "auto" on an array found not rectified, estimates one
     /// homography per view and replaces the views the stages read by their rectified
-    /// versions (`views`), for `estimate()`, `estimateBand()` and `refineAndRegularize()`
-    /// alike. Runs once; later calls return the same result. "on" throws an `Error` when
+    /// versions (`views`), for `estimate()` and every `runPart()`. Runs once; later calls return the same result. "on" throws an `Error` when
     /// a view cannot be aligned (textureless or too different); "auto" then reports a
     /// `warning` and keeps the views. `onProgress` as for `estimate`.
     pub fn align(
@@ -429,134 +382,6 @@ impl Estimator {
     #[wasm_bindgen(getter)]
     pub fn views(&self) -> js_sys::Uint8Array {
         js_sys::Uint8Array::from(&self.views[..])
-    }
-
-    /// The stages after EPI, serially on this thread: refine (unless `params.refine` is
-    /// false), the weighted median (unless `params.median` is false; before or after TV
-    /// as `params.medianBeforeTv` says) and TV, from the fused EPI `disparity` and
-    /// `confidence` (`fuseBands`) and the range `[min, max]` they were estimated over
-    /// (`disparityRange()`). Gives the same bits as `estimate()` with the full pipeline,
-    /// and as the same stages by parts (`refineBand`, `medianRows`, `tvTile`).
-    /// `onProgress` as for `estimate`.
-    #[wasm_bindgen(js_name = refineAndRegularize)]
-    pub fn refine_and_regularize(
-        &self,
-        disparity: &[f32],
-        confidence: &[f32],
-        min: f32,
-        max: f32,
-        #[wasm_bindgen(
-            js_name = onProgress,
-            unchecked_param_type = "(progress: Progress) => boolean | void"
-        )]
-        on_progress: Option<JsValue>,
-    ) -> Result<EstimateResult, JsValue> {
-        let pixels = self.plan.pixels();
-        for (name, len) in [
-            ("disparity", disparity.len()),
-            ("confidence", confidence.len()),
-        ] {
-            if len != pixels {
-                return Err(message(&format!(
-                    "{name} has {len} values but the view has {pixels} pixels"
-                ))
-                .into());
-            }
-        }
-        let lf = self.light_field()?;
-        let width = self.layout.width;
-        let mut out = disparity.to_vec();
-        let mut refined_confidence = confidence.to_vec();
-        let mut history = vec![0.0f32; self.plan.params().tv.max_iterations];
-        let timings = with_progress(on_progress, |report| {
-            let mut scratch = vec![0.0f32; pipeline::scratch_len(&self.plan)];
-            let mut maps = vec![0.0f32; pipeline::map_scratch_len(&self.plan)];
-            pipeline::regularize(
-                &self.plan,
-                &lf,
-                (min, max),
-                &mut out,
-                &mut refined_confidence,
-                &mut scratch,
-                &mut maps,
-                &mut history,
-                report,
-            )
-        })?;
-        Ok(EstimateResult {
-            width,
-            height: self.layout.height,
-            disparity: out,
-            confidence: refined_confidence,
-            residuals: iterations_run(history),
-            timings,
-            align: self.aligned.clone(),
-        })
-    }
-
-    /// The disparity range the pipeline uses, `[min, max]`: the fixed one, or the one the
-    /// core estimates from the light field. Pass it to every `estimateBand`.
-    #[wasm_bindgen(js_name = disparityRange)]
-    pub fn disparity_range(&self) -> Result<Vec<f32>, JsError> {
-        let lf = self.light_field()?;
-        let mut scratch = vec![0.0f32; epi::scratch_len(&self.plan)];
-        let (min, max) = self.resolve_range(&lf, &mut scratch)?;
-        Ok(vec![min, max])
-    }
-
-    /// Number of lines of `direction` (image rows for "horizontal", columns for
-    /// "vertical").
-    pub fn lines(&self, direction: &str) -> Result<usize, JsError> {
-        Ok(self::direction(direction)?.lines(&self.plan))
-    }
-
-    /// Samples per line of `direction`.
-    #[wasm_bindgen(js_name = lineLength)]
-    pub fn line_length(&self, direction: &str) -> Result<usize, JsError> {
-        Ok(self::direction(direction)?.line_len(&self.plan))
-    }
-
-    /// Disparity and confidence of lines `start..end` of `direction` for the range
-    /// `[min, max]` (from `disparityRange()`). Bands are independent: any split gives the
-    /// same bits as the serial pipeline once fused with `fuseBands`.
-    #[wasm_bindgen(js_name = estimateBand)]
-    pub fn estimate_band(
-        &self,
-        #[wasm_bindgen(unchecked_param_type = "Direction")] direction: &str,
-        start: usize,
-        end: usize,
-        min: f32,
-        max: f32,
-    ) -> Result<Band, JsError> {
-        let direction = self::direction(direction)?;
-        let lf = self.light_field()?;
-        let hypotheses = self.hypotheses(min, max)?;
-        let n = direction.line_len(&self.plan);
-        let lines = direction.lines(&self.plan);
-        if start > end || end > lines {
-            return Err(message(&format!(
-                "band {start}..{end} is outside the {lines} lines of this direction"
-            )));
-        }
-        let len = (end - start) * n;
-        let mut disparity = vec![0.0f32; len];
-        let mut confidence = vec![0.0f32; len];
-        let mut scratch = vec![0.0f32; epi::band_scratch_len(&self.plan, direction)];
-        epi::estimate_band(
-            &self.plan,
-            &hypotheses,
-            &lf,
-            direction,
-            start..end,
-            &mut disparity,
-            &mut confidence,
-            &mut scratch,
-        )
-        .map_err(error)?;
-        Ok(Band {
-            disparity,
-            confidence,
-        })
     }
 }
 
@@ -635,61 +460,4 @@ fn with_progress(
             ms: starts.get(i + 1).map_or(end, |next| next.1) - start,
         })
         .collect())
-}
-
-impl Estimator {
-    fn resolve_range(
-        &self,
-        lf: &LightField<'_, u8>,
-        scratch: &mut [f32],
-    ) -> Result<(f32, f32), JsError> {
-        let h = epi::hypotheses(&self.plan, lf, scratch).map_err(error)?;
-        Ok((h.min(), h.max()))
-    }
-}
-
-/// Fuses the full horizontal (`dh`, `ch`: image layout) and vertical (`dv`, `cv`:
-/// transposed, column after column) band results into the disparity and confidence of
-/// the image, `[disparity, confidence]`, exactly as the serial pipeline does.
-#[wasm_bindgen(js_name = fuseBands)]
-#[allow(clippy::too_many_arguments)]
-pub fn fuse_bands(
-    #[wasm_bindgen(unchecked_param_type = "EstimateParams | undefined")] params: JsValue,
-    width: usize,
-    height: usize,
-    dh: &[f32],
-    ch: &[f32],
-    dv: &[f32],
-    cv: &[f32],
-) -> Result<Vec<js_sys::Float32Array>, JsError> {
-    let fusion = params::params(&params)?.epi.fusion;
-    let pixels = width
-        .checked_mul(height)
-        .ok_or_else(|| message("width × height is too large"))?;
-    for (name, len) in [
-        ("dh", dh.len()),
-        ("ch", ch.len()),
-        ("dv", dv.len()),
-        ("cv", cv.len()),
-    ] {
-        if len != pixels {
-            return Err(message(&format!(
-                "{name} has {len} values but width × height is {pixels}"
-            )));
-        }
-    }
-    let mut disparity = vec![0.0f32; pixels];
-    let mut confidence = vec![0.0f32; pixels];
-    for y in 0..height {
-        for x in 0..width {
-            let (i, t) = (y * width + x, x * height + y);
-            let (d, c) = epi::fuse(fusion, dh[i], ch[i], dv[t], cv[t]);
-            disparity[i] = d;
-            confidence[i] = c;
-        }
-    }
-    Ok(vec![
-        js_sys::Float32Array::from(&disparity[..]),
-        js_sys::Float32Array::from(&confidence[..]),
-    ])
 }

@@ -2,13 +2,9 @@
 //! marshalling between JS values and the core's borrowed slices, and `Error` → JS `Error`.
 //!
 //! * [`Estimator`] owns a copy of the views and a validated plan; it runs the whole
-//!   pipeline ([`Estimator::estimate`], with progress and cancel) or single bands
-//!   ([`Estimator::estimate_band`]) so the page can spread them over Web Workers, then
-//!   [`fuse_bands`] combines the two directions exactly as the serial pipeline does, and
-//!   [`Estimator::refine_and_regularize`] runs the refine, median and TV stages on the
-//!   result — or, to spread those over workers too, `parts` runs them by refine band,
-//!   median row band and TV tile ([`Estimator::refine_band`], [`Estimator::median_rows`],
-//!   [`Estimator::tv_tile`]).
+//!   pipeline ([`Estimator::estimate`], with progress and cancel) or, on a worker, one
+//!   part of a step of the core's schedule ([`Estimator::run_part`]), while the page's
+//!   thread holds the [`Run`] that lists the steps and places their parts.
 //! * [`read_views`] and `Estimator.fromReadViews`: an estimator holding only the views
 //!   its stages read (what the page sends each worker).
 //! * [`synthesize`], [`render_view`], [`render_ground_truth`]: the core's synthetic scenes.
@@ -21,13 +17,13 @@ mod estimator;
 mod js;
 mod metrics;
 mod params;
-mod parts;
+mod run;
 mod synth;
 mod views;
 
-pub use estimator::{fuse_bands, stage_names, Band, EstimateResult, Estimator, StageTiming};
+pub use estimator::{stage_names, EstimateResult, Estimator, StageTiming};
 pub use metrics::{evaluate, Scores};
-pub use parts::TvTile;
+pub use run::Run;
 pub use synth::{render_ground_truth, render_view, scene_names, synthesize, SyntheticLightField};
 pub use views::read_views;
 
@@ -86,11 +82,11 @@ export interface EstimateParams {
   lambda?: number;
   /** Most TV (PPXA) iterations per tile, 1…100000. */
   iterations?: number;
-  /** Image rows per refine band, 1…4096 (default 128): the unit `refineBand` works on. */
+  /** Image rows per refine band, 1…4096 (default 128): a part of the refinement step. */
   refineBandRows?: number;
   /** Run the median between refine and TV (true, the default) or after TV (false). */
   medianBeforeTv?: boolean;
-  /** Side of a TV tile in pixels, 8…4096 (default 256): the unit `tvTile` works on. */
+  /** Side of a TV tile in pixels, 8…4096 (default 256): a part of each TV step. */
   tvTile?: number;
   /** Align the views by per-view homographies first: "off", "on", or "auto" (the
    * default: only when the array is found not to be rectified). */
@@ -107,9 +103,6 @@ export interface Progress {
   done: number;
   total: number;
 }
-
-/** Direction of an EPI band: image rows ("horizontal") or columns ("vertical"). */
-export type Direction = "horizontal" | "vertical";
 
 /** A synthetic scene; all keys but `scene`, `width` and `height` are optional. */
 export interface SynthSpec {

@@ -48,8 +48,7 @@ impl Estimator {
     /// index of `readViews(shape, params)`, in that order (e.g. `subarray`s of one
     /// packed buffer, or of a `SharedArrayBuffer` with the whole light field: each is
     /// copied once, into wasm memory). Gives the same bits as `new Estimator` with every
-    /// view for the estimate and every part (`estimateBand`, `refineBand`,
-    /// `medianRows`, `tvTile`, …). `params.align` must be "off": the alignment reads
+    /// view for the estimate and every part (`runPart`). `params.align` must be "off": the alignment reads
     /// views outside this set (align with `new Estimator(...).align()` first, then send
     /// its `readViews`).
     #[wasm_bindgen(js_name = fromReadViews)]

@@ -1,0 +1,274 @@
+extern crate std;
+use std::vec;
+use std::vec::Vec;
+
+use core::ops::ControlFlow;
+
+use super::*;
+use crate::align::testscene;
+use crate::lightfield::{Grid, Layout};
+use crate::median::MedianParams;
+use crate::pipeline;
+use crate::plan::Params;
+use crate::refine::RefineParams;
+use crate::scalar::Q16;
+use crate::tv::TvParams;
+
+/// A textured 5×5 array of 64×48 views with several depths (every stage has work).
+fn scene() -> (Vec<u8>, Layout) {
+    let (data, layout, _) = testscene::render(Grid::new(5, 5), 64, 48, None, 7);
+    (data, layout)
+}
+
+/// Every step of `schedule` by parts: each step's parts run in reverse order into their
+/// own buffers, then placed in index order (as a parallel driver does).
+fn by_parts<T: Scalar>(
+    schedule: &Schedule,
+    lf: &LightField<'_, u8>,
+) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let mut buffer = vec![0.0f32; schedule.state_len()];
+    let mut state = State::new(schedule, &mut buffer).unwrap();
+    for &step in schedule.steps() {
+        let parts = schedule.parts(step);
+        let lens = schedule.scratch_len(step);
+        let mut outputs: Vec<Vec<f32>> = vec![Vec::new(); parts];
+        for index in (0..parts).rev() {
+            let len = schedule.part_len(step, index).unwrap();
+            let mut output = vec![f32::NAN; len.total()];
+            let mut out = PartOutput::split(&mut output, len).unwrap();
+            let mut kernel = vec![T::ZERO; lens.kernel];
+            let mut maps = vec![f32::NAN; lens.maps];
+            let mut flags = vec![7u8; lens.flags];
+            let scratch = PartScratch {
+                kernel: &mut kernel,
+                maps: &mut maps,
+                flags: &mut flags,
+            };
+            schedule
+                .run_part(step, index, lf, &state, &mut out, scratch)
+                .unwrap();
+            outputs[index] = output;
+        }
+        for (index, output) in outputs.iter_mut().enumerate() {
+            let out = PartOutput::split(output, schedule.part_len(step, index).unwrap()).unwrap();
+            schedule.place(step, index, &out, &mut state).unwrap();
+        }
+        schedule.finish(step, &mut state);
+    }
+    (
+        state.disparity().to_vec(),
+        state.confidence().to_vec(),
+        state.history().to_vec(),
+    )
+}
+
+/// `pipeline::run`, the serial driver.
+fn serial<T: Scalar>(
+    plan: &Plan,
+    lf: &LightField<'_, u8>,
+    stages: Stages,
+) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let mut d = vec![0.0; plan.pixels()];
+    let mut c = vec![0.0; plan.pixels()];
+    let mut scratch = vec![T::ZERO; pipeline::stage_scratch_len(plan, stages)];
+    let mut maps = vec![0.0f32; pipeline::stage_map_scratch_len(plan, stages)];
+    let mut history = vec![0.0f32; plan.params().tv.max_iterations];
+    pipeline::run(
+        plan,
+        lf,
+        stages,
+        &mut d,
+        &mut c,
+        &mut scratch,
+        &mut maps,
+        &mut history,
+        &mut |_| ControlFlow::Continue(()),
+    )
+    .unwrap();
+    (d, c, history)
+}
+
+fn bits(values: &[f32]) -> Vec<u32> {
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
+fn variants() -> [(&'static str, Params); 5] {
+    let small = Params {
+        refine: RefineParams {
+            band_rows: 10,
+            ..RefineParams::default()
+        },
+        tv: TvParams {
+            tile: 24,
+            halo: 6,
+            max_iterations: 40,
+            ..Params::default().tv
+        },
+        ..Params::default()
+    };
+    [
+        ("defaults", Params::default()),
+        ("small bands and tiles", small),
+        (
+            "two TV sweeps",
+            Params {
+                tv: TvParams {
+                    sweeps: 2,
+                    ..small.tv
+                },
+                ..small
+            },
+        ),
+        (
+            "median after TV",
+            Params {
+                median: MedianParams {
+                    before_tv: false,
+                    ..MedianParams::default()
+                },
+                ..small
+            },
+        ),
+        ("the paper's pipeline", Params::paper()),
+    ]
+}
+
+#[test]
+fn parts_in_any_order_on_any_number_of_workers_give_the_serial_bits() {
+    let (data, layout) = scene();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    for (name, params) in variants() {
+        let plan = Plan::new(layout, params).unwrap();
+        for stages in [Stages::Epi, Stages::Full] {
+            let (d, c, h) = serial::<f32>(&plan, &lf, stages);
+            assert!(d.iter().all(|v| v.is_finite()), "{name}");
+            for workers in [1, 2, 5] {
+                let schedule = Schedule::new(&plan, stages, workers).unwrap();
+                let (pd, pc, ph) = by_parts::<f32>(&schedule, &lf);
+                assert_eq!(bits(&pd), bits(&d), "{name}, {stages:?}, {workers} workers");
+                assert_eq!(bits(&pc), bits(&c), "{name}, {stages:?}, {workers} workers");
+                if stages == Stages::Full {
+                    assert_eq!(bits(&ph[..h.len()]), bits(&h), "{name}: history");
+                    assert!(h[0] > 0.0, "{name}: TV ran");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn fixed_point_parts_give_the_serial_bits() {
+    let (data, layout) = scene();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let plan = Plan::new(layout, variants()[1].1).unwrap();
+    let (d, c, _) = serial::<Q16>(&plan, &lf, Stages::Full);
+    let (pd, pc, _) = by_parts::<Q16>(&Schedule::new(&plan, Stages::Full, 3).unwrap(), &lf);
+    assert_eq!(bits(&pd), bits(&d));
+    assert_eq!(bits(&pc), bits(&c));
+}
+
+#[test]
+fn the_steps_follow_the_enabled_stages() {
+    let layout = Layout::packed(Grid::new(5, 5), 64, 48, 1);
+    let stages_of = |params: Params, stages| {
+        let plan = Plan::new(layout, params).unwrap();
+        let schedule = Schedule::new(&plan, stages, 1).unwrap();
+        schedule
+            .steps()
+            .iter()
+            .map(|s| s.stage())
+            .collect::<Vec<_>>()
+    };
+    let epi = [
+        crate::epi::STAGE_RANGE,
+        crate::epi::STAGE_HORIZONTAL,
+        crate::epi::STAGE_VERTICAL,
+        crate::epi::STAGE_FUSE,
+    ];
+    assert_eq!(stages_of(Params::default(), Stages::Epi), epi);
+    let mut full = epi.to_vec();
+    full.extend(["refine", "geofill", "median", "tv"]);
+    assert_eq!(stages_of(Params::default(), Stages::Full), full);
+    let mut paper = epi.to_vec();
+    paper.push("tv");
+    assert_eq!(stages_of(Params::paper(), Stages::Full), paper);
+    let mut params = Params::default();
+    params.tv.sweeps = 2;
+    params.median.before_tv = false;
+    let mut swept = epi.to_vec();
+    swept.extend(["refine", "geofill", "tv", "tv", "tv", "median"]);
+    assert_eq!(stages_of(params, Stages::Full), swept);
+}
+
+#[test]
+fn the_median_bands_follow_the_workers_and_every_part_has_a_region() {
+    let layout = Layout::packed(Grid::new(5, 5), 64, 100, 1);
+    let plan = Plan::new(layout, Params::default()).unwrap();
+    for (workers, parts) in [(1, 1), (2, 2), (3, 3), (64, 7)] {
+        let schedule = Schedule::new(&plan, Stages::Full, workers).unwrap();
+        assert_eq!(schedule.parts(Step::Median), parts, "{workers} workers");
+        let mut covered = 0;
+        for index in 0..parts {
+            match schedule.region(Step::Median, index).unwrap() {
+                Region::Lines(start, end) => {
+                    assert_eq!(start, covered);
+                    covered = end;
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+        assert_eq!(covered, 100);
+        assert!(matches!(
+            schedule.region(Step::Median, parts),
+            Err(Error::OutOfRange { .. })
+        ));
+    }
+}
+
+#[test]
+fn misuse_is_an_error_not_a_panic() {
+    let (data, layout) = scene();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let plan = Plan::new(layout, Params::default()).unwrap();
+    let schedule = Schedule::new(&plan, Stages::Full, 1).unwrap();
+    let mut short = vec![0.0f32; schedule.state_len() - 1];
+    assert!(matches!(
+        State::new(&schedule, &mut short),
+        Err(Error::ScratchTooSmall { .. })
+    ));
+    let mut buffer = vec![0.0f32; schedule.state_len()];
+    let state = State::new(&schedule, &mut buffer).unwrap();
+    // A step after the range needs the range.
+    let step = Step::Epi(crate::epi::Direction::Horizontal);
+    let len = schedule.part_len(step, 0).unwrap();
+    let mut output = vec![0.0f32; len.total()];
+    let mut out = PartOutput::split(&mut output, len).unwrap();
+    let mut kernel = vec![0.0f32; schedule.scratch_len(step).kernel];
+    let scratch = PartScratch {
+        kernel: &mut kernel,
+        maps: &mut [],
+        flags: &mut [],
+    };
+    assert!(matches!(
+        schedule.run_part(step, 0, &lf, &state, &mut out, scratch),
+        Err(Error::InvalidParameter { .. })
+    ));
+    let mut small = vec![0.0f32; len.total() - 1];
+    assert!(matches!(
+        PartOutput::split(&mut small, len),
+        Err(Error::ScratchTooSmall { .. })
+    ));
+    // Too little kernel scratch for the range.
+    let len = schedule.part_len(Step::Range, 0).unwrap();
+    let mut output = vec![0.0f32; len.total()];
+    let mut out = PartOutput::split(&mut output, len).unwrap();
+    let mut kernel = vec![0.0f32; 3];
+    let scratch = PartScratch {
+        kernel: &mut kernel,
+        maps: &mut [],
+        flags: &mut [],
+    };
+    assert!(schedule
+        .run_part(Step::Range, 0, &lf, &state, &mut out, scratch)
+        .is_err());
+}

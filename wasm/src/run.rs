@@ -1,0 +1,322 @@
+//! The core's schedule driven from JavaScript, part by part, so the page can spread every
+//! step over Web Workers: the page's thread holds a [`Run`] (it lists the steps, gives
+//! each step's inputs to the workers and places their outputs in part order), each
+//! worker's [`Estimator`] runs parts ([`Estimator::run_part`]). No stage is named here or
+//! in the page: the steps, their parts and their placing are the core's.
+
+use lfdepth::pipeline::Stages;
+use lfdepth::schedule::{Cursor, PartOutput, PartScratch, Schedule, State, StateMaps, Step};
+use lfdepth::{LightField, Plan};
+use wasm_bindgen::prelude::*;
+
+use crate::estimator::{iterations_run, Estimator};
+use crate::js::{error, message};
+use crate::params;
+
+/// The state of one run on the page's thread: the maps between the steps.
+#[wasm_bindgen]
+pub struct Run {
+    schedule: Schedule,
+    buffer: Vec<f32>,
+    cursor: Cursor,
+}
+
+fn step_at(schedule: &Schedule, step: usize) -> Result<Step, JsError> {
+    schedule.steps().get(step).copied().ok_or_else(|| {
+        message(&format!(
+            "step {step} does not exist: the run has {} steps",
+            schedule.steps().len()
+        ))
+    })
+}
+
+fn array(values: &[f32]) -> JsValue {
+    js_sys::Float32Array::from(values).into()
+}
+
+#[wasm_bindgen]
+impl Run {
+    /// A run of `params` (as `Estimator` takes them; `stage` says how far) over a light
+    /// field of `shape`, for a driver that runs `workers` parts at once (this sets the
+    /// median's row bands, never the result). Workers must run parts with the same
+    /// `workers` and parameters.
+    #[wasm_bindgen(constructor)]
+    pub fn new(
+        #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
+        workers: usize,
+    ) -> Result<Run, JsError> {
+        let (_, plan, stages) = params::plan(&shape, params)?;
+        Run::for_plan(&plan, stages, workers)
+    }
+
+    /// Number of steps.
+    #[wasm_bindgen(getter)]
+    pub fn steps(&self) -> usize {
+        self.schedule.steps().len()
+    }
+
+    /// The stage name of step `step` (progress and timings).
+    pub fn stage(&self, step: usize) -> Result<String, JsError> {
+        Ok(step_at(&self.schedule, step)?.stage().to_string())
+    }
+
+    /// Number of parts of step `step`.
+    pub fn parts(&self, step: usize) -> Result<usize, JsError> {
+        Ok(self.schedule.parts(step_at(&self.schedule, step)?))
+    }
+
+    /// What the parts of step `step` read, to hand to every worker before its parts
+    /// (`Estimator.setInputs`): an object with `range` once known and the maps the step
+    /// reads (`disparity`, `confidence`, `otherDisparity`, `otherConfidence`, `dual`).
+    pub fn inputs(&mut self, step: usize) -> Result<JsValue, JsError> {
+        let step = step_at(&self.schedule, step)?;
+        let reads = self.schedule.reads(step);
+        let state = self.state()?;
+        let object = js_sys::Object::new();
+        let set = |key: &str, value: JsValue| {
+            js_sys::Reflect::set(&object, &key.into(), &value)
+                .map(|_| ())
+                .map_err(|_| message("could not build the inputs object"))
+        };
+        if let Some((min, max)) = state.range() {
+            set("range", array(&[min, max]))?;
+        }
+        if reads.disparity {
+            set("disparity", array(state.disparity()))?;
+        }
+        if reads.confidence {
+            set("confidence", array(state.confidence()))?;
+        }
+        if reads.other {
+            let (d, c) = state.other();
+            set("otherDisparity", array(d))?;
+            set("otherConfidence", array(c))?;
+        }
+        if reads.dual {
+            set("dual", array(state.dual()))?;
+        }
+        Ok(object.into())
+    }
+
+    /// Places part `index` of step `step` (the array a worker's `runPart` returned).
+    /// Place the parts of a step in index order.
+    pub fn place(&mut self, step: usize, index: usize, output: &mut [f32]) -> Result<(), JsError> {
+        let step = step_at(&self.schedule, step)?;
+        let len = self.schedule.part_len(step, index).map_err(error)?;
+        if output.len() != len.total() {
+            return Err(message(&format!(
+                "part {index} has {} values but its step's parts have {}",
+                output.len(),
+                len.total()
+            )));
+        }
+        let part = PartOutput::split(output, len).map_err(error)?;
+        let schedule = self.schedule.clone();
+        let mut state = self.state()?;
+        schedule
+            .place(step, index, &part, &mut state)
+            .map_err(error)?;
+        self.cursor = state.cursor();
+        Ok(())
+    }
+
+    /// Closes step `step` once every part is placed.
+    pub fn finish(&mut self, step: usize) -> Result<(), JsError> {
+        let step = step_at(&self.schedule, step)?;
+        let schedule = self.schedule.clone();
+        let mut state = self.state()?;
+        schedule.finish(step, &mut state);
+        self.cursor = state.cursor();
+        Ok(())
+    }
+
+    /// The disparity after the last step (row-major, top row first).
+    #[wasm_bindgen(getter)]
+    pub fn disparity(&mut self) -> Result<js_sys::Float32Array, JsError> {
+        Ok(js_sys::Float32Array::from(self.state()?.disparity()))
+    }
+
+    /// The confidence after the last step.
+    #[wasm_bindgen(getter)]
+    pub fn confidence(&mut self) -> Result<js_sys::Float32Array, JsError> {
+        Ok(js_sys::Float32Array::from(self.state()?.confidence()))
+    }
+
+    /// The TV residual per iteration run (empty when TV did not run).
+    #[wasm_bindgen(getter)]
+    pub fn residuals(&mut self) -> Result<js_sys::Float32Array, JsError> {
+        let tv = self.schedule.steps().contains(&Step::Tv { sweep: 0 });
+        let history = if tv {
+            iterations_run(self.state()?.history().to_vec())
+        } else {
+            Vec::new()
+        };
+        Ok(js_sys::Float32Array::from(&history[..]))
+    }
+
+    /// The disparity range the EPI stage tested, `[min, max]` (empty before the range
+    /// step).
+    #[wasm_bindgen(getter)]
+    pub fn range(&mut self) -> Result<Vec<f32>, JsError> {
+        Ok(self
+            .state()?
+            .range()
+            .map_or_else(Vec::new, |(min, max)| vec![min, max]))
+    }
+}
+
+impl Run {
+    pub(crate) fn for_plan(plan: &Plan, stages: Stages, workers: usize) -> Result<Run, JsError> {
+        let schedule = Schedule::new(plan, stages, workers.max(1)).map_err(error)?;
+        let mut buffer = vec![0.0f32; schedule.state_len()];
+        let cursor = State::new(&schedule, &mut buffer).map_err(error)?.cursor();
+        Ok(Run {
+            schedule,
+            buffer,
+            cursor,
+        })
+    }
+
+    fn state(&mut self) -> Result<State<'_>, JsError> {
+        State::resume(&self.schedule, &mut self.buffer, self.cursor).map_err(error)
+    }
+}
+
+/// What a worker's estimator keeps between the parts of a run: the schedule (for its
+/// `workers`), the inputs of the current step and the range.
+pub(crate) struct WorkerRun {
+    workers: usize,
+    schedule: Schedule,
+    buffer: Vec<f32>,
+    range: Option<(f32, f32)>,
+}
+
+/// The `Float32Array` at `key` of `object`, if any.
+fn map_of(object: &JsValue, key: &str) -> Result<Option<Vec<f32>>, JsError> {
+    let value = js_sys::Reflect::get(object, &key.into())
+        .map_err(|_| message(&format!("could not read `{key}` of the inputs")))?;
+    if value.is_undefined() || value.is_null() {
+        return Ok(None);
+    }
+    let array = value
+        .dyn_into::<js_sys::Float32Array>()
+        .map_err(|_| message(&format!("`{key}` of the inputs must be a Float32Array")))?;
+    Ok(Some(array.to_vec()))
+}
+
+#[wasm_bindgen]
+impl Estimator {
+    /// Takes the inputs of a step (`Run.inputs`) for the parts this worker will run with
+    /// `runPart(workers, …)`.
+    #[wasm_bindgen(js_name = setInputs)]
+    pub fn set_inputs(&mut self, workers: usize, inputs: JsValue) -> Result<(), JsError> {
+        let run = self.worker_run(workers)?;
+        let range = match map_of(&inputs, "range")? {
+            Some(range) => match range[..] {
+                [min, max] => Some((min, max)),
+                _ => return Err(message("`range` of the inputs must hold [min, max]")),
+            },
+            None => None,
+        };
+        let maps = [
+            map_of(&inputs, "disparity")?,
+            map_of(&inputs, "confidence")?,
+            map_of(&inputs, "otherDisparity")?,
+            map_of(&inputs, "otherConfidence")?,
+            map_of(&inputs, "dual")?,
+        ];
+        let plan = *run.schedule.plan();
+        let mut state = State::new(&run.schedule, &mut run.buffer).map_err(error)?;
+        state
+            .set(
+                &plan,
+                StateMaps {
+                    disparity: maps[0].as_deref(),
+                    confidence: maps[1].as_deref(),
+                    other_disparity: maps[2].as_deref(),
+                    other_confidence: maps[3].as_deref(),
+                    dual: maps[4].as_deref(),
+                },
+                range,
+            )
+            .map_err(error)?;
+        run.range = range.or(run.range);
+        Ok(())
+    }
+
+    /// Runs part `index` of step `step` of the schedule for `workers` from the inputs of
+    /// `setInputs`: the array to hand to `Run.place`.
+    #[wasm_bindgen(js_name = runPart)]
+    pub fn run_part(
+        &mut self,
+        workers: usize,
+        step: usize,
+        index: usize,
+    ) -> Result<js_sys::Float32Array, JsError> {
+        self.worker_run(workers)?;
+        let lf = LightField::new(&self.views, self.layout).map_err(error)?;
+        let Some(run) = self.run.as_mut() else {
+            return Err(message("no run: call setInputs first"));
+        };
+        let step = step_at(&run.schedule, step)?;
+        let len = run.schedule.part_len(step, index).map_err(error)?;
+        let lens = run.schedule.scratch_len(step);
+        let mut output = vec![0.0f32; len.total()];
+        let mut kernel = vec![0.0f32; lens.kernel];
+        let mut maps = vec![0.0f32; lens.maps];
+        let mut flags = vec![0u8; lens.flags];
+        let plan = *run.schedule.plan();
+        let mut state = State::new(&run.schedule, &mut run.buffer).map_err(error)?;
+        state
+            .set(&plan, StateMaps::default(), run.range)
+            .map_err(error)?;
+        let mut out = PartOutput::split(&mut output, len).map_err(error)?;
+        run.schedule
+            .run_part(
+                step,
+                index,
+                &lf,
+                &state,
+                &mut out,
+                PartScratch {
+                    kernel: &mut kernel,
+                    maps: &mut maps,
+                    flags: &mut flags,
+                },
+            )
+            .map_err(error)?;
+        Ok(js_sys::Float32Array::from(&output[..]))
+    }
+
+    /// Frees the inputs of `setInputs`.
+    #[wasm_bindgen(js_name = clearInputs)]
+    pub fn clear_inputs(&mut self) {
+        self.run = None;
+    }
+}
+
+impl Estimator {
+    /// The worker run for `workers` over the current plan (a new one when either
+    /// changed).
+    fn worker_run(&mut self, workers: usize) -> Result<&mut WorkerRun, JsError> {
+        let stale = self
+            .run
+            .as_ref()
+            .is_none_or(|r| r.workers != workers || r.schedule.plan() != &self.plan);
+        if stale {
+            let schedule =
+                Schedule::new(&self.plan, self.stages(), workers.max(1)).map_err(error)?;
+            let buffer = vec![0.0f32; schedule.state_len()];
+            self.run = Some(WorkerRun {
+                workers,
+                schedule,
+                buffer,
+                range: None,
+            });
+        }
+        self.run
+            .as_mut()
+            .ok_or_else(|| message("no run: call setInputs first"))
+    }
+}
