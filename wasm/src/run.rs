@@ -205,6 +205,19 @@ fn map_of(object: &JsValue, key: &str) -> Result<Option<Vec<f32>>, JsError> {
     Ok(Some(array.to_vec()))
 }
 
+/// The `range` of `object`: `[min, max]` as an array or a `Float32Array`, if any.
+fn range_of(object: &JsValue) -> Result<Option<Vec<f32>>, JsError> {
+    let value = js_sys::Reflect::get(object, &"range".into())
+        .map_err(|_| message("could not read `range` of the inputs"))?;
+    if value.is_undefined() || value.is_null() {
+        return Ok(None);
+    }
+    if !(js_sys::Array::is_array(&value) || value.is_instance_of::<js_sys::Float32Array>()) {
+        return Err(message("`range` of the inputs must hold [min, max]"));
+    }
+    Ok(Some(js_sys::Float32Array::new(&value).to_vec()))
+}
+
 #[wasm_bindgen]
 impl Estimator {
     /// Takes the inputs of a step (`Run.inputs`) for the parts this worker will run with
@@ -212,7 +225,7 @@ impl Estimator {
     #[wasm_bindgen(js_name = setInputs)]
     pub fn set_inputs(&mut self, workers: usize, inputs: JsValue) -> Result<(), JsError> {
         let run = self.worker_run(workers)?;
-        let range = match map_of(&inputs, "range")? {
+        let range = match range_of(&inputs)? {
             Some(range) => match range[..] {
                 [min, max] => Some((min, max)),
                 _ => return Err(message("`range` of the inputs must hold [min, max]")),
