@@ -69,8 +69,8 @@ pub enum Flag {
 
 impl Flag {
     /// The flag as typed, dashes included.
-    pub fn name(&self) -> &'static str {
-        match *self {
+    pub fn name(self) -> &'static str {
+        match self {
             Flag::Value(name) | Flag::Switch { name, .. } => name,
         }
     }
