@@ -597,7 +597,7 @@ pub static TUNABLES: &[Tunable] = &[
     Tunable {
         flag: Some(Flag::Value("--disparity-range")),
         key: Some("range"),
-        doc: "Disparity search range in px between adjacent views: auto (estimated from the views) or MIN..MAX",
+        doc: "Disparity search range in px between adjacent views: auto (estimated from the views) or fixed from a minimum to a maximum",
         kind: Kind::Range,
         path: "disparity range",
         get: |p| Value::Range(p.epi.range),

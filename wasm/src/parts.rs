@@ -314,6 +314,14 @@ impl Estimator {
     /// guided by the centre view.
     #[wasm_bindgen(js_name = tvTile)]
     pub fn tv_tile(&self, index: usize) -> Result<TvTile, JsError> {
+        // A tile solved alone is the first pass only: the outer sweeps need every tile's
+        // dual of the previous pass (the whole-map path of `estimate` and
+        // `refineAndRegularize` runs them).
+        if self.plan.params().tv.sweeps > 0 {
+            return Err(message(
+                "tvTile solves each tile once, without the outer sweeps of params.tvSweeps:                  pass tvSweeps 0, or run estimate() or refineAndRegularize()",
+            ));
+        }
         let (disparity, confidence) = self.stage_maps()?;
         let lf = self.light_field()?;
         let layout = self.plan.layout();

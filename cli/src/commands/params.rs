@@ -134,7 +134,7 @@ fn flag_arg(t: &'static Tunable) -> Option<Arg> {
             .allow_hyphen_values(true)
             .value_parser(parse_range_choice)
             .help(format!(
-                "{} (e.g. -2..2), or cfg (disp_min..disp_max of the scene's parameters.cfg); within ±{} (default {}).",
+                "{}: MIN..MAX (e.g. -2..2), or cfg (disp_min..disp_max of the scene's parameters.cfg); within ±{} (default {}).",
                 t.doc,
                 lfdepth::epi::MAX_DISPARITY,
                 default_text(t)
