@@ -329,7 +329,7 @@ pub fn by_key(key: &str) -> Option<&'static Tunable> {
     TUNABLES.iter().find(|t| t.key == Some(key))
 }
 
-/// Every preset with one line about it, in [`Preset::ALL`]'s order.
+/// One line about `preset`, for the CLI's help and the TypeScript type.
 pub fn preset_doc(preset: Preset) -> &'static str {
     match preset {
         Preset::Default => "the most accurate settings",
