@@ -138,7 +138,10 @@ fn corrupt_and_overflowing_pfms() {
 fn out_of_range_parameters() {
     let dir = common::temp();
     common::hci_views(dir.path(), 9, 16);
-    assert_fails(&estimate(dir.path(), &["--lambda", "-1"]), &["tv.lambda"]);
+    assert_fails(
+        &estimate(dir.path(), &["--lambda", "-1"]),
+        &["`--lambda`", "(0, 1000]"],
+    );
     assert_fails(
         &estimate(dir.path(), &["--disparity-range", "-20..20"]),
         &["--disparity-range", "-8..8"],

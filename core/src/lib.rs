@@ -27,6 +27,7 @@ pub mod geometry;
 pub mod lightfield;
 pub mod median;
 pub mod metrics;
+pub mod options;
 pub mod pipeline;
 pub mod plan;
 pub mod progress;

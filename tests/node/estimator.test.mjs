@@ -2,7 +2,9 @@
 // to the serial pipeline, progress and cancel, and errors that say what to change.
 import { test } from "node:test";
 import assert from "node:assert/strict";
-import lf from "./pkg.mjs";
+import { readFileSync } from "node:fs";
+import { join } from "node:path";
+import lf, { root } from "./pkg.mjs";
 
 const SIZE = 128;
 const spec = { scene: "planes", rows: 9, cols: 9, width: SIZE, height: SIZE, seed: 3 };
@@ -127,7 +129,7 @@ test("a run lists its steps and parts, and bad requests say what to change", () 
   assert.throws(() => estimator.setInputs(2, { range: [1] }), /\[min, max\]/);
   const sweeps = new lf.Run(shape, { median: false, refine: false }, 1);
   assert.deepEqual(Array.from({ length: sweeps.steps }, (_, k) => sweeps.stage(k)), ["epi range", "epi horizontal", "epi vertical", "fuse", "geofill", "tv"]);
-  assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /tv.tile/);
+  assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /`tvTile` must be in 8\.\.=4096/);
   assert.throws(() => new lf.Estimator(scene.views, shape, { preset: "quick" }), /params.preset `quick` is unknown: use one of "default", "fast"/);
   run.free();
   sweeps.free();
@@ -193,10 +195,12 @@ test("bad input throws an Error whose message says what to change", () => {
     [() => new lf.Estimator(scene.views, { rows: 9, cols: 9 }), /shape.width is missing/],
     [() => new lf.Estimator(scene.views, shape, { lamda: 2 }), /unknown key `lamda`.*innerSigma/],
     [() => new lf.Estimator(scene.views, shape, { stage: "tv" }), /"full" or "epi"/],
-    [() => new lf.Estimator(scene.views, shape, { lambda: -1 }), /lambda/],
-    [() => new lf.Estimator(scene.views, shape, { iterations: 0 }), /max_iterations/],
-    [() => new lf.Estimator(scene.views, shape, { innerSigma: 9 }), /inner_sigma.*between 0 and 4/],
-    [() => new lf.Estimator(scene.views, shape, { range: [3, -3] }), /disparity range/],
+    [() => new lf.Estimator(scene.views, shape, { lambda: -1 }), /parameter `lambda` must be in \(0, 1000\]/],
+    [() => new lf.Estimator(scene.views, shape, { medianPasses: 9 }), /parameter `medianPasses` must be in 1\.\.=4/],
+    [() => new lf.Estimator(scene.views, shape, { alignInterp: "cubic" }), /params\.alignInterp `cubic` is unknown: use "bilinear", "sharpened-bilinear" or "catmull-rom"/],
+    [() => new lf.Estimator(scene.views, shape, { iterations: 0 }), /parameter `iterations` must be in 1\.\.=100000/],
+    [() => new lf.Estimator(scene.views, shape, { innerSigma: 9 }), /parameter `innerSigma` must be between 0 and 4/],
+    [() => new lf.Estimator(scene.views, shape, { range: [3, -3] }), /parameter `range` must be finite with min <= max/],
     [() => new lf.Estimator(scene.views, shape, { range: "wide" }), /"auto" or \[min, max\]/],
     [() => new lf.Estimator(scene.views, shape, { fusion: "max" }), /"coherence" or "weighted"/],
     [() => new lf.Estimator(scene.views, shape).estimate(42), /onProgress must be a function/],
@@ -230,4 +234,33 @@ test("synthetic views render alike whole and one by one; metrics of the truth ar
   assert.equal(perfect.badpix007, 0);
   assert.equal(perfect.mse100, 0);
   assert.deepEqual(lf.sceneNames(), ["planes", "slanted", "spheres", "occlusion", "thin", "low-texture", "mixed"]);
+});
+
+test("every key of the generated EstimateParams type is accepted at its default, and changes nothing there", () => {
+  // The keys, types and defaults as wasm/src/estimate_params.d.ts (generated from the
+  // core's tunable table) declares them.
+  const declaration = readFileSync(join(root, "wasm/src/estimate_params.d.ts"), "utf8");
+  const entries = [...declaration.matchAll(/\/\*\*((?:(?!\*\/)[\s\S])*)\*\/\s*(\w+)\?: ([^;]+);/g)];
+  assert.ok(entries.length >= 40, `${entries.length} keys`);
+  const defaults = {};
+  for (const [, doc, key, type] of entries) {
+    const text = doc.replace(/\s*\*\s*/g, " ");
+    const found = /\(default ("[^"]+"|true|false|[-0-9.e]+)\)/.exec(text) ?? /default ("[^"]+"|true|false|[-0-9.e]+)\)/.exec(text);
+    if (key === "preset" || key === "stage" || key === "resampled") continue;
+    assert.ok(found, `no default for ${key} in: ${text}`);
+    const value = JSON.parse(found[1]);
+    if (type === "number") assert.equal(typeof value, "number", key);
+    if (type === "boolean") assert.equal(typeof value, "boolean", key);
+    defaults[key] = value;
+  }
+  // One key at a time is accepted; all of them at once give the defaults' map.
+  const small = lf.synthesize({ ...spec, width: 48, height: 48 });
+  const smallShape = { ...shape, width: 48, height: 48 };
+  for (const [key, value] of Object.entries(defaults)) {
+    assert.doesNotThrow(() => new lf.Estimator(small.views, smallShape, { [key]: value }), key);
+  }
+  const bytes = (params) => new Uint8Array(new lf.Estimator(small.views, smallShape, params).estimate().disparity.buffer);
+  assert.deepEqual(bytes(defaults), bytes({}));
+  // An unknown key is refused, naming it and listing the known ones.
+  assert.throws(() => new lf.Estimator(small.views, smallShape, { tvSweep: 1 }), /unknown key `tvSweep`.*tvSweeps/);
 });

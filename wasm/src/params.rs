@@ -1,7 +1,10 @@
-//! JS parameter objects → core `Params` and `Layout`.
+//! JS parameter objects → core `Params` and `Layout`. The keys of an `EstimateParams`
+//! object are the core's tunables (`lfdepth::options::TUNABLES`) plus the few this layer
+//! reads itself ([`LAYER_KEYS`]); [`estimate_params_typescript`] writes their TypeScript
+//! type from the same table.
 
-use lfdepth::align::AlignMode;
-use lfdepth::epi::{ColorMode, DisparityRange, Fusion};
+use lfdepth::epi::DisparityRange;
+use lfdepth::options::{self, Flag, Front, Kind, Value, TUNABLES};
 use lfdepth::pipeline::Stages;
 use lfdepth::{Grid, Layout, Params, Plan, Preset};
 use wasm_bindgen::prelude::*;
@@ -9,29 +12,91 @@ use wasm_bindgen::prelude::*;
 use crate::js::{error, message, Fields};
 
 const SHAPE_KEYS: [&str; 5] = ["rows", "cols", "width", "height", "channels"];
-const PARAM_KEYS: [&str; 21] = [
-    "preset",
-    "range",
-    "innerSigma",
-    "outerSigma",
-    "shear",
-    "shearStep",
-    "window",
-    "interpolate",
-    "fusion",
-    "color",
-    "stage",
-    "refine",
-    "median",
-    "geofill",
-    "lambda",
-    "iterations",
-    "align",
-    "refineBandRows",
-    "medianBeforeTv",
-    "tvTile",
-    "resampled",
+
+/// The keys of `EstimateParams` that are not core tunables: (key, TypeScript type, doc).
+const LAYER_KEYS: [(&str, &str, &str); 3] = [
+    (
+        "preset",
+        "",
+        "Named settings the other keys then override (as the CLI's `--preset`)",
+    ),
+    (
+        "stage",
+        "\"epi\" | \"full\"",
+        "How far `estimate` goes: \"full\" (every stage, the default) or \"epi\" alone",
+    ),
+    (
+        "resampled",
+        "boolean",
+        "The views were warped (rectified by an alignment elsewhere, e.g. another estimator's `readViews` after `align()`): the refinement compares them with its sampling slack, as an estimator that aligned them itself does (default false)",
+    ),
 ];
+
+/// Every key an `EstimateParams` object may have.
+fn param_keys() -> Vec<&'static str> {
+    LAYER_KEYS
+        .iter()
+        .map(|k| k.0)
+        .chain(TUNABLES.iter().filter_map(|t| t.key))
+        .collect()
+}
+
+/// `"a", "b" or "c"`: the names a choice accepts, as the error messages list them.
+fn quoted_choices(names: &[&str]) -> String {
+    let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+    match quoted.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => quoted.join(""),
+    }
+}
+
+/// The value of `key` in `f` as a tunable of `kind` takes it, `None` when absent.
+fn value(f: &Fields<'_>, key: &str, kind: Kind) -> Result<Option<Value>, JsError> {
+    Ok(match kind {
+        Kind::Float { .. } => f.number(key)?.map(|v| Value::Float(v as f32)),
+        Kind::Int { .. } => f.count(key)?.map(Value::Int),
+        Kind::Bool => f.boolean(key)?.map(Value::Bool),
+        Kind::Choice(names) => match f.string(key)? {
+            None => None,
+            Some(v) => {
+                let name = names.iter().find(|n| **n == v).ok_or_else(|| {
+                    message(&format!(
+                        "params.{key} `{v}` is unknown: use {}",
+                        quoted_choices(names)
+                    ))
+                })?;
+                Some(Value::Choice(name))
+            }
+        },
+        Kind::Range => {
+            let range = f.get(key);
+            if range.is_undefined() {
+                return Ok(None);
+            }
+            if range.as_string().as_deref() == Some("auto") {
+                return Ok(Some(Value::Range(DisparityRange::Auto)));
+            }
+            let pair: Option<Vec<f32>> = range
+                .dyn_ref::<js_sys::Array>()
+                .filter(|a| a.length() == 2)
+                .map(|a| {
+                    a.iter()
+                        .filter_map(|v| v.as_f64())
+                        .map(|v| v as f32)
+                        .collect()
+                })
+                .filter(|v: &Vec<f32>| v.len() == 2);
+            match pair.as_deref() {
+                Some(&[min, max]) => Some(Value::Range(DisparityRange::Fixed { min, max })),
+                _ => {
+                    return Err(message(&format!(
+                        "params.{key} must be \"auto\" or [min, max] in px between adjacent views"
+                    )))
+                }
+            }
+        }
+    })
+}
 
 /// The packed layout of views described by a `Shape` object.
 pub fn layout(shape: &JsValue) -> Result<Layout, JsError> {
@@ -45,117 +110,30 @@ pub fn layout(shape: &JsValue) -> Result<Layout, JsError> {
     ))
 }
 
-/// Core parameters from an `EstimateParams` object (`undefined` = defaults). Ranges are
-/// checked later by `Plan::new`, so the messages are the core's.
+/// Core parameters from an `EstimateParams` object (`undefined` = defaults): the preset,
+/// then every tunable key over it in the table's order. Ranges are checked later by
+/// [`checked_plan`], whose messages name the keys.
 pub fn params(object: &JsValue) -> Result<Params, JsError> {
-    let f = Fields::new(object, "params", &PARAM_KEYS, true)?;
-    // The named preset first; every other key then overrides it, as on the CLI.
-    let mut params = match f.string("preset")? {
-        None => Params::default(),
-        Some(name) => Params::preset(Preset::from_name(&name).ok_or_else(|| {
+    let keys = param_keys();
+    let f = Fields::new(object, "params", &keys, true)?;
+    let preset = match f.string("preset")? {
+        None => Preset::Default,
+        Some(name) => Preset::from_name(&name).ok_or_else(|| {
             let names: Vec<&str> = Preset::ALL.iter().map(|p| p.name()).collect();
             message(&format!(
                 "params.preset `{name}` is unknown: use one of \"{}\"",
                 names.join("\", \"")
             ))
-        })?),
+        })?,
     };
-    // As the CLI: align only when the array is found not to be rectified.
-    params.align.mode = AlignMode::Auto;
-    if let Some(v) = f.string("align")? {
-        params.align.mode = match v.as_str() {
-            "off" => AlignMode::Off,
-            "on" => AlignMode::On,
-            "auto" => AlignMode::Auto,
-            _ => {
-                return Err(message(&format!(
-                    "params.align `{v}` is unknown: use \"off\", \"on\" or \"auto\""
-                )))
-            }
-        };
-    }
-    let epi = &mut params.epi;
-    let range = f.get("range");
-    if !range.is_undefined() && range.as_string().as_deref() != Some("auto") {
-        let pair: Option<Vec<f32>> = range
-            .dyn_ref::<js_sys::Array>()
-            .filter(|a| a.length() == 2)
-            .map(|a| {
-                a.iter()
-                    .filter_map(|v| v.as_f64())
-                    .map(|v| v as f32)
-                    .collect()
-            })
-            .filter(|v: &Vec<f32>| v.len() == 2);
-        match pair.as_deref() {
-            Some(&[min, max]) => epi.range = DisparityRange::Fixed { min, max },
-            _ => {
-                return Err(message(
-                    "params.range must be \"auto\" or [min, max] in px between adjacent views",
-                ))
-            }
+    // As the CLI: alignment on auto, the preset, then each key.
+    let mut params = options::base(preset);
+    for t in TUNABLES {
+        let Some(key) = t.key else { continue };
+        if let Some(v) = value(&f, key, t.kind)? {
+            t.apply(&mut params, v)
+                .map_err(|e| error(options::rename(e, Front::Js)))?;
         }
-    }
-    let float = |key: &str, into: &mut f32| -> Result<(), JsError> {
-        if let Some(v) = f.number(key)? {
-            *into = v as f32;
-        }
-        Ok(())
-    };
-    float("innerSigma", &mut epi.inner_sigma)?;
-    float("outerSigma", &mut epi.outer_sigma)?;
-    float("shearStep", &mut epi.shear_step)?;
-    float("window", &mut epi.window)?;
-    if let Some(v) = f.boolean("shear")? {
-        epi.shear = v;
-    }
-    if let Some(v) = f.boolean("interpolate")? {
-        epi.interpolate = v;
-    }
-    if let Some(v) = f.string("fusion")? {
-        epi.fusion = match v.as_str() {
-            "coherence" => Fusion::Coherence,
-            "weighted" => Fusion::Weighted,
-            _ => {
-                return Err(message(&format!(
-                    "params.fusion `{v}` is unknown: use \"coherence\" or \"weighted\""
-                )))
-            }
-        };
-    }
-    if let Some(v) = f.string("color")? {
-        epi.color = match v.as_str() {
-            "tensor" => ColorMode::Tensor,
-            "gray" => ColorMode::Gray,
-            _ => {
-                return Err(message(&format!(
-                    "params.color `{v}` is unknown: use \"tensor\" or \"gray\""
-                )))
-            }
-        };
-    }
-    if let Some(v) = f.boolean("refine")? {
-        params.refine.enabled = v;
-    }
-    if let Some(v) = f.boolean("median")? {
-        params.median.enabled = v;
-    }
-    if let Some(v) = f.boolean("geofill")? {
-        params.geofill.enabled = v;
-    }
-    float("lambda", &mut params.tv.lambda)?;
-    if let Some(v) = f.count("iterations")? {
-        params.tv.max_iterations = v;
-    }
-    // How the later stages are cut into parts (the Web Workers' unit of work).
-    if let Some(v) = f.count("refineBandRows")? {
-        params.refine.band_rows = v;
-    }
-    if let Some(v) = f.boolean("medianBeforeTv")? {
-        params.median.before_tv = v;
-    }
-    if let Some(v) = f.count("tvTile")? {
-        params.tv.tile = v;
     }
     // Views an aligner warped (the page's workers load its `readViews`): the refinement
     // as `pipeline::run_aligned` runs it on them.
@@ -165,10 +143,16 @@ pub fn params(object: &JsValue) -> Result<Params, JsError> {
     Ok(params)
 }
 
+/// The plan of `params` for `layout`; a parameter out of range is named by its key.
+pub fn checked_plan(layout: Layout, params: Params) -> Result<Plan, JsError> {
+    Plan::new(layout, params).map_err(|e| error(options::rename(e, Front::Js)))
+}
+
 /// How far `Estimator.estimate` goes: `params.stage`, "full" (EPI → refine → TV) when
 /// absent.
 pub fn stages(object: &JsValue) -> Result<Stages, JsError> {
-    let f = Fields::new(object, "params", &PARAM_KEYS, true)?;
+    let keys = param_keys();
+    let f = Fields::new(object, "params", &keys, true)?;
     match f.string("stage")?.as_deref() {
         None | Some("full") => Ok(Stages::Full),
         Some("epi") => Ok(Stages::Epi),
@@ -184,6 +168,156 @@ pub fn plan(shape: &JsValue, params: Option<JsValue>) -> Result<(Layout, Plan, S
     let layout = layout(shape)?;
     let object = params.unwrap_or(JsValue::UNDEFINED);
     let stages = stages(&object)?;
-    let plan = Plan::new(layout, self::params(&object)?).map_err(error)?;
+    let plan = checked_plan(layout, self::params(&object)?)?;
     Ok((layout, plan, stages))
+}
+
+/// `/** doc */` over `lines`, wrapped at 90 columns, indented by two spaces.
+fn doc_comment(doc: &str) -> String {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::from("  /**");
+    for word in doc.split_whitespace() {
+        if line.len() + 1 + word.len() > 90 && line.len() > 5 {
+            lines.push(line);
+            line = String::from("   *");
+        }
+        line.push(' ');
+        line.push_str(word);
+    }
+    line.push_str(" */");
+    lines.push(line);
+    lines.join("\n") + "\n"
+}
+
+/// The TypeScript type of a tunable's values.
+fn typescript_type(kind: Kind) -> String {
+    match kind {
+        Kind::Float { .. } | Kind::Int { .. } => "number".into(),
+        Kind::Bool => "boolean".into(),
+        Kind::Choice(names) => names
+            .iter()
+            .map(|n| format!("\"{n}\""))
+            .collect::<Vec<_>>()
+            .join(" | "),
+        Kind::Range => "\"auto\" | [number, number]".into(),
+    }
+}
+
+/// The TypeScript declaration of `EstimateParams`, generated from the core's tunables
+/// and [`LAYER_KEYS`]: what `src/estimate_params.d.ts` holds (`cargo xtask types` writes
+/// it; a test checks that it is current).
+pub fn estimate_params_typescript() -> String {
+    let mut out = String::from(
+        "// Generated from lfdepth::options::TUNABLES by `cargo xtask types`: do not edit.\n\n\
+         /** Estimation parameters; every key is optional and defaults to the core's default. */\n\
+         export interface EstimateParams {\n",
+    );
+    let presets: Vec<String> = Preset::ALL
+        .iter()
+        .map(|p| format!("\"{}\"", p.name()))
+        .collect();
+    let preset_docs: Vec<String> = Preset::ALL
+        .iter()
+        .map(|&p| format!("\"{}\" ({})", p.name(), options::preset_doc(p)))
+        .collect();
+    for (key, ty, doc) in LAYER_KEYS {
+        let (ty, doc) = if key == "preset" {
+            (
+                presets.join(" | "),
+                format!("{doc}: {}.", preset_docs.join(", or ")),
+            )
+        } else {
+            (ty.to_string(), format!("{doc}."))
+        };
+        out += &doc_comment(&doc);
+        out += &format!("  {key}?: {ty};\n");
+    }
+    for t in TUNABLES {
+        let Some(key) = t.key else { continue };
+        let default = t.default_value();
+        let range = match t.kind {
+            Kind::Float { .. } | Kind::Int { .. } => format!("{}; ", t.kind),
+            _ => String::new(),
+        };
+        let default = match default {
+            Value::Choice(name) => format!("\"{name}\""),
+            Value::Range(DisparityRange::Auto) => "\"auto\"".into(),
+            other => other.to_string(),
+        };
+        let flag = match t.flag {
+            None => String::new(),
+            Some(Flag::Value(name)) => format!(" CLI: `{name}`."),
+            Some(Flag::Switch { name, sets, .. }) => format!(" CLI: `{name}` sets {sets}."),
+        };
+        out += &doc_comment(&format!("{} ({range}default {default}).{flag}", t.doc));
+        out += &format!("  {key}?: {};\n", typescript_type(t.kind));
+    }
+    out += "}\n";
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The committed declaration is the generated one.
+    #[test]
+    fn committed_typescript_is_generated() {
+        let committed = include_str!("estimate_params.d.ts");
+        let generated = estimate_params_typescript();
+        assert!(
+            committed == generated,
+            "wasm/src/estimate_params.d.ts is not what the tunable table gives: run `cargo xtask types`\n--- generated:\n{generated}"
+        );
+    }
+
+    /// Every tunable with a key, and every key this layer reads, is typed; no key twice.
+    #[test]
+    fn every_key_is_typed_once() {
+        let ts = estimate_params_typescript();
+        let keys = param_keys();
+        for key in &keys {
+            assert_eq!(ts.matches(&format!("\n  {key}?: ")).count(), 1, "{key}");
+        }
+        let mut sorted = keys.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), keys.len());
+        // Existing keys keep their names.
+        for key in [
+            "preset",
+            "range",
+            "innerSigma",
+            "outerSigma",
+            "shear",
+            "shearStep",
+            "window",
+            "interpolate",
+            "fusion",
+            "color",
+            "stage",
+            "refine",
+            "median",
+            "geofill",
+            "lambda",
+            "iterations",
+            "align",
+            "refineBandRows",
+            "medianBeforeTv",
+            "tvTile",
+            "resampled",
+        ] {
+            assert!(keys.contains(&key), "{key}");
+        }
+    }
+
+    #[test]
+    fn choices_are_listed_as_the_messages_say() {
+        assert_eq!(
+            quoted_choices(&["off", "on", "auto"]),
+            "\"off\", \"on\" or \"auto\""
+        );
+        assert_eq!(quoted_choices(&["a", "b"]), "\"a\" or \"b\"");
+        assert_eq!(quoted_choices(&["a"]), "\"a\"");
+    }
 }

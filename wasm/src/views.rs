@@ -109,7 +109,7 @@ impl Estimator {
     ) -> Result<(), JsError> {
         let object = params.unwrap_or(JsValue::UNDEFINED);
         let stages = params::stages(&object)?;
-        let plan = Plan::new(*self.layout(), params::params(&object)?).map_err(error)?;
+        let plan = params::checked_plan(*self.layout(), params::params(&object)?)?;
         if self.partial && plan.params().align.mode != AlignMode::Off {
             return Err(message(
                 "this estimator holds only the views its stages read, and the alignment \

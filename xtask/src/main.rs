@@ -5,6 +5,7 @@
 //! cargo xtask bench [--cpu NAME] [FILTER]   the criterion benches of lfdepth-cli
 //! cargo xtask fuzz [SECONDS]   each cargo-fuzz target in fuzz/ for SECONDS (default 60)
 //! cargo xtask web [--port N] [--no-build]   build web/pkg and serve the page (see [`web`])
+//! cargo xtask types            regenerate the TypeScript type of the wasm options (see [`types`])
 //! ```
 //!
 //! `test` first installs what the machine lacks (rustup targets and components), then runs
@@ -22,6 +23,7 @@ mod install;
 mod manifest;
 mod report;
 mod steps;
+mod types;
 mod web;
 
 use std::path::PathBuf;
@@ -41,6 +43,8 @@ enum Command {
     Fuzz { seconds: u64 },
     /// Build the wasm package and serve the page.
     Web(web::WebOptions),
+    /// Regenerate the TypeScript type of the wasm package's options.
+    Types,
     /// Print usage.
     Help,
 }
@@ -57,6 +61,7 @@ commands:
   fuzz [SECONDS]    run each fuzz target in fuzz/ for SECONDS (default 60); see docs/FUZZING.md
   web [--port N] [--no-build]
                     build the wasm package into web/pkg and serve web/ on 127.0.0.1
+  types             write wasm/src/estimate_params.d.ts from the core's tunable table
   help              print this message";
 
 /// Seconds each fuzz target runs when none are given.
@@ -89,6 +94,8 @@ fn parse_args(args: &[String]) -> Result<Command, String> {
         },
         ("fuzz", _) => Err("`fuzz` takes at most one SECONDS".to_string()),
         ("web", options) => web::parse(options).map(Command::Web),
+        ("types", []) => Ok(Command::Types),
+        ("types", _) => Err("`types` takes no options".to_string()),
         (other, _) => Err(format!("unknown command `{other}`")),
     }
 }
@@ -141,6 +148,7 @@ fn main() -> ExitCode {
         Command::Bench { filter, cpu } => bench::run(&root, filter.as_deref(), cpu.as_deref()),
         Command::Fuzz { seconds } => fuzz::run(&root, seconds),
         Command::Web(options) => web::run(&root, &options),
+        Command::Types => types::run(&root),
     };
     if ok {
         ExitCode::SUCCESS
@@ -195,6 +203,8 @@ mod tests {
             })
         );
         assert_eq!(parse(&["fuzz", "300"]), Ok(Command::Fuzz { seconds: 300 }));
+        assert_eq!(parse(&["types"]), Ok(Command::Types));
+        assert!(parse(&["types", "--check"]).is_err());
     }
 
     #[test]

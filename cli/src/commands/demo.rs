@@ -5,12 +5,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use lfdepth::plan::Preset;
 use lfdepth::synth::{SceneKind, SynthSpec};
-use lfdepth::{Grid, LightField, Params};
+use lfdepth::{Grid, LightField};
 
 use super::estimate::write_colour_png;
-use super::params::{parse_preset, print_alignment, AlignChoice, AlignInterp, AlignViewsChoice};
+use super::params::{print_alignment, ParamArgs};
 use super::synth::{default_misalignment, parse_scene, render};
 use super::{create_dir, CliError, ScalarArg, Stage};
 use crate::colormap;
@@ -43,24 +42,13 @@ pub struct DemoArgs {
     /// Random seed of the scene's texture.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
-    /// Estimator parameters: `default` (the most accurate) or `fast`
-    /// (docs/BENCHMARKS.md, "Presets").
-    #[arg(long, value_name = "NAME", default_value = "default", value_parser = parse_preset)]
-    pub preset: Preset,
     /// Misalign the views by small random homographies (what `lfdepth synth --misalign`
     /// writes), to see the alignment at work.
     #[arg(long)]
     pub misalign: bool,
-    /// Align the views by per-view homographies first: `off`, `on`, or `auto` (only when
-    /// the array is found not to be rectified).
-    #[arg(long, value_enum, default_value_t = AlignChoice::Auto)]
-    pub align: AlignChoice,
-    /// Alignment: how the views are resampled, `bilinear` or `catmull-rom` (sharper).
-    #[arg(long, value_enum, value_name = "KERNEL", default_value_t = AlignInterp::SharpenedBilinear)]
-    pub align_interp: AlignInterp,
-    /// Alignment: which views get a homography, `read`, `cross` or `all`.
-    #[arg(long, value_enum, value_name = "VIEWS", default_value_t = AlignViewsChoice::Read)]
-    pub align_views: AlignViewsChoice,
+    /// Estimator parameters (as `estimate`'s).
+    #[command(flatten)]
+    pub params: ParamArgs,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
@@ -77,12 +65,8 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     let layout = spec.layout();
     let lf = LightField::new(&rendered.views, layout)
         .map_err(|e| CliError::core("building the synthetic light field", e))?;
-    let mut params = Params::preset(args.preset);
-    params.align.mode = args.align.into();
-    params.align.interpolation = args.align_interp.into();
-    params.align.views = args.align_views.into();
     let options = EstimateOptions {
-        params,
+        params: args.params.params(None)?,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
     };

@@ -1,8 +1,13 @@
-//! Estimator parameters from the command line.
+//! Estimator parameters from the command line: `--preset` and one flag per tunable of
+//! the core's table (`lfdepth::options::TUNABLES`), built with clap's builder API and
+//! read back through the same table, so the flags, their help and their checks are the
+//! core's.
 
-use clap::{Args, ValueEnum};
-use lfdepth::align::{AlignMode, AlignReport, AlignedViews, Interpolation};
-use lfdepth::epi::{ColorMode, DisparityRange};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::{Arg, ArgAction, ArgMatches, Args, Command, FromArgMatches};
+use lfdepth::align::AlignReport;
+use lfdepth::epi::DisparityRange;
+use lfdepth::options::{self, Flag, Front, Kind, Tunable, Value, TUNABLES};
 use lfdepth::plan::Preset;
 use lfdepth::Params;
 
@@ -39,97 +44,6 @@ pub fn parse_preset(text: &str) -> Result<Preset, String> {
     })
 }
 
-/// Colour handling of the EPI stage (`--epi-color`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum EpiColor {
-    /// One structure tensor summed over the R, G, B channels.
-    Tensor,
-    /// The mean of the channels first: about a third of the tensor work.
-    Gray,
-}
-
-impl From<EpiColor> for ColorMode {
-    fn from(choice: EpiColor) -> Self {
-        match choice {
-            EpiColor::Tensor => ColorMode::Tensor,
-            EpiColor::Gray => ColorMode::Gray,
-        }
-    }
-}
-
-/// Whether to align the views before estimating (`--align`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum AlignChoice {
-    /// Use the views as they are (the array is rectified).
-    Off,
-    /// Always estimate per-view homographies and warp the views into a rectified array;
-    /// fails when a view cannot be aligned (textureless or too different).
-    On,
-    /// Check cheaply whether the array is rectified and align only if it is not; when
-    /// alignment fails, warn and use the views as they are.
-    #[default]
-    Auto,
-}
-
-impl From<AlignChoice> for AlignMode {
-    fn from(choice: AlignChoice) -> Self {
-        match choice {
-            AlignChoice::Off => AlignMode::Off,
-            AlignChoice::On => AlignMode::On,
-            AlignChoice::Auto => AlignMode::Auto,
-        }
-    }
-}
-
-/// How aligned views are resampled (`--align-interp`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum AlignInterp {
-    /// 2×2 taps: the fastest; blurs fine texture by a shift-dependent amount.
-    Bilinear,
-    /// Bilinear, then a 3-tap sharpening per axis that undoes its shift-dependent blur:
-    /// Catmull–Rom's kernel for near-identity maps at about 1.7× the warp time of
-    /// bilinear (the default).
-    #[default]
-    SharpenedBilinear,
-    /// 4×4 Catmull–Rom cubic taps: keeps the texture's contrast (better disparity on
-    /// finely textured scenes), about 2.3× the warp time of bilinear.
-    CatmullRom,
-}
-
-impl From<AlignInterp> for Interpolation {
-    fn from(choice: AlignInterp) -> Self {
-        match choice {
-            AlignInterp::Bilinear => Interpolation::Bilinear,
-            AlignInterp::SharpenedBilinear => Interpolation::SharpenedBilinear,
-            AlignInterp::CatmullRom => Interpolation::CatmullRom,
-        }
-    }
-}
-
-/// Which views get a homography (`--align-views`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
-pub enum AlignViewsChoice {
-    /// The views the selected stages read: the centre row and column for the EPI stage
-    /// and the default refinement, every view otherwise.
-    #[default]
-    Read,
-    /// The centre row and column only (about a fifth of the work on a 9×9 grid).
-    Cross,
-    /// Every view: more views average out the random part of the misalignment, so the
-    /// disparity offset no image can observe is smaller (slower to estimate).
-    All,
-}
-
-impl From<AlignViewsChoice> for AlignedViews {
-    fn from(choice: AlignViewsChoice) -> Self {
-        match choice {
-            AlignViewsChoice::Read => AlignedViews::Read,
-            AlignViewsChoice::Cross => AlignedViews::Cross,
-            AlignViewsChoice::All => AlignedViews::All,
-        }
-    }
-}
-
 /// Prints what the alignment did on stderr: auto mode's fallback as a warning, otherwise
 /// one line (nothing when alignment was off).
 pub fn print_alignment(report: Option<&AlignReport>) {
@@ -153,348 +67,221 @@ pub fn print_alignment(report: Option<&AlignReport>) {
     }
 }
 
-/// Estimator flags shared by `estimate` and `eval --dataset`.
-#[derive(Clone, Debug, Args)]
+/// A flag the user gave.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Given {
+    /// A tunable's value.
+    Value(Value),
+    /// `--disparity-range`, which may also name the scene's parameters.cfg.
+    Range(RangeChoice),
+}
+
+/// Estimator flags shared by `estimate`, `eval --dataset` and `demo`: `--preset`, then one
+/// flag per tunable of the core's table, applied over the preset in the table's order
+/// wherever they stand on the command line.
+#[derive(Clone, Debug, PartialEq)]
 pub struct ParamArgs {
-    /// Start from a named set of parameters: `default` (the most accurate) or `fast`
-    /// (docs/BENCHMARKS.md, "Presets"). Every other estimator flag overrides the
-    /// preset's value, wherever it stands on the command line.
-    #[arg(long, value_name = "NAME", default_value = "default", value_parser = parse_preset)]
+    /// The preset the other flags override.
     pub preset: Preset,
-    /// Disparity search range: MIN..MAX in pixels between neighbouring views (e.g.
-    /// -2..2), `auto` (estimated from the views) or `cfg` (disp_min..disp_max from the
-    /// scene's parameters.cfg).
-    #[arg(long, value_name = "A..B|auto|cfg", default_value = "auto",
-          value_parser = parse_range_choice, allow_hyphen_values = true)]
-    pub disparity_range: RangeChoice,
-    /// The paper's EPI variant: one unsheared EPI per direction instead of shear
-    /// hypotheses over the range.
-    #[arg(long)]
-    pub no_shear: bool,
-    /// EPI stage: distance between shear hypotheses in px, 0.1…2 (default from the core;
-    /// larger = fewer hypotheses, faster, coarser).
-    #[arg(long, value_name = "F")]
-    pub epi_shear_step: Option<f32>,
-    /// EPI stage: `tensor` (one structure tensor over R, G, B) or `gray` (the channels'
-    /// mean first, a third of the tensor work) (default from the core).
-    #[arg(long, value_enum, value_name = "MODE")]
-    pub epi_color: Option<EpiColor>,
-    /// Photometric refinement of the EPI disparity: 1 on, 0 off (default from the core).
-    #[arg(long, value_name = "0|1")]
-    pub refine: Option<u8>,
-    /// Refinement: Gauss–Newton iterations, 1…16 (default from the core).
-    #[arg(long, value_name = "N")]
-    pub refine_iterations: Option<usize>,
-    /// Refinement: rounds of propagation before the iterations, 0…4 (jumps of 8, 4, 2,
-    /// 1 px, the last N of them; default from the core).
-    #[arg(long, value_name = "N")]
-    pub refine_propagation: Option<usize>,
-    /// Refinement: radius of the aggregation window in px, 0…4 (default from the core).
-    #[arg(long, value_name = "N")]
-    pub refine_radius: Option<usize>,
-    /// Refinement: sampling slack in px of image motion, 0…1: a view's residual counts
-    /// only by how far it falls outside the centre view's values over ±F px
-    /// (Birchfield–Tomasi; 0 = the plain residual). On warped views the pipeline uses
-    /// 0.5 when this is 0 (default from the core).
-    #[arg(long, value_name = "F")]
-    pub refine_slack: Option<f32>,
-    /// Refinement: settled windows in px, 0…1: after the first Gauss–Newton iteration,
-    /// a pixel that kept its statistics and whose window's other pixels each moved by
-    /// less than F px (at least the settle threshold) keeps its disparity and confidence
-    /// instead of being updated again; 0 = update every pixel in every iteration (the
-    /// maps of before, bit for bit; default from the core).
-    #[arg(long, value_name = "F")]
-    pub refine_skip_settled: Option<f32>,
-    /// TV refinement: weight λ of the total variation against the EPI data term
-    /// (larger = smoother; default from the core).
-    #[arg(long, value_name = "F", allow_hyphen_values = true)]
-    pub lambda: Option<f32>,
-    /// TV refinement: most PPXA iterations per tile (default from the core).
-    #[arg(long, value_name = "N")]
-    pub tv_iterations: Option<usize>,
-    /// TV refinement: stopping tolerance, the RMS change of the refined disparity over one
-    /// iteration in pixels, 0 to run every iteration (default from the core; smaller =
-    /// closer to the exact minimiser).
-    #[arg(long, value_name = "F")]
-    pub tv_tolerance: Option<f32>,
-    /// TV refinement: side of a tile's core in pixels (default from the core).
-    #[arg(long, value_name = "N")]
-    pub tv_tile: Option<usize>,
-    /// TV refinement: pixels of context around each tile (default from the core).
-    #[arg(long, value_name = "N")]
-    pub tv_halo: Option<usize>,
-    /// TV refinement: outer sweeps, 0…8: solve every tile again from the previous pass's
-    /// dual with the flows across its border held at the neighbours' values, so tiles
-    /// agree where they meet (default from the core).
-    #[arg(long, value_name = "N")]
-    pub tv_sweeps: Option<usize>,
-    /// Edge-snapping weighted median guided by the centre view (between the refinement
-    /// and TV): window radius in pixels, 1…7, or 0 to switch it off (default from the
-    /// core).
-    #[arg(long, value_name = "R")]
-    pub median: Option<usize>,
-    /// Weighted median: colour scale σ of the weights (unit intensity; default from the
-    /// core).
-    #[arg(long, value_name = "F")]
-    pub median_sigma: Option<f32>,
-    /// Weighted median: passes (default from the core).
-    #[arg(long, value_name = "N")]
-    pub median_passes: Option<usize>,
-    /// Weighted median: only pixels whose window holds a step between adjacent pixels
-    /// larger than this (px) are filtered (default from the core).
-    #[arg(long, value_name = "F")]
-    pub median_gate: Option<f32>,
-    /// Weighted median: a pixel takes the median only when it differs from it by more
-    /// than this (px; default from the core).
-    #[arg(long, value_name = "F")]
-    pub median_snap: Option<f32>,
-    /// Weighted median: neighbours vote with their own value instead of extrapolating
-    /// along the local slope.
-    #[arg(long)]
-    pub median_flat: bool,
-    /// Weighted median: run it after TV instead of between the refinement and TV.
-    #[arg(long)]
-    pub median_after_tv: bool,
-    /// Geodesic refill of the band around depth steps (after the refinement, before the
-    /// median): 1 on, 0 off (default from the core). Each pixel within --fill-band px of
-    /// a disparity step takes the value of the outside pixel it reaches through the
-    /// most uniform colour of the centre view, so a foreground fattened into a flat
-    /// background returns to its colour edge.
-    #[arg(long, value_name = "0|1")]
-    pub fill: Option<u8>,
-    /// Geodesic refill: width (px, city-block) of the band refilled around each step,
-    /// 1…32 (default from the core).
-    #[arg(long, value_name = "N")]
-    pub fill_band: Option<usize>,
-    /// Geodesic refill: a disparity difference between 4-neighbours larger than this
-    /// (px) is a depth step (default from the core).
-    #[arg(long, value_name = "F")]
-    pub fill_step: Option<f32>,
-    /// Geodesic refill: a depth step with a colour step (largest channel difference, unit
-    /// intensity) of at least this within 2 px across it sits on its colour edge and is
-    /// left alone (default from the core).
-    #[arg(long, value_name = "F")]
-    pub fill_edge: Option<f32>,
-    /// Geodesic refill: a band pixel whose cheapest colour path to a pixel outside the
-    /// band costs more than this (unit intensity) keeps its value (default from the
-    /// core).
-    #[arg(long, value_name = "F")]
-    pub fill_max_cost: Option<f32>,
-    /// Geodesic refill: path cost per pixel of length, in unit intensity, against the
-    /// colour differences crossed (default from the core).
-    #[arg(long, value_name = "F")]
-    pub fill_spatial: Option<f32>,
-    /// Geodesic refill: extrapolate the source pixel's value along its slope instead of
-    /// copying it.
-    #[arg(long)]
-    pub fill_planar: bool,
-    /// Align the views by per-view homographies first: `off`, `on`, or `auto` (only when
-    /// the array is found not to be rectified).
-    #[arg(long, value_enum, default_value_t = AlignChoice::Auto)]
-    pub align: AlignChoice,
-    /// Alignment: how the views are resampled into the rectified array,
-    /// `sharpened-bilinear` (the default: as sharp as Catmull–Rom on alignment's maps),
-    /// `bilinear` (fastest, blurs) or `catmull-rom` (about 1.4× the default's warp time).
-    #[arg(long, value_enum, value_name = "KERNEL", default_value_t = AlignInterp::SharpenedBilinear)]
-    pub align_interp: AlignInterp,
-    /// Alignment: which views get a homography, `read` (those the stages read), `cross`
-    /// (centre row and column) or `all` (every view: smaller unobservable disparity
-    /// offset, slower).
-    #[arg(long, value_enum, value_name = "VIEWS", default_value_t = AlignViewsChoice::Read)]
-    pub align_views: AlignViewsChoice,
+    /// The tunables given (index into `TUNABLES`), in the table's order.
+    given: Vec<(usize, Given)>,
 }
 
 impl Default for ParamArgs {
+    /// The parameters of no flag: the default preset.
     fn default() -> Self {
         ParamArgs {
             preset: Preset::Default,
-            disparity_range: RangeChoice::Auto,
-            no_shear: false,
-            epi_shear_step: None,
-            epi_color: None,
-            refine: None,
-            refine_iterations: None,
-            refine_propagation: None,
-            refine_radius: None,
-            refine_slack: None,
-            refine_skip_settled: None,
-            lambda: None,
-            tv_iterations: None,
-            tv_tolerance: None,
-            tv_tile: None,
-            tv_halo: None,
-            tv_sweeps: None,
-            median: None,
-            median_sigma: None,
-            median_passes: None,
-            median_gate: None,
-            median_snap: None,
-            median_flat: false,
-            median_after_tv: false,
-            fill: None,
-            fill_band: None,
-            fill_step: None,
-            fill_spatial: None,
-            fill_edge: None,
-            fill_max_cost: None,
-            fill_planar: false,
-            align: AlignChoice::Auto,
-            align_interp: AlignInterp::Bilinear,
-            align_views: AlignViewsChoice::Read,
+            given: Vec::new(),
         }
+    }
+}
+
+/// The clap id (and long name) of a flag: its name without the dashes.
+fn id(flag: Flag) -> &'static str {
+    flag.name().trim_start_matches('-')
+}
+
+/// A tunable's default as the command line writes it.
+fn default_text(t: &Tunable) -> String {
+    match t.default_value() {
+        Value::Bool(on) => u8::from(on).to_string(),
+        other => other.to_string(),
+    }
+}
+
+/// The help line of `--preset`, listing every preset.
+fn preset_help() -> String {
+    let presets: Vec<String> = Preset::ALL
+        .iter()
+        .map(|&p| format!("{} ({})", p.name(), options::preset_doc(p)))
+        .collect();
+    format!(
+        "Start from a named set of estimator parameters: {}. Every other estimator flag overrides the preset's value, wherever it stands on the command line.",
+        presets.join(", or ")
+    )
+}
+
+/// The clap argument of a tunable (`None` when it has no flag).
+fn flag_arg(t: &'static Tunable) -> Option<Arg> {
+    let flag = t.flag?;
+    let arg = Arg::new(id(flag)).long(id(flag));
+    let help = |range: String| format!("{} ({range}default {}).", t.doc, default_text(t));
+    Some(match (flag, t.kind) {
+        (Flag::Switch { doc, .. }, _) => arg.action(ArgAction::SetTrue).help(format!("{doc}.")),
+        (Flag::Value(_), Kind::Range) => arg
+            .value_name("A..B|auto|cfg")
+            .allow_hyphen_values(true)
+            .value_parser(parse_range_choice)
+            .help(format!(
+                "{}: MIN..MAX (e.g. -2..2), or cfg (disp_min..disp_max of the scene's parameters.cfg); within ±{} (default {}).",
+                t.doc,
+                lfdepth::epi::MAX_DISPARITY,
+                default_text(t)
+            )),
+        (Flag::Value(_), Kind::Choice(names)) => arg
+            .value_name("NAME")
+            .value_parser(PossibleValuesParser::new(names).map(move |name: String| {
+                // The parser admits only these names.
+                let name = names.iter().find(|n| **n == name).copied().unwrap_or(names[0]);
+                Value::Choice(name)
+            }))
+            .help(help(String::new())),
+        (Flag::Value(_), Kind::Bool) => arg
+            .value_name("0|1")
+            .value_parser(move |text: &str| t.parse(text))
+            .help(help("1 on, 0 off; ".into())),
+        (Flag::Value(_), kind) => arg
+            .value_name(if matches!(kind, Kind::Int { .. }) { "N" } else { "F" })
+            .allow_negative_numbers(true)
+            .value_parser(move |text: &str| t.parse(text))
+            .help(help(format!("{kind}; "))),
+    })
+}
+
+impl Args for ParamArgs {
+    fn augment_args(cmd: Command) -> Command {
+        cmd.arg(
+            Arg::new("preset")
+                .long("preset")
+                .value_name("NAME")
+                .default_value("default")
+                .value_parser(parse_preset)
+                .help(preset_help()),
+        )
+        .args(TUNABLES.iter().filter_map(flag_arg))
+    }
+
+    fn augment_args_for_update(cmd: Command) -> Command {
+        Self::augment_args(cmd)
+    }
+}
+
+impl FromArgMatches for ParamArgs {
+    fn from_arg_matches(matches: &ArgMatches) -> Result<Self, clap::Error> {
+        let preset = matches
+            .try_get_one::<Preset>("preset")
+            .ok()
+            .flatten()
+            .copied()
+            .unwrap_or(Preset::Default);
+        let mut given = Vec::new();
+        for (index, t) in TUNABLES.iter().enumerate() {
+            let Some(flag) = t.flag else { continue };
+            let value = match (flag, t.kind) {
+                (Flag::Switch { sets, .. }, _) => matches
+                    .try_get_one::<bool>(id(flag))
+                    .ok()
+                    .flatten()
+                    .filter(|on| **on)
+                    .map(|_| Given::Value(Value::Bool(sets))),
+                (Flag::Value(_), Kind::Range) => matches
+                    .try_get_one::<RangeChoice>(id(flag))
+                    .ok()
+                    .flatten()
+                    .map(|r| Given::Range(*r)),
+                (Flag::Value(_), _) => matches
+                    .try_get_one::<Value>(id(flag))
+                    .ok()
+                    .flatten()
+                    .map(|v| Given::Value(*v)),
+            };
+            given.extend(value.map(|v| (index, v)));
+        }
+        Ok(ParamArgs { preset, given })
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &ArgMatches) -> Result<(), clap::Error> {
+        *self = Self::from_arg_matches(matches)?;
+        Ok(())
     }
 }
 
 impl ParamArgs {
     /// The parameters these flags ask for; `config` is the scene's parameters.cfg.
+    /// Out-of-range values are reported here, before any view is decoded, naming the
+    /// flag.
     pub fn params(&self, config: Option<&SceneConfig>) -> Result<Params, CliError> {
-        let mut params = Params::preset(self.preset);
-        params.align.mode = self.align.into();
-        params.align.interpolation = self.align_interp.into();
-        params.align.views = self.align_views.into();
-        if self.no_shear {
-            params.epi = lfdepth::epi::EpiParams::paper();
-        }
-        if let Some(step) = self.epi_shear_step {
-            params.epi.shear_step = step;
-        }
-        if let Some(color) = self.epi_color {
-            params.epi.color = color.into();
-        }
-        match self.refine {
-            Some(0) => params.refine.enabled = false,
-            Some(1) => params.refine.enabled = true,
-            Some(_) => return Err(CliError::Usage("--refine takes 0 (off) or 1 (on)".into())),
-            None => {}
-        }
-        if let Some(n) = self.refine_iterations {
-            params.refine.iterations = n;
-        }
-        if let Some(n) = self.refine_propagation {
-            params.refine.propagation = n;
-        }
-        if let Some(r) = self.refine_radius {
-            params.refine.radius = r;
-        }
-        if let Some(slack) = self.refine_slack {
-            params.refine.sampling_slack = slack;
-        }
-        if let Some(moved) = self.refine_skip_settled {
-            params.refine.skip_settled = moved;
-        }
-        if let Some(lambda) = self.lambda {
-            params.tv.lambda = lambda;
-        }
-        if let Some(n) = self.tv_iterations {
-            params.tv.max_iterations = n;
-        }
-        if let Some(t) = self.tv_tolerance {
-            params.tv.tolerance = t;
-        }
-        if let Some(n) = self.tv_tile {
-            params.tv.tile = n;
-        }
-        if let Some(n) = self.tv_halo {
-            params.tv.halo = n;
-        }
-        if let Some(n) = self.tv_sweeps {
-            params.tv.sweeps = n;
-        }
-        match self.median {
-            Some(0) => params.median.enabled = false,
-            Some(r) => params.median.radius = r,
-            None => {}
-        }
-        if let Some(n) = self.median_passes {
-            params.median.passes = n;
-        }
-        if self.median_after_tv {
-            params.median.before_tv = false;
-        }
-        if self.median_flat {
-            params.median.planar = false;
-        }
-        if let Some(t) = self.median_snap {
-            params.median.snap = t;
-        }
-        if let Some(g) = self.median_gate {
-            params.median.gate = g;
-        }
-        if let Some(sigma) = self.median_sigma {
-            params.median.color_sigma = sigma;
-        }
-        match self.fill {
-            Some(0) => params.geofill.enabled = false,
-            Some(1) => params.geofill.enabled = true,
-            Some(_) => return Err(CliError::Usage("--fill takes 0 (off) or 1 (on)".into())),
-            None => {}
-        }
-        if let Some(n) = self.fill_band {
-            params.geofill.band = n;
-            params.geofill.reach = params.geofill.reach.max(2 * n);
-        }
-        if let Some(t) = self.fill_step {
-            params.geofill.step = t;
-        }
-        if let Some(c) = self.fill_max_cost {
-            params.geofill.max_cost = c;
-        }
-        if let Some(e) = self.fill_edge {
-            params.geofill.edge = e;
-        }
-        if let Some(c) = self.fill_spatial {
-            params.geofill.spatial = c;
-        }
-        if self.fill_planar {
-            params.geofill.planar = true;
-        }
-        // Out-of-range values are reported here, before any view is decoded.
-        params
-            .refine
-            .validate()
-            .map_err(|e| CliError::core("checking the --refine flags", e))?;
-        params
-            .tv
-            .validate()
-            .map_err(|e| CliError::core("checking the TV flags", e))?;
-        params
-            .median
-            .validate()
-            .map_err(|e| CliError::core("checking the --median flags", e))?;
-        params
-            .geofill
-            .validate()
-            .map_err(|e| CliError::core("checking the --fill flags", e))?;
-        params.epi.range = match self.disparity_range {
-            RangeChoice::Auto if self.no_shear => params.epi.range,
-            RangeChoice::Auto => DisparityRange::Auto,
-            RangeChoice::Fixed(r) => DisparityRange::Fixed {
-                min: r.min,
-                max: r.max,
-            },
-            RangeChoice::Config => {
-                let (min, max) = config.and_then(SceneConfig::disparity_range).ok_or_else(|| {
-                    CliError::Usage(
-                        "--disparity-range cfg needs disp_min and disp_max in the scene's parameters.cfg: give MIN..MAX or auto instead".into(),
-                    )
-                })?;
-                DisparityRange::Fixed {
-                    min: min as f32,
-                    max: max as f32,
+        let mut params = options::base(self.preset);
+        let no_shear = self
+            .given
+            .iter()
+            .any(|&(i, _)| TUNABLES[i].flag.map(Flag::name) == Some("--no-shear"));
+        for &(index, given) in &self.given {
+            let value = match given {
+                Given::Value(v) => v,
+                // The paper's variant keeps its own fixed range unless one is given.
+                Given::Range(RangeChoice::Auto) if no_shear => continue,
+                Given::Range(RangeChoice::Auto) => Value::Range(DisparityRange::Auto),
+                Given::Range(RangeChoice::Fixed(r)) => Value::Range(DisparityRange::Fixed {
+                    min: r.min,
+                    max: r.max,
+                }),
+                Given::Range(RangeChoice::Config) => {
+                    let (min, max) = config.and_then(SceneConfig::disparity_range).ok_or_else(|| {
+                        CliError::Usage(
+                            "--disparity-range cfg needs disp_min and disp_max in the scene's parameters.cfg: give MIN..MAX or auto instead".into(),
+                        )
+                    })?;
+                    Value::Range(DisparityRange::Fixed {
+                        min: min as f32,
+                        max: max as f32,
+                    })
                 }
-            }
-        };
-        params
-            .epi
-            .validate()
-            .map_err(|e| CliError::core("checking --disparity-range and the --epi flags", e))?;
+            };
+            TUNABLES[index].apply(&mut params, value).map_err(|e| {
+                CliError::core(
+                    "reading the estimator flags",
+                    options::rename(e, Front::Cli),
+                )
+            })?;
+        }
+        options::validate(&params, Front::Cli)
+            .map_err(|e| CliError::core("checking the estimator flags", e))?;
         Ok(params)
     }
 }
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::commands::Cli;
+    use clap::{CommandFactory, Parser};
+
+    /// `ParamArgs` alone, as a command line parses it.
+    #[derive(Debug, Parser)]
+    struct Flags {
+        #[command(flatten)]
+        params: ParamArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<ParamArgs, clap::Error> {
+        Flags::try_parse_from(std::iter::once("flags").chain(args.iter().copied()))
+            .map(|f| f.params)
+    }
+
+    fn params(args: &[&str]) -> Params {
+        parse(args).unwrap().params(None).unwrap()
+    }
 
     #[test]
     fn range_choices() {
@@ -508,10 +295,7 @@ mod tests {
             }))
         );
         assert!(parse_range_choice("wide").is_err());
-        let args = ParamArgs {
-            disparity_range: RangeChoice::Config,
-            ..ParamArgs::default()
-        };
+        let args = parse(&["--disparity-range", "cfg"]).unwrap();
         assert!(args.params(None).is_err());
         let cfg = SceneConfig {
             disp_min: Some(-1.5),
@@ -525,6 +309,112 @@ mod tests {
                 max: 0.5
             }
         );
+        assert_eq!(
+            params(&["--disparity-range", "-1..2"]).epi.range,
+            DisparityRange::Fixed {
+                min: -1.0,
+                max: 2.0
+            }
+        );
+        // The paper's variant keeps its fixed range under an explicit `auto`.
+        let paper = lfdepth::epi::EpiParams::paper();
+        assert_eq!(params(&["--no-shear"]).epi, paper);
+        assert_eq!(
+            params(&["--no-shear", "--disparity-range", "auto"]).epi,
+            paper
+        );
+    }
+
+    /// No flag: `Params::default()` with alignment on auto, and what `estimate` parses
+    /// without flags is exactly that.
+    #[test]
+    fn defaults_are_the_cores() {
+        let mut expected = Params::default();
+        expected.align.mode = lfdepth::align::AlignMode::Auto;
+        assert_eq!(params(&[]), expected);
+        assert_eq!(ParamArgs::default().params(None).unwrap(), expected);
+        assert_eq!(
+            expected.align.interpolation,
+            lfdepth::align::Interpolation::SharpenedBilinear
+        );
+        for command in [
+            &["lfdepth", "estimate", "in", "-o", "x.pfm"][..],
+            &["lfdepth", "eval", "--dataset", "d"][..],
+            &["lfdepth", "demo"][..],
+        ] {
+            let cli = Cli::try_parse_from(command).unwrap();
+            let args = match &cli.command {
+                crate::commands::Command::Estimate(a) => &a.params,
+                crate::commands::Command::Eval(a) => &a.params,
+                crate::commands::Command::Demo(a) => &a.params,
+                crate::commands::Command::Synth(_) => unreachable!(),
+            };
+            assert_eq!(args.params(None).unwrap(), expected, "{command:?}");
+        }
+    }
+
+    /// Each subcommand that estimates lists every flag of the table in its help, with its
+    /// default.
+    #[test]
+    fn help_lists_every_table_flag() {
+        let mut cli = Cli::command();
+        for name in ["estimate", "eval", "demo"] {
+            let help = cli
+                .find_subcommand_mut(name)
+                .unwrap()
+                .render_long_help()
+                .to_string();
+            for t in TUNABLES {
+                let Some(flag) = t.flag else { continue };
+                assert!(help.contains(flag.name()), "{name}: {}", flag.name());
+                if let Flag::Value(_) = flag {
+                    let default = format!("default {}", default_text(t));
+                    assert!(help.contains(&default), "{name}: {} {default}", flag.name());
+                }
+            }
+            assert!(
+                help.contains("--preset") && help.contains("fast ("),
+                "{name}"
+            );
+        }
+    }
+
+    #[test]
+    fn every_flag_sets_its_tunable() {
+        for t in TUNABLES {
+            let Some(flag) = t.flag else { continue };
+            let (args, expected): (Vec<String>, Value) = match (flag, t.kind) {
+                (Flag::Switch { sets, .. }, _) => (vec![flag.name().into()], Value::Bool(sets)),
+                (_, Kind::Float { min, max, .. }) => {
+                    let v = (min + max.min(16.0)) / 2.0;
+                    (vec![flag.name().into(), v.to_string()], Value::Float(v))
+                }
+                (_, Kind::Int { min, max }) => {
+                    let v = (min + max) / 2;
+                    (vec![flag.name().into(), v.to_string()], Value::Int(v))
+                }
+                (_, Kind::Bool) => {
+                    let v = !matches!(t.default_value(), Value::Bool(true));
+                    (
+                        vec![flag.name().into(), u8::from(v).to_string()],
+                        Value::Bool(v),
+                    )
+                }
+                (_, Kind::Choice(names)) => {
+                    let v = names[names.len() - 1];
+                    (vec![flag.name().into(), v.into()], Value::Choice(v))
+                }
+                (_, Kind::Range) => (
+                    vec![flag.name().into(), "-1.5..0.5".into()],
+                    Value::Range(DisparityRange::Fixed {
+                        min: -1.5,
+                        max: 0.5,
+                    }),
+                ),
+            };
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            assert_eq!(t.get(&params(&args)), expected, "{args:?}");
+        }
     }
 
     #[test]
@@ -535,73 +425,77 @@ mod tests {
             err.contains("turbo") && err.contains("default, fast"),
             "{err}"
         );
-        let fast = ParamArgs {
-            preset: Preset::Fast,
-            ..ParamArgs::default()
-        };
-        let expected = Params {
-            align: fast.params(None).unwrap().align,
-            ..Params::preset(Preset::Fast)
-        };
-        assert_eq!(fast.params(None).unwrap(), expected);
-        let overridden = ParamArgs {
-            refine_iterations: Some(5),
-            refine_slack: Some(0.25),
-            median_passes: Some(4),
-            epi_color: Some(EpiColor::Gray),
-            ..fast
-        };
-        let p = overridden.params(None).unwrap();
+        assert_eq!(params(&["--preset", "fast"]), options::base(Preset::Fast));
+        // Explicit flags win over the preset, wherever they stand.
+        let p = params(&[
+            "--refine-iterations",
+            "5",
+            "--preset",
+            "fast",
+            "--refine-slack",
+            "0.25",
+            "--median-passes",
+            "4",
+            "--epi-color",
+            "gray",
+        ]);
         assert_eq!((p.refine.iterations, p.median.passes), (5, 4));
         assert_eq!(p.refine.sampling_slack, 0.25);
-        assert_eq!(p.epi.color, ColorMode::Gray);
-        assert_eq!(p.refine.propagation, expected.refine.propagation);
-        for bad in [
-            ParamArgs {
-                refine: Some(2),
-                ..ParamArgs::default()
-            },
-            ParamArgs {
-                refine_iterations: Some(0),
-                ..ParamArgs::default()
-            },
-            ParamArgs {
-                epi_shear_step: Some(5.0),
-                ..ParamArgs::default()
-            },
+        assert_eq!(p.epi.color, lfdepth::epi::ColorMode::Gray);
+        assert_eq!(
+            p.refine.propagation,
+            options::base(Preset::Fast).refine.propagation
+        );
+    }
+
+    /// Bad values fail, naming the flag as typed.
+    #[test]
+    fn bad_values_name_the_flag() {
+        for (args, flag) in [
+            (&["--refine", "2"][..], "--refine"),
+            (&["--align", "sideways"][..], "--align"),
+            (&["--lambda", "x"][..], "--lambda"),
+            (&["--median", "-1"][..], "--median"),
         ] {
-            assert!(bad.params(None).is_err());
+            let err = parse(args).unwrap_err().to_string();
+            assert!(err.contains(flag), "{args:?}: {err}");
+        }
+        for (args, flag) in [
+            (&["--refine-iterations", "0"][..], "`--refine-iterations`"),
+            (&["--epi-shear-step", "5"][..], "`--epi-shear-step`"),
+            (&["--fill-band", "0"][..], "`--fill-band`"),
+            (&["--lambda", "-1"][..], "`--lambda`"),
+            (&["--disparity-range", "-20..20"][..], "`--disparity-range`"),
+        ] {
+            let err = parse(args).unwrap().params(None).unwrap_err().to_string();
+            assert!(err.contains(flag), "{args:?}: {err}");
         }
     }
 
     #[test]
     fn fill_flags() {
-        let on = ParamArgs {
-            fill: Some(1),
-            fill_band: Some(12),
-            fill_max_cost: Some(0.3),
-            fill_planar: true,
-            ..ParamArgs::default()
-        };
-        let g = on.params(None).unwrap().geofill;
+        let g = params(&[
+            "--fill",
+            "1",
+            "--fill-band",
+            "12",
+            "--fill-max-cost",
+            "0.3",
+            "--fill-planar",
+        ])
+        .geofill;
         assert!(g.enabled && g.planar);
         assert_eq!((g.band, g.reach, g.max_cost), (12, 24, 0.3));
-        let off = ParamArgs {
-            fill: Some(0),
-            ..ParamArgs::default()
-        };
-        assert!(!off.params(None).unwrap().geofill.enabled);
-        for bad in [
-            ParamArgs {
-                fill: Some(2),
-                ..ParamArgs::default()
-            },
-            ParamArgs {
-                fill_band: Some(0),
-                ..ParamArgs::default()
-            },
-        ] {
-            assert!(bad.params(None).is_err());
-        }
+        assert!(!params(&["--fill", "0"]).geofill.enabled);
+    }
+
+    #[test]
+    fn median_flags() {
+        let m = params(&["--median", "3", "--median-flat", "--median-after-tv"]).median;
+        assert!(m.enabled && !m.planar && !m.before_tv);
+        assert_eq!(m.radius, 3);
+        let off = params(&["--median", "0"]).median;
+        assert!(!off.enabled);
+        assert_eq!(off.radius, Params::default().median.radius);
     }
 }
