@@ -205,8 +205,8 @@ pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
 /// refinement's [`crate::refine::RefineParams::sampling_slack`] at [`crate::refine::RESAMPLED_SLACK`]
 /// unless it sets one itself. Interpolated views do not reproduce the rendered or
 /// photographed occlusion edges of the centre view, and the refinement, comparing them
-/// sample by sample, otherwise chooses differently there (docs/bench-align.md,
-/// "Session 9"). Rectified arrays (alignment off or skipped) keep `plan` itself.
+/// sample by sample, otherwise chooses differently there (docs/stages/align.md).
+/// Rectified arrays (alignment off or skipped) keep `plan` itself.
 pub fn resampled_plan(plan: &Plan) -> Result<Plan> {
     let mut params = *plan.params();
     params.refine = params.refine.for_resampled_views();

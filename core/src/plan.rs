@@ -37,7 +37,7 @@ impl Default for Params {
     /// instead of the paper's 0.5 ([`TvParams::default`]): with the refinement and the
     /// median in front, λ 0.1…0.5 all meet the same goals and 0.25 has the smallest sum
     /// of ratios to SPO's scores; smaller λ flattens curved surfaces less
-    /// (docs/bench-median.md has the λ table).
+    /// (docs/stages/median.md has the λ table).
     fn default() -> Self {
         Params {
             align: AlignParams {
@@ -74,7 +74,7 @@ impl Params {
         let default = Params::default();
         match preset {
             Preset::Default => default,
-            // Each knob is one the CLI exposes; docs/bench-pipeline.md ("Session 6")
+            // Each knob is one the CLI exposes; docs/BENCHMARKS.md ("Presets")
             // has what each costs and saves.
             Preset::Fast => Params {
                 refine: RefineParams {
@@ -97,8 +97,8 @@ impl Params {
     }
 }
 
-/// A named set of [`Params`] on the speed/accuracy frontier (docs/bench-pipeline.md,
-/// "Session 6"). The names are what the CLI's and the page's `--preset` accept.
+/// A named set of [`Params`] on the speed/accuracy frontier (docs/BENCHMARKS.md,
+/// "Presets"). The names are what the CLI's and the page's `--preset` accept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preset {
     /// [`Params::default`]: the most accurate settings.

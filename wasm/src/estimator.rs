@@ -2,9 +2,9 @@
 
 use core::ops::ControlFlow;
 
-use lfdepth::align::{self, AlignMode, AlignReport};
+use lfdepth::align::{AlignMode, AlignReport};
 use lfdepth::epi;
-use lfdepth::pipeline::{self, Progress, Stages};
+use lfdepth::pipeline::{self, AlignBuffers, Progress, Stages};
 use lfdepth::tv;
 use lfdepth::{median, refine, Homography, Layout, LightField, Plan};
 use wasm_bindgen::prelude::*;
@@ -182,25 +182,20 @@ impl Estimator {
         let outcome = {
             let lf = LightField::new(&self.views, self.layout)?;
             let mut scratch = vec![0.0f32; pipeline::align_scratch_len(&self.plan)?];
-            stage_report(report, pipeline::STAGE_ALIGN, 0, 1)?;
-            let outcome = align::estimate(
+            // Views no stage reads keep their original samples.
+            let mut rectified = self.views.clone();
+            let outcome = pipeline::align_views(
+                &self.plan,
                 &lf,
-                &pipeline::align_params(&self.plan, self.stages),
-                &mut homographies,
-                &mut scratch,
+                self.stages,
+                &mut AlignBuffers {
+                    homographies: &mut homographies,
+                    scratch: &mut scratch,
+                    aligned: &mut rectified,
+                },
+                report,
             )?;
-            stage_report(report, pipeline::STAGE_ALIGN, 1, 1)?;
             if !outcome.skipped {
-                // Views no stage reads keep their original samples.
-                let mut rectified = self.views.clone();
-                pipeline::warp_views(
-                    &self.plan,
-                    &lf,
-                    self.stages,
-                    &homographies,
-                    &mut rectified,
-                    report,
-                )?;
                 self.views = rectified;
                 // The stages compare warped views from now on (`replan` keeps this).
                 self.plan = pipeline::resampled_plan(&self.plan)?;
@@ -382,23 +377,6 @@ impl Estimator {
     #[wasm_bindgen(getter)]
     pub fn views(&self) -> js_sys::Uint8Array {
         js_sys::Uint8Array::from(&self.views[..])
-    }
-}
-
-/// One progress report into `report`; a break is the core's `Cancelled`.
-fn stage_report(
-    report: &mut dyn FnMut(Progress) -> ControlFlow<()>,
-    stage: &'static str,
-    done: usize,
-    total: usize,
-) -> lfdepth::Result<()> {
-    match report(Progress {
-        stage,
-        done: done as u64,
-        total: total as u64,
-    }) {
-        ControlFlow::Continue(()) => Ok(()),
-        ControlFlow::Break(()) => Err(lfdepth::Error::Cancelled),
     }
 }
 
