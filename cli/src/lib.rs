@@ -6,5 +6,6 @@ pub mod commands;
 pub mod engine;
 pub mod font;
 pub mod io;
+pub mod picture;
 pub mod progress;
 pub mod report;

@@ -5,13 +5,13 @@ use core::ops::ControlFlow;
 use lfdepth::align::{AlignMode, AlignReport};
 use lfdepth::epi;
 use lfdepth::pipeline::{self, AlignBuffers, Progress, Stages};
+use lfdepth::schedule::Schedule;
 use lfdepth::tv;
 use lfdepth::{median, refine, Homography, Layout, LightField, Plan};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{self, error, message};
 use crate::params;
-use crate::run::WorkerRun;
 
 /// The progress stage names of the core pipeline, in the order they run.
 #[wasm_bindgen(js_name = stageNames)]
@@ -149,6 +149,15 @@ impl AlignResult {
     pub fn timings(&self) -> Vec<StageTiming> {
         self.timings.clone()
     }
+}
+
+/// What a worker's estimator keeps between the parts of a run: the schedule (for its
+/// `workers`), the inputs of the current step and the range.
+pub(crate) struct WorkerRun {
+    pub(crate) workers: usize,
+    pub(crate) schedule: Schedule,
+    pub(crate) buffer: Vec<f32>,
+    pub(crate) range: Option<(f32, f32)>,
 }
 
 /// Disparity of the centre view of a light field held in wasm memory.

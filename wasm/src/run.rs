@@ -9,7 +9,7 @@ use lfdepth::schedule::{Cursor, PartOutput, PartScratch, Schedule, State, StateM
 use lfdepth::{LightField, Plan};
 use wasm_bindgen::prelude::*;
 
-use crate::estimator::{iterations_run, Estimator};
+use crate::estimator::{iterations_run, Estimator, WorkerRun};
 use crate::js::{error, message};
 use crate::params;
 
@@ -181,15 +181,6 @@ impl Run {
     fn state(&mut self) -> Result<State<'_>, JsError> {
         State::resume(&self.schedule, &mut self.buffer, self.cursor).map_err(error)
     }
-}
-
-/// What a worker's estimator keeps between the parts of a run: the schedule (for its
-/// `workers`), the inputs of the current step and the range.
-pub(crate) struct WorkerRun {
-    workers: usize,
-    schedule: Schedule,
-    buffer: Vec<f32>,
-    range: Option<(f32, f32)>,
 }
 
 /// The `Float32Array` at `key` of `object`, if any.
