@@ -17,14 +17,14 @@ mod device;
 #[cfg(not(target_os = "none"))]
 fn main() {
     let mut memory = Box::new(frame::Memory::ZERO);
-    match frame::run(&mut memory) {
+    match frame::run(&mut memory, &mut |_| {}) {
         Ok(summary) => println!(
-            "whole frame {}x{}, {} scratch bytes: mean |d - gt| = {:.4} px, checksum {:#010x}",
+            "whole-frame {}x{}: checksum {:#010x}, {} scratch bytes, mean |d - gt| = {:.4} px",
             frame::WIDTH,
             frame::HEIGHT,
+            summary.checksum,
             summary.scratch_bytes,
             summary.mean_abs_error,
-            summary.checksum
         ),
         Err(e) => {
             eprintln!("whole-frame pipeline failed: {e}");
@@ -32,15 +32,15 @@ fn main() {
         }
     }
     let mut memory = Box::new(stream::Memory::ZERO);
-    match stream::run(&mut memory) {
+    match stream::run(&mut memory, &mut |_| {}) {
         Ok(summary) => {
             println!(
-                "{}x{} frame, {} scratch bytes: mean |d - gt| = {:.4} px, checksum {:#010x}",
+                "stream {}x{}: checksum {:#010x}, {} scratch bytes, mean |d - gt| = {:.4} px",
                 stream::WIDTH,
                 stream::HEIGHT,
+                summary.checksum,
                 summary.scratch_bytes,
                 summary.mean_abs_error,
-                summary.checksum
             );
         }
         Err(e) => {

@@ -13,10 +13,11 @@ use lfdepth::{Error, Grid, Layout, Params, Result, Scalar};
 
 use crate::sensor;
 
-/// Kernel scalars: `f32` with an FPU, Q16.16 without.
-#[cfg(any(not(target_os = "none"), target_abi = "eabihf"))]
+/// Kernel scalars: `f32` with an FPU, Q16.16 without (thumbv6m) or with the feature
+/// `q16` (so that the host runs what the thumbv6m image runs).
+#[cfg(not(any(feature = "q16", all(target_os = "none", not(target_abi = "eabihf")))))]
 pub type Kernel = f32;
-#[cfg(all(target_os = "none", not(target_abi = "eabihf")))]
+#[cfg(any(feature = "q16", all(target_os = "none", not(target_abi = "eabihf"))))]
 pub type Kernel = lfdepth::Q16;
 
 pub const WIDTH: usize = 128;
@@ -64,8 +65,10 @@ fn too_small(needed: usize, got: usize) -> Error {
     Error::ScratchTooSmall { needed, got }
 }
 
-/// Streams one frame of the sensor through `memory`.
-pub fn run(memory: &mut Memory) -> Result<Summary> {
+/// Streams one frame of the sensor through `memory`. `mark(stage)` is called when the
+/// work of `stage` begins (`sensor`: rendering the band's rows; `stream`: the band's
+/// estimate; `checksum`), so that a device can count the cost of each.
+pub fn run(memory: &mut Memory, mark: &mut dyn FnMut(&'static str)) -> Result<Summary> {
     let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
     let params = Params {
         epi: EpiParams {
@@ -104,6 +107,7 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
     let mut error = 0.0f32;
     for band in 0..plan.bands() {
         let rows = plan.input_rows(band)?;
+        mark("sensor");
         // The sensor delivers the band's rows of every cross view.
         for r in 0..GRID.rows {
             for c in 0..GRID.cols {
@@ -132,7 +136,9 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
                 .get_mut(..len)
                 .ok_or(too_small(len, TILE * WIDTH))?,
         );
+        mark("stream");
         plan.process_band(band, &input, disparity, confidence, scratch, maps)?;
+        mark("checksum");
         // The rows are ready: a real device would send them on here.
         for (y, row) in out.zip(disparity.chunks_exact(WIDTH)) {
             for (x, &d) in row.iter().enumerate() {
