@@ -14,7 +14,7 @@
 //! | `firmware-panic-free` | both firmware images again with `--features panic-free` (their panic handler calls an undefined symbol, so the link fails if any panic path survives optimisation), same flags and directory |
 //! | `firmware-panic-free-frame` | the same with `--features panic-free,whole-frame`: the images run `pipeline::run_aligned` (alignment, EPI, refine, median, TV) instead of the stream |
 //! | `firmware-qemu` | `cargo xtask firmware`: both images (stream, whole frame) for both targets with `--features qemu,panic-free`, run under `qemu-system-arm` (installed as root when missing; skipped otherwise) and on the host; fails when a checksum differs |
-//! | `doc`            | `cargo doc -p lfdepth --no-deps` with `RUSTDOCFLAGS=-D warnings` |
+//! | `doc`            | `cargo doc -p lfdepth --no-deps --features scenes` with `RUSTDOCFLAGS=-D warnings` |
 //! | `wasm-build`     | `cargo build -p lfdepth-wasm --target wasm32-unknown-unknown --release` |
 //! | `test-release`   | `cargo test --workspace --release -- --show-output` (the heavy accuracy tests) |
 //!
@@ -257,7 +257,8 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
     steps.push(step(
         "doc",
         Action::Run(
-            Cmd::cargo(&["doc", "-p", "lfdepth", "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings"),
+            Cmd::cargo(&["doc", "-p", "lfdepth", "--no-deps", "--features", "scenes"])
+                .env("RUSTDOCFLAGS", "-D warnings"),
         ),
     ));
     let wasm_build = Action::Run(Cmd::cargo(&[
