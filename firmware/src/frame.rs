@@ -68,7 +68,7 @@ fn slice<T>(buffer: &mut [T], needed: usize) -> Result<&mut [T]> {
 /// `mark(stage)` is called when the work of `stage` begins (`sensor`; `pipeline`, the
 /// pipeline's work before the first stage reports progress; each stage from its first
 /// progress report on; `checksum`), so that a device can count the cost of each.
-pub fn run(memory: &mut Memory, mark: &mut dyn FnMut(&'static str)) -> Result<Summary> {
+pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<Summary> {
     mark("sensor");
     let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
     let plan = Plan::new(layout, Params::default())?;

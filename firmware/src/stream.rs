@@ -20,8 +20,16 @@ pub type Kernel = f32;
 #[cfg(any(feature = "q16", all(target_os = "none", not(target_abi = "eabihf"))))]
 pub type Kernel = lfdepth::Q16;
 
-pub const WIDTH: usize = 128;
-pub const HEIGHT: usize = 128;
+/// The frame side: 128, or `LFDEPTH_FIRMWARE_SIDE` at build time (for measuring how the
+/// cost grows with the frame, docs/EMBEDDED.md; the band buffer grows with it).
+pub const WIDTH: usize = match build_option(option_env!("LFDEPTH_FIRMWARE_SIDE")) {
+    Some(side) => side,
+    None => 128,
+};
+pub const HEIGHT: usize = WIDTH;
+/// TV's most iterations per tile: `LFDEPTH_FIRMWARE_TV_ITERATIONS` at build time, or the
+/// default (runs with 1 and 2 measure what the first iteration and one more cost).
+const TV_ITERATIONS: Option<usize> = build_option(option_env!("LFDEPTH_FIRMWARE_TV_ITERATIONS"));
 const GRID: Grid = Grid::new(9, 9);
 const TILE: usize = 36;
 const HALO: usize = 16;
@@ -61,6 +69,31 @@ pub struct Summary {
     pub mean_abs_error: f32,
 }
 
+/// A decimal build-time option (`None` when unset). A value that is not a positive
+/// decimal number stops the build.
+const fn build_option(value: Option<&str>) -> Option<usize> {
+    let Some(text) = value else {
+        return None;
+    };
+    let bytes = text.as_bytes();
+    let mut n = 0usize;
+    let mut i = 0;
+    while i < bytes.len() {
+        let digit = bytes[i];
+        assert!(
+            digit.is_ascii_digit() && n < 1_000_000,
+            "LFDEPTH_FIRMWARE_* options are positive decimal numbers below 1000000"
+        );
+        n = n * 10 + (digit - b'0') as usize;
+        i += 1;
+    }
+    assert!(
+        n > 0,
+        "LFDEPTH_FIRMWARE_* options are positive decimal numbers"
+    );
+    Some(n)
+}
+
 fn too_small(needed: usize, got: usize) -> Error {
     Error::ScratchTooSmall { needed, got }
 }
@@ -68,7 +101,7 @@ fn too_small(needed: usize, got: usize) -> Error {
 /// Streams one frame of the sensor through `memory`. `mark(stage)` is called when the
 /// work of `stage` begins (`sensor`: rendering the band's rows; `stream`: the band's
 /// estimate; `checksum`), so that a device can count the cost of each.
-pub fn run(memory: &mut Memory, mark: &mut dyn FnMut(&'static str)) -> Result<Summary> {
+pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<Summary> {
     let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
     let params = Params {
         epi: EpiParams {
@@ -85,6 +118,10 @@ pub fn run(memory: &mut Memory, mark: &mut dyn FnMut(&'static str)) -> Result<Su
         tv: TvParams {
             tile: TILE,
             halo: HALO,
+            max_iterations: match TV_ITERATIONS {
+                Some(n) => n,
+                None => TvParams::default().max_iterations,
+            },
             ..TvParams::default()
         },
         ..Params::default()
