@@ -3,8 +3,10 @@
 //!
 //! On `thumbv7em-none-eabihf` the kernels compute in `f32`, on `thumbv6m-none-eabi` (no
 //! FPU) in Q16.16 fixed point. On the host the same code runs as an ordinary program that
-//! prints its result, so `cargo run -p lfdepth-firmware` checks it without a board.
-//! See docs/EMBEDDED.md.
+//! prints its result, so `cargo run -p lfdepth-firmware` checks it without a board. With
+//! the feature `qemu` the device image reports through Arm semihosting and exits, and
+//! `cargo xtask firmware` runs it on an emulated Cortex-M and compares its checksum with
+//! the host's. See docs/EMBEDDED.md.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 mod frame;
