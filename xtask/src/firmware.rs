@@ -345,6 +345,27 @@ mod tests {
     }
 
     #[test]
+    fn only_equal_checksums_pass() {
+        let report = |checksum| DeviceReport {
+            image: "stream 128x128".into(),
+            checksum,
+            stages: Vec::new(),
+            total_ticks: 1,
+        };
+        let row = |host, device| Row {
+            image: "stream 128x128".into(),
+            target: TARGETS[0],
+            host,
+            device,
+        };
+        assert!(row(Some(7), Ok(report(Some(7)))).matches());
+        assert!(!row(Some(7), Ok(report(Some(8)))).matches());
+        assert!(!row(Some(7), Ok(report(None))).matches());
+        assert!(!row(None, Ok(report(Some(7)))).matches());
+        assert!(!row(Some(7), Err("fault".into())).matches());
+    }
+
+    #[test]
     fn builds_and_runs_are_the_documented_commands() {
         let text = build("qemu,panic-free").to_string();
         assert!(text.starts_with("RUSTFLAGS=-D warnings cargo build -p lfdepth-firmware --profile firmware --features qemu,panic-free --target thumbv7em-none-eabihf --target thumbv6m-none-eabi --target-dir target/nostd"), "{text}");
