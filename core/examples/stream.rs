@@ -5,9 +5,9 @@
 //! at compile time and checked against the plan.
 //!
 //! ```sh
-//! cargo run --release -p lfdepth --example stream                 # 512² and 1024², mixed
-//! cargo run --release -p lfdepth --example stream -- 512 --compare # + the whole-frame pipeline
-//! cargo run --release -p lfdepth --example stream -- 256 --scene planes --q16 --halo 8
+//! cargo run --release -p lfdepth --features scenes --example stream             # 512², 1024², mixed
+//! cargo run --release -p lfdepth --features scenes --example stream -- 512 --compare  # + whole frame
+//! cargo run --release -p lfdepth --features scenes --example stream -- 256 --scene planes --q16 --halo 8
 //! ```
 //!
 //! The host side uses std (Vec) only for what stands for the outside world: the sensor's

@@ -12,8 +12,6 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 
-#[cfg(feature = "alloc")]
-extern crate alloc;
 // Only for the float intrinsics (`float`); everything else is `core`.
 #[cfg(all(feature = "std", not(test)))]
 extern crate std;
@@ -26,6 +24,9 @@ pub mod geofill;
 pub mod geometry;
 pub mod lightfield;
 pub mod median;
+/// Evaluation against ground truth (feature `scenes`: for tools and the page, not
+/// firmware).
+#[cfg(any(test, feature = "scenes"))]
 pub mod metrics;
 pub mod options;
 pub mod pipeline;
@@ -35,6 +36,9 @@ pub mod refine;
 pub mod scalar;
 pub mod schedule;
 pub mod stream;
+/// Synthetic light fields with exact ground truth (feature `scenes`: for tests, the demo
+/// and the page, not firmware).
+#[cfg(any(test, feature = "scenes"))]
 pub mod synth;
 pub mod tv;
 

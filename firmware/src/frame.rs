@@ -65,7 +65,11 @@ fn slice<T>(buffer: &mut [T], needed: usize) -> Result<&mut [T]> {
 }
 
 /// Renders the sensor's frame into `memory` and runs the default pipeline on it.
-pub fn run(memory: &mut Memory) -> Result<Summary> {
+/// `mark(stage)` is called when the work of `stage` begins (`sensor`; `pipeline`, the
+/// pipeline's work before the first stage reports progress; each stage from its first
+/// progress report on; `checksum`), so that a device can count the cost of each.
+pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<Summary> {
+    mark("sensor");
     let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
     let plan = Plan::new(layout, Params::default())?;
     let (r0, c0) = GRID.center();
@@ -84,6 +88,7 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
     };
     let scratch = slice(&mut memory.kernel, pipeline::scratch_len(&plan))?;
     let maps = slice(&mut memory.maps, pipeline::map_scratch_len(&plan))?;
+    mark("pipeline");
     pipeline::run_aligned(
         &plan,
         &lf,
@@ -94,8 +99,12 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
         scratch,
         maps,
         &mut memory.history,
-        &mut |_| ControlFlow::Continue(()),
+        &mut |progress| {
+            mark(progress.stage);
+            ControlFlow::Continue(())
+        },
     )?;
+    mark("checksum");
     let mut checksum = 0u32;
     let mut error = 0.0f32;
     for (i, &d) in memory.disparity.iter().enumerate() {

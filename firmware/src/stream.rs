@@ -13,14 +13,23 @@ use lfdepth::{Error, Grid, Layout, Params, Result, Scalar};
 
 use crate::sensor;
 
-/// Kernel scalars: `f32` with an FPU, Q16.16 without.
-#[cfg(any(not(target_os = "none"), target_abi = "eabihf"))]
+/// Kernel scalars: `f32` with an FPU, Q16.16 without (thumbv6m) or with the feature
+/// `q16` (so that the host runs what the thumbv6m image runs).
+#[cfg(not(any(feature = "q16", all(target_os = "none", not(target_abi = "eabihf")))))]
 pub type Kernel = f32;
-#[cfg(all(target_os = "none", not(target_abi = "eabihf")))]
+#[cfg(any(feature = "q16", all(target_os = "none", not(target_abi = "eabihf"))))]
 pub type Kernel = lfdepth::Q16;
 
-pub const WIDTH: usize = 128;
-pub const HEIGHT: usize = 128;
+/// The frame side: 128, or `LFDEPTH_FIRMWARE_SIDE` at build time (for measuring how the
+/// cost grows with the frame, docs/EMBEDDED.md; the band buffer grows with it).
+pub const WIDTH: usize = match build_option(option_env!("LFDEPTH_FIRMWARE_SIDE")) {
+    Some(side) => side,
+    None => 128,
+};
+pub const HEIGHT: usize = WIDTH;
+/// TV's most iterations per tile: `LFDEPTH_FIRMWARE_TV_ITERATIONS` at build time, or the
+/// default (runs with 1 and 2 measure what the first iteration and one more cost).
+const TV_ITERATIONS: Option<usize> = build_option(option_env!("LFDEPTH_FIRMWARE_TV_ITERATIONS"));
 const GRID: Grid = Grid::new(9, 9);
 const TILE: usize = 36;
 const HALO: usize = 16;
@@ -60,12 +69,39 @@ pub struct Summary {
     pub mean_abs_error: f32,
 }
 
+/// A decimal build-time option (`None` when unset). A value that is not a positive
+/// decimal number stops the build.
+const fn build_option(value: Option<&str>) -> Option<usize> {
+    let Some(text) = value else {
+        return None;
+    };
+    let bytes = text.as_bytes();
+    let mut n = 0usize;
+    let mut i = 0;
+    while i < bytes.len() {
+        let digit = bytes[i];
+        assert!(
+            digit.is_ascii_digit() && n < 1_000_000,
+            "LFDEPTH_FIRMWARE_* options are positive decimal numbers below 1000000"
+        );
+        n = n * 10 + (digit - b'0') as usize;
+        i += 1;
+    }
+    assert!(
+        n > 0,
+        "LFDEPTH_FIRMWARE_* options are positive decimal numbers"
+    );
+    Some(n)
+}
+
 fn too_small(needed: usize, got: usize) -> Error {
     Error::ScratchTooSmall { needed, got }
 }
 
-/// Streams one frame of the sensor through `memory`.
-pub fn run(memory: &mut Memory) -> Result<Summary> {
+/// Streams one frame of the sensor through `memory`. `mark(stage)` is called when the
+/// work of `stage` begins (`sensor`: rendering the band's rows; `stream`: the band's
+/// estimate; `checksum`), so that a device can count the cost of each.
+pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<Summary> {
     let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
     let params = Params {
         epi: EpiParams {
@@ -82,6 +118,10 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
         tv: TvParams {
             tile: TILE,
             halo: HALO,
+            max_iterations: match TV_ITERATIONS {
+                Some(n) => n,
+                None => TvParams::default().max_iterations,
+            },
             ..TvParams::default()
         },
         ..Params::default()
@@ -104,6 +144,7 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
     let mut error = 0.0f32;
     for band in 0..plan.bands() {
         let rows = plan.input_rows(band)?;
+        mark("sensor");
         // The sensor delivers the band's rows of every cross view.
         for r in 0..GRID.rows {
             for c in 0..GRID.cols {
@@ -132,7 +173,9 @@ pub fn run(memory: &mut Memory) -> Result<Summary> {
                 .get_mut(..len)
                 .ok_or(too_small(len, TILE * WIDTH))?,
         );
+        mark("stream");
         plan.process_band(band, &input, disparity, confidence, scratch, maps)?;
+        mark("checksum");
         // The rows are ready: a real device would send them on here.
         for (y, row) in out.zip(disparity.chunks_exact(WIDTH)) {
             for (x, &d) in row.iter().enumerate() {

@@ -4,6 +4,7 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 /// A command line with its environment additions and working directory.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -97,6 +98,58 @@ impl Cmd {
             ))
         }
     }
+
+    /// Prints `$ <command>`, runs it with stdout and stderr captured and kills it after
+    /// `limit`; returns both outputs (stdout first) and whether it exited with status 0,
+    /// or an error if it could not start or ran past the limit.
+    pub fn output_within(&self, root: &Path, limit: Duration) -> Result<(String, bool), String> {
+        println!("$ {self}");
+        let mut child = self
+            .command(root)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| format!("could not start `{}`: {e}", self.program))?;
+        // Drain both pipes on threads, so a chatty child never blocks on a full pipe.
+        let drain = |pipe: Option<Box<dyn std::io::Read + Send>>| {
+            std::thread::spawn(move || {
+                let mut text = Vec::new();
+                if let Some(mut pipe) = pipe {
+                    let _ = pipe.read_to_end(&mut text);
+                }
+                String::from_utf8_lossy(&text).into_owned()
+            })
+        };
+        let stdout = drain(child.stdout.take().map(|p| Box::new(p) as _));
+        let stderr = drain(child.stderr.take().map(|p| Box::new(p) as _));
+        let start = Instant::now();
+        let status = loop {
+            match child.try_wait() {
+                Ok(Some(status)) => break Some(status),
+                Ok(None) if start.elapsed() < limit => {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                Ok(None) => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    break None;
+                }
+                Err(e) => return Err(format!("waiting for `{self}`: {e}")),
+            }
+        };
+        let text = format!(
+            "{}{}",
+            stdout.join().unwrap_or_default(),
+            stderr.join().unwrap_or_default()
+        );
+        match status {
+            Some(status) => Ok((text, status.success())),
+            None => Err(format!(
+                "`{self}` ran past its limit of {} s and was stopped; its output:\n{text}",
+                limit.as_secs()
+            )),
+        }
+    }
 }
 
 impl fmt::Display for Cmd {
@@ -164,5 +217,20 @@ mod tests {
             .unwrap_err();
         assert!(err.contains("oops") && err.contains('3'), "{err}");
         assert!(!available("lfdepth-no-such-program"));
+    }
+
+    #[test]
+    fn output_within_returns_both_streams_and_stops_at_the_limit() {
+        let (text, ok) = Cmd::new("sh", &["-c", "echo out; echo err >&2; exit 1"])
+            .output_within(Path::new("/"), Duration::from_secs(30))
+            .unwrap();
+        assert_eq!(text, "out\nerr\n");
+        assert!(!ok);
+        let start = Instant::now();
+        let err = Cmd::new("sh", &["-c", "echo started; exec sleep 30"])
+            .output_within(Path::new("/"), Duration::from_millis(300))
+            .unwrap_err();
+        assert!(start.elapsed() < Duration::from_secs(10));
+        assert!(err.contains("limit") && err.contains("started"), "{err}");
     }
 }

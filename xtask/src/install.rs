@@ -13,6 +13,7 @@
 //! longer serves (yanked) is retried once without `--locked`.
 //! | wasm-opt                               | wasm-pack step, root only  | `apt-get install -y binaryen`; without it, or older than [`MIN_WASM_OPT`], wasm-opt is turned off |
 //! | chromium                               | browser tests, root only   | `apt-get install -y chromium`; otherwise the browser tests are skipped |
+//! | qemu-system-arm                        | firmware runs, root only   | `apt-get install -y qemu-system-arm`; otherwise the step `firmware-qemu` is skipped |
 //!
 //! Nothing downloads a browser or a binary from outside the package registries.
 
@@ -210,6 +211,23 @@ pub fn chromium(root: &Path) -> Result<PathBuf, String> {
     }
     apt_install("chromium", root)?;
     find().ok_or_else(|| "apt-get installed chromium but it does not start".into())
+}
+
+/// `qemu-system-arm` (the firmware images' emulator), after installing Debian
+/// `qemu-system-arm` when root; `Err` says why there is none.
+pub fn qemu(root: &Path) -> Result<(), String> {
+    if available("qemu-system-arm") {
+        return Ok(());
+    }
+    if !is_root() {
+        return Err("qemu-system-arm is not installed and installing it needs root (apt-get install qemu-system-arm)".into());
+    }
+    apt_install("qemu-system-arm", root)?;
+    if available("qemu-system-arm") {
+        Ok(())
+    } else {
+        Err("apt-get installed qemu-system-arm but it does not start".into())
+    }
 }
 
 #[cfg(test)]

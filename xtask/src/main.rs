@@ -3,6 +3,7 @@
 //! ```text
 //! cargo xtask test [--quick]   every check CI runs (fmt, clippy, tests, no_std, wasm, docs, JS)
 //! cargo xtask bench [--cpu NAME] [FILTER]   the criterion benches of lfdepth-cli
+//! cargo xtask firmware        run the firmware images on an emulated Cortex-M (QEMU) and on the host
 //! cargo xtask fuzz [SECONDS]   each cargo-fuzz target in fuzz/ for SECONDS (default 60)
 //! cargo xtask web [--port N] [--no-build]   build web/pkg and serve the page (see [`web`])
 //! cargo xtask types            regenerate the TypeScript type of the wasm options (see [`types`])
@@ -18,6 +19,7 @@
 mod bench;
 mod elf;
 mod exec;
+mod firmware;
 mod fuzz;
 mod install;
 mod manifest;
@@ -39,6 +41,8 @@ enum Command {
         filter: Option<String>,
         cpu: Option<String>,
     },
+    /// Run the firmware images under QEMU and on the host; compare their checksums.
+    Firmware,
     /// Run each fuzz target for this many seconds.
     Fuzz { seconds: u64 },
     /// Build the wasm package and serve the page.
@@ -58,6 +62,9 @@ commands:
                     run the criterion benches (cargo bench -p lfdepth-cli); results go in
                     docs/BENCHMARKS.md; --cpu builds them for one CPU (rustc -C target-cpu=NAME,
                     e.g. x86-64-v3 or native) in target/cpu-NAME
+  firmware          build the firmware images (stream, whole frame; thumbv7em f32, thumbv6m Q16),
+                    run each under qemu-system-arm and on the host, print checksums and
+                    instruction counts; fails on any difference (docs/EMBEDDED.md)
   fuzz [SECONDS]    run each fuzz target in fuzz/ for SECONDS (default 60); see docs/FUZZING.md
   web [--port N] [--no-build]
                     build the wasm package into web/pkg and serve web/ on 127.0.0.1
@@ -83,6 +90,11 @@ fn parse_args(args: &[String]) -> Result<Command, String> {
             other.join(" ")
         )),
         ("bench", options) => parse_bench(options),
+        ("firmware", []) => Ok(Command::Firmware),
+        ("firmware", other) => Err(format!(
+            "`firmware` takes no options, not {}",
+            other.join(" ")
+        )),
         ("fuzz", []) => Ok(Command::Fuzz {
             seconds: DEFAULT_FUZZ_SECONDS,
         }),
@@ -146,6 +158,13 @@ fn main() -> ExitCode {
         }
         Command::Test { quick } => steps::run_all(&root, quick),
         Command::Bench { filter, cpu } => bench::run(&root, filter.as_deref(), cpu.as_deref()),
+        Command::Firmware => match firmware::run(&root) {
+            Ok(()) => true,
+            Err(why) => {
+                eprintln!("error: {why}");
+                false
+            }
+        },
         Command::Fuzz { seconds } => fuzz::run(&root, seconds),
         Command::Web(options) => web::run(&root, &options),
         Command::Types => types::run(&root),
@@ -205,6 +224,7 @@ mod tests {
         assert_eq!(parse(&["fuzz", "300"]), Ok(Command::Fuzz { seconds: 300 }));
         assert_eq!(parse(&["types"]), Ok(Command::Types));
         assert!(parse(&["types", "--check"]).is_err());
+        assert_eq!(parse(&["firmware"]), Ok(Command::Firmware));
     }
 
     #[test]
@@ -216,5 +236,6 @@ mod tests {
         assert!(parse(&["fuzz", "0"]).unwrap_err().contains("positive"));
         assert!(parse(&["fuzz", "ten"]).unwrap_err().contains("ten"));
         assert!(parse(&["build"]).unwrap_err().contains("build"));
+        assert!(parse(&["firmware", "x"]).unwrap_err().contains("x"));
     }
 }

@@ -13,7 +13,8 @@
 //! | `firmware-size` | text / data / bss of both firmware images (docs/EMBEDDED.md) |
 //! | `firmware-panic-free` | both firmware images again with `--features panic-free` (their panic handler calls an undefined symbol, so the link fails if any panic path survives optimisation), same flags and directory |
 //! | `firmware-panic-free-frame` | the same with `--features panic-free,whole-frame`: the images run `pipeline::run_aligned` (alignment, EPI, refine, median, TV) instead of the stream |
-//! | `doc`            | `cargo doc -p lfdepth --no-deps` with `RUSTDOCFLAGS=-D warnings` |
+//! | `firmware-qemu` | `cargo xtask firmware`: both images (stream, whole frame) for both targets with `--features qemu,panic-free`, run under `qemu-system-arm` (installed as root when missing; skipped otherwise) and on the host; fails when a checksum differs |
+//! | `doc`            | `cargo doc -p lfdepth --no-deps --features scenes` with `RUSTDOCFLAGS=-D warnings` |
 //! | `wasm-build`     | `cargo build -p lfdepth-wasm --target wasm32-unknown-unknown --release` |
 //! | `test-release`   | `cargo test --workspace --release -- --show-output` (the heavy accuracy tests) |
 //!
@@ -129,6 +130,8 @@ pub enum Action {
     BrowserTests(Vec<PathBuf>),
     /// Prints the text / data / bss sizes of these ELF images `(label, path)`.
     ElfSizes(Vec<(String, PathBuf)>),
+    /// `cargo xtask firmware`, with QEMU installed first.
+    Firmware,
 }
 
 /// The firmware images: `(target, label)`.
@@ -243,6 +246,7 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
             "firmware-panic-free-frame",
             panic_free("panic-free,whole-frame"),
         ),
+        ("firmware-qemu", Action::Firmware),
     ] {
         steps.push(if quick {
             skip(name, quick_reason)
@@ -253,7 +257,8 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
     steps.push(step(
         "doc",
         Action::Run(
-            Cmd::cargo(&["doc", "-p", "lfdepth", "--no-deps"]).env("RUSTDOCFLAGS", "-D warnings"),
+            Cmd::cargo(&["doc", "-p", "lfdepth", "--no-deps", "--features", "scenes"])
+                .env("RUSTDOCFLAGS", "-D warnings"),
         ),
     ));
     let wasm_build = Action::Run(Cmd::cargo(&[
@@ -359,6 +364,12 @@ fn execute(root: &Path, action: &Action) -> Outcome {
         }
         Action::NodeTests(files) => node_test(root, files).run(root),
         Action::ElfSizes(images) => crate::elf::report(images, root),
+        Action::Firmware => {
+            if let Err(reason) = install::qemu(root) {
+                return Outcome::Skipped(reason);
+            }
+            crate::firmware::run(root)
+        }
         Action::BrowserTests(files) => {
             let chromium = match install::chromium(root) {
                 Ok(path) => path,
@@ -475,6 +486,7 @@ mod tests {
                 "firmware-size",
                 "firmware-panic-free",
                 "firmware-panic-free-frame",
+                "firmware-qemu",
                 "doc",
                 "wasm-build",
                 "test-release",
@@ -490,7 +502,7 @@ mod tests {
             .filter(|s| s.action.is_ok())
             .map(|s| s.name)
             .collect();
-        assert_eq!(running.len(), 14);
+        assert_eq!(running.len(), 15);
         assert_eq!(
             skipped(&steps, "node-tests").as_deref(),
             Some("no tests/node/*.test.mjs")
@@ -547,6 +559,7 @@ mod tests {
             "firmware-size",
             "firmware-panic-free",
             "firmware-panic-free-frame",
+            "firmware-qemu",
             "wasm-build",
             "test-release",
             "wasm-pack",
@@ -638,6 +651,14 @@ mod tests {
         let at = |name| order.iter().position(|&n| n == name);
         assert!(at("firmware-size") < at("firmware-panic-free"));
         assert!(at("firmware-panic-free") < at("firmware-panic-free-frame"));
+        assert!(at("firmware-panic-free-frame") < at("firmware-qemu"));
+        assert_eq!(
+            steps
+                .iter()
+                .find(|s| s.name == "firmware-qemu")
+                .map(|s| s.action.clone()),
+            Some(Ok(Action::Firmware))
+        );
     }
 
     #[test]
