@@ -116,8 +116,16 @@ pub fn run<T: Scalar, S: Sample>(
             *h = curve.get(i).copied().unwrap_or(0.0);
         }
     }
-    disparity.copy_from_slice(state.disparity());
-    confidence.copy_from_slice(state.confidence());
+    for (out, result) in [
+        (disparity, state.disparity()),
+        (confidence, state.confidence()),
+    ] {
+        // Both hold `pixels` values (checked above); the zip keeps `copy_from_slice`'s
+        // panic path out of the firmware image.
+        for (o, r) in out.iter_mut().zip(result) {
+            *o = *r;
+        }
+    }
     Ok(())
 }
 

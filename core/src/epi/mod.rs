@@ -304,13 +304,16 @@ pub fn estimate_band<T: Scalar, S: Sample>(
     for (i, line) in lines.enumerate() {
         band.line(line, work, d_line, c_line)?;
         let out = i * n..(i + 1) * n;
-        write_line(
-            hypotheses,
-            d_line,
-            c_line,
-            &mut disparity[out.clone()],
-            &mut confidence[out],
-        );
+        // Both outputs hold `lines.len() · n` values (checked above): the error never
+        // happens; the checked form keeps the panic out of the firmware image.
+        let (Some(d), Some(c)) = (disparity.get_mut(out.clone()), confidence.get_mut(out)) else {
+            return Err(Error::OutputSize {
+                what: "the band disparity/confidence",
+                needed,
+                got: disparity.len().min(confidence.len()),
+            });
+        };
+        write_line(hypotheses, d_line, c_line, d, c);
     }
     Ok(())
 }

@@ -55,8 +55,7 @@ pub fn filter_band<S: Sample>(
     let params = plan.params().median;
     let passes = if params.enabled { params.passes } else { 0 };
     if passes == 0 {
-        out.copy_from_slice(&input[band]);
-        return Ok(());
+        return copy(out, input.get(band));
     }
     let needed = band_scratch_len(plan);
     let too_small = Error::ScratchTooSmall {
@@ -79,7 +78,10 @@ pub fn filter_band<S: Sample>(
     // k − 1's, grown by the reach of one pass, so no pass reads a row it did not fill.
     let first = rows.start.saturating_sub((passes - 1) * reach) * width;
     let last = ((rows.end + (passes - 1) * reach).min(height)) * width;
-    current[first..last].copy_from_slice(&input[first..last]);
+    copy(
+        current.get_mut(first..last).unwrap_or(&mut []),
+        input.get(first..last),
+    )?;
     for pass in 0..passes {
         let grow = (passes - 1 - pass) * reach;
         let pass_rows = rows.start.saturating_sub(grow)..(rows.end + grow).min(height);
@@ -90,20 +92,31 @@ pub fn filter_band<S: Sample>(
         } else {
             None
         };
+        let out = next.get_mut(span).ok_or(too_small)?;
         super::run(
-            plan,
-            guide,
-            current,
-            previous,
-            pass_rows,
-            &mut next[span],
-            flags,
-            scratch,
+            plan, guide, current, previous, pass_rows, out, flags, scratch,
         )?;
         // next → current → before; the oldest map receives the next pass.
         core::mem::swap(&mut before, &mut current);
         core::mem::swap(&mut current, &mut next);
     }
-    out.copy_from_slice(&current[band]);
-    Ok(())
+    copy(out, current.get(band))
+}
+
+/// Copies `from` into `to` (the same length, else an error): without `copy_from_slice`'s
+/// panic path, which the firmware's panic-free link refuses.
+fn copy(to: &mut [f32], from: Option<&[f32]>) -> Result<()> {
+    match from {
+        Some(from) if from.len() == to.len() => {
+            for (t, f) in to.iter_mut().zip(from) {
+                *t = *f;
+            }
+            Ok(())
+        }
+        _ => Err(Error::OutputSize {
+            what: "the median band",
+            needed: to.len(),
+            got: from.map_or(0, <[f32]>::len),
+        }),
+    }
 }

@@ -213,7 +213,11 @@ impl Schedule {
             Step::Epi(direction) => direction.lines(&self.plan).div_ceil(BAND_LINES),
             Step::Fuse => layout.height.div_ceil(BAND_LINES),
             Step::Refine => refine::band_count(&self.plan),
-            Step::Median => layout.height.div_ceil(self.median_rows),
+            Step::Median => layout
+                .height
+                .checked_add(self.median_rows.saturating_sub(1))
+                .and_then(|h| h.checked_div(self.median_rows))
+                .unwrap_or(0),
             Step::Tv { .. } => {
                 let (cols, rows) = tv::tile_count(&self.plan);
                 cols.saturating_mul(rows)
@@ -507,13 +511,19 @@ impl Schedule {
                 for y in 0..core.height {
                     let at = (core.y + y) * width + core.x;
                     let src = y * core.width..(y + 1) * core.width;
-                    put(state.map_mut(OTHER_D), at, &part.disparity[src.clone()])?;
+                    let short = Error::OutputSize {
+                        what: "a TV tile's output",
+                        needed: src.end,
+                        got: part.disparity.len(),
+                    };
+                    put(
+                        state.map_mut(OTHER_D),
+                        at,
+                        part.disparity.get(src.clone()).ok_or(short)?,
+                    )?;
                     if sweep < sweeps {
-                        put(
-                            state.next_dual_mut(),
-                            2 * at,
-                            &part.dual[2 * src.start..2 * src.end],
-                        )?;
+                        let dual = part.dual.get(2 * src.start..2 * src.end).ok_or(short)?;
+                        put(state.next_dual_mut(), 2 * at, dual)?;
                     }
                 }
                 if sweep == 0 {

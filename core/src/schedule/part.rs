@@ -126,12 +126,17 @@ pub(super) fn write_range(out: &mut [f32], (min, max): (f32, f32)) -> Result<()>
 
 pub(super) fn put(map: &mut [f32], at: usize, values: &[f32]) -> Result<()> {
     let got = map.len();
-    map.get_mut(at..at.saturating_add(values.len()))
-        .ok_or(Error::OutputSize {
-            what: "a map of the run",
-            needed: at.saturating_add(values.len()),
-            got,
-        })?
-        .copy_from_slice(values);
+    let short = Error::OutputSize {
+        what: "a map of the run",
+        needed: at.saturating_add(values.len()),
+        got,
+    };
+    let to = map.get_mut(at..).ok_or(short)?;
+    if to.len() < values.len() {
+        return Err(short);
+    }
+    for (t, v) in to.iter_mut().zip(values) {
+        *t = *v;
+    }
     Ok(())
 }

@@ -91,18 +91,20 @@ impl<'a> State<'a> {
         self.cursor
     }
 
+    // The buffer holds `Schedule::state_len` floats (checked when the state is made), so
+    // every range below lies in it; the checked forms keep panics out of the firmware.
     fn map_range(&self, which: usize) -> core::ops::Range<usize> {
-        let start = self.cursor.slots[which] * self.pixels;
+        let start = self.cursor.slots.get(which).copied().unwrap_or(which) * self.pixels;
         start..start + self.pixels
     }
 
     pub(super) fn map(&self, which: usize) -> &[f32] {
-        &self.buffer[self.map_range(which)]
+        self.buffer.get(self.map_range(which)).unwrap_or(&[])
     }
 
     pub(super) fn map_mut(&mut self, which: usize) -> &mut [f32] {
         let range = self.map_range(which);
-        &mut self.buffer[range]
+        self.buffer.get_mut(range).unwrap_or(&mut [])
     }
 
     fn dual_range(&self, previous: bool) -> core::ops::Range<usize> {
@@ -130,12 +132,12 @@ impl<'a> State<'a> {
 
     /// The previous sweep's TV dual (empty without sweeps).
     pub fn dual(&self) -> &[f32] {
-        &self.buffer[self.dual_range(true)]
+        self.buffer.get(self.dual_range(true)).unwrap_or(&[])
     }
 
     pub(super) fn next_dual_mut(&mut self) -> &mut [f32] {
         let range = self.dual_range(false);
-        &mut self.buffer[range]
+        self.buffer.get_mut(range).unwrap_or(&mut [])
     }
 
     pub(super) fn swap_duals(&mut self) {
@@ -149,12 +151,14 @@ impl<'a> State<'a> {
     /// The TV residual curve: after the TV steps, the RMS dual update per node and
     /// iteration of the first sweep (zero past the iterations no tile ran).
     pub fn history(&self) -> &[f32] {
-        &self.buffer[4 * self.pixels + 2 * self.duals..]
+        self.buffer
+            .get(4 * self.pixels + 2 * self.duals..)
+            .unwrap_or(&[])
     }
 
     pub(super) fn history_mut(&mut self) -> &mut [f32] {
         let start = 4 * self.pixels + 2 * self.duals;
-        &mut self.buffer[start..]
+        self.buffer.get_mut(start..).unwrap_or(&mut [])
     }
 
     /// The EPI hypotheses, once the range step ran.
@@ -192,7 +196,8 @@ impl<'a> State<'a> {
         }
         if let Some(dual) = maps.dual {
             let range = self.dual_range(true);
-            copy_into(&mut self.buffer[range], dual, "the TV dual")?;
+            let to = self.buffer.get_mut(range).unwrap_or(&mut []);
+            copy_into(to, dual, "the TV dual")?;
         }
         if let Some((min, max)) = range {
             self.set_hypotheses(Hypotheses::new(&plan.params().epi, min, max)?);
@@ -209,6 +214,8 @@ fn copy_into(to: &mut [f32], from: &[f32], what: &'static str) -> Result<()> {
             got: from.len(),
         });
     }
-    to.copy_from_slice(from);
+    for (t, f) in to.iter_mut().zip(from) {
+        *t = *f;
+    }
     Ok(())
 }
