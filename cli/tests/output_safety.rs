@@ -133,6 +133,67 @@ fn links_to_inputs_are_inputs() {
 }
 
 #[test]
+fn the_benchmarks_other_ground_truths_are_kept_and_devices_take_any_output() {
+    let dir = common::temp();
+    let scene = scene(dir.path());
+    std::fs::write(scene.join("gt_depth_lowres.pfm"), b"depth ground truth").unwrap();
+    let before = snapshot(&scene);
+    assert_fails(
+        &lfdepth(&[
+            "estimate",
+            s(&scene),
+            "-o",
+            s(&scene.join("gt_depth_lowres.pfm")),
+            "--quiet",
+        ]),
+        &["-o", "gt_depth_lowres.pfm", "ground truth"],
+    );
+    assert_eq!(snapshot(&scene), before);
+    // An estimate beside the views is fine, and may be written again.
+    let est = scene.join("disparity.pfm");
+    for _ in 0..2 {
+        let out = lfdepth(&[
+            "estimate",
+            s(&scene),
+            "-o",
+            s(&est),
+            "--stage",
+            "epi",
+            "--quiet",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let out = lfdepth(&[
+            "estimate",
+            s(&scene),
+            "-o",
+            "/dev/null",
+            "--png",
+            "/dev/null",
+            "--stage",
+            "epi",
+            "--quiet",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(std::fs::metadata("/dev/null")
+            .unwrap()
+            .file_type()
+            .is_char_device());
+    }
+}
+
+#[test]
 fn several_outputs_on_one_file_are_refused() {
     let dir = common::temp();
     let scene = scene(dir.path());
@@ -205,6 +266,9 @@ fn outputs_replace_old_files_whole_and_refused_runs_keep_them() {
     let est = dir.path().join("est.pfm");
     let png = dir.path().join("est.png");
     std::fs::write(&est, b"an earlier estimate").unwrap();
+    // Held open, the earlier file stays whole: the output is a new file renamed onto
+    // its name, not the old one truncated and rewritten.
+    let earlier = std::fs::File::open(&est).unwrap();
     let out = lfdepth(&[
         "estimate",
         s(&scene),
@@ -223,6 +287,12 @@ fn outputs_replace_old_files_whole_and_refused_runs_keep_them() {
     );
     let map = lfdepth_cli::io::pfm::read(&est).unwrap();
     assert_eq!((map.width, map.height), (32, 32));
+    if cfg!(unix) {
+        assert_eq!(
+            std::io::read_to_string(earlier).unwrap(),
+            "an earlier estimate"
+        );
+    }
     // No temporary file is left beside the outputs.
     let leftovers: Vec<String> = names(dir.path())
         .into_iter()

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::CliError;
 use crate::io::output::{self, same_file};
 use crate::io::pattern::Pattern;
-use crate::io::scene::{ViewFiles, CONFIG_FILE, GROUND_TRUTH_FILE};
+use crate::io::scene::{ViewFiles, CONFIG_FILE};
 use crate::io::IoError;
 
 /// One output: the flag that asked for it, the path as typed, where it lands.
@@ -42,6 +42,10 @@ impl Outputs {
             });
         }
         for (i, first) in planned.iter().enumerate() {
+            // Several outputs may go to one device (`/dev/null`); only files clash.
+            if std::fs::metadata(&first.target).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+                continue;
+            }
             let clashes: Vec<&Planned> = planned[i + 1..]
                 .iter()
                 .filter(|p| same(&p.target, &first.target))
@@ -64,8 +68,8 @@ impl Outputs {
     }
 
     /// Refuses an output onto a file of the light field `files` (a view, its
-    /// `parameters.cfg`, its ground truth), onto its folder, or onto a name in its
-    /// folder that would be read as a view the next time.
+    /// `parameters.cfg`, a ground truth `gt_*` beside it), onto its folder, or onto a
+    /// name in its folder that would be read as a view the next time.
     pub fn refuse_inputs(&self, files: &ViewFiles) -> Result<(), CliError> {
         let dir = &files.dir;
         let mut inputs: Vec<(PathBuf, String)> = files
@@ -73,14 +77,27 @@ impl Outputs {
             .iter()
             .map(|p| (p.clone(), format!("a view of {}", dir.display())))
             .collect();
-        for (name, what) in [
-            (CONFIG_FILE, "the camera parameters of"),
-            (GROUND_TRUTH_FILE, "the ground truth of"),
-        ] {
-            let path = dir.join(name);
-            if path.exists() {
-                inputs.push((path, format!("{what} {}", dir.display())));
-            }
+        let config = dir.join(CONFIG_FILE);
+        if config.exists() {
+            inputs.push((
+                config,
+                format!("the camera parameters of {}", dir.display()),
+            ));
+        }
+        // The ground truth the benchmark ships beside the views (`gt_disp_lowres.pfm`,
+        // `gt_depth_highres.pfm`, …): not read by every run, but never to be replaced.
+        let mut truths: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map(|entries| {
+                entries
+                    .flatten()
+                    .filter(|e| e.file_name().to_string_lossy().starts_with("gt_"))
+                    .map(|e| e.path())
+                    .collect()
+            })
+            .unwrap_or_default();
+        truths.sort();
+        for path in truths {
+            inputs.push((path, format!("the ground truth of {}", dir.display())));
         }
         let canonical_dir = std::fs::canonicalize(dir).ok();
         let pattern = Pattern::parse(&files.pattern).ok();

@@ -212,8 +212,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("out.bin");
         fs::write(&path, b"old").unwrap();
+        // A reader of the old file keeps reading it whole: the name is moved onto a new
+        // file, the old one is never truncated or rewritten.
+        let old = File::open(&path).unwrap();
         write_atomic(&path, b"new contents").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"new contents");
+        assert_eq!(std::io::read_to_string(old).unwrap(), "old");
         assert!(temp_names(dir.path()).is_empty());
     }
 
