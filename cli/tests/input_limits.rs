@@ -232,6 +232,21 @@ fn typed_sizes_are_checked_before_allocating() {
         ]),
         &["289 views", "--max-pixels"],
     );
+    // Grids are checked against the supported 3x3 … 17x17 before anything is rendered.
+    for grid in ["100x100", "99999999x3"] {
+        assert_fails(
+            &lfdepth(&[
+                "synth",
+                "--scene",
+                "planes",
+                "--grid",
+                grid,
+                "--out",
+                s(&out),
+            ]),
+            &["view grid", "17x17"],
+        );
+    }
     assert!(!out.exists());
 }
 
