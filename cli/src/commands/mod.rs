@@ -73,13 +73,14 @@ impl ViewArgs {
 /// Caps on what is decoded or rendered (defaults and reasons in [`crate::io::limits`]).
 #[derive(Clone, Copy, Debug, Args)]
 pub struct LimitArgs {
-    /// Most pixels one view may have (default 67108864 = 8192x8192; e.g. 100000000 or
-    /// 128Mi). A larger image is refused from its header, before it is decoded.
+    /// Most pixels one view may have; the default 64Mi is 8192x8192 (counts take the
+    /// suffixes K, M, G or Ki, Mi, Gi). A larger view is refused before any of its pixels
+    /// is decoded (from the PNG header) or rendered.
     #[arg(long, value_name = "N", default_value = "64Mi", value_parser = limits::parse_count)]
     pub max_view_pixels: u64,
-    /// Most pixels of all views together (default 536870912 = 512Mi, e.g. 17x17 views
-    /// of 1536x1152; loading needs about 6 bytes per pixel for 8-bit RGB views, 18 for
-    /// 16-bit).
+    /// Most pixels of all views together; the default 512Mi holds e.g. 17x17 views of
+    /// 1536x1152. Loading needs about 6 bytes per pixel for 8-bit RGB views, 18 for
+    /// 16-bit.
     #[arg(long, value_name = "N", default_value = "512Mi", value_parser = limits::parse_count)]
     pub max_pixels: u64,
 }
