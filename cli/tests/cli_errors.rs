@@ -161,6 +161,6 @@ fn out_of_range_parameters() {
             "--stage",
             "epi",
         ]),
-        &["out.pfm", "cannot write"],
+        &["out.pfm", "does not exist"],
     );
 }

@@ -6,8 +6,9 @@ use std::time::Instant;
 use clap::Args;
 use lfdepth::LightField;
 
+use super::outputs::Outputs;
 use super::params::ParamArgs;
-use super::{CliError, ScalarArg, Stage, ViewArgs};
+use super::{CliError, LimitArgs, ScalarArg, Stage, ViewArgs};
 use crate::colormap;
 use crate::engine::{self, Estimate, EstimateOptions, Precision};
 use crate::io::scene::{self, Scene, Views};
@@ -48,12 +49,15 @@ pub struct EstimateArgs {
     /// Number type of every stage: `f32` or `q16` (Q16.16 fixed point).
     #[arg(long, value_enum, default_value_t = ScalarArg::F32)]
     pub scalar: ScalarArg,
-    /// Worker threads (default: every core).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    /// Worker threads, 1 to 256 (default: every core).
+    #[arg(long, value_name = "N", value_parser = super::parse_threads)]
     pub threads: Option<u16>,
     /// Where and how the views are named.
     #[command(flatten)]
     pub views: ViewArgs,
+    /// Caps on the size of the views.
+    #[command(flatten)]
+    pub limits: LimitArgs,
     /// Estimator parameters.
     #[command(flatten)]
     pub params: ParamArgs,
@@ -95,10 +99,29 @@ pub fn write_colour_png(
     Ok(())
 }
 
-/// Runs `lfdepth estimate`.
+/// Runs `lfdepth estimate`. Everything that can be checked without the views' pixels
+/// (outputs, parameters) is checked before they are decoded.
 pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     let start = Instant::now();
-    let scene = scene::load(&args.input, &args.views.load_options())?;
+    let outputs = Outputs::new(&[
+        ("-o", Some(args.output.as_path())),
+        ("--png", args.png.as_deref()),
+        ("--png16", args.png16.as_deref()),
+        ("--depth", args.depth.as_deref()),
+        ("--confidence", args.confidence.as_deref()),
+    ])?;
+    let files = scene::locate(&args.input, &args.views.load_options())?;
+    outputs.refuse_inputs(&files)?;
+    outputs.check_writable()?;
+    let config = files.config.as_ref();
+    if args.depth.is_some() && config.and_then(|c| c.depth_m(0.0)).is_none() {
+        return Err(CliError::Usage(format!(
+            "--depth needs {} with focal_length_mm, sensor_size_mm, image_resolution_x_px/y_px, baseline_mm and focus_distance_m",
+            args.input.join(scene::CONFIG_FILE).display()
+        )));
+    }
+    let params = args.params.params(config)?;
+    let scene = scene::read_views(files, &args.limits.limits())?;
     let load_time = start.elapsed();
     let l = scene.layout;
     eprintln!(
@@ -114,14 +137,8 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
         }
     );
     let config = scene.files.config.as_ref();
-    if args.depth.is_some() && config.and_then(|c| c.depth_m(0.0)).is_none() {
-        return Err(CliError::Usage(format!(
-            "--depth needs {} with focal_length_mm, sensor_size_mm, image_resolution_x_px/y_px, baseline_mm and focus_distance_m",
-            args.input.join(scene::CONFIG_FILE).display()
-        )));
-    }
     let options = EstimateOptions {
-        params: args.params.params(config)?,
+        params,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
     };

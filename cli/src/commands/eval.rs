@@ -8,7 +8,7 @@ use lfdepth::metrics::{self, EvalOptions, Scores};
 
 use super::estimate::estimate_scene;
 use super::params::ParamArgs;
-use super::{CliError, ScalarArg, Stage, ViewArgs};
+use super::{CliError, LimitArgs, ScalarArg, Stage, ViewArgs};
 use crate::engine::EstimateOptions;
 use crate::io::pfm::{self, Pfm};
 use crate::io::png::{self, Samples};
@@ -50,8 +50,8 @@ pub struct EvalArgs {
     /// With --dataset: number type of every stage, `f32` or `q16` (Q16.16 fixed point).
     #[arg(long, value_enum, default_value_t = ScalarArg::F32, requires = "dataset")]
     pub scalar: ScalarArg,
-    /// With --dataset: worker threads (default: every core).
-    #[arg(long, value_name = "N", requires = "dataset", value_parser = clap::value_parser!(u16).range(1..))]
+    /// With --dataset: worker threads, 1 to 256 (default: every core).
+    #[arg(long, value_name = "N", requires = "dataset", value_parser = super::parse_threads)]
     pub threads: Option<u16>,
     /// With --dataset: how the views are named.
     #[command(flatten)]
@@ -59,6 +59,9 @@ pub struct EvalArgs {
     /// With --dataset: estimator parameters.
     #[command(flatten)]
     pub params: ParamArgs,
+    /// Caps on the size of the views (and the mask).
+    #[command(flatten)]
+    pub limits: LimitArgs,
 }
 
 /// Centre-embeds an estimate cropped symmetrically by `m ≤ BORDER` pixels per side
@@ -89,7 +92,22 @@ pub fn embed_cropped(est: &Pfm, width: usize, height: usize) -> Option<Pfm> {
 
 /// Reads a mask PNG: a pixel is scored when any colour channel is non-zero.
 pub fn read_mask(path: &Path, width: usize, height: usize) -> Result<Vec<u8>, IoError> {
-    let image = png::read(path)?;
+    read_mask_limited(
+        path,
+        width,
+        height,
+        crate::io::limits::DEFAULT_MAX_VIEW_PIXELS,
+    )
+}
+
+/// [`read_mask`] of a PNG whose header declares at most `max_pixels` pixels.
+pub fn read_mask_limited(
+    path: &Path,
+    width: usize,
+    height: usize,
+    max_pixels: u64,
+) -> Result<Vec<u8>, IoError> {
+    let image = png::read_limited(path, max_pixels)?;
     if (image.width, image.height) != (width, height) {
         return Err(IoError::format(format!(
             "the mask is {}x{} pixels but the ground truth is {width}x{height}",
@@ -180,7 +198,12 @@ pub fn run(args: &EvalArgs) -> Result<(), CliError> {
     let est = pfm::read(est_path)?;
     let gt = pfm::read(gt_path)?;
     let mask = match &args.mask {
-        Some(p) => Some(read_mask(p, gt.width, gt.height)?),
+        Some(p) => Some(read_mask_limited(
+            p,
+            gt.width,
+            gt.height,
+            args.limits.max_view_pixels,
+        )?),
         None => None,
     };
     let scores = score(&est, &gt, mask.as_deref(), est_path, gt_path)?;
@@ -251,7 +274,7 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
             .display()
             .to_string();
         let start = Instant::now();
-        let loaded = scene::load(dir, &args.views.load_options())?;
+        let loaded = scene::load_limited(dir, &args.views.load_options(), &args.limits.limits())?;
         let options = EstimateOptions {
             params: args.params.params(loaded.files.config.as_ref())?,
             stage: args.stage.into(),

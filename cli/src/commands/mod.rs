@@ -3,6 +3,7 @@
 pub mod demo;
 pub mod estimate;
 pub mod eval;
+pub mod outputs;
 pub mod params;
 pub mod synth;
 
@@ -13,6 +14,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use lfdepth::Grid;
 
 use crate::engine::{Precision, Stages};
+use crate::io::limits::{self, Limits};
 use crate::io::IoError;
 
 /// Dense disparity (depth) from light fields: EPI structure tensor + weighted
@@ -26,17 +28,22 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// The subcommands.
+/// The subcommands. Each takes negative numbers as values (`--tv-tolerance -1`), so the
+/// option's own range check answers them instead of clap's "unexpected argument".
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render a synthetic light field, estimate its disparity and score it against the
     /// exact ground truth.
+    #[command(allow_negative_numbers = true)]
     Demo(demo::DemoArgs),
     /// Estimate the disparity of a light field's centre view from a folder of views.
+    #[command(allow_negative_numbers = true)]
     Estimate(estimate::EstimateArgs),
     /// Score disparity maps with the HCI benchmark metrics (one map, or a whole dataset).
+    #[command(allow_negative_numbers = true)]
     Eval(eval::EvalArgs),
     /// Write a synthetic light field with exact ground truth in the HCI layout.
+    #[command(allow_negative_numbers = true)]
     Synth(synth::SynthArgs),
 }
 
@@ -60,6 +67,48 @@ impl ViewArgs {
             pattern: self.pattern.clone(),
             grid: self.grid,
         }
+    }
+}
+
+/// Caps on what is decoded or rendered (defaults and reasons in [`crate::io::limits`]).
+#[derive(Clone, Copy, Debug, Args)]
+pub struct LimitArgs {
+    /// Most pixels one view may have; the default 64Mi is 8192x8192 (counts take the
+    /// suffixes K, M, G or Ki, Mi, Gi). A larger view is refused before any of its pixels
+    /// is decoded (from the PNG header) or rendered.
+    #[arg(long, value_name = "N", default_value = "64Mi", value_parser = limits::parse_count)]
+    pub max_view_pixels: u64,
+    /// Most pixels of all views together; the default 512Mi holds e.g. 17x17 views of
+    /// 1536x1152. Loading needs about 6 bytes per pixel for 8-bit RGB views, 18 for
+    /// 16-bit.
+    #[arg(long, value_name = "N", default_value = "512Mi", value_parser = limits::parse_count)]
+    pub max_pixels: u64,
+}
+
+impl LimitArgs {
+    /// The caps these flags set.
+    pub fn limits(&self) -> Limits {
+        Limits {
+            max_view_pixels: self.max_view_pixels,
+            max_pixels: self.max_pixels,
+        }
+    }
+}
+
+/// Most worker threads `--threads` takes: far more than any machine's cores, so the
+/// cap only stops a mistyped count from spending minutes starting threads.
+pub const MAX_THREADS: usize = 256;
+
+/// `--threads N` → `N` in `1..=MAX_THREADS`.
+pub fn parse_threads(text: &str) -> Result<u16, String> {
+    match text.trim().parse::<i64>() {
+        Ok(n) if (1..=MAX_THREADS as i64).contains(&n) => Ok(n as u16),
+        Ok(n) => Err(format!(
+            "{n} worker threads: give 1 to {MAX_THREADS} (results are identical for any count)"
+        )),
+        Err(_) => Err(format!(
+            "`{text}` is not a number of worker threads: give 1 to {MAX_THREADS}"
+        )),
     }
 }
 
@@ -233,5 +282,9 @@ mod tests {
         );
         assert!(parse_range("2..-1").is_err());
         assert!(parse_range("nan..1").is_err());
+        assert_eq!(parse_threads("256"), Ok(256));
+        assert!(parse_threads("0").is_err());
+        assert!(parse_threads("-1").is_err());
+        assert!(parse_threads("10000").is_err());
     }
 }

@@ -17,8 +17,10 @@ use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{Grid, Homography};
 use rayon::prelude::*;
 
-use super::{create_dir, parse_grid, parse_range, parse_size, CliError, Range};
+use super::{create_dir, parse_grid, parse_range, parse_size, CliError, LimitArgs, Range};
 use crate::io::cfg::{self, SceneConfig};
+use crate::io::limits::Limits;
+use crate::io::output::check_folder_writable;
 use crate::io::pfm::{self, Pfm};
 use crate::io::png::{self, Image, Samples};
 use crate::io::scene::{CONFIG_FILE, GROUND_TRUTH_FILE};
@@ -58,9 +60,17 @@ pub struct SynthArgs {
     /// Random seed (texture, noise, misalignment).
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
-    /// Output folder (created if needed).
+    /// Output folder (created if needed). It must be empty unless --force is given.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Write into a folder that is not empty: the files synth writes
+    /// (input_CamNNN.png, gt_disp_lowres.pfm, parameters.cfg, homographies.txt) are
+    /// replaced and those of an earlier, larger scene removed; every other file is kept.
+    #[arg(long)]
+    pub force: bool,
+    /// Caps on the size of the light field (9x9 views of 256x256 are 5308416 pixels).
+    #[command(flatten)]
+    pub limits: LimitArgs,
 }
 
 /// Scene name → kind, listing the names on error.
@@ -210,11 +220,112 @@ pub fn write_scene(dir: &Path, spec: &SynthSpec, rendered: &Rendered) -> Result<
     Ok(())
 }
 
+/// Checks a specification, and its size against `limits`, before anything of that size
+/// is allocated; `flag` is the option that set the size.
+pub fn check_spec(spec: &SynthSpec, limits: &Limits, flag: &str) -> Result<(), CliError> {
+    spec.validate()
+        .map_err(|e| CliError::core("rendering the synthetic light field", e))?;
+    limits
+        .check_light_field(spec.grid.len(), spec.width, spec.height)
+        .map_err(|e| CliError::Usage(format!("{flag}: {e}")))
+}
+
+/// Whether `name` is a file `synth` writes: a view `input_CamNNN.png`, the ground
+/// truth, the camera parameters or the homographies.
+pub fn is_synth_file(name: &str) -> bool {
+    let view = name
+        .strip_prefix("input_Cam")
+        .and_then(|n| n.strip_suffix(".png"))
+        .is_some_and(|d| d.len() == 3 && d.bytes().all(|b| b.is_ascii_digit()));
+    view || [GROUND_TRUTH_FILE, CONFIG_FILE, HOMOGRAPHIES_FILE].contains(&name)
+}
+
+/// Names of the entries of `dir`, sorted.
+fn entry_names(dir: &Path) -> Result<Vec<String>, CliError> {
+    let list = |e| crate::io::IoError::os(dir, "list", e);
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(list)? {
+        names.push(
+            entry
+                .map_err(list)?
+                .file_name()
+                .to_string_lossy()
+                .into_owned(),
+        );
+    }
+    names.sort();
+    Ok(names)
+}
+
+/// A few names for a message.
+fn some_names(names: &[String]) -> String {
+    let mut s = names.iter().take(4).cloned().collect::<Vec<_>>().join(", ");
+    if names.len() > 4 {
+        s.push_str(&format!(" and {} more", names.len() - 4));
+    }
+    s
+}
+
+/// Makes sure `dir` can take a new light field: a new or empty folder, or with
+/// `force` any folder. Creates it, checks that it takes files, and returns the names of
+/// the files in it that synth does not write (they are kept).
+fn prepare_folder(dir: &Path, force: bool) -> Result<Vec<String>, CliError> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(CliError::Usage(format!(
+            "--out {} is not a folder: give a new or empty folder",
+            dir.display()
+        )));
+    }
+    let names = if dir.is_dir() {
+        entry_names(dir)?
+    } else {
+        Vec::new()
+    };
+    if !names.is_empty() && !force {
+        return Err(CliError::Usage(format!(
+            "--out {} is not empty ({}): give a new or empty folder, or --force to replace the files synth writes there and keep the others",
+            dir.display(),
+            some_names(&names)
+        )));
+    }
+    create_dir(dir)?;
+    check_folder_writable(dir, dir)?;
+    Ok(names.into_iter().filter(|n| !is_synth_file(n)).collect())
+}
+
 /// Runs `lfdepth synth`.
 pub fn run(args: &SynthArgs) -> Result<(), CliError> {
     let spec = spec(args);
+    check_spec(&spec, &args.limits.limits(), "--size")?;
+    let kept = prepare_folder(&args.out, args.force)?;
     let rendered = render(&spec)?;
     write_scene(&args.out, &spec, &rendered)?;
+    if args.force {
+        // Files of an earlier scene that this one did not replace (views beyond its
+        // grid, homographies of a misaligned one) would make the folder inconsistent.
+        for name in entry_names(&args.out)? {
+            let view = name
+                .strip_prefix("input_Cam")
+                .and_then(|n| n.strip_suffix(".png"))
+                .and_then(|d| d.parse::<usize>().ok());
+            let stale = match view {
+                Some(i) => i >= spec.grid.len(),
+                None => name == HOMOGRAPHIES_FILE && spec.misalign.is_none(),
+            };
+            if stale && is_synth_file(&name) {
+                let path = args.out.join(&name);
+                std::fs::remove_file(&path)
+                    .map_err(|e| crate::io::IoError::os(&path, "remove", e))?;
+            }
+        }
+        if !kept.is_empty() {
+            eprintln!(
+                "kept {} file(s) synth does not write: {}",
+                kept.len(),
+                some_names(&kept)
+            );
+        }
+    }
     let (min, max) = crate::colormap::finite_range(&rendered.gt).unwrap_or((0.0, 0.0));
     println!(
         "wrote {}: {} {}x{} views of {}x{}, disparity {min:.3}..{max:.3}{}",

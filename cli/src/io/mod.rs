@@ -2,6 +2,8 @@
 //! none panics or allocates more than the file can justify.
 
 pub mod cfg;
+pub mod limits;
+pub mod output;
 pub mod pattern;
 pub mod pfm;
 pub mod png;
@@ -96,7 +98,8 @@ pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, IoError> {
     std::fs::read(path).map_err(|e| IoError::os(path, "read", e))
 }
 
-/// Writes a whole file, naming it in the error.
+/// Writes a whole file by way of a temporary file renamed into place
+/// ([`output::write_atomic`]), naming it in the error.
 pub(crate) fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
-    std::fs::write(path, bytes).map_err(|e| IoError::os(path, "write", e))
+    output::write_atomic(path, bytes)
 }

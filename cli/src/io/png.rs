@@ -6,12 +6,13 @@
 //! (max − min)`; `min` and `max` are stored in the text chunks `disparity_min` and
 //! `disparity_max`. Non-finite disparities are written as 0.
 
-use std::io::Cursor;
+use std::fs::File;
+use std::io::{BufReader, Cursor, Read};
 use std::path::Path;
 
 use ::png::{BitDepth, ColorType, Decoder, Encoder, Limits, Transformations};
 
-use super::{read_bytes, write_bytes, IoError};
+use super::{write_bytes, IoError};
 
 /// Samples of a decoded image, interleaved per pixel, top row first.
 #[derive(Clone, Debug, PartialEq)]
@@ -75,18 +76,44 @@ impl Image {
 
 /// Deflate cannot compress better than about 1032:1; a header promising more pixel data
 /// than that is corrupt, and refusing it avoids allocating for it.
-const MAX_DEFLATE_RATIO: usize = 1100;
+const MAX_DEFLATE_RATIO: u64 = 1100;
+
+/// Most bytes the `png` crate may allocate besides the image (its row buffers and
+/// metadata chunks such as text and ICC profiles): its own default, far more than the
+/// rows of any image within the pixel caps or any real file's metadata need.
+const METADATA_LIMIT: usize = 64 << 20;
 
 fn describe(e: ::png::DecodingError) -> IoError {
     IoError::format(format!("not a readable PNG image: {e}"))
 }
 
-/// Decodes a PNG held in memory.
-pub fn decode(bytes: &[u8]) -> Result<Image, IoError> {
-    let mut decoder = Decoder::new(Cursor::new(bytes));
+/// What a PNG header promises, as [`decode`] would return it (palette and sub-byte
+/// images expanded to 8 bits per sample).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Header {
+    /// Columns.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// Samples per pixel: 1 gray, 2 gray+alpha, 3 RGB, 4 RGBA.
+    pub channels: usize,
+    /// Bits per sample: 8 or 16.
+    pub bit_depth: u8,
+}
+
+/// Reads the header chunks of a PNG stream (not its pixels) and checks them against
+/// `max_pixels` and the stream length `len` in bytes.
+fn start<R: Read>(
+    source: R,
+    len: u64,
+    max_pixels: u64,
+) -> Result<(::png::Reader<R>, Header), IoError> {
+    let mut decoder = Decoder::new(source);
     decoder.set_transformations(Transformations::EXPAND);
-    decoder.set_limits(Limits { bytes: 1 << 30 });
-    let mut reader = decoder.read_info().map_err(describe)?;
+    decoder.set_limits(Limits {
+        bytes: METADATA_LIMIT,
+    });
+    let reader = decoder.read_info().map_err(describe)?;
     let info = reader.info();
     let (width, height) = (info.width as usize, info.height as usize);
     if width == 0 || height == 0 {
@@ -94,10 +121,16 @@ pub fn decode(bytes: &[u8]) -> Result<Image, IoError> {
             "the PNG image is {width}x{height} pixels: an empty image cannot be used"
         )));
     }
-    if info.raw_bytes() > bytes.len().saturating_mul(MAX_DEFLATE_RATIO) {
+    let limits = super::limits::Limits {
+        max_view_pixels: max_pixels,
+        ..super::limits::Limits::default()
+    };
+    limits
+        .check_view(width, height)
+        .map_err(|e| IoError::format(format!("the PNG header declares {e}")))?;
+    if info.raw_bytes() as u64 > len.saturating_mul(MAX_DEFLATE_RATIO) {
         return Err(IoError::format(format!(
-            "the PNG header declares {width}x{height} pixels, far more than its {} bytes can hold: the file is corrupt or truncated",
-            bytes.len()
+            "the PNG header declares {width}x{height} pixels, far more than its {len} bytes can hold: the file is corrupt or truncated"
         )));
     }
     let (color, depth) = reader.output_color_type();
@@ -112,30 +145,78 @@ pub fn decode(bytes: &[u8]) -> Result<Image, IoError> {
             ))
         }
     };
-    let mut buf = vec![0u8; reader.output_buffer_size()];
-    let frame = reader.next_frame(&mut buf).map_err(describe)?;
-    buf.truncate(frame.buffer_size());
-    let samples = match depth {
-        BitDepth::Sixteen => Samples::Sixteen(
-            buf.chunks_exact(2)
-                .map(|b| u16::from_be_bytes([b[0], b[1]]))
-                .collect(),
-        ),
-        BitDepth::Eight => Samples::Eight(buf),
+    let bit_depth = match depth {
+        BitDepth::Sixteen => 16,
+        BitDepth::Eight => 8,
         other => {
             return Err(IoError::format(format!(
-                "PNG samples of {other:?} bits could not be expanded to 8: re-save the image with 8 or 16 bits"
+                "PNG samples of {} bits could not be expanded to 8: re-save the image with 8 or 16 bits",
+                other as u8
             )))
         }
     };
-    let image = Image {
+    let header = Header {
         width,
         height,
         channels,
+        bit_depth,
+    };
+    Ok((reader, header))
+}
+
+/// Decodes the pixels of a started stream.
+fn finish<R: Read>(mut reader: ::png::Reader<R>, header: Header) -> Result<Image, IoError> {
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    let frame = reader.next_frame(&mut buf).map_err(describe)?;
+    buf.truncate(frame.buffer_size());
+    let samples = if header.bit_depth == 16 {
+        Samples::Sixteen(
+            buf.chunks_exact(2)
+                .map(|b| u16::from_be_bytes([b[0], b[1]]))
+                .collect(),
+        )
+    } else {
+        Samples::Eight(buf)
+    };
+    let image = Image {
+        width: header.width,
+        height: header.height,
+        channels: header.channels,
         samples,
     };
     image.check()?;
     Ok(image)
+}
+
+/// Decodes a PNG held in memory, of at most the default
+/// [`super::limits::DEFAULT_MAX_VIEW_PIXELS`].
+pub fn decode(bytes: &[u8]) -> Result<Image, IoError> {
+    decode_limited(bytes, super::limits::DEFAULT_MAX_VIEW_PIXELS)
+}
+
+/// Decodes a PNG held in memory whose header declares at most `max_pixels` pixels;
+/// a larger one is refused before its pixels are decoded.
+pub fn decode_limited(bytes: &[u8], max_pixels: u64) -> Result<Image, IoError> {
+    let (reader, header) = start(Cursor::new(bytes), bytes.len() as u64, max_pixels)?;
+    finish(reader, header)
+}
+
+fn open(path: &Path) -> Result<(BufReader<File>, u64), IoError> {
+    let file = File::open(path).map_err(|e| IoError::os(path, "read", e))?;
+    let meta = file.metadata().map_err(|e| IoError::os(path, "read", e))?;
+    if !meta.is_file() {
+        return Err(IoError::format("is not a file: views must be PNG files").in_file(path));
+    }
+    Ok((BufReader::new(file), meta.len()))
+}
+
+/// Reads the header of a PNG file without decoding its pixels, refusing more than
+/// `max_pixels`; errors name the file.
+pub fn read_header(path: &Path, max_pixels: u64) -> Result<Header, IoError> {
+    let (source, len) = open(path)?;
+    start(source, len, max_pixels)
+        .map(|(_, header)| header)
+        .map_err(|e| e.in_file(path))
 }
 
 /// Text chunks to store with an image (keyword, text).
@@ -183,10 +264,19 @@ pub fn encode(image: &Image, text: TextChunks<'_>) -> Result<Vec<u8>, IoError> {
     Ok(out)
 }
 
-/// Reads a PNG file; errors name the file.
+/// Reads a PNG file of at most the default
+/// [`super::limits::DEFAULT_MAX_VIEW_PIXELS`]; errors name the file.
 pub fn read(path: &Path) -> Result<Image, IoError> {
-    let bytes = read_bytes(path)?;
-    decode(&bytes).map_err(|e| e.in_file(path))
+    read_limited(path, super::limits::DEFAULT_MAX_VIEW_PIXELS)
+}
+
+/// Reads a PNG file whose header declares at most `max_pixels` pixels, streaming it
+/// from disk (only the decoded pixels are held); errors name the file.
+pub fn read_limited(path: &Path, max_pixels: u64) -> Result<Image, IoError> {
+    let (source, len) = open(path)?;
+    start(source, len, max_pixels)
+        .and_then(|(reader, header)| finish(reader, header))
+        .map_err(|e| e.in_file(path))
 }
 
 /// Writes an image as PNG; errors name the file.

@@ -8,8 +8,11 @@
 //!   the grid comes from `--grid`, `parameters.cfg` or the largest row and column;
 //! - anything else through `--pattern` (see [`super::pattern`]).
 //!
-//! Views are decoded in parallel. 8-bit images are kept as `u8`, 16-bit ones become
-//! `f32` in `[0, 1]`; a gray+alpha image keeps only its gray channel.
+//! Every view's header is read first: the views must agree on size and sample format
+//! and fit the caps of [`super::limits`], else nothing is decoded and the error names
+//! the odd view or the flag that raises the cap. Views are then decoded in parallel.
+//! 8-bit images are kept as `u8`, 16-bit ones become `f32` in `[0, 1]`; a gray+alpha
+//! image keeps only its gray channel.
 
 use std::path::{Path, PathBuf};
 
@@ -17,6 +20,7 @@ use lfdepth::{Grid, Layout};
 use rayon::prelude::*;
 
 use super::cfg::{self, SceneConfig};
+use super::limits::Limits;
 use super::pattern::{Numbers, Pattern};
 use super::png::{self as pngio, Image, Samples};
 use super::IoError;
@@ -370,48 +374,129 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
     })
 }
 
-/// Locates and decodes the views of the light field in `dir`.
+/// Locates and decodes the views of the light field in `dir` within the default
+/// [`Limits`].
 pub fn load(dir: &Path, options: &LoadOptions) -> Result<Scene, IoError> {
-    let files = locate(dir, options)?;
-    let decoded: Vec<Result<Image, IoError>> =
-        files.paths.par_iter().map(|p| pngio::read(p)).collect();
-    let mut images = Vec::with_capacity(decoded.len());
-    for image in decoded {
-        images.push(image?);
-    }
-    let first = &images[0];
-    let first_path = &files.paths[0];
-    for (image, path) in images.iter().zip(&files.paths).skip(1) {
-        if (image.width, image.height) != (first.width, first.height) {
-            return Err(IoError::format(format!(
-                "is {}x{} pixels but {} is {}x{}: all views must have the same size",
-                image.width,
-                image.height,
-                first_path.display(),
-                first.width,
-                first.height
-            ))
-            .in_file(path));
-        }
-        if image.channels != first.channels || image.bit_depth() != first.bit_depth() {
-            return Err(IoError::format(format!(
-                "has {} channel(s) of {} bits but {} has {} of {}: save all views alike",
-                image.channels,
-                image.bit_depth(),
-                first_path.display(),
-                first.channels,
-                first.bit_depth()
-            ))
-            .in_file(path));
+    load_limited(dir, options, &Limits::default())
+}
+
+/// Locates and decodes the views of the light field in `dir` within `limits`.
+pub fn load_limited(dir: &Path, options: &LoadOptions, limits: &Limits) -> Result<Scene, IoError> {
+    read_views(locate(dir, options)?, limits)
+}
+
+/// The most common value of `keys` (the first view's on a tie) and the indices of the
+/// views that differ from it.
+fn odd_ones<K: Copy + PartialEq>(keys: &[K]) -> (K, Vec<usize>) {
+    let mut best = (keys[0], 0);
+    for &k in keys {
+        let count = keys.iter().filter(|&&o| o == k).count();
+        if count > best.1 {
+            best = (k, count);
         }
     }
-    let in_channels = first.channels;
+    let odd = (0..keys.len()).filter(|&i| keys[i] != best.0).collect();
+    (best.0, odd)
+}
+
+/// The error for views that differ from the rest in `what` (a size, a sample format):
+/// names the odd views, and one view that has the common value.
+fn odd_views_error(
+    files: &ViewFiles,
+    odd: &[usize],
+    odd_value: String,
+    common_value: String,
+    what: &str,
+) -> IoError {
+    let good = (0..files.paths.len())
+        .find(|i| !odd.contains(i))
+        .unwrap_or(0);
+    let name = |i: usize| {
+        files.paths[i]
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+    };
+    let others = if odd.len() > 1 {
+        let names: Vec<String> = odd[1..].iter().map(|&i| name(i)).collect();
+        format!(" (so do {})", name_list(&names))
+    } else {
+        String::new()
+    };
+    IoError::format(format!(
+        "is {odd_value} but the other {} views (e.g. {}) are {common_value}{others}: {what}",
+        files.paths.len() - odd.len(),
+        name(good),
+    ))
+    .in_file(&files.paths[odd[0]])
+}
+
+/// Decodes located views: first every header, which must agree on size and sample
+/// format and fit `limits` (nothing is decoded otherwise), then the pixels.
+pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
+    let dir = files.dir.clone();
+    let read: Vec<Result<pngio::Header, IoError>> = files
+        .paths
+        .par_iter()
+        .map(|p| pngio::read_header(p, limits.max_view_pixels))
+        .collect();
+    // The first failing view in grid order, whatever the threads' timing.
+    let headers = read.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let sizes: Vec<(usize, usize)> = headers.iter().map(|h| (h.width, h.height)).collect();
+    let ((width, height), odd) = odd_ones(&sizes);
+    if !odd.is_empty() {
+        let (w, h) = sizes[odd[0]];
+        return Err(odd_views_error(
+            &files,
+            &odd,
+            format!("{w}x{h} pixels"),
+            format!("{width}x{height}"),
+            "all views must have the same size",
+        ));
+    }
+    let formats: Vec<(usize, u8)> = headers.iter().map(|h| (h.channels, h.bit_depth)).collect();
+    let ((channels, depth), odd) = odd_ones(&formats);
+    if !odd.is_empty() {
+        let (c, d) = formats[odd[0]];
+        return Err(odd_views_error(
+            &files,
+            &odd,
+            format!("{c} channel(s) of {d} bits"),
+            format!("{channels} of {depth}"),
+            "save all views alike",
+        ));
+    }
+    limits
+        .check_light_field(files.paths.len(), width, height)
+        .map_err(|e| IoError::format(e.to_string()).in_file(&dir))?;
+    let in_channels = channels;
     // Gray+alpha keeps gray only; the estimators ignore alpha anyway.
     let channels = if in_channels == 2 { 1 } else { in_channels };
-    let layout = Layout::packed(files.grid, first.width, first.height, channels);
-    let total = layout.validate().map_err(|e| IoError::core(dir, e))?;
-    let views = match first.samples {
-        Samples::Eight(_) => {
+    let layout = Layout::packed(files.grid, width, height, channels);
+    let total = layout.validate().map_err(|e| IoError::core(&dir, e))?;
+    let decoded: Vec<Result<Image, IoError>> = files
+        .paths
+        .par_iter()
+        .map(|p| pngio::read_limited(p, limits.max_view_pixels))
+        .collect();
+    let mut images = Vec::with_capacity(decoded.len());
+    for (image, (path, header)) in decoded.into_iter().zip(files.paths.iter().zip(&headers)) {
+        let image = image?;
+        if (image.width, image.height, image.channels, image.bit_depth())
+            != (
+                header.width,
+                header.height,
+                header.channels,
+                header.bit_depth,
+            )
+        {
+            return Err(
+                IoError::format("changed while it was being read: try again").in_file(path),
+            );
+        }
+        images.push(image);
+    }
+    let views = match depth {
+        8 => {
             let mut out = Vec::with_capacity(total);
             for image in &images {
                 if let Samples::Eight(s) = &image.samples {
@@ -424,7 +509,7 @@ pub fn load(dir: &Path, options: &LoadOptions) -> Result<Scene, IoError> {
             }
             Views::U8(out)
         }
-        Samples::Sixteen(_) => {
+        _ => {
             let mut out = Vec::with_capacity(total);
             let step = if in_channels == 2 { 2 } else { 1 };
             for image in &images {
