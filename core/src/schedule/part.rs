@@ -7,7 +7,7 @@ use crate::tv::Rect;
 /// Lengths (`f32` elements) of one part's outputs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PartLen {
-    /// Disparity (or, for [`Step::Range`], the range's two ends).
+    /// Disparity (or, for [`Step::Range`](super::Step::Range), the range's two ends).
     pub disparity: usize,
     /// Confidence.
     pub confidence: usize,
@@ -70,7 +70,7 @@ pub enum Region {
 
 /// One part's outputs, `PartLen` elements each.
 pub struct PartOutput<'a> {
-    /// Disparity of the part's region, row-major (for [`Step::Range`]: `[min, max]`).
+    /// Disparity of the part's region, row-major (for [`Step::Range`](super::Step::Range): `[min, max]`).
     pub disparity: &'a mut [f32],
     /// Confidence of the part's region.
     pub confidence: &'a mut [f32],
