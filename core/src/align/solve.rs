@@ -34,7 +34,7 @@ use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample};
 use alternate::alternate;
 use observations::State;
-use tracking::{track_batches, track_first, track_second, Points};
+use tracking::{track_batches, track_first, track_second, Centre, Points};
 use views::{baseline, view_order, views_where, PROBE_FEATURES};
 
 pub use views::ViewSet;
@@ -172,11 +172,15 @@ pub fn run<S: Sample, M: ViewMap>(
                 *p = num / den;
             }
         }
-        let corners = &state.corners;
+        let centre_view = Centre {
+            lf,
+            pyramid: &pyramid,
+            centre_pyr,
+            corners: &state.corners,
+        };
         let ring_views = views_where(grid.len(), |v| ring(v) == k && order.contains(&v));
         let job = |task: &mut ViewTask<'_>, view_pyr: &mut [f32]| {
-            task.outcome =
-                track_first(lf, &pyramid, centre_pyr, view_pyr, corners, predicted, task);
+            task.outcome = track_first(&centre_view, view_pyr, predicted, task);
         };
         track_batches(state.obs, &ring_views, view_pyr, map, &job, |task| {
             if task.outcome? < params.min_inliers {
@@ -226,12 +230,15 @@ pub fn run<S: Sample, M: ViewMap>(
             d: state.d,
             solved: &state.solved,
         };
-        let corners = &state.corners;
+        let centre_view = Centre {
+            lf,
+            pyramid: &pyramid,
+            centre_pyr,
+            corners: &state.corners,
+        };
         let hs = &*homographies;
         let job = |task: &mut ViewTask<'_>, view_pyr: &mut [f32]| {
-            task.outcome = track_second(
-                lf, &pyramid, centre_pyr, view_pyr, corners, &points, &to_rect, hs, task,
-            );
+            task.outcome = track_second(&centre_view, view_pyr, &points, &to_rect, hs, task);
         };
         let views = views_where(grid.len(), |v| order.contains(&v));
         track_batches(state.obs, &views, view_pyr, map, &job, |task| {

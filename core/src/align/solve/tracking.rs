@@ -44,6 +44,15 @@ where
     Ok(())
 }
 
+/// What tracking into any view reads: the light field, the centre view's pyramid
+/// (`centre_pyr`, laid out as `pyramid` says) and the centre view's corners.
+pub(super) struct Centre<'c, 'l, S: Sample> {
+    pub(super) lf: &'c LightField<'l, S>,
+    pub(super) pyramid: &'c Pyramid,
+    pub(super) centre_pyr: &'c [f32],
+    pub(super) corners: &'c [Corner],
+}
+
 /// The per-corner unknowns the second pass predicts from.
 pub(super) struct Points<'p> {
     pub(super) x: &'p [f32; MAX_FEATURES],
@@ -92,14 +101,17 @@ pub(super) fn view_pair<'p, S: Sample>(
 /// First-pass tracking of the corners into `task`'s view: the search starts where the
 /// `predicted` disparity puts each corner. Returns the number of corners found.
 pub(super) fn track_first<S: Sample>(
-    lf: &LightField<'_, S>,
-    pyramid: &Pyramid,
-    centre_pyr: &[f32],
+    centre: &Centre<'_, '_, S>,
     view_pyr: &mut [f32],
-    corners: &[Corner],
     predicted: &[f32; MAX_FEATURES],
     task: &mut ViewTask<'_>,
 ) -> Result<usize> {
+    let Centre {
+        lf,
+        pyramid,
+        centre_pyr,
+        corners,
+    } = centre;
     let v = task.view;
     let pair = view_pair(lf, pyramid, centre_pyr, view_pyr, v, Levels::All)?;
     let b = baseline(lf.grid(), v);
@@ -115,18 +127,20 @@ pub(super) fn track_first<S: Sample>(
 
 /// Second-pass tracking into `task`'s view: positions and template shapes predicted by
 /// the first estimate (`hs`, rectified → view; `to_rect`, centre view → rectified).
-#[allow(clippy::too_many_arguments)]
 pub(super) fn track_second<S: Sample>(
-    lf: &LightField<'_, S>,
-    pyramid: &Pyramid,
-    centre_pyr: &[f32],
+    centre: &Centre<'_, '_, S>,
     view_pyr: &mut [f32],
-    corners: &[Corner],
     points: &Points<'_>,
     to_rect: &Mat,
     hs: &[Homography],
     task: &mut ViewTask<'_>,
 ) -> Result<usize> {
+    let Centre {
+        lf,
+        pyramid,
+        centre_pyr,
+        corners,
+    } = centre;
     let grid = lf.grid();
     let (width, height) = (lf.width(), lf.height());
     let o = ((width as f32 - 1.0) * 0.5, (height as f32 - 1.0) * 0.5);
