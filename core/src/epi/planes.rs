@@ -2,9 +2,14 @@
 //! an offset by every shear hypothesis, and the interpolating shift for other fractions.
 
 use super::hypotheses::MAX_DISPARITY;
-use super::line::BLOCK;
 use crate::lightfield::GRID_MAX;
 use crate::scalar::Scalar;
+
+/// Samples per register block of the tensor sums: the gradients and sums of a block are
+/// accumulated over every channel and view before they are stored (8: 123–124 ms,
+/// 16: 114–121 ms, 32: 128–134 ms CPU per bench estimate, docs/stages/epi.md). A line's
+/// planes hold whole blocks.
+pub(super) const BLOCK: usize = 16;
 
 /// Where the sheared samples of one hypothesis are read: sample `t` of view `j`, channel
 /// `c` is `bank[d[c][j] + t]` (along-line derivative) and `bank[s[c][j] + t]` (along-line
