@@ -76,6 +76,16 @@ pub trait Scalar:
     /// kernels that index pixels at sub-pixel positions use it instead of leaving `Self`.
     fn floor_fract(self) -> (i32, Self);
 
+    /// The value itself when `Self` is `f32`, `None` in fixed point: a kernel's
+    /// `f32`-only path, chosen at compile time.
+    fn as_f32(self) -> Option<f32>;
+    /// [`Self::as_f32`] of a place to write.
+    fn as_f32_mut(&mut self) -> Option<&mut f32>;
+    /// [`Self::as_f32`] of `N` lanes at once.
+    fn as_f32_lanes<const N: usize>(lanes: &[Self; N]) -> Option<&[f32; N]>;
+    /// [`Self::as_f32_lanes`] of lanes to write.
+    fn as_f32_lanes_mut<const N: usize>(lanes: &mut [Self; N]) -> Option<&mut [f32; N]>;
+
     /// The smaller of two values (`f32`: a NaN operand yields the other one).
     #[inline]
     #[allow(clippy::eq_op)] // `self != self` is the NaN test
@@ -144,6 +154,22 @@ impl Scalar for f32 {
         let floor = libm::floorf(self);
         // `as` saturates (and maps NaN to 0).
         (floor as i32, self - floor)
+    }
+    #[inline(always)]
+    fn as_f32(self) -> Option<f32> {
+        Some(self)
+    }
+    #[inline(always)]
+    fn as_f32_mut(&mut self) -> Option<&mut f32> {
+        Some(self)
+    }
+    #[inline(always)]
+    fn as_f32_lanes<const N: usize>(lanes: &[Self; N]) -> Option<&[f32; N]> {
+        Some(lanes)
+    }
+    #[inline(always)]
+    fn as_f32_lanes_mut<const N: usize>(lanes: &mut [Self; N]) -> Option<&mut [f32; N]> {
+        Some(lanes)
     }
 }
 
@@ -353,6 +379,22 @@ impl Scalar for Q16 {
     fn floor_fract(self) -> (i32, Self) {
         // Arithmetic shift rounds towards −∞; the low bits are the fraction.
         (self.0 >> FRAC_BITS, Q16(self.0 & (ONE_RAW as i32 - 1)))
+    }
+    #[inline(always)]
+    fn as_f32(self) -> Option<f32> {
+        None
+    }
+    #[inline(always)]
+    fn as_f32_mut(&mut self) -> Option<&mut f32> {
+        None
+    }
+    #[inline(always)]
+    fn as_f32_lanes<const N: usize>(_: &[Self; N]) -> Option<&[f32; N]> {
+        None
+    }
+    #[inline(always)]
+    fn as_f32_lanes_mut<const N: usize>(_: &mut [Self; N]) -> Option<&mut [f32; N]> {
+        None
     }
 }
 

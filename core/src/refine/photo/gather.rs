@@ -1,8 +1,6 @@
 //! Gathering the samples of axis taps into structure-of-arrays chunks: tap by tap, or
 //! all [`CHUNK`] taps of a regular set at once.
 
-use core::any::{Any, TypeId};
-
 use crate::lightfield::Sample;
 use crate::scalar::Scalar;
 
@@ -175,11 +173,11 @@ impl<T: Scalar> Views<T> {
     ) -> Option<()> {
         // Resolved at compile time for each sample type. A pixel's used channels (at
         // most three) fit a word; a row tap's `J` ≤ 3 texels lie within twelve bytes.
-        if TypeId::of::<S>() != TypeId::of::<u8>() || CH > 4 || J > 3 {
+        if S::as_u8(S::default()).is_none() || CH > 4 || J > 3 {
             return None;
         }
         let word = |bytes: Option<&[S; 4]>| {
-            let bytes = bytes.and_then(|b| (b as &dyn Any).downcast_ref::<[u8; 4]>())?;
+            let bytes = bytes.and_then(S::as_u8_lanes)?;
             Some(u32::from_le_bytes(*bytes))
         };
         let (row, column, rs) = (y * self.row_stride, x * CH, self.row_stride);
@@ -407,16 +405,16 @@ impl<T: Scalar> Views<T> {
         let half = self.half;
         // Resolved at compile time for each scalar type.
         let f32s = (
-            (&xf as &dyn Any).downcast_ref::<f32>(),
-            (&yf as &dyn Any).downcast_ref::<f32>(),
-            (&d as &dyn Any).downcast_ref::<f32>(),
-            (&self.regular_x as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
-            (&self.regular_y as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
-            (&self.regular_offset as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
-            (&self.regular_max as &dyn Any).downcast_ref::<[f32; CHUNK]>(),
-            (fractions as &mut dyn Any).downcast_mut::<[f32; CHUNK]>(),
+            xf.as_f32(),
+            yf.as_f32(),
+            d.as_f32(),
+            T::as_f32_lanes(&self.regular_x),
+            T::as_f32_lanes(&self.regular_y),
+            T::as_f32_lanes(&self.regular_offset),
+            T::as_f32_lanes(&self.regular_max),
+            T::as_f32_lanes_mut(fractions),
         );
-        if let (Some(&xf), Some(&yf), Some(&d), Some(rx), Some(ry), Some(off), Some(max), Some(f)) =
+        if let (Some(xf), Some(yf), Some(d), Some(rx), Some(ry), Some(off), Some(max), Some(f)) =
             f32s
         {
             let mut inside = [false; CHUNK];

@@ -1,8 +1,6 @@
 //! Reading a view: samples as scaled intensities in `T`, bilinear cells, the centre
 //! view and the oblique views' bilinear samples.
 
-use core::any::Any;
-
 use crate::lightfield::Sample;
 use crate::scalar::Scalar;
 
@@ -16,8 +14,8 @@ use super::{Views, INTENSITY_SCALE};
 #[inline(always)]
 pub(super) fn texel<T: Scalar, S: Sample>(sample: S, levels: &[T; 256]) -> T {
     // Resolved at compile time for each sample type.
-    match (&sample as &dyn Any).downcast_ref::<u8>() {
-        Some(&level) => levels[usize::from(level)],
+    match sample.as_u8() {
+        Some(level) => levels[usize::from(level)],
         None => T::from_f32(sample.to_unit() * INTENSITY_SCALE),
     }
 }
@@ -35,10 +33,7 @@ pub(super) fn convert<T: Scalar, S: Sample, const L: usize>(
 ) -> [T; L] {
     let mut out = [T::ZERO; L];
     // Resolved at compile time for each pair of types.
-    if let (Some(bytes), Some(to)) = (
-        (s as &dyn Any).downcast_ref::<[u8; L]>(),
-        (&mut out as &mut dyn Any).downcast_mut::<[f32; L]>(),
-    ) {
+    if let (Some(bytes), Some(to)) = (S::as_u8_lanes(s), T::as_f32_lanes_mut(&mut out)) {
         for (o, &b) in to.iter_mut().zip(bytes) {
             *o = f32::from(b) * UNIT;
         }
@@ -57,7 +52,7 @@ pub(super) fn unpack<T: Scalar>(word: u32, c: usize, levels: &[T; 256]) -> T {
     let level = (word >> (8 * (c as u32 & 3))) & 0xff;
     // Resolved at compile time for each scalar type.
     let mut out = T::ZERO;
-    if let Some(to) = (&mut out as &mut dyn Any).downcast_mut::<f32>() {
+    if let Some(to) = out.as_f32_mut() {
         // Below 256: exact in `i32` and `f32` (`f32::from` of the byte).
         *to = level as i32 as f32 * UNIT;
         return out;
@@ -71,8 +66,8 @@ pub(super) fn unpack<T: Scalar>(word: u32, c: usize, levels: &[T; 256]) -> T {
 #[inline(always)]
 pub(super) fn split<T: Scalar>(p: T) -> (usize, T) {
     // Resolved at compile time for each scalar type.
-    match (&p as &dyn Any).downcast_ref::<f32>() {
-        Some(&v) => {
+    match p.as_f32() {
+        Some(v) => {
             // `as` saturates (and maps NaN to 0); positions are below the image size.
             let whole = (v as i32).max(0);
             (whole as usize, T::from_f32(v - whole as f32))
