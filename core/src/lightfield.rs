@@ -474,6 +474,14 @@ impl<'a, S: Sample> Epi<'a, S> {
 mod tests {
     use super::*;
 
+    #[test]
+    fn only_u8_samples_take_the_8_bit_paths() {
+        assert_eq!(200u8.as_u8(), Some(200));
+        assert_eq!(u8::as_u8_lanes(&[1u8, 2, 3]), Some(&[1, 2, 3]));
+        assert_eq!(0.5f32.as_u8(), None);
+        assert_eq!(f32::as_u8_lanes(&[0.5f32; 4]), None);
+    }
+
     /// A 3×4 grid of 16×17 RGB views with padded rows and views, value-coded so each
     /// sample tells where it came from.
     fn coded() -> ([u8; 4 * 3 * 17 * 56 + 64], Layout) {

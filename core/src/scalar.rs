@@ -504,6 +504,27 @@ mod tests {
     }
 
     #[test]
+    fn only_f32_takes_the_f32_paths() {
+        let mut x = 1.5f32;
+        assert_eq!(x.as_f32(), Some(1.5));
+        if let Some(v) = x.as_f32_mut() {
+            *v = 2.5;
+        }
+        assert_eq!(x, 2.5);
+        let mut lanes = [1.0f32, -2.0];
+        assert_eq!(f32::as_f32_lanes(&lanes), Some(&[1.0, -2.0]));
+        if let Some(l) = f32::as_f32_lanes_mut(&mut lanes) {
+            l[1] = 3.0;
+        }
+        assert_eq!(lanes, [1.0, 3.0]);
+        let mut q = q(1.5);
+        assert_eq!(q.as_f32(), None);
+        assert!(q.as_f32_mut().is_none());
+        assert!(Q16::as_f32_lanes(&[q; 2]).is_none());
+        assert!(Q16::as_f32_lanes_mut(&mut [q; 2]).is_none());
+    }
+
+    #[test]
     fn f32_scalar_helpers() {
         assert_eq!(Scalar::sqrt(-1.0f32), 0.0);
         assert_eq!(Scalar::sqrt(9.0f32), 3.0);
