@@ -612,7 +612,7 @@ pub(super) fn iterate<T: Scalar, P: Photometric<T>>(
 /// Sums the groups that see the pixel: all of them, or without the worse half of the
 /// left/right and up/down pairs when it fits much worse (an occluder). When the
 /// horizontal and vertical views then disagree on the disparity by more than
-/// [`AXIS_AGREEMENT`], only the axis with the smaller error `E / A` is kept: along
+/// [`AXIS_AGREEMENT`](super::AXIS_AGREEMENT), only the axis with the smaller error `E / A` is kept: along
 /// edges parallel to an axis, that axis' views only see aliasing and noise.
 /// Returns `(A, B, E, terms)` (the terms scaled like the statistics).
 #[inline]

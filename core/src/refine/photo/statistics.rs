@@ -52,7 +52,7 @@ fn energies_of<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
 
 /// The scaled texels of up to [`CHUNK`] axis taps (`texel(j, c, v)`: sample `j` of tap
 /// `v`, channel `c`) with the fractions of their positions, their offsets and groups
-/// (see [`Chunk`]).
+/// (see [`Chunk`](super::gather::Chunk)).
 pub(super) struct Lanes<'a, T, F> {
     pub(super) texel: F,
     pub(super) fraction: &'a [T; CHUNK],
@@ -61,10 +61,10 @@ pub(super) struct Lanes<'a, T, F> {
 }
 
 /// Adds the Gauss–Newton statistics of the first `n` taps of `lanes` at `d` to their
-/// groups in `out` (see [`Views::pixel`]). Every lane is computed
+/// groups in `out` (see [`Views::pixel`](super::Views::pixel)). Every lane is computed
 /// (the loop has a fixed length); lanes from `n` on are not added. `regular`: all
 /// [`CHUNK`] lanes are taken and lane `v` belongs to group `regular[v % GROUPS]`;
-/// with a mask, the lanes it leaves out add zero (see [`Gathered::Masked`]).
+/// with a mask, the lanes it leaves out add zero (see [`Gathered::Masked`](super::gather::Gathered::Masked)).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(

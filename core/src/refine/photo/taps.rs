@@ -181,7 +181,7 @@ impl<T: Scalar> Views<T> {
 }
 
 /// Every compared view as an oblique tap (axis views included): the simple path of
-/// [`Mapped`], which samples each view through its homography.
+/// [`Mapped`](super::Mapped), which samples each view through its homography.
 impl<T: Scalar> Views<T> {
     pub(super) fn all_taps(&self) -> impl Iterator<Item = Tap<T>> + '_ {
         let axis = self.axis.get(..self.axis_len).unwrap_or_default();
