@@ -24,6 +24,12 @@ pub trait Sample:
     /// The sample as an 8-bit level, rounded and clamped to 0…255 (NaN → 0): integer
     /// colour comparisons without floating point on `u8` data.
     fn level(self) -> u8;
+    /// `N` samples as they are stored when `Self` is `u8`, `None` for `f32`: a
+    /// kernel's 8-bit path, chosen at compile time (unlike [`Self::level`], no
+    /// conversion).
+    fn as_u8_lanes<const N: usize>(samples: &[Self; N]) -> Option<&[u8; N]>;
+    /// [`Self::as_u8_lanes`] of one sample.
+    fn as_u8(self) -> Option<u8>;
 }
 
 impl Sample for u8 {
@@ -38,6 +44,14 @@ impl Sample for u8 {
     #[inline(always)]
     fn level(self) -> u8 {
         self
+    }
+    #[inline(always)]
+    fn as_u8_lanes<const N: usize>(samples: &[Self; N]) -> Option<&[u8; N]> {
+        Some(samples)
+    }
+    #[inline(always)]
+    fn as_u8(self) -> Option<u8> {
+        Some(self)
     }
 }
 
@@ -54,6 +68,14 @@ impl Sample for f32 {
     fn level(self) -> u8 {
         // `as` saturates and maps NaN to 0.
         (self * 255.0 + 0.5) as u8
+    }
+    #[inline(always)]
+    fn as_u8_lanes<const N: usize>(_: &[Self; N]) -> Option<&[u8; N]> {
+        None
+    }
+    #[inline(always)]
+    fn as_u8(self) -> Option<u8> {
+        None
     }
 }
 
@@ -451,6 +473,14 @@ impl<'a, S: Sample> Epi<'a, S> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_u8_samples_take_the_8_bit_paths() {
+        assert_eq!(200u8.as_u8(), Some(200));
+        assert_eq!(u8::as_u8_lanes(&[1u8, 2, 3]), Some(&[1, 2, 3]));
+        assert_eq!(0.5f32.as_u8(), None);
+        assert_eq!(f32::as_u8_lanes(&[0.5f32; 4]), None);
+    }
 
     /// A 3×4 grid of 16×17 RGB views with padded rows and views, value-coded so each
     /// sample tells where it came from.

@@ -76,6 +76,16 @@ pub trait Scalar:
     /// kernels that index pixels at sub-pixel positions use it instead of leaving `Self`.
     fn floor_fract(self) -> (i32, Self);
 
+    /// The value itself when `Self` is `f32`, `None` in fixed point: a kernel's
+    /// `f32`-only path, chosen at compile time.
+    fn as_f32(self) -> Option<f32>;
+    /// [`Self::as_f32`] of a place to write.
+    fn as_f32_mut(&mut self) -> Option<&mut f32>;
+    /// [`Self::as_f32`] of `N` lanes at once.
+    fn as_f32_lanes<const N: usize>(lanes: &[Self; N]) -> Option<&[f32; N]>;
+    /// [`Self::as_f32_lanes`] of lanes to write.
+    fn as_f32_lanes_mut<const N: usize>(lanes: &mut [Self; N]) -> Option<&mut [f32; N]>;
+
     /// The smaller of two values (`f32`: a NaN operand yields the other one).
     #[inline]
     #[allow(clippy::eq_op)] // `self != self` is the NaN test
@@ -144,6 +154,22 @@ impl Scalar for f32 {
         let floor = libm::floorf(self);
         // `as` saturates (and maps NaN to 0).
         (floor as i32, self - floor)
+    }
+    #[inline(always)]
+    fn as_f32(self) -> Option<f32> {
+        Some(self)
+    }
+    #[inline(always)]
+    fn as_f32_mut(&mut self) -> Option<&mut f32> {
+        Some(self)
+    }
+    #[inline(always)]
+    fn as_f32_lanes<const N: usize>(lanes: &[Self; N]) -> Option<&[f32; N]> {
+        Some(lanes)
+    }
+    #[inline(always)]
+    fn as_f32_lanes_mut<const N: usize>(lanes: &mut [Self; N]) -> Option<&mut [f32; N]> {
+        Some(lanes)
     }
 }
 
@@ -354,6 +380,22 @@ impl Scalar for Q16 {
         // Arithmetic shift rounds towards −∞; the low bits are the fraction.
         (self.0 >> FRAC_BITS, Q16(self.0 & (ONE_RAW as i32 - 1)))
     }
+    #[inline(always)]
+    fn as_f32(self) -> Option<f32> {
+        None
+    }
+    #[inline(always)]
+    fn as_f32_mut(&mut self) -> Option<&mut f32> {
+        None
+    }
+    #[inline(always)]
+    fn as_f32_lanes<const N: usize>(_: &[Self; N]) -> Option<&[f32; N]> {
+        None
+    }
+    #[inline(always)]
+    fn as_f32_lanes_mut<const N: usize>(_: &mut [Self; N]) -> Option<&mut [f32; N]> {
+        None
+    }
 }
 
 #[cfg(test)]
@@ -459,6 +501,27 @@ mod tests {
         }
         assert_eq!(Q16::MIN.floor_fract(), (-32768, Q16::ZERO));
         assert_eq!(Q16::MAX.floor_fract(), (32767, q(1.0) - Q16::LSB));
+    }
+
+    #[test]
+    fn only_f32_takes_the_f32_paths() {
+        let mut x = 1.5f32;
+        assert_eq!(x.as_f32(), Some(1.5));
+        if let Some(v) = x.as_f32_mut() {
+            *v = 2.5;
+        }
+        assert_eq!(x, 2.5);
+        let mut lanes = [1.0f32, -2.0];
+        assert_eq!(f32::as_f32_lanes(&lanes), Some(&[1.0, -2.0]));
+        if let Some(l) = f32::as_f32_lanes_mut(&mut lanes) {
+            l[1] = 3.0;
+        }
+        assert_eq!(lanes, [1.0, 3.0]);
+        let mut q = q(1.5);
+        assert_eq!(q.as_f32(), None);
+        assert!(q.as_f32_mut().is_none());
+        assert!(Q16::as_f32_lanes(&[q; 2]).is_none());
+        assert!(Q16::as_f32_lanes_mut(&mut [q; 2]).is_none());
     }
 
     #[test]

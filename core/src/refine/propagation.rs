@@ -1,0 +1,163 @@
+//! Propagation: jump flooding of disparities between neighbours, each pixel keeping a
+//! neighbour's disparity when its photometric cost is well below its own (see [the
+//! module](super)).
+
+use crate::scalar::Scalar;
+
+use super::photo::{Photometric, GROUPS, STATS};
+use super::state::{OwnCost, Planes, Region};
+use super::{Measure, MEMORY};
+
+/// The propagation rounds of a band, one per jump of `jumps`: each pixel tries the
+/// disparities of its four neighbours at the jump and keeps the one the views agree on
+/// best (robust cost of the pixel alone), which pulls wrong regions to their
+/// surroundings' disparity. `settle`: the rows the iterations reach afterwards
+/// (`iterations · radius`).
+///
+/// Each pixel's [`OwnCost`] and the last candidates it rejected live in its
+/// `planes.memory` values; they are read and written only for that pixel, so the order
+/// of pixels does not matter.
+/// A round only visits the rows that the later rounds and the iterations can still
+/// carry to the band (it reads its neighbours up to `jump` rows further, which the
+/// round before visited): the rows outside would not change the result.
+/// The cost of a pixel at its own disparity is only needed once a neighbour offers
+/// another one. It comes from the statistics, not from `Photometric::cost`: the
+/// first iteration needs them at that disparity unless a candidate wins (HCI
+/// backgammon: 154 k of its 271 k measurements), and they cost about 1.5 times a cost.
+/// Always, whatever row the pixel is in, so that every band decides alike.
+/// The rejected candidates (`MAX` for none) are kept across rounds: a round visits a
+/// subset of the rows the round before visited, so every band sees the same history
+/// for the rows it keeps.
+pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
+    measure: &Measure<'_, T, P>,
+    region: &Region,
+    planes: &mut Planes<'_, T>,
+    jumps: &[usize],
+    settle: usize,
+) {
+    let (photo, k) = (measure.photo, &measure.k);
+    let (stat_robust, cost_robust) = (measure.stat_robust, measure.cost_robust);
+    let cost_per_energy = measure.cost_per_energy;
+    let (width, first, region_rows) = (region.width, region.first, region.len());
+    let Planes {
+        current,
+        previous,
+        stats,
+        memory,
+    } = planes;
+    let reach_after = |round: usize| -> usize {
+        settle
+            + jumps
+                .get(round + 1..)
+                .map_or(0, |j| j.iter().sum::<usize>())
+    };
+    if !jumps.is_empty() {
+        let span = region.near(reach_after(0));
+        let near_memory = memory
+            .get_mut(span.start * width * MEMORY..span.end * width * MEMORY)
+            .unwrap_or_default();
+        for kept in near_memory.chunks_exact_mut(MEMORY) {
+            kept[0] = OwnCost::Unknown.value();
+            if let Some(rejected) = kept.get_mut(1..) {
+                rejected.fill(T::MAX);
+            }
+        }
+    }
+    for (round, &jump) in jumps.iter().enumerate() {
+        previous.copy_from_slice(current);
+        for y in region.near(reach_after(round)) {
+            for x in 0..width {
+                let i = y * width + x;
+                // `near` rows lie within the region, which `previous` covers.
+                let Some(&own) = previous.get(i) else {
+                    continue;
+                };
+                // A missing neighbour (past the region) offers the pixel's own value,
+                // which the gate skips.
+                let at = |j: Option<usize>| j.and_then(|j| previous.get(j)).copied();
+                let candidates = [
+                    at(x.checked_sub(jump).map(|xx| y * width + xx)).unwrap_or(own),
+                    at((x + jump < width).then(|| i + jump)).unwrap_or(own),
+                    at(y.checked_sub(jump).map(|yy| yy * width + x)).unwrap_or(own),
+                    at((y + jump < region_rows).then(|| i + jump * width)).unwrap_or(own),
+                ];
+                // Most pixels agree with all four: one test for them (fewer mispredicted
+                // branches than four). A loop rather than `array::map`, which the
+                // compiler left as a call per pixel (1.8 % of the stage's instructions).
+                // A pair of opposite neighbours on a line through the pixel (second
+                // difference within the offer's gate) offers nothing: on a slanted
+                // surface their disparities are those of other points of the same
+                // plane, which do not fit this pixel better (cotton: 9 % fewer first-round
+                // costs, BadPix0.07 1.910 → 1.892, `docs/stages/refine.md`).
+                let bent = (
+                    (candidates[0] + candidates[1] - own - own).abs() > k.offer,
+                    (candidates[2] + candidates[3] - own - own).abs() > k.offer,
+                );
+                let mut offers = [false; 4];
+                for (n, (offer, &d)) in offers.iter_mut().zip(&candidates).enumerate() {
+                    let pair_bent = if n < 2 { bent.0 } else { bent.1 };
+                    *offer = pair_bent && (d - own).abs() > k.offer;
+                }
+                if offers == [false; 4] {
+                    continue;
+                }
+                let (Some(kept), Some(stat)) = (
+                    memory
+                        .get_mut(i * MEMORY..)
+                        .and_then(|s| s.first_chunk_mut::<MEMORY>()),
+                    stats
+                        .get_mut(i * STATS..)
+                        .and_then(|s| s.first_chunk_mut::<STATS>()),
+                ) else {
+                    continue;
+                };
+                // Disparities already tried this round, and the last ones rejected in
+                // earlier rounds: one within `SAME_CANDIDATE` of those is not tried (an
+                // equal one would give the same cost, which cannot pass the bar a second
+                // time: the bar only falls).
+                let mut tried = [own; 4];
+                let mut bar = None;
+                for (n, (d, offer)) in candidates.into_iter().zip(offers).enumerate() {
+                    let near = |t: &T| (*t - d).abs() <= k.same;
+                    if !offer
+                        || tried.get(..n).is_some_and(|t| t.iter().any(near))
+                        || kept[1..].iter().any(near)
+                    {
+                        continue;
+                    }
+                    if let Some(t) = tried.get_mut(n) {
+                        *t = d;
+                    }
+                    if OwnCost::read(kept[0]) == OwnCost::Unknown {
+                        photo.pixel(x, first + y, own, stat_robust, stat);
+                        kept[0] = OwnCost::Fresh.value();
+                    }
+                    let limit = *bar.get_or_insert_with(|| {
+                        let own_cost = match OwnCost::read(kept[0]) {
+                            OwnCost::Fresh => {
+                                (0..GROUPS).fold(T::ZERO, |e, g| e + stat[3 * g + 2])
+                                    * cost_per_energy
+                            }
+                            other => other.value(),
+                        };
+                        own_cost * k.accept
+                    });
+                    if let Some(c) = photo.cost(x, first + y, d, cost_robust, Some(limit)) {
+                        bar = Some(c);
+                        kept[0] = OwnCost::Known(c).value();
+                        if let Some(current) = current.get_mut(i) {
+                            *current = d;
+                        }
+                    } else {
+                        // The newest first, the oldest dropped (element by element:
+                        // `rotate_right` costs a call per rejection).
+                        for j in (2..MEMORY).rev() {
+                            kept[j] = kept[j - 1];
+                        }
+                        kept[1] = d;
+                    }
+                }
+            }
+        }
+    }
+}
