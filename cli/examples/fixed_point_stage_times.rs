@@ -19,11 +19,6 @@ use lfdepth::{LightField, Params, Plan, Scalar, Q16};
 use tv_support::{cpu_seconds, load_hci, shared_data};
 
 fn main() {
-    let Some(data) = shared_data("the fixed-point stage times") else {
-        return;
-    };
-    let (views, layout) = load_hci(&data.join("hci/training/cotton"));
-    let lf = LightField::new(&views, layout).unwrap();
     let repeats = match std::env::args().nth(1).map(|v| v.parse::<usize>()) {
         None => 2,
         Some(Ok(n)) if n >= 1 => n,
@@ -34,6 +29,11 @@ fn main() {
             std::process::exit(2);
         }
     };
+    let Some(data) = shared_data("the fixed-point stage times") else {
+        return;
+    };
+    let (views, layout) = load_hci(&data.join("hci/training/cotton"));
+    let lf = LightField::new(&views, layout).unwrap();
     let float = stage_cpu::<f32>(&lf, repeats);
     let fixed = stage_cpu::<Q16>(&lf, repeats);
     println!("| stage | f32 CPU s | Q16.16 CPU s | Q16 / f32 |");

@@ -18,23 +18,40 @@
 #[path = "../tests/tv_support.rs"]
 mod tv_support;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use lfdepth::tv::{self, Guide, Maps, TvNorm, TvParams};
 use lfdepth::Params;
+use lfdepth_cli::io::pfm;
 use tv_support::*;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let [scene, input] = &args[..] else {
-        eprintln!("usage: tv_refine_pfm SCENE_DIR IN.pfm (IN_conf.pfm beside it; TV_* variables set the parameters)");
-        std::process::exit(2);
+        fail("usage: tv_refine_pfm SCENE_DIR IN.pfm (IN_conf.pfm beside it; TV_* variables set the parameters)");
     };
     let scene = PathBuf::from(scene);
-    let (w, h, d) = read_pfm(input.as_ref());
-    let (_, _, c) = read_pfm(input.replace(".pfm", "_conf.pfm").as_ref());
-    let (_, _, gt) = read_pfm(&scene.join("gt_disp_lowres.pfm"));
+    let conf = input
+        .strip_suffix(".pfm")
+        .map(|stem| format!("{stem}_conf.pfm"));
+    let Some(conf) = conf else {
+        fail(&format!("{input}: the input map must be a .pfm file"));
+    };
+    let (w, h, d) = pfm_map(Path::new(input));
+    let (cw, ch, c) = pfm_map(Path::new(&conf));
+    let (gw, gh, gt) = pfm_map(&scene.join("gt_disp_lowres.pfm"));
+    if (cw, ch) != (w, h) || (gw, gh) != (w, h) {
+        fail(&format!(
+            "{input} is {w}×{h}, its confidence {cw}×{ch}, the ground truth {gw}×{gh}: they must match"
+        ));
+    }
+    if !scene.join("input_Cam040.png").is_file() {
+        fail(&format!(
+            "{}: no input_Cam040.png (the centre view that guides TV)",
+            scene.display()
+        ));
+    }
     let params = params_from_env();
     let (out, history, report, secs) = run::<f32>(&scene, &d, &c, params);
     if std::env::var("TV_Q16").is_ok() {
@@ -128,4 +145,17 @@ fn run<S: lfdepth::Scalar>(
     .unwrap();
     let secs = t.elapsed().as_secs_f64();
     (out, history, report, secs)
+}
+
+fn fail(why: &str) -> ! {
+    eprintln!("error: {why}");
+    std::process::exit(2);
+}
+
+/// A one-channel PFM map as (width, height, values), or a clear error and exit.
+fn pfm_map(path: &Path) -> (usize, usize, Vec<f32>) {
+    match pfm::read(path) {
+        Ok(map) => (map.width, map.height, map.data),
+        Err(e) => fail(&e.to_string()),
+    }
 }
