@@ -18,7 +18,7 @@ use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::{LightField, Params, Plan, Scalar, Q16};
 use lfdepth_cli::engine::{estimate_with, Estimate, EstimateOptions, Precision};
-use tv_support::{cpu_seconds, load_hci, read_pfm, scores, shared_data};
+use tv_support::{load_hci, read_pfm, scores, shared_data};
 
 fn synthetic(kind: SceneKind, size: usize) -> (Vec<u8>, SynthSpec) {
     let s = synth_support::scene_seeded(kind, size, 9);
@@ -296,94 +296,6 @@ fn q16_pipeline_stays_within_two_hundredths_of_f32_on_both_hci_scenes() {
             shares[4] >= 0.99,
             "{scene}, default pipeline: {} within 0.02 px",
             shares[4]
-        );
-    }
-}
-
-/// CPU seconds of each serial core stage in `T` on HCI cotton (each stage from the same
-/// `f32` input): EPI, refinement, TV, and the whole `pipeline::run`.
-fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
-    let plan = Plan::new(*lf.layout(), Params::default()).unwrap();
-    let n = plan.pixels();
-    let (mut d, mut c) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let mut scratch = vec![0.0f32; pipeline::scratch_len(&plan)];
-    let hyps = lfdepth::epi::estimate(&plan, lf, &mut d, &mut c, &mut scratch).unwrap();
-    let range = (hyps.min(), hyps.max());
-    let (mut rd, mut rc) = (vec![0.0f32; n], vec![0.0f32; n]);
-    refine::refine(&plan, lf, range, &d, &mut rd, &mut rc, &mut scratch).unwrap();
-    let mut work = vec![T::ZERO; pipeline::scratch_len(&plan)];
-    let mut duals = vec![0.0f32; tv::dual_len(&plan)];
-    let (mut od, mut oc) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let maps = Maps::new(lf.width(), lf.height(), &rd, &rc).unwrap();
-    let guide = Guide::View(lf.center_view());
-    let mut mid = vec![0.0f32; pipeline::map_scratch_len(&plan)];
-    let time = |f: &mut dyn FnMut()| {
-        let start = cpu_seconds();
-        for _ in 0..repeats {
-            f();
-        }
-        (cpu_seconds() - start) / repeats as f64
-    };
-    let epi = time(&mut || {
-        lfdepth::epi::estimate(&plan, lf, &mut od, &mut oc, &mut work).unwrap();
-    });
-    let refined = time(&mut || {
-        refine::refine(&plan, lf, range, &d, &mut od, &mut oc, &mut work).unwrap();
-    });
-    let regularised = time(&mut || {
-        tv::refine(
-            &plan,
-            &maps,
-            &guide,
-            &mut od,
-            &mut [],
-            &mut work,
-            &mut duals,
-        )
-        .unwrap();
-    });
-    let whole = time(&mut || {
-        pipeline::run(
-            &plan,
-            lf,
-            Stages::Full,
-            &mut od,
-            &mut oc,
-            &mut work,
-            &mut mid,
-            &mut [],
-            &mut |_| ControlFlow::Continue(()),
-        )
-        .unwrap();
-    });
-    [epi, refined, regularised, whole]
-}
-
-#[test]
-#[ignore = "timing report: CPU seconds per serial stage, f32 and Q16.16, on HCI cotton"]
-fn fixed_point_stage_cpu_times() {
-    let Some(data) = shared_data("the fixed-point timing report") else {
-        return;
-    };
-    let (views, layout) = load_hci(&data.join("hci/training/cotton"));
-    let lf = LightField::new(&views, layout).unwrap();
-    let repeats = std::env::var("REPEATS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(2);
-    let float = stage_cpu::<f32>(&lf, repeats);
-    let fixed = stage_cpu::<Q16>(&lf, repeats);
-    println!("| stage | f32 CPU s | Q16.16 CPU s | Q16 / f32 |");
-    println!("|---|---:|---:|---:|");
-    for (i, name) in ["EPI", "refinement", "TV", "whole pipeline::run"]
-        .iter()
-        .enumerate()
-    {
-        println!(
-            "| {name} | {:.2} | {:.2} | {:.1}× |",
-            float[i],
-            fixed[i],
-            fixed[i] / float[i]
         );
     }
 }

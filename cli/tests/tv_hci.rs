@@ -1,39 +1,14 @@
-//! TV refinement on the shared HCI scenes: accuracy on a corrupted ground truth, and a
-//! development harness (ignored) that refines any EPI map given by environment variables.
+//! TV refinement on the shared HCI scenes: the engine's EPI estimate refined by TV alone
+//! must improve on both scenes, with a residual history that falls.
 
 #[path = "tv_support.rs"]
 mod tv_support;
 
-use std::path::PathBuf;
 use std::time::Instant;
 
-use lfdepth::tv::{self, Guide, Maps, TvNorm, TvParams};
+use lfdepth::tv::{self, Guide, Maps, TvParams};
 use lfdepth::Params;
 use tv_support::*;
-
-fn params_from_env() -> TvParams {
-    let d = TvParams::default();
-    TvParams {
-        lambda: env_f32("TV_LAMBDA", d.lambda),
-        tikhonov: env_f32("TV_TIKHONOV", d.tikhonov),
-        confidence_threshold: env_f32("TV_THRESHOLD", d.confidence_threshold),
-        confidence_power: env_f32("TV_POWER", d.confidence_power),
-        edge_sigma: env_f32("TV_SIGMA", d.edge_sigma),
-        edge_floor: env_f32("TV_FLOOR", d.edge_floor),
-        norm: if std::env::var("TV_NORM").as_deref() == Ok("l1") {
-            TvNorm::L1
-        } else {
-            d.norm
-        },
-        max_iterations: env_f32("TV_ITERS", d.max_iterations as f32) as usize,
-        tolerance: env_f32("TV_TOL", d.tolerance),
-        step: env_f32("TV_STEP", d.step),
-        relaxation: env_f32("TV_RELAX", d.relaxation),
-        tile: env_f32("TV_TILE", d.tile as f32) as usize,
-        halo: env_f32("TV_HALO", d.halo as f32) as usize,
-        sweeps: env_f32("TV_SWEEPS", d.sweeps as f32) as usize,
-    }
-}
 
 /// Refines `disparity` with confidence `confidence` guided by the scene's centre view.
 fn run<S: lfdepth::Scalar>(
@@ -73,50 +48,6 @@ fn run<S: lfdepth::Scalar>(
     (out, history, report, secs)
 }
 
-#[test]
-#[ignore = "development harness: TV_SCENE, TV_INPUT (PFM; confidence in *_conf.pfm)"]
-fn tv_hci_dev_harness() {
-    let (Ok(scene), Ok(input)) = (std::env::var("TV_SCENE"), std::env::var("TV_INPUT")) else {
-        eprintln!("SKIPPED: set TV_SCENE and TV_INPUT");
-        return;
-    };
-    let scene = PathBuf::from(scene);
-    let (w, h, d) = read_pfm(input.as_ref());
-    let (_, _, c) = read_pfm(input.replace(".pfm", "_conf.pfm").as_ref());
-    let (_, _, gt) = read_pfm(&scene.join("gt_disp_lowres.pfm"));
-    let params = params_from_env();
-    let (out, history, report, secs) = run::<f32>(&scene, &d, &c, params);
-    if std::env::var("TV_Q16").is_ok() {
-        let (q, _, qreport, qsecs) = run::<lfdepth::Q16>(&scene, &d, &c, params);
-        let diffs: Vec<f32> = q.iter().zip(&out).map(|(a, b)| (a - b).abs()).collect();
-        let max = diffs.iter().cloned().fold(0.0, f32::max);
-        let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
-        let over = diffs.iter().filter(|&&d| d > 0.01).count();
-        println!(
-            "q16: max |q16 − f32| {max:.5} px, mean {mean:.6}, {over} px over 0.01; {qreport:?} in {:.1} ms",
-            qsecs * 1e3
-        );
-    }
-    let before = scores(&d, &gt, w, h);
-    let after = scores(&out, &gt, w, h);
-    println!(
-        "params {params:?}\ninput  badpix {:.3} mse {:.4}\noutput badpix {:.3} mse {:.4}\n\
-         {report:?} in {:.1} ms",
-        before.0,
-        before.1,
-        after.0,
-        after.1,
-        secs * 1e3
-    );
-    if let Ok(path) = std::env::var("TV_HISTORY") {
-        let text: Vec<String> = history.iter().map(|v| format!("{v:e}")).collect();
-        std::fs::write(path, text.join("\n")).unwrap();
-    }
-    if let Ok(path) = std::env::var("TV_OUT") {
-        write_pfm(path.as_ref(), w, h, &out);
-    }
-}
-
 /// The engine's EPI stage on an HCI scene: (disparity, confidence).
 fn engine_epi(dir: &std::path::Path) -> (usize, usize, Vec<f32>, Vec<f32>) {
     use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
@@ -129,24 +60,6 @@ fn engine_epi(dir: &std::path::Path) -> (usize, usize, Vec<f32>, Vec<f32>) {
     };
     let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
     (e.width, e.height, e.disparity, e.confidence)
-}
-
-#[test]
-#[ignore = "development aid: writes the engine's EPI disparity and confidence of both HCI scenes to TV_DUMP_DIR"]
-fn tv_dump_engine_epi_inputs() {
-    let (Some(data), Ok(out)) = (shared_data("the EPI dump"), std::env::var("TV_DUMP_DIR")) else {
-        eprintln!("SKIPPED: needs ../shared/data and TV_DUMP_DIR");
-        return;
-    };
-    for (scene, name) in [
-        ("stratified/backgammon", "backgammon"),
-        ("training/cotton", "cotton"),
-    ] {
-        let (w, h, d, c) = engine_epi(&data.join("hci").join(scene));
-        let out = PathBuf::from(&out);
-        write_pfm(&out.join(format!("{name}_epi.pfm")), w, h, &d);
-        write_pfm(&out.join(format!("{name}_epi_conf.pfm")), w, h, &c);
-    }
 }
 
 #[test]

@@ -1,5 +1,6 @@
-//! Helpers shared by the TV integration tests (included with `#[path]`): PFM and PNG
-//! loading, the HCI scores, and the light field around one guide image.
+//! Helpers shared by the TV integration tests, benches and examples (included with
+//! `#[path]`): PFM and PNG loading, the HCI scores, and the light field around one guide
+//! image.
 #![allow(dead_code)]
 
 use std::fs;
@@ -8,7 +9,7 @@ use std::path::{Path, PathBuf};
 use lfdepth::{Grid, Layout, LightField, Params, Plan};
 
 /// The environment variable `name` as a number, or `default` when unset or unparsable
-/// (the development harnesses take their parameters this way).
+/// (the `tv_refine_pfm` example takes its parameters this way).
 pub fn env_f32(name: &str, default: f32) -> f32 {
     std::env::var(name)
         .ok()
