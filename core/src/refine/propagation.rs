@@ -64,7 +64,11 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
         }
     }
     for (round, &jump) in jumps.iter().enumerate() {
-        previous.copy_from_slice(current);
+        // The planes have one length (the band's region, cut from one scratch); the zip keeps
+        // `copy_from_slice`'s panic path out of the firmware image.
+        for (p, c) in previous.iter_mut().zip(current.iter()) {
+            *p = *c;
+        }
         for y in region.near(reach_after(round)) {
             for x in 0..width {
                 let i = y * width + x;
