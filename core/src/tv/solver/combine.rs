@@ -41,13 +41,16 @@ pub(super) fn combine<S: Scalar, const RECORD: bool, const CHECK: bool>(
     let [p1h, p1v] = p1;
     let [dh, dv] = delta;
     project_row(c, [&mut *p1h, &mut *p1v], [y1h, y1v], bound);
-    combine_component::<S, RECORD, CHECK>(c, [y1h, y2h, y3h], [p1h, p2h, p3h], dh, sums);
-    combine_component::<S, RECORD, CHECK>(c, [y1v, y2v, y3v], [p1v, p2v, p3v], dv, sums);
+    // The fourth input is not read (any row will do).
+    let (h, v) = ([&*p1h, p2h, p3h, p3h], [&*p1v, p2v, p3v, p3v]);
+    combine_component::<S, RECORD, CHECK, false>(c, [y1h, y2h, y3h], h, dh, sums);
+    combine_component::<S, RECORD, CHECK, false>(c, [y1v, y2v, y3v], v, dv, sums);
 }
 
 /// [`combine`] with the proximity results of the two quadratic parts formed node by
-/// node as [`prox_row`](super::quadratic::prox_row) forms them, `p_own = own + w s` and `p_other = other − w s_far`,
-/// instead of read from rows of them (two passes and four streams less). `weights` =
+/// node as [`prox_row`](super::quadratic::prox_row) forms them, `p_own = own + w s` and
+/// `p_other = other − w s_far`, instead of read from rows of them (two passes and four
+/// streams less). `weights` =
 /// `[w_h, w_v]` of the row; `residuals` = `[s, s_right, s_below]`: the row's residuals,
 /// the same shifted by one node (the far ends of the horizontal edges; zero after the
 /// last node, whose edge is cut, so that `p_other = other − w·0 = other` there), and the
@@ -70,24 +73,9 @@ pub(super) fn combine_with_prox<S: Scalar, const RECORD: bool, const CHECK: bool
     let [p1h, p1v] = p1;
     let [dh, dv] = delta;
     project_row(c, [&mut *p1h, &mut *p1v], [y1h, y1v], bound);
-    combine_component_with_prox::<S, RECORD, CHECK>(
-        c,
-        [y1h, y2h, y3h],
-        p1h,
-        wh,
-        [s, s_right],
-        dh,
-        sums,
-    );
-    combine_component_with_prox::<S, RECORD, CHECK>(
-        c,
-        [y1v, y2v, y3v],
-        p1v,
-        wv,
-        [s, s_below],
-        dv,
-        sums,
-    );
+    let (h, v) = ([&*p1h, wh, s, s_right], [&*p1v, wv, s, s_below]);
+    combine_component::<S, RECORD, CHECK, true>(c, [y1h, y2h, y3h], h, dh, sums);
+    combine_component::<S, RECORD, CHECK, true>(c, [y1v, y2v, y3v], v, dv, sums);
 }
 
 /// `p₁ = P_B(y₁)` of one row (both components) into `p1`.
@@ -125,195 +113,6 @@ fn project_row<S: Scalar>(c: &Constants<S>, p1: [&mut [S]; 2], y1: [&[S]; 2], bo
     }
 }
 
-/// [`combine_component`] with the proximity results formed from the weights `w` and
-/// the residuals `[s_own, s_far]` (see [`combine_with_prox`]).
-#[inline(always)]
-fn combine_component_with_prox<S: Scalar, const RECORD: bool, const CHECK: bool>(
-    c: &Constants<S>,
-    y: [&mut [S]; 3],
-    p1: &[S],
-    w: &[S],
-    s: [&[S]; 2],
-    delta: &mut [S],
-    sums: &mut Sums,
-) {
-    let [y1, y2, y3] = y;
-    let [s0, s1] = s;
-    let n = y1.len();
-    let full = n - n % LANES;
-    // One row each, all the same length (the checked splits never fail; `delta` is
-    // only written when `CHECK`).
-    let (y1, y1r) = y1.split_at_mut(full);
-    let (Some((y2, y2r)), Some((y3, y3r)), Some((p1, p1r)), Some((w, wr)), Some((s0, s0r))) = (
-        y2.split_at_mut_checked(full),
-        y3.split_at_mut_checked(full),
-        p1.split_at_checked(full),
-        w.split_at_checked(full),
-        s0.split_at_checked(full),
-    ) else {
-        return;
-    };
-    let Some((s1, s1r)) = s1.split_at_checked(full) else {
-        return;
-    };
-    if CHECK {
-        let Some((d, dr)) = delta
-            .get_mut(..n)
-            .and_then(|d| d.split_at_mut_checked(full))
-        else {
-            return;
-        };
-        combine_prox_lanes_with_delta::<S, LANES, RECORD>(
-            c,
-            [y1, y2, y3],
-            [p1, w, s0, s1],
-            d,
-            sums,
-        );
-        combine_prox_lanes_with_delta::<S, 1, RECORD>(
-            c,
-            [y1r, y2r, y3r],
-            [p1r, wr, s0r, s1r],
-            dr,
-            sums,
-        );
-    } else {
-        combine_prox_lanes::<S, LANES, RECORD>(c, [y1, y2, y3], [p1, w, s0, s1], sums);
-        combine_prox_lanes::<S, 1, RECORD>(c, [y1r, y2r, y3r], [p1r, wr, s0r, s1r], sums);
-    }
-}
-
-/// [`combine_lanes`] with the proximity results formed in the loop: `inputs` =
-/// `[p₁, w, s_own, s_far]`.
-#[inline(always)]
-fn combine_prox_lanes<S: Scalar, const L: usize, const RECORD: bool>(
-    c: &Constants<S>,
-    y: [&mut [S]; 3],
-    inputs: [&[S]; 4],
-    sums: &mut Sums,
-) {
-    let [y1, y2, y3] = y;
-    let [p1, w, s0, s1] = inputs;
-    let groups = y1
-        .chunks_exact_mut(L)
-        .zip(y2.chunks_exact_mut(L))
-        .zip(y3.chunks_exact_mut(L))
-        .zip(
-            p1.chunks_exact(L)
-                .zip(w.chunks_exact(L))
-                .zip(s0.chunks_exact(L).zip(s1.chunks_exact(L))),
-        );
-    for (((y1, y2), y3), ((p1, w), (s0, s1))) in groups {
-        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(w), Ok(s0), Ok(s1)) = (
-            <&mut [S; L]>::try_from(y1),
-            <&mut [S; L]>::try_from(y2),
-            <&mut [S; L]>::try_from(y3),
-            <&[S; L]>::try_from(p1),
-            <&[S; L]>::try_from(w),
-            <&[S; L]>::try_from(s0),
-            <&[S; L]>::try_from(s1),
-        ) else {
-            continue; // chunks_exact yields exactly L elements
-        };
-        for j in 0..L {
-            let p2 = y2[j] + w[j] * s0[j];
-            let p3 = y3[j] - w[j] * s1[j];
-            let d = combine_node(c, [&mut y1[j], &mut y2[j], &mut y3[j]], [p1[j], p2, p3]);
-            if RECORD {
-                let d = d.to_f32();
-                sums.change[j % LANES] += d * d;
-            }
-        }
-    }
-}
-
-/// [`combine_prox_lanes`] that also writes `ΔF` of every node into `delta`.
-#[inline(always)]
-fn combine_prox_lanes_with_delta<S: Scalar, const L: usize, const RECORD: bool>(
-    c: &Constants<S>,
-    y: [&mut [S]; 3],
-    inputs: [&[S]; 4],
-    delta: &mut [S],
-    sums: &mut Sums,
-) {
-    let [y1, y2, y3] = y;
-    let [p1, w, s0, s1] = inputs;
-    let groups = y1
-        .chunks_exact_mut(L)
-        .zip(y2.chunks_exact_mut(L))
-        .zip(y3.chunks_exact_mut(L))
-        .zip(
-            p1.chunks_exact(L)
-                .zip(w.chunks_exact(L))
-                .zip(s0.chunks_exact(L).zip(s1.chunks_exact(L))),
-        )
-        .zip(delta.chunks_exact_mut(L));
-    for ((((y1, y2), y3), ((p1, w), (s0, s1))), delta) in groups {
-        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(w), Ok(s0), Ok(s1), Ok(delta)) = (
-            <&mut [S; L]>::try_from(y1),
-            <&mut [S; L]>::try_from(y2),
-            <&mut [S; L]>::try_from(y3),
-            <&[S; L]>::try_from(p1),
-            <&[S; L]>::try_from(w),
-            <&[S; L]>::try_from(s0),
-            <&[S; L]>::try_from(s1),
-            <&mut [S; L]>::try_from(delta),
-        ) else {
-            continue; // chunks_exact yields exactly L elements
-        };
-        for j in 0..L {
-            let p2 = y2[j] + w[j] * s0[j];
-            let p3 = y3[j] - w[j] * s1[j];
-            let d = combine_node(c, [&mut y1[j], &mut y2[j], &mut y3[j]], [p1[j], p2, p3]);
-            delta[j] = d;
-            if RECORD {
-                let d = d.to_f32();
-                sums.change[j % LANES] += d * d;
-            }
-        }
-    }
-}
-
-/// The combination of one component (all horizontal or all vertical duals of a row).
-#[inline(always)]
-fn combine_component<S: Scalar, const RECORD: bool, const CHECK: bool>(
-    c: &Constants<S>,
-    y: [&mut [S]; 3],
-    p: [&[S]; 3],
-    delta: &mut [S],
-    sums: &mut Sums,
-) {
-    let [y1, y2, y3] = y;
-    let [p1, p2, p3] = p;
-    let n = y1.len();
-    let full = n - n % LANES;
-    // One row each, all the same length (the checked splits never fail; `delta` is
-    // only written when `CHECK`).
-    let (y1, y1r) = y1.split_at_mut(full);
-    let (Some((y2, y2r)), Some((y3, y3r)), Some((p1, p1r)), Some((p2, p2r)), Some((p3, p3r))) = (
-        y2.split_at_mut_checked(full),
-        y3.split_at_mut_checked(full),
-        p1.split_at_checked(full),
-        p2.split_at_checked(full),
-        p3.split_at_checked(full),
-    ) else {
-        return;
-    };
-    if CHECK {
-        let Some((d, dr)) = delta
-            .get_mut(..n)
-            .and_then(|d| d.split_at_mut_checked(full))
-        else {
-            return;
-        };
-        combine_lanes_with_delta::<S, LANES, RECORD>(c, [y1, y2, y3], [p1, p2, p3], d, sums);
-        combine_lanes_with_delta::<S, 1, RECORD>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], dr, sums);
-    } else {
-        combine_lanes::<S, LANES, RECORD>(c, [y1, y2, y3], [p1, p2, p3], sums);
-        combine_lanes::<S, 1, RECORD>(c, [y1r, y2r, y3r], [p1r, p2r, p3r], sums);
-    }
-}
-
 /// `½a + ¼(b + c)`: the PPXA average of the three copies (weights ω).
 #[inline(always)]
 pub(super) fn average<S: Scalar>(c: &Constants<S>, a: S, b: S, d: S) -> S {
@@ -325,92 +124,98 @@ pub(super) struct Sums {
     pub(super) change: [f32; LANES],
 }
 
-/// Fixed-size groups of `L` nodes (`L` divides the slice length): every buffer is seen as
-/// `[S; L]` so the `f32` loop has no bounds checks and vectorises.
+/// The combination of one component (all horizontal or all vertical duals of a row),
+/// in groups of [`LANES`] nodes and then node by node. `inputs` = `[p₁, p₂, p₃, _]`: the
+/// proximity results as rows (the last slice, one row, is not read); or when `FORMED`
+/// `[p₁, w, s_own, s_far]`: the weights and the residuals they are formed from (see
+/// [`combine_with_prox`]). `delta` is one row, written only when `CHECK`.
 #[inline(always)]
-fn combine_lanes<S: Scalar, const L: usize, const RECORD: bool>(
+fn combine_component<S: Scalar, const RECORD: bool, const CHECK: bool, const FORMED: bool>(
     c: &Constants<S>,
     y: [&mut [S]; 3],
-    p: [&[S]; 3],
-    sums: &mut Sums,
-) {
-    let [y1, y2, y3] = y;
-    let [p1, p2, p3] = p;
-    let groups = y1
-        .chunks_exact_mut(L)
-        .zip(y2.chunks_exact_mut(L))
-        .zip(y3.chunks_exact_mut(L))
-        .zip(
-            p1.chunks_exact(L)
-                .zip(p2.chunks_exact(L))
-                .zip(p3.chunks_exact(L)),
-        );
-    for (((y1, y2), y3), ((p1, p2), p3)) in groups {
-        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(p2), Ok(p3)) = (
-            <&mut [S; L]>::try_from(y1),
-            <&mut [S; L]>::try_from(y2),
-            <&mut [S; L]>::try_from(y3),
-            <&[S; L]>::try_from(p1),
-            <&[S; L]>::try_from(p2),
-            <&[S; L]>::try_from(p3),
-        ) else {
-            continue; // chunks_exact yields exactly L elements
-        };
-        for j in 0..L {
-            let d = combine_node(
-                c,
-                [&mut y1[j], &mut y2[j], &mut y3[j]],
-                [p1[j], p2[j], p3[j]],
-            );
-            if RECORD {
-                let d = d.to_f32();
-                sums.change[j % LANES] += d * d;
-            }
-        }
-    }
-}
-
-/// [`combine_lanes`] that also writes `ΔF` of every node into `delta` (a checking
-/// iteration; a separate loop so the others stream one buffer less).
-#[inline(always)]
-fn combine_lanes_with_delta<S: Scalar, const L: usize, const RECORD: bool>(
-    c: &Constants<S>,
-    y: [&mut [S]; 3],
-    p: [&[S]; 3],
+    inputs: [&[S]; 4],
     delta: &mut [S],
     sums: &mut Sums,
 ) {
     let [y1, y2, y3] = y;
-    let [p1, p2, p3] = p;
+    let n = y1.len();
+    let full = n - n % LANES;
+    // One row each, all the same length (the checked splits never fail).
+    let (y1, y1r) = y1.split_at_mut(full);
+    let (Some((y2, y2r)), Some((y3, y3r)), Some((d, dr))) = (
+        y2.split_at_mut_checked(full),
+        y3.split_at_mut_checked(full),
+        delta
+            .get_mut(..n)
+            .and_then(|d| d.split_at_mut_checked(full)),
+    ) else {
+        return;
+    };
+    let [Some((p1, p1r)), Some((a, ar)), Some((b, br)), Some((e, er))] =
+        inputs.map(|row| row.split_at_checked(full))
+    else {
+        return;
+    };
+    let lanes = [y1, y2, y3];
+    combine_lanes::<S, LANES, RECORD, CHECK, FORMED>(c, lanes, [p1, a, b, e], d, sums);
+    let rest = [y1r, y2r, y3r];
+    combine_lanes::<S, 1, RECORD, CHECK, FORMED>(c, rest, [p1r, ar, br, er], dr, sums);
+}
+
+/// [`combine_component`] on fixed-size groups of `L` nodes (`L` divides the slice
+/// lengths): every buffer is seen as `[S; L]` so the `f32` loop has no bounds checks and
+/// vectorises. The constants choose what the loop streams: a checking iteration writes
+/// `delta`, the others never touch it, nor is the unread input of the rows read.
+#[inline(always)]
+fn combine_lanes<
+    S: Scalar,
+    const L: usize,
+    const RECORD: bool,
+    const CHECK: bool,
+    const FORMED: bool,
+>(
+    c: &Constants<S>,
+    y: [&mut [S]; 3],
+    inputs: [&[S]; 4],
+    delta: &mut [S],
+    sums: &mut Sums,
+) {
+    let [y1, y2, y3] = y;
+    let [p1, a, b, e] = inputs;
     let groups = y1
         .chunks_exact_mut(L)
         .zip(y2.chunks_exact_mut(L))
         .zip(y3.chunks_exact_mut(L))
         .zip(
             p1.chunks_exact(L)
-                .zip(p2.chunks_exact(L))
-                .zip(p3.chunks_exact(L)),
+                .zip(a.chunks_exact(L))
+                .zip(b.chunks_exact(L).zip(e.chunks_exact(L))),
         )
         .zip(delta.chunks_exact_mut(L));
-    for ((((y1, y2), y3), ((p1, p2), p3)), delta) in groups {
-        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(p2), Ok(p3), Ok(delta)) = (
+    for ((((y1, y2), y3), ((p1, a), (b, e))), delta) in groups {
+        let (Ok(y1), Ok(y2), Ok(y3), Ok(p1), Ok(a), Ok(b), Ok(e), Ok(delta)) = (
             <&mut [S; L]>::try_from(y1),
             <&mut [S; L]>::try_from(y2),
             <&mut [S; L]>::try_from(y3),
             <&[S; L]>::try_from(p1),
-            <&[S; L]>::try_from(p2),
-            <&[S; L]>::try_from(p3),
+            <&[S; L]>::try_from(a),
+            <&[S; L]>::try_from(b),
+            <&[S; L]>::try_from(e),
             <&mut [S; L]>::try_from(delta),
         ) else {
             continue; // chunks_exact yields exactly L elements
         };
         for j in 0..L {
-            let d = combine_node(
-                c,
-                [&mut y1[j], &mut y2[j], &mut y3[j]],
-                [p1[j], p2[j], p3[j]],
-            );
-            delta[j] = d;
+            // `p_own = own + w s`, `p_other = other − w s_far`, or the rows' values.
+            let (p2, p3) = if FORMED {
+                (y2[j] + a[j] * b[j], y3[j] - a[j] * e[j])
+            } else {
+                (a[j], b[j])
+            };
+            let d = combine_node(c, [&mut y1[j], &mut y2[j], &mut y3[j]], [p1[j], p2, p3]);
+            if CHECK {
+                delta[j] = d;
+            }
             if RECORD {
                 let d = d.to_f32();
                 sums.change[j % LANES] += d * d;
