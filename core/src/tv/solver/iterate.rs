@@ -106,13 +106,13 @@ impl<S: Scalar> Graph<'_, S> {
         let (dh, mut dv, mut dv_above) = (next(), next(), next());
         let (wh, wv, tau, sig) = (&*self.wh, &*self.wv, &*self.tau, &*self.sig);
         let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
-        residual_row(0, w, wh, wv, tau, sig, copies, part_mut(s_ext, 0..w));
+        residual_row(0, w, [wh, wv], [tau, sig], copies, part_mut(s_ext, 0..w));
         for y in 0..rows {
             let below = y + 1 < rows;
             if below {
                 let copies = [&*self.own_h, &*self.own_v, &*self.other_h, &*self.other_v];
                 let s_below = part_mut(s_below_ext, 0..w);
-                residual_row(y + 1, w, wh, wv, tau, sig, copies, s_below);
+                residual_row(y + 1, w, [wh, wv], [tau, sig], copies, s_below);
             }
             let r = y * w..(y + 1) * w;
             let state = [

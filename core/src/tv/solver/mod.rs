@@ -68,7 +68,6 @@ pub fn scratch_len_for(width: usize, height: usize) -> usize {
 
 /// Solves the model on `region` (a rectangle of the maps, its border edges cut) and writes
 /// the refined disparity of `core` (inside `region`) into `out`.
-#[allow(clippy::too_many_arguments)]
 pub fn solve<S: Scalar, P: Sample>(
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,

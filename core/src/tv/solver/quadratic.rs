@@ -7,18 +7,18 @@ use super::rows::{copy_row, part};
 
 /// Row `y` of the node residuals `s = σ ⊙ (Wᵀy − τ)`, each node in the quadratic part
 /// of its own colour: its own edges from `own`, its left and upper neighbours' edges from
-/// `other` (see [`Graph`](super::graph::Graph)). `copies` = `[own_h, own_v, other_h, other_v]`.
-#[allow(clippy::too_many_arguments)]
+/// `other` (see [`Graph`](super::graph::Graph)). `weights` = `[w_h, w_v]`, `nodes` =
+/// `[τ, σ]` and `copies` = `[own_h, own_v, other_h, other_v]`, each of the whole graph.
 pub(super) fn residual_row<S: Scalar>(
     y: usize,
     width: usize,
-    wh: &[S],
-    wv: &[S],
-    tau: &[S],
-    sig: &[S],
+    weights: [&[S]; 2],
+    nodes: [&[S]; 2],
     copies: [&[S]; 4],
     out: &mut [S],
 ) {
+    let [wh, wv] = weights;
+    let [tau, sig] = nodes;
     let [own_h, own_v, other_h, other_v] = copies;
     let r = y * width..(y + 1) * width;
     let (whr, wvr) = (part(wh, r.clone()), part(wv, r.clone()));

@@ -61,7 +61,7 @@ fn prox_parts(
     let copies = [&own_h[..], &own_v[..], &other_h[..], &other_v[..]];
     let mut s = vec![0.0f32; n];
     for (y, row) in s.chunks_exact_mut(w).enumerate() {
-        residual_row(y, w, wh, wv, tau, sig, copies, row);
+        residual_row(y, w, [wh, wv], [tau, sig], copies, row);
     }
     let mut out = [vec![0.0f32; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]];
     let rows = n / w;
