@@ -5,8 +5,6 @@ use crate::lightfield::{Sample, View};
 
 #[cfg(doc)]
 use super::super::params::TvParams;
-#[cfg(doc)]
-use super::output::SolveOutput;
 
 /// The per-pixel inputs of the stage: EPI disparity and confidence, row-major, top row
 /// first, `width × height` each.
@@ -55,10 +53,11 @@ impl<'a> Maps<'a> {
     }
 
     /// Adds the dual `(F_h, F_v)` per pixel (`2 × width × height`, row-major, as
-    /// [`SolveOutput::dual`] writes it) of a previous sweep over the whole map. A solve
-    /// then starts from it and holds the flows on the edges that cross its region's border
-    /// fixed at its values (an outer sweep that exchanges halos, see [`TvParams::sweeps`]):
-    /// a tile no longer sees a free border, so tiled results approach the untiled one.
+    /// [`SolveOutput::dual`](crate::tv::SolveOutput::dual) writes it) of a previous sweep
+    /// over the whole map. A solve then starts from it and holds the flows on the edges
+    /// that cross its region's border fixed at its values (an outer sweep that exchanges
+    /// halos, see [`TvParams::sweeps`]): a tile no longer sees a free border, so tiled
+    /// results approach the untiled one.
     pub fn with_dual(self, dual: &'a [f32]) -> Result<Self> {
         let needed = 2 * self.width * self.height;
         if dual.len() != needed {
