@@ -64,7 +64,6 @@ pub const MAX_SWEEPS: usize = 8;
 mod params;
 pub mod solver;
 mod tiles;
-mod weights;
 
 pub use params::{TvNorm, TvParams};
 pub use solver::{scratch_len_for, solve, Guide, Maps, Rect, SolveOutput, SolveReport};
