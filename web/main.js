@@ -12,7 +12,7 @@ const $ = (id) => document.getElementById(id);
 const state = { lightField: null, groundTruth: null, result: null, pending: null, controller: null, pool: null, module: null, name: "" };
 
 /** Stage weights of the overall progress bar. */
-const WEIGHTS = { load: 0.03, fuse: 0.04 };
+const WEIGHTS = { load: 0.03 };
 
 function setStatus(status) {
   document.body.dataset.state = status;
@@ -216,7 +216,7 @@ async function run() {
   // steps of the core's schedule in the order of `stageNames()`.
   const alignStages = ["align", "warp"];
   const order = [...alignStages, "load", ...stages.filter((s) => !alignStages.includes(s))];
-  const share = (1 - WEIGHTS.load - WEIGHTS.fuse) / stages.length;
+  const share = (1 - WEIGHTS.load) / stages.length;
   const weight = (s) => WEIGHTS[s] ?? share;
   const onProgress = (stage, fraction) => {
     const before = order.slice(0, order.indexOf(stage)).reduce((a, s) => a + weight(s), 0);

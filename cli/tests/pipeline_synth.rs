@@ -98,7 +98,6 @@ fn check_engine_against_core(s: &Scene, params: Params) -> Vec<f32> {
             "epi range",
             "epi horizontal",
             "epi vertical",
-            "fuse",
             "refine",
             "geofill",
             "median",
@@ -168,10 +167,7 @@ fn paper_pipeline_stays_selectable() {
     };
     let e = run(&s, paper, Stages::Full, 2);
     let names: Vec<&str> = e.timings.iter().map(|t| t.0).collect();
-    assert_eq!(
-        names,
-        ["epi range", "epi horizontal", "epi vertical", "fuse", "tv"]
-    );
+    assert_eq!(names, ["epi range", "epi horizontal", "epi vertical", "tv"]);
 }
 
 /// The edge-snapping median moves fattened depth edges back onto colour edges: on the

@@ -93,7 +93,7 @@ test("a synthetic scene runs end to end in workers and is accurate", async () =>
   // EPI stage alone: 5.3 %, 5.7); an all-zero map scores about 100 % and 190.
   assert.ok(report.badpix < 5, `BadPix(0.07) ${report.badpix}`);
   assert.ok(report.mse < 10, `MSE×100 ${report.mse}`);
-  for (const stage of ["epi horizontal", "fuse", "refine", "tv"]) {
+  for (const stage of ["epi horizontal", "epi vertical", "refine", "tv"]) {
     assert.ok(report.timings.some((t) => t.startsWith(stage)), `${stage}: ${report.timings.join("; ")}`);
   }
   // The convergence plot got the TV residual history.

@@ -25,7 +25,7 @@ test("the EPI stage alone is within its accuracy bound", () => {
   assert.equal(scores.invalidPct, 0);
   for (const c of result.confidence) assert.ok(c >= 0 && c <= 1);
   // Alignment (auto by default) checks the array, finds it rectified and skips the warp.
-  assert.deepEqual(result.timings.map((t) => t.stage), ["align", ...lf.stageNames().filter((s) => s.startsWith("epi") || s === "fuse")]);
+  assert.deepEqual(result.timings.map((t) => t.stage), ["align", ...lf.stageNames().filter((s) => s.startsWith("epi"))]);
   assert.equal(result.align.skipped, true);
   for (const t of result.timings) assert.ok(t.ms >= 0);
   assert.equal(result.residuals.length, 0, "no TV stage with stage: \"epi\"");
@@ -114,11 +114,11 @@ for (const [name, params] of [
 test("a run lists its steps and parts, and bad requests say what to change", () => {
   const run = new lf.Run(shape, { refineBandRows: 24, tvTile: 40 }, 2);
   const stages = Array.from({ length: run.steps }, (_, k) => run.stage(k));
-  assert.deepEqual(stages, ["epi range", "epi horizontal", "epi vertical", "fuse", "refine", "geofill", "median", "tv"]);
+  assert.deepEqual(stages, ["epi range", "epi horizontal", "epi vertical", "refine", "geofill", "median", "tv"]);
   assert.equal(run.parts(stages.indexOf("refine")), Math.ceil(SIZE / 24));
   assert.equal(run.parts(stages.indexOf("tv")), Math.ceil(SIZE / 40) ** 2);
   assert.equal(run.parts(0), 1);
-  assert.throws(() => run.stage(run.steps), /step 8 does not exist: the run has 8 steps/);
+  assert.throws(() => run.stage(run.steps), /step 7 does not exist: the run has 7 steps/);
   assert.throws(() => run.place(0, 0, new Float32Array(3)), /part 0 has 3 values but its step's parts have 2/);
   const estimator = new lf.Estimator(scene.views, shape, { refineBandRows: 24, tvTile: 40, align: "off" });
   // The refinement needs the range, which only the first step gives.
@@ -128,7 +128,7 @@ test("a run lists its steps and parts, and bad requests say what to change", () 
   assert.throws(() => estimator.setInputs(2, { disparity: new Float32Array(5) }), /map of the run/);
   assert.throws(() => estimator.setInputs(2, { range: [1] }), /\[min, max\]/);
   const sweeps = new lf.Run(shape, { median: false, refine: false }, 1);
-  assert.deepEqual(Array.from({ length: sweeps.steps }, (_, k) => sweeps.stage(k)), ["epi range", "epi horizontal", "epi vertical", "fuse", "geofill", "tv"]);
+  assert.deepEqual(Array.from({ length: sweeps.steps }, (_, k) => sweeps.stage(k)), ["epi range", "epi horizontal", "epi vertical", "geofill", "tv"]);
   assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /`tvTile` must be in 8\.\.=4096/);
   assert.throws(() => new lf.Estimator(scene.views, shape, { preset: "quick" }), /params.preset `quick` is unknown: use one of "default", "fast"/);
   run.free();

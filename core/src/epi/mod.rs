@@ -750,8 +750,6 @@ pub const STAGE_RANGE: &str = "epi range";
 pub const STAGE_HORIZONTAL: &str = "epi horizontal";
 /// See [`STAGE_RANGE`].
 pub const STAGE_VERTICAL: &str = "epi vertical";
-/// See [`STAGE_RANGE`].
-pub const STAGE_FUSE: &str = "fuse";
 
 /// The serial stage: disparity and confidence of the centre view (row-major, `f32`,
 /// `plan.pixels()` each), computed in `T`. `scratch` needs [`scratch_len`] elements.

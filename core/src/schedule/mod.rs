@@ -11,8 +11,8 @@
 //! outputs ([`PartOutput`], sized by [`Schedule::part_len`]); [`Schedule::place`] puts
 //! a part's output into the state, and [`Schedule::finish`] closes the step (swaps the
 //! map it wrote with the one it read). A part never reads what a `place` of the same
-//! step writes (the fusion reads and writes only its own rows of the current maps), so
-//! a driver may place each part as soon as it ran, or all of them after the step: the
+//! step writes, so a driver may place each part as soon as it ran, or all of them after
+//! the step: the
 //! result is the same bits for any number of threads or workers (the determinism
 //! contract, `docs/ARCHITECTURE.md`), as long as parts are placed in index order (the
 //! TV residual histories are summed in tile order).
@@ -22,8 +22,6 @@
 //! (`T`), `f32` maps and optional flag bytes. A driver gives each concurrent part its
 //! own; core's serial driver gives one of each, sized for every step
 //! ([`Schedule::max_scratch_len`]).
-
-use core::ops::Range;
 
 use crate::epi::{self, Direction, Hypotheses};
 use crate::error::{Error, Result};
@@ -52,14 +50,13 @@ pub enum Stages {
     Full,
 }
 
-/// Lines (rows or columns) per part of an EPI step and rows per part of the fusion:
-/// small enough to balance two threads on small frames and to cancel quickly, large
+/// Lines (rows or columns) per part of an EPI step: small enough to balance two threads on small frames and to cancel quickly, large
 /// enough that per-part overhead (scratch, progress) is negligible.
 pub const BAND_LINES: usize = 16;
 
-/// Most steps of a run: range, two EPI directions, fusion, refinement, refill, two
-/// medians and TV with at most [`tv::MAX_SWEEPS`] outer sweeps.
-pub const MAX_STEPS: usize = 8 + tv::MAX_SWEEPS + 1;
+/// Most steps of a run: range, two EPI directions, refinement, refill, two medians and
+/// TV with at most [`tv::MAX_SWEEPS`] outer sweeps.
+pub const MAX_STEPS: usize = 7 + tv::MAX_SWEEPS + 1;
 
 /// One step of a run: a stage over independent parts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -68,11 +65,10 @@ pub enum Step {
     Range,
     /// EPI estimates of one direction in bands of [`BAND_LINES`] lines: horizontal
     /// lines into the current maps (row-major), vertical ones into the other maps
-    /// (transposed: line after line).
+    /// (transposed: line after line); closing the vertical step fuses both directions
+    /// into the current maps, per pixel, on the placing driver's thread (a pass over
+    /// the map that costs less than sending the four maps to workers).
     Epi(Direction),
-    /// Fuses the horizontal and vertical estimates into the current maps, in bands of
-    /// [`BAND_LINES`] rows.
-    Fuse,
     /// Photometric refinement in the plan's refine bands.
     Refine,
     /// Geodesic refill of the band around depth steps: one whole-map part (its sweeps
@@ -94,7 +90,6 @@ impl Step {
             Step::Range => epi::STAGE_RANGE,
             Step::Epi(Direction::Horizontal) => epi::STAGE_HORIZONTAL,
             Step::Epi(Direction::Vertical) => epi::STAGE_VERTICAL,
-            Step::Fuse => epi::STAGE_FUSE,
             Step::Refine => refine::STAGE,
             Step::Refill => geofill::STAGE,
             Step::Median => median::STAGE,
@@ -141,7 +136,6 @@ impl Schedule {
         push(Step::Range)?;
         push(Step::Epi(Direction::Horizontal))?;
         push(Step::Epi(Direction::Vertical))?;
-        push(Step::Fuse)?;
         let params = plan.params();
         if stages == Stages::Full {
             if params.refine.enabled {
@@ -211,7 +205,6 @@ impl Schedule {
         match step {
             Step::Range | Step::Refill => 1,
             Step::Epi(direction) => direction.lines(&self.plan).div_ceil(BAND_LINES),
-            Step::Fuse => layout.height.div_ceil(BAND_LINES),
             Step::Refine => refine::band_count(&self.plan),
             Step::Median => layout
                 .height
@@ -243,7 +236,6 @@ impl Schedule {
         Ok(match step {
             Step::Range => Region::Range,
             Step::Epi(direction) => lines(BAND_LINES, direction.lines(&self.plan)),
-            Step::Fuse => lines(BAND_LINES, height),
             Step::Refine => {
                 let rows = refine::band_rows(&self.plan, index)?;
                 Region::Lines(rows.start, rows.end)
@@ -259,12 +251,6 @@ impl Schedule {
         let none = Reads::default();
         match step {
             Step::Range | Step::Epi(_) => none,
-            Step::Fuse => Reads {
-                disparity: true,
-                confidence: true,
-                other: true,
-                dual: false,
-            },
             Step::Refine | Step::Refill | Step::Median => Reads {
                 disparity: true,
                 ..none
@@ -341,7 +327,6 @@ impl Schedule {
                 kernel: epi::band_scratch_len(plan, direction),
                 ..none
             },
-            Step::Fuse => none,
             Step::Refine => ScratchLen {
                 kernel: refine::scratch_len(plan),
                 ..none
@@ -412,14 +397,6 @@ impl Schedule {
                 &mut *out.disparity,
                 &mut *out.confidence,
                 scratch.kernel,
-            ),
-            Step::Fuse => fuse_rows(
-                plan,
-                state,
-                lines,
-                &mut *out.disparity,
-                &mut *out.confidence,
-                (width, height),
             ),
             Step::Refine => {
                 let h = range()?;
@@ -541,7 +518,7 @@ impl Schedule {
                 };
                 let at = start * line_len;
                 let (d, c) = match step {
-                    Step::Epi(Direction::Horizontal) | Step::Fuse => (CURRENT_D, CURRENT_C),
+                    Step::Epi(Direction::Horizontal) => (CURRENT_D, CURRENT_C),
                     _ => (OTHER_D, OTHER_C),
                 };
                 put(state.map_mut(d), at, part.disparity)?;
@@ -558,7 +535,12 @@ impl Schedule {
     pub fn finish(&self, step: Step, state: &mut State<'_>) {
         let swap_d = |state: &mut State<'_>| state.swap_maps(CURRENT_D, OTHER_D);
         match step {
-            Step::Range | Step::Epi(_) | Step::Fuse => {}
+            Step::Range | Step::Epi(Direction::Horizontal) => {}
+            // Both directions are in: the one fusion of every driver.
+            Step::Epi(Direction::Vertical) => {
+                let layout = self.plan.layout();
+                state.fuse(self.plan.params().epi.fusion, layout.width, layout.height);
+            }
             Step::Refine => {
                 swap_d(state);
                 state.swap_maps(CURRENT_C, OTHER_C);
@@ -574,45 +556,6 @@ impl Schedule {
             }
         }
     }
-}
-
-/// Fuses rows `rows` of the horizontal estimates (the current maps) with the vertical
-/// ones (the other maps, transposed) into `disparity` / `confidence` (the rows' pixels).
-fn fuse_rows(
-    plan: &Plan,
-    state: &State<'_>,
-    rows: Range<usize>,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
-    (width, height): (usize, usize),
-) -> Result<()> {
-    let fusion = plan.params().epi.fusion;
-    let (dh, ch) = (state.disparity(), state.confidence());
-    let (dv, cv) = state.other();
-    let needed = rows.len() * width;
-    if disparity.len() != needed || confidence.len() != needed {
-        return Err(Error::OutputSize {
-            what: "the fused rows",
-            needed,
-            got: disparity.len().min(confidence.len()),
-        });
-    }
-    for (i, y) in rows.enumerate() {
-        for x in 0..width {
-            let p = y * width + x;
-            let t = x * height + y;
-            let (Some(&dh), Some(&ch), Some(&dv), Some(&cv)) =
-                (dh.get(p), ch.get(p), dv.get(t), cv.get(t))
-            else {
-                return Err(Error::SizeOverflow { what: "the fusion" });
-            };
-            let o = i * width + x;
-            if let (Some(d), Some(c)) = (disparity.get_mut(o), confidence.get_mut(o)) {
-                (*d, *c) = epi::fuse(fusion, dh, ch, dv, cv);
-            }
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

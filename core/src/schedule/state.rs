@@ -1,6 +1,6 @@
 //! The maps a run carries from step to step, in one caller-owned buffer.
 
-use crate::epi::Hypotheses;
+use crate::epi::{self, Fusion, Hypotheses};
 use crate::error::{Error, Result};
 use crate::plan::Plan;
 
@@ -168,6 +168,33 @@ impl<'a> State<'a> {
 
     pub(super) fn set_hypotheses(&mut self, hypotheses: Hypotheses) {
         self.cursor.hypotheses = Some(hypotheses);
+    }
+
+    /// Fuses the horizontal estimates (the current maps, row-major) with the vertical
+    /// ones (the other maps, transposed) into the current maps, pixel by pixel.
+    pub(super) fn fuse(&mut self, fusion: Fusion, width: usize, height: usize) {
+        let (d, c) = (self.map_range(CURRENT_D), self.map_range(CURRENT_C));
+        let (dv, cv) = (self.map_range(OTHER_D), self.map_range(OTHER_C));
+        for y in 0..height {
+            for x in 0..width {
+                let (p, t) = (y * width + x, x * height + y);
+                let at = |range: &core::ops::Range<usize>, i: usize| range.start + i;
+                let get = |i: usize| self.buffer.get(i).copied().unwrap_or(f32::NAN);
+                let (fd, fc) = epi::fuse(
+                    fusion,
+                    get(at(&d, p)),
+                    get(at(&c, p)),
+                    get(at(&dv, t)),
+                    get(at(&cv, t)),
+                );
+                if let Some(v) = self.buffer.get_mut(at(&d, p)) {
+                    *v = fd;
+                }
+                if let Some(v) = self.buffer.get_mut(at(&c, p)) {
+                    *v = fc;
+                }
+            }
+        }
     }
 
     /// The range the EPI stage tests, once the range step ran.

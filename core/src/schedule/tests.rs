@@ -183,7 +183,6 @@ fn the_steps_follow_the_enabled_stages() {
         crate::epi::STAGE_RANGE,
         crate::epi::STAGE_HORIZONTAL,
         crate::epi::STAGE_VERTICAL,
-        crate::epi::STAGE_FUSE,
     ];
     assert_eq!(stages_of(Params::default(), Stages::Epi), epi);
     let mut full = epi.to_vec();
