@@ -11,7 +11,6 @@ use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use lfdepth::align::{self, AlignMode, AlignReport};
-use lfdepth::epi;
 use lfdepth::pipeline;
 use lfdepth::schedule::{PartOutput, PartScratch, Schedule, State, Step};
 use lfdepth::{Homography, LightField, Params, Plan, Sample, Scalar, Q16};
@@ -109,7 +108,8 @@ pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     // needs neither `Send` nor `Sync`.
     let done = AtomicU64::new(0);
     let total = AtomicU64::new(1);
-    let stage = Mutex::new(epi::STAGE_RANGE);
+    // No stage until the first one starts (its name is the schedule's).
+    let stage = Mutex::new("");
     let finished = AtomicBool::new(false);
     let tracker = Tracker {
         done: &done,
@@ -131,8 +131,8 @@ pub fn estimate_in<T: Scalar, S: Sample + Sync>(
         loop {
             let end = finished.load(Ordering::Acquire);
             let now = done.load(Ordering::Relaxed);
-            let name = stage.lock().map(|s| *s).unwrap_or(epi::STAGE_RANGE);
-            if (now, name) != last {
+            let name = stage.lock().map(|s| *s).unwrap_or("");
+            if (now, name) != last && !name.is_empty() {
                 progress(name, now, total.load(Ordering::Relaxed));
                 last = (now, name);
             }
