@@ -431,15 +431,13 @@ impl Schedule {
                 },
             ),
             Step::Tv { sweep } => {
-                let maps = Maps::new(width, height, state.disparity(), state.confidence())?;
+                let (core, region) = tv::tile_rects(plan, index)?;
+                let maps =
+                    Maps::checked_in(width, height, state.disparity(), state.confidence(), region)?;
                 let maps = if sweep > 0 {
-                    maps.with_dual(state.dual())?
+                    maps.with_dual_checked_in(state.dual(), region)?
                 } else {
                     maps
-                };
-                let core = match region {
-                    Region::Rect(core) => core,
-                    _ => return Err(Error::SizeOverflow { what: "a TV tile" }),
                 };
                 out.history.fill(0.0);
                 tv::refine_tile(

@@ -27,6 +27,26 @@ impl<'a> Maps<'a> {
         disparity: &'a [f32],
         confidence: &'a [f32],
     ) -> Result<Self> {
+        let all = Rect {
+            x: 0,
+            y: 0,
+            width,
+            height,
+        };
+        Self::checked_in(width, height, disparity, confidence, all)
+    }
+
+    /// [`Maps::new`] that checks the values only inside `region` (clipped to the map):
+    /// what one tile reads. Every pixel lies in some tile's region, so a run over all
+    /// tiles refuses a non-finite value as [`Maps::new`] does, without every tile
+    /// reading the whole map.
+    pub fn checked_in(
+        width: usize,
+        height: usize,
+        disparity: &'a [f32],
+        confidence: &'a [f32],
+        region: Rect,
+    ) -> Result<Self> {
         let pixels = checked_product(&[width, height], "the disparity map")?;
         if width == 0 || height == 0 {
             return Err(Error::ViewTooSmall { width, height });
@@ -39,7 +59,7 @@ impl<'a> Maps<'a> {
                     got: map.len(),
                 });
             }
-            if map.iter().any(|v| !v.is_finite()) {
+            if !all_finite(map, width, height, region, 1) {
                 return Err(Error::NonFinite { what });
             }
         }
@@ -59,6 +79,19 @@ impl<'a> Maps<'a> {
     /// halos, see [`TvParams::sweeps`]): a tile no longer sees a free border, so tiled
     /// results approach the untiled one.
     pub fn with_dual(self, dual: &'a [f32]) -> Result<Self> {
+        let all = Rect {
+            x: 0,
+            y: 0,
+            width: self.width,
+            height: self.height,
+        };
+        self.with_dual_checked_in(dual, all)
+    }
+
+    /// [`Maps::with_dual`] that checks the dual only where a solve of `region` reads it:
+    /// the region and one pixel beyond its left and top edges (the flows of the edges
+    /// that enter it there are stored at the pixel outside).
+    pub fn with_dual_checked_in(self, dual: &'a [f32], region: Rect) -> Result<Self> {
         let needed = 2 * self.width * self.height;
         if dual.len() != needed {
             return Err(Error::OutputSize {
@@ -67,7 +100,13 @@ impl<'a> Maps<'a> {
                 got: dual.len(),
             });
         }
-        if dual.iter().any(|v| !v.is_finite()) {
+        let grown = Rect {
+            x: region.x.saturating_sub(1),
+            y: region.y.saturating_sub(1),
+            width: region.width + usize::from(region.x > 0),
+            height: region.height + usize::from(region.y > 0),
+        };
+        if !all_finite(dual, self.width, self.height, grown, 2) {
             return Err(Error::NonFinite {
                 what: "the previous sweep's dual",
             });
@@ -85,6 +124,17 @@ impl<'a> Maps<'a> {
     pub fn height(&self) -> usize {
         self.height
     }
+}
+
+/// Whether every value of `map` (`per_pixel` values per pixel of a `width × height` map,
+/// row-major) inside `region` (clipped to the map) is finite.
+fn all_finite(map: &[f32], width: usize, height: usize, region: Rect, per_pixel: usize) -> bool {
+    let columns = region.x.min(width)..(region.x + region.width).min(width);
+    (region.y.min(height)..(region.y + region.height).min(height)).all(|y| {
+        let row = (y * width + columns.start) * per_pixel..(y * width + columns.end) * per_pixel;
+        map.get(row)
+            .is_some_and(|row| row.iter().all(|v| v.is_finite()))
+    })
 }
 
 /// Where the edge weights come from.

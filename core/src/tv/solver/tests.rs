@@ -528,3 +528,51 @@ proptest::proptest! {
         }, &mut scratch);
     }
 }
+
+#[test]
+fn maps_checked_in_a_region_refuse_non_finite_values_only_there() {
+    let (w, h) = (8, 6);
+    let mut d = vec![0.5f32; w * h];
+    let c = vec![1.0f32; w * h];
+    d[5 * w + 7] = f32::NAN; // bottom-right pixel
+    let left = Rect {
+        x: 0,
+        y: 0,
+        width: 4,
+        height: 3,
+    };
+    let right = Rect {
+        x: 4,
+        y: 3,
+        width: 4,
+        height: 3,
+    };
+    assert!(Maps::checked_in(w, h, &d, &c, left).is_ok());
+    assert!(matches!(
+        Maps::checked_in(w, h, &d, &c, right),
+        Err(Error::NonFinite { what: "disparity" })
+    ));
+    assert!(matches!(
+        Maps::new(w, h, &d, &c),
+        Err(Error::NonFinite { .. })
+    ));
+    // The dual is read one pixel beyond the region's left and top edges.
+    let maps = Maps::new(w, h, &c, &c).unwrap();
+    let mut dual = vec![0.0f32; 2 * w * h];
+    dual[2 * (2 * w + 3)] = f32::INFINITY; // pixel (3, 2), just left of `beside`
+    let beside = Rect {
+        x: 4,
+        y: 0,
+        width: 4,
+        height: 3,
+    };
+    let below = Rect {
+        x: 0,
+        y: 4,
+        width: 8,
+        height: 2,
+    };
+    assert!(maps.with_dual_checked_in(&dual, beside).is_err());
+    assert!(maps.with_dual_checked_in(&dual, below).is_ok());
+    assert!(maps.with_dual(&dual).is_err());
+}
