@@ -10,12 +10,13 @@
 //! cargo run --release -p lfdepth-cli --example align_auto_margins
 //! ```
 
-use std::path::PathBuf;
-
 use lfdepth::align::{self, warp_rows_with, AlignParams, Interpolation};
 use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
-use lfdepth::{Homography, Layout, LightField};
-use lfdepth_cli::io::scene::{self, LoadOptions, Views};
+use lfdepth::{Homography, LightField};
+// The helpers the alignment tests use too.
+#[path = "../tests/align_support/mod.rs"]
+mod align_support;
+use align_support::{align_views, load};
 
 fn main() {
     for name in [
@@ -26,12 +27,12 @@ fn main() {
         let Some((data, layout)) = load(name) else {
             continue;
         };
-        let (default, _) = run(&data, layout, &AlignParams::default());
+        let (default, _) = align_views(&data, layout, &AlignParams::default());
         let model_only = AlignParams {
             rectified_rms: 0.0,
             ..AlignParams::default()
         };
-        let (strict, _) = run(&data, layout, &model_only);
+        let (strict, _) = align_views(&data, layout, &model_only);
         eprintln!(
             "{name}: rectified: skipped {} (identity RMS {:.4} px); with the model criterion alone: skipped {}",
             default.skipped, default.identity_rms, strict.skipped
@@ -57,47 +58,13 @@ fn main() {
                 })
                 .collect();
             let misaligned: Vec<u8> = warp_all(&lf, &inverses);
-            let (auto, _) = run(&misaligned, layout, &AlignParams::default());
+            let (auto, _) = align_views(&misaligned, layout, &AlignParams::default());
             eprintln!(
                 "{name}: misaligned at {scale} × (2°, 3 px, 1 %, 0.002): skipped {} (identity RMS {:.4} px, model {:.4} px, warning {:?})",
                 auto.skipped, auto.identity_rms, auto.rms, auto.warning
             );
         }
     }
-}
-
-fn data_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"))
-}
-
-/// The 8-bit views of `../shared/data/<path>` and their layout, or `None` (with a loud
-/// SKIPPED line) when they are missing.
-fn load(path: &str) -> Option<(Vec<u8>, Layout)> {
-    let loaded = scene::load(&data_dir().join(path), &LoadOptions::default());
-    match loaded {
-        Ok(scene::Scene {
-            views: Views::U8(data),
-            layout,
-            ..
-        }) => Some((data, layout)),
-        Ok(_) => {
-            eprintln!("SKIPPED: {path} has 16-bit views; this test reads 8-bit ones");
-            None
-        }
-        Err(e) => {
-            eprintln!("SKIPPED: ../shared/data not found: {path}: {e}");
-            None
-        }
-    }
-}
-
-fn run(data: &[u8], layout: Layout, params: &AlignParams) -> (align::AlignReport, Vec<Homography>) {
-    let lf = LightField::new(data, layout).unwrap();
-    let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
-    let mut scratch = vec![0.0f32; align::scratch_len(&layout, params).unwrap()];
-    let report = align::estimate(&lf, params, &mut hs, &mut scratch)
-        .unwrap_or_else(|e| panic!("{params:?}: {e}"));
-    (report, hs)
 }
 
 /// Every view of `lf` warped by `hs` (the pipeline's default interpolation).

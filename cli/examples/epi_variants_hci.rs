@@ -10,35 +10,9 @@
 #[path = "../tests/epi_support/mod.rs"]
 mod epi_support;
 
-use std::time::Instant;
-
 use lfdepth::epi::{ColorMode, DisparityRange, EpiParams, Fusion, Search};
-use lfdepth::{LightField, Params};
-use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
 const SCENES: [&str; 2] = ["stratified/backgammon", "training/cotton"];
-
-fn run(scene: &str, epi: EpiParams) -> Option<(epi_support::Scores, f64)> {
-    let data = epi_support::shared_data("the EPI variants table")?;
-    let dir = data.join("hci").join(scene);
-    let (views, layout) = epi_support::load_hci(&dir);
-    let (gt, w, h) = epi_support::read_pfm(&dir.join("gt_disp_lowres.pfm"));
-    assert_eq!((w, h), (layout.width, layout.height));
-    let lf = LightField::new(&views, layout).unwrap();
-    let options = EstimateOptions {
-        params: Params {
-            epi,
-            ..Params::default()
-        },
-        stage: Stages::Epi,
-        threads: None,
-    };
-    let start = Instant::now();
-    let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
-    let seconds = start.elapsed().as_secs_f64();
-    assert!(e.disparity.iter().all(|v| v.is_finite()));
-    Some((epi_support::score(&e.disparity, &gt, w, h), seconds))
-}
 
 fn main() {
     let only: Vec<String> = std::env::args().skip(1).collect();
@@ -256,7 +230,9 @@ fn main() {
             continue;
         }
         for scene in SCENES {
-            let Some((s, seconds)) = run(scene, epi) else {
+            let Some((s, seconds)) =
+                epi_support::epi_on_hci_scene("the EPI variants table", scene, epi)
+            else {
                 return;
             };
             println!(

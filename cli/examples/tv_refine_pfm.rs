@@ -19,10 +19,8 @@
 mod tv_support;
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-use lfdepth::tv::{self, Guide, Maps, TvNorm, TvParams};
-use lfdepth::Params;
+use lfdepth::tv::{TvNorm, TvParams};
 use lfdepth_cli::io::pfm;
 use tv_support::*;
 
@@ -53,9 +51,9 @@ fn main() {
         ));
     }
     let params = params_from_env();
-    let (out, history, report, secs) = run::<f32>(&scene, &d, &c, params);
+    let (out, history, report, secs) = refine_guided::<f32>(&scene, &d, &c, params);
     if std::env::var("TV_Q16").is_ok() {
-        let (q, _, qreport, qsecs) = run::<lfdepth::Q16>(&scene, &d, &c, params);
+        let (q, _, qreport, qsecs) = refine_guided::<lfdepth::Q16>(&scene, &d, &c, params);
         let diffs: Vec<f32> = q.iter().zip(&out).map(|(a, b)| (a - b).abs()).collect();
         let max = diffs.iter().cloned().fold(0.0, f32::max);
         let mean = diffs.iter().sum::<f32>() / diffs.len() as f32;
@@ -107,44 +105,6 @@ fn params_from_env() -> TvParams {
         halo: env_f32("TV_HALO", d.halo as f32) as usize,
         sweeps: env_f32("TV_SWEEPS", d.sweeps as f32) as usize,
     }
-}
-
-/// Refines `disparity` with confidence `confidence` guided by the scene's centre view.
-fn run<S: lfdepth::Scalar>(
-    scene: &std::path::Path,
-    disparity: &[f32],
-    confidence: &[f32],
-    params: TvParams,
-) -> (Vec<f32>, Vec<f32>, tv::RefineReport, f64) {
-    let (w, h, rgb) = read_rgb_png(&scene.join("input_Cam040.png"));
-    let (data, plan) = guide_light_field(
-        w,
-        h,
-        &rgb,
-        Params {
-            tv: params,
-            ..Params::default()
-        },
-    );
-    let lf = light_field(&data, &plan);
-    let maps = Maps::new(w, h, disparity, confidence).unwrap();
-    let guide = Guide::View(lf.center_view());
-    let mut out = vec![0.0f32; w * h];
-    let mut history = vec![0.0f32; params.max_iterations];
-    let mut scratch = vec![S::ZERO; tv::scratch_len(&plan)];
-    let t = Instant::now();
-    let report = tv::refine(
-        &plan,
-        &maps,
-        &guide,
-        &mut out,
-        &mut history,
-        &mut scratch,
-        &mut vec![0.0; tv::dual_len(&plan)],
-    )
-    .unwrap();
-    let secs = t.elapsed().as_secs_f64();
-    (out, history, report, secs)
 }
 
 fn fail(why: &str) -> ! {

@@ -8,84 +8,17 @@
 //! Run with `cargo test --release` (skipped in debug builds: too slow there).
 
 use lfdepth::align::{
-    self, gauge_fit_where, warp_rows_with, AlignMode, AlignModel, AlignParams, AlignedViews,
-    Interpolation, Reference,
+    self, gauge_fit_where, AlignMode, AlignModel, AlignParams, AlignedViews, Interpolation,
+    Reference,
 };
-use lfdepth::metrics::{self, EvalOptions, BORDER};
-use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
-use lfdepth::{pipeline, Grid, Homography, LightField, Params, Plan, Sample};
-use lfdepth_cli::engine::{self, EstimateOptions, Stages};
+use lfdepth::synth::SceneKind;
+use lfdepth::{pipeline, Homography, LightField, Params, Plan};
+use lfdepth_cli::engine::Stages;
+
+mod align_support;
+use align_support::{badpix, engine_map, epi, estimate, scenes, warp_all};
 
 const SIZE: usize = 384;
-
-fn epi<S: Sample + Sync>(data: &[S], spec: &SynthSpec) -> Vec<f32> {
-    let lf = LightField::new(data, spec.layout()).unwrap();
-    let options = EstimateOptions {
-        params: Params::default(),
-        stage: Stages::Epi,
-        threads: None,
-    };
-    engine::estimate(&lf, &options, &mut |_, _, _| {})
-        .unwrap()
-        .disparity
-}
-
-fn badpix(est: &[f32], gt: &[f32], n: usize) -> f64 {
-    let mut scratch = vec![0.0f32; metrics::scratch_len(n, n)];
-    let options = EvalOptions {
-        border: BORDER,
-        mask: None,
-    };
-    metrics::evaluate(est, gt, n, n, &options, &mut scratch)
-        .unwrap()
-        .badpix_007
-}
-
-/// Every view of `lf` warped by `hs` into `f32` (the pipeline warps only the views the
-/// stages read; the EPI stage reads only those).
-fn warp_all(lf: &LightField<'_, u8>, hs: &[Homography], how: Interpolation) -> Vec<f32> {
-    let l = lf.layout();
-    let view = l.width * l.height * l.channels;
-    let mut out = vec![0.0f32; l.validate().unwrap()];
-    for (v, chunk) in out.chunks_exact_mut(view).enumerate() {
-        warp_rows_with(lf, hs, v, 0..l.height, how, chunk).unwrap();
-        align::finish_view(l, hs, v, how, chunk).unwrap();
-    }
-    out
-}
-
-/// The scene rendered rectified and misaligned: (rectified views, misaligned views,
-/// ground truth, true homographies).
-fn scenes(scene: SceneKind, n: usize) -> (SynthSpec, Vec<u8>, Vec<u8>, Vec<f32>, Vec<Homography>) {
-    let mut spec = SynthSpec::new(scene, Grid::new(9, 9), n, n);
-    spec.seed = 11;
-    let views = spec.grid.len();
-    let mut ideal = vec![0u8; spec.layout().validate().unwrap()];
-    let mut gt = vec![0.0f32; n * n];
-    let mut hs = vec![Homography::IDENTITY; views];
-    synth::render(&spec, &mut ideal, &mut gt, &mut hs).unwrap();
-    spec.misalign = Some(Misalignment {
-        max_rotation_deg: 2.0,
-        max_translation_px: 3.0,
-        max_scale: 0.01,
-        max_perspective: 0.002,
-    });
-    let mut misaligned = vec![0u8; ideal.len()];
-    let mut truth = vec![Homography::IDENTITY; views];
-    synth::render(&spec, &mut misaligned, &mut gt, &mut truth).unwrap();
-    (spec, ideal, misaligned, gt, truth)
-}
-
-fn estimate(lf: &LightField<'_, u8>, params: AlignParams) -> (Vec<Homography>, f32) {
-    let mut est = vec![Homography::IDENTITY; lf.grid().len()];
-    let mut scratch = vec![0.0f32; align::scratch_len(lf.layout(), &params).unwrap()];
-    let report = align::estimate(lf, &params, &mut est, &mut scratch).unwrap();
-    eprintln!(
-        "  estimate {:?}/{:?}: disparity shift {:+.4} px, coherence {:.3}",
-        params.views, params.disparity_step, report.disparity_shift, report.disparity_coherence
-    );
-    (est, report.rms)
-}
 
 #[test]
 fn aligned_arrays_score_like_rectified_ones() {
@@ -274,25 +207,6 @@ fn gauge_map(g: &align::GaugeFit, b: (f32, f32)) -> Homography {
             1.0,
         ],
     }
-}
-
-/// The disparity map `engine::estimate` gives for the views `data` of `spec` with
-/// `params`, run as far as `stage`.
-fn engine_map<S: Sample + Sync>(
-    data: &[S],
-    spec: &SynthSpec,
-    params: Params,
-    stage: Stages,
-) -> Vec<f32> {
-    let lf = LightField::new(data, spec.layout()).unwrap();
-    let options = EstimateOptions {
-        params,
-        stage,
-        threads: None,
-    };
-    engine::estimate(&lf, &options, &mut |_, _, _| {})
-        .unwrap()
-        .disparity
 }
 
 /// The refinement's own output (no refill, median or TV) from the EPI map of the same

@@ -5,8 +5,6 @@
 //! must be realigned to within 0.1 px reprojection error; their EPI accuracy before and
 //! after is printed (docs/stages/align.md). Heavy: run with `cargo test --release`.
 
-use std::path::PathBuf;
-
 use lfdepth::align::{
     self, gauge_fit, reprojection_rms, warp_rows_with, AlignMode, AlignParams, Interpolation,
 };
@@ -15,32 +13,9 @@ use lfdepth::synth::{self, Misalignment, SceneKind, SynthSpec};
 use lfdepth::{Homography, Layout, LightField, Params, Sample};
 use lfdepth_cli::engine::{self, EstimateOptions, Stages};
 use lfdepth_cli::io::pfm;
-use lfdepth_cli::io::scene::{self, LoadOptions, Views};
 
-fn data_dir() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data"))
-}
-
-/// The 8-bit views of `../shared/data/<path>` and their layout, or `None` (with a loud
-/// SKIPPED line) when they are missing.
-fn load(path: &str) -> Option<(Vec<u8>, Layout)> {
-    let loaded = scene::load(&data_dir().join(path), &LoadOptions::default());
-    match loaded {
-        Ok(scene::Scene {
-            views: Views::U8(data),
-            layout,
-            ..
-        }) => Some((data, layout)),
-        Ok(_) => {
-            eprintln!("SKIPPED: {path} has 16-bit views; this test reads 8-bit ones");
-            None
-        }
-        Err(e) => {
-            eprintln!("SKIPPED: ../shared/data not found: {path}: {e}");
-            None
-        }
-    }
-}
+mod align_support;
+use align_support::{align_views, data_dir, load};
 
 fn epi<S: Sample + Sync>(data: &[S], layout: Layout, align: AlignMode) -> Vec<f32> {
     let lf = LightField::new(data, layout).unwrap();
@@ -64,15 +39,6 @@ fn scores(est: &[f32], gt: &[f32], layout: Layout) -> Scores {
         mask: None,
     };
     metrics::evaluate(est, gt, w, h, &eval, &mut scratch).unwrap()
-}
-
-fn run(data: &[u8], layout: Layout, params: &AlignParams) -> (align::AlignReport, Vec<Homography>) {
-    let lf = LightField::new(data, layout).unwrap();
-    let mut hs = vec![Homography::IDENTITY; layout.grid.len()];
-    let mut scratch = vec![0.0f32; align::scratch_len(&layout, params).unwrap()];
-    let report = align::estimate(&lf, params, &mut hs, &mut scratch)
-        .unwrap_or_else(|e| panic!("{params:?}: {e}"));
-    (report, hs)
 }
 
 /// Every view of `lf` warped by `hs` into `O` (the pipeline's default interpolation).
@@ -105,7 +71,7 @@ fn rectified_real_arrays_are_left_alone() {
         let Some((data, layout)) = load(name) else {
             continue;
         };
-        let (report, hs) = run(&data, layout, &AlignParams::default());
+        let (report, hs) = align_views(&data, layout, &AlignParams::default());
         eprintln!(
             "{name}: skipped {} identity RMS {:.4} px, warning {:?}",
             report.skipped, report.identity_rms, report.warning
@@ -129,7 +95,7 @@ fn rectified_real_arrays_are_left_alone() {
             mode: AlignMode::On,
             ..AlignParams::default()
         };
-        let (report, hs) = run(&data, layout, &on);
+        let (report, hs) = align_views(&data, layout, &on);
         let (w, h) = (layout.width, layout.height);
         let identity = vec![Homography::IDENTITY; layout.grid.len()];
         let change =
@@ -175,7 +141,7 @@ fn misaligned_hci_scenes_are_realigned() {
             mode: AlignMode::On,
             ..AlignParams::default()
         };
-        let (report, hs) = run(&misaligned, layout, &on);
+        let (report, hs) = align_views(&misaligned, layout, &on);
         let disparities = [-1.5, 0.0, 1.5];
         let identity = vec![Homography::IDENTITY; layout.grid.len()];
         let before = reprojection_rms(&identity, &truth, layout.grid, w, h, &disparities).unwrap();
@@ -185,7 +151,7 @@ fn misaligned_hci_scenes_are_realigned() {
             report.rms, report.features, report.disparity_shift, report.disparity_coherence
         );
         assert!(after < 0.1, "{scene}: {after}");
-        let (auto, _) = run(&misaligned, layout, &AlignParams::default());
+        let (auto, _) = align_views(&misaligned, layout, &AlignParams::default());
         assert!(
             !auto.skipped,
             "{scene}: auto missed the misalignment: {auto:?}"

@@ -4,49 +4,9 @@
 #[path = "tv_support.rs"]
 mod tv_support;
 
-use std::time::Instant;
-
-use lfdepth::tv::{self, Guide, Maps, TvParams};
+use lfdepth::tv::TvParams;
 use lfdepth::Params;
 use tv_support::*;
-
-/// Refines `disparity` with confidence `confidence` guided by the scene's centre view.
-fn run<S: lfdepth::Scalar>(
-    scene: &std::path::Path,
-    disparity: &[f32],
-    confidence: &[f32],
-    params: TvParams,
-) -> (Vec<f32>, Vec<f32>, tv::RefineReport, f64) {
-    let (w, h, rgb) = read_rgb_png(&scene.join("input_Cam040.png"));
-    let (data, plan) = guide_light_field(
-        w,
-        h,
-        &rgb,
-        Params {
-            tv: params,
-            ..Params::default()
-        },
-    );
-    let lf = light_field(&data, &plan);
-    let maps = Maps::new(w, h, disparity, confidence).unwrap();
-    let guide = Guide::View(lf.center_view());
-    let mut out = vec![0.0f32; w * h];
-    let mut history = vec![0.0f32; params.max_iterations];
-    let mut scratch = vec![S::ZERO; tv::scratch_len(&plan)];
-    let t = Instant::now();
-    let report = tv::refine(
-        &plan,
-        &maps,
-        &guide,
-        &mut out,
-        &mut history,
-        &mut scratch,
-        &mut vec![0.0; tv::dual_len(&plan)],
-    )
-    .unwrap();
-    let secs = t.elapsed().as_secs_f64();
-    (out, history, report, secs)
-}
 
 /// The engine's EPI stage on an HCI scene: (disparity, confidence).
 fn engine_epi(dir: &std::path::Path) -> (usize, usize, Vec<f32>, Vec<f32>) {
@@ -77,7 +37,7 @@ fn tv_improves_the_engine_epi_estimate_on_both_hci_scenes() {
         let (w, h, d, c) = engine_epi(&dir);
         let (_, _, gt) = read_pfm(&dir.join("gt_disp_lowres.pfm"));
         let params = TvParams::default();
-        let (out, history, report, secs) = run::<f32>(&dir, &d, &c, params);
+        let (out, history, report, secs) = refine_guided::<f32>(&dir, &d, &c, params);
         let before = scores(&d, &gt, w, h);
         let after = scores(&out, &gt, w, h);
         eprintln!(

@@ -6,6 +6,9 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use std::time::Instant;
+
+use lfdepth::tv::{self, Guide, Maps, TvParams};
 use lfdepth::{Grid, Layout, LightField, Params, Plan};
 
 /// The environment variable `name` as a number, or `default` when unset or unparsable
@@ -178,4 +181,43 @@ pub fn bench_scene() -> (Vec<u8>, Layout, &'static str) {
     let mut homographies = vec![lfdepth::Homography::IDENTITY; 81];
     lfdepth::synth::render(&spec, &mut views, &mut gt, &mut homographies).unwrap();
     (views, layout, "synthetic")
+}
+
+/// Refines `disparity` with confidence `confidence` guided by the scene's centre view:
+/// the refined map, the residual history, the report and the seconds it took.
+pub fn refine_guided<S: lfdepth::Scalar>(
+    scene: &std::path::Path,
+    disparity: &[f32],
+    confidence: &[f32],
+    params: TvParams,
+) -> (Vec<f32>, Vec<f32>, tv::RefineReport, f64) {
+    let (w, h, rgb) = read_rgb_png(&scene.join("input_Cam040.png"));
+    let (data, plan) = guide_light_field(
+        w,
+        h,
+        &rgb,
+        Params {
+            tv: params,
+            ..Params::default()
+        },
+    );
+    let lf = light_field(&data, &plan);
+    let maps = Maps::new(w, h, disparity, confidence).unwrap();
+    let guide = Guide::View(lf.center_view());
+    let mut out = vec![0.0f32; w * h];
+    let mut history = vec![0.0f32; params.max_iterations];
+    let mut scratch = vec![S::ZERO; tv::scratch_len(&plan)];
+    let t = Instant::now();
+    let report = tv::refine(
+        &plan,
+        &maps,
+        &guide,
+        &mut out,
+        &mut history,
+        &mut scratch,
+        &mut vec![0.0; tv::dual_len(&plan)],
+    )
+    .unwrap();
+    let secs = t.elapsed().as_secs_f64();
+    (out, history, report, secs)
 }

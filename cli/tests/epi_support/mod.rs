@@ -4,7 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
-use lfdepth::{Grid, Layout};
+use std::time::Instant;
+
+use lfdepth::epi::EpiParams;
+use lfdepth::{Grid, Layout, LightField, Params};
+use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
 /// `../shared/data`, or `None` (with a loud SKIPPED message) when it is absent.
 pub fn shared_data(what: &str) -> Option<PathBuf> {
@@ -145,4 +149,28 @@ pub fn plane_scene(grid: Grid, w: usize, h: usize, d: f32) -> (Vec<u8>, Layout) 
         }
     }
     (data, layout)
+}
+
+/// The EPI stage with `epi` on the HCI scene `scene` (under `../shared/data/hci`): its
+/// scores and seconds, or `None` (with a loud SKIPPED line naming `who`) without the data.
+pub fn epi_on_hci_scene(who: &str, scene: &str, epi: EpiParams) -> Option<(Scores, f64)> {
+    let data = shared_data(who)?;
+    let dir = data.join("hci").join(scene);
+    let (views, layout) = load_hci(&dir);
+    let (gt, w, h) = read_pfm(&dir.join("gt_disp_lowres.pfm"));
+    assert_eq!((w, h), (layout.width, layout.height));
+    let lf = LightField::new(&views, layout).unwrap();
+    let options = EstimateOptions {
+        params: Params {
+            epi,
+            ..Params::default()
+        },
+        stage: Stages::Epi,
+        threads: None,
+    };
+    let start = Instant::now();
+    let e = estimate(&lf, &options, &mut |_, _, _| {}).unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    assert!(e.disparity.iter().all(|v| v.is_finite()));
+    Some((score(&e.disparity, &gt, w, h), seconds))
 }
