@@ -97,7 +97,7 @@ impl Estimator {
 
     /// New parameters for the views this estimator holds, without copying them (the
     /// page's next estimate of the same light field): as `new Estimator(views, shape,
-    /// params)` over the same views, with the maps of `setMaps` forgotten and the
+    /// params)` over the same views, with the inputs of `setInputs` forgotten and the
     /// alignment, if it ran, kept (the views stay rectified). An estimator from
     /// `fromReadViews`, or one whose views were rectified, takes only parameters whose
     /// stages read no other view (the others are absent or not rectified); one from

@@ -181,7 +181,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
 ) -> Result<Estimate, lfdepth::Error> {
     let params = &pipeline::align_params(plan, stages);
     if params.mode == AlignMode::Off {
-        return run_stages::<T, S>(plan, lf, stages, tracker);
+        return run_schedule::<T, S>(plan, lf, stages, tracker);
     }
     let start = Instant::now();
     tracker.start(pipeline::STAGE_ALIGN, 1);
@@ -199,7 +199,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     tracker.add(1);
     let mut timings = vec![(pipeline::STAGE_ALIGN, start.elapsed())];
     let mut estimate = if report.skipped {
-        run_stages::<T, S>(plan, lf, stages, tracker)?
+        run_schedule::<T, S>(plan, lf, stages, tracker)?
     } else {
         let start = Instant::now();
         // Zeroed pages that are never written (views no stage reads) cost no memory.
@@ -208,7 +208,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
         timings.push((pipeline::STAGE_WARP, start.elapsed()));
         let rectified = LightField::new(&aligned[..], layout)?;
         let plan = &pipeline::resampled_plan(plan)?;
-        run_stages::<T, f32>(plan, &rectified, stages, tracker)?
+        run_schedule::<T, f32>(plan, &rectified, stages, tracker)?
     };
     timings.append(&mut estimate.timings);
     estimate.timings = timings;
@@ -298,7 +298,7 @@ fn warp_parallel<S: Sample + Sync>(
 /// Walks the plan's schedule: every step's parts in parallel on rayon's threads, each
 /// into its own output buffers, then placed in part order (so the result does not
 /// depend on the threads), each step timed under its stage's name.
-fn run_stages<T: Scalar, S: Sample + Sync>(
+fn run_schedule<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
