@@ -20,13 +20,7 @@ fn s(p: &Path) -> &str {
 /// and an empty image stream: a small file whose header promises a huge image, and
 /// whose size passes the check of the header against the file's length.
 fn png_header_only(width: u32, height: u32, bits: u8, padding: usize) -> Vec<u8> {
-    fn chunk(out: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
-        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
-        let mut body = kind.to_vec();
-        body.extend_from_slice(data);
-        out.extend_from_slice(&body);
-        out.extend_from_slice(&crc32fast::hash(&body).to_be_bytes());
-    }
+    let chunk = common::png_chunk;
     let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
     let mut ihdr = Vec::new();
     ihdr.extend_from_slice(&width.to_be_bytes());
