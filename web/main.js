@@ -4,7 +4,7 @@
 import { initSync, stageNames, sceneNames, evaluate, version } from "./pkg/lfdepth_wasm.js";
 import { WorkerPool } from "./pool.js";
 import { estimate, prepare, synthesize, Cancelled } from "./engine.js";
-import { filesFromDrop, arrange, decodeViews } from "./loader.js";
+import { filesFromDrop, arrange, decodeViews, parseConfig, cameraOf } from "./loader.js";
 import { parsePfm, writePfm, writePng16, writePly } from "./formats.js";
 import { drawMap, drawRgb, drawEpis, drawLegend, drawResiduals, viridis, grays, heat } from "./render.js";
 
@@ -71,16 +71,27 @@ function params() {
 
 // ---------------------------------------------------------------- loading
 
-function setLightField(lightField, groundTruth, name) {
+function setLightField(lightField, groundTruth, name, { ignored = [], camera = null, config = null } = {}) {
   state.lightField = lightField;
   // The workers' estimators belong to the previous light field: the next estimate loads
   // this one (and the previous views can be collected).
   if (state.pool) state.pool.held = null;
-  state.groundTruth = groundTruth;
+  state.groundTruth = groundTruth?.data ?? null;
+  state.camera = camera;
   state.result = null;
   state.name = name;
   const { rows, cols, width, height } = lightField.shape;
-  $("lf-info").textContent = `${name}: ${rows}×${cols} views of ${width}×${height}` + (groundTruth ? ", with ground truth" : "");
+  const info = $("lf-info");
+  const listed = ignored.length > 8 ? `${ignored.slice(0, 8).join(", ")} and ${ignored.length - 8} more` : ignored.join(", ");
+  info.textContent =
+    `${name}: ${rows}×${cols} views of ${width}×${height}` +
+    (groundTruth ? `, with ground truth${groundTruth.name ? ` ${groundTruth.name}` : ""}` : "") +
+    (camera ? `, camera from ${config}` : "") +
+    "." +
+    (ignored.length ? ` Ignored: ${listed}.` : "");
+  info.dataset.name = name;
+  info.dataset.ignored = ignored.join("/");
+  info.dataset.groundTruth = groundTruth ? groundTruth.name || "synthetic" : "";
   $("run").disabled = false;
   $("align-info").textContent = "";
   delete $("align-info").dataset.align;
@@ -141,22 +152,34 @@ async function loadFiles(files) {
 }
 
 async function decodePending(rows, cols) {
-  const { views: files, groundTruth: gtFile } = state.pending;
+  const { views: files, groundTruths, config, ignored, name } = state.pending;
   $("grid-form").hidden = true;
   setProgress(0, "decoding views");
   const lightField = await decodeViews(files, rows, cols, (f) => setProgress(100 * f, "decoding views"));
+  const { width, height } = lightField.shape;
+  // The first disparity ground truth of the views' size (HCI folders also hold a
+  // high-resolution one); a depth PFM is never among the candidates.
   let groundTruth = null;
-  if (gtFile) {
-    const pfm = parsePfm(await gtFile.arrayBuffer());
-    if (pfm.width !== lightField.shape.width || pfm.height !== lightField.shape.height) {
-      showError(`${gtFile.name} is ${pfm.width}x${pfm.height} but the views are ${lightField.shape.width}x${lightField.shape.height}: ground truth ignored`);
-    } else {
-      groundTruth = pfm.data;
+  const misfits = [];
+  for (const file of groundTruths) {
+    const pfm = parsePfm(await file.arrayBuffer());
+    if (pfm.width === width && pfm.height === height) {
+      groundTruth = { data: pfm.data, name: file.name };
+      break;
+    }
+    misfits.push(`${file.name} is ${pfm.width}x${pfm.height}`);
+  }
+  if (!groundTruth && misfits.length) showError(`${misfits.join(", ")} but the views are ${width}x${height}: ground truth ignored`);
+  let camera = null;
+  if (config) {
+    try {
+      camera = cameraOf(parseConfig(await config.text()));
+    } catch {
+      camera = null;
     }
   }
   setProgress(0, "idle");
-  const folder = files[0].webkitRelativePath?.split("/")[0] || files[0].name.replace(/\.[^.]*$/, "");
-  setLightField(lightField, groundTruth, folder);
+  setLightField(lightField, groundTruth, name, { ignored: [...ignored, ...groundTruths.filter((f) => f.name !== groundTruth?.name).map((f) => f.name)], camera, config: config?.name });
   prepareWorkers();
 }
 
@@ -169,7 +192,7 @@ async function generate(scene, size, grid, misalign = false) {
     setProgress(100 * f, `rendering ${scene}: ${Math.round(100 * f)} %`),
   );
   setProgress(0, `rendered in ${((performance.now() - start) / 1000).toFixed(2)} s`);
-  setLightField({ views, shape }, groundTruth, `synthetic “${scene}”` + (misalign ? " (misaligned)" : ""));
+  setLightField({ views, shape }, { data: groundTruth, name: "" }, `synthetic “${scene}”` + (misalign ? " (misaligned)" : ""));
   prepareWorkers();
   setStatus("idle");
 }
