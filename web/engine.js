@@ -30,7 +30,9 @@ export class Cancelled extends Error {
  * @param {{views: Uint8Array, shape: object}} lightField
  * @param {object} params  EstimateParams of the wasm package
  * @param {{onProgress: (stage: string, fraction: number) => void, signal: AbortSignal}} options
- * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], timings: {stage: string, ms: number}[], align: object | null, transport: object}>}
+ * @returns {Promise<{disparity: Float32Array, confidence: Float32Array, residuals: Float32Array, range: number[], snapshots: {label: string, disparity: Float32Array}[], timings: {stage: string, ms: number}[], align: object | null, transport: object}>}
+ *   `snapshots`: the disparity after each stage, labelled by the `Run` (the last one is
+ *   `disparity`).
  *   `align`: `{ skipped, warning, rms, identityRms }` of the alignment, null when "off".
  *   `transport`: how the views reached the workers (see `handOver`).
  */
@@ -102,6 +104,7 @@ export async function estimate(pool, lightField, params, { onProgress: report, s
       confidence: run.confidence,
       residuals: run.residuals,
       range: Array.from(run.range),
+      snapshots: run.snapshots,
       timings,
       align,
       transport,

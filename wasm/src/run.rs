@@ -2,8 +2,11 @@
 //! step over Web Workers: the page's thread holds a [`Run`] (it lists the steps, gives
 //! each step's inputs to the workers and places their outputs in part order), each
 //! worker's [`Estimator`] runs parts ([`Estimator::run_part`]). No stage is named here or
-//! in the page: the steps, their parts and their placing are the core's.
+//! in the page: the steps, their parts and their placing are the core's. The run also
+//! keeps the disparity after each stage ([`Run::snapshots`], labelled here), so the page
+//! can show what every stage did without naming one.
 
+use lfdepth::epi::Direction;
 use lfdepth::pipeline::Stages;
 use lfdepth::schedule::{Cursor, PartOutput, PartScratch, Schedule, State, StateMaps, Step};
 use lfdepth::{LightField, Plan};
@@ -19,6 +22,34 @@ pub struct Run {
     schedule: Schedule,
     buffer: Vec<f32>,
     cursor: Cursor,
+    /// The disparity after each stage so far, with its label ([`snapshot_label`]).
+    snapshots: Vec<(String, Vec<f32>)>,
+}
+
+/// The label of the disparity map a run holds once step `index` of `steps` is finished,
+/// when that map is a stage's result worth showing: the fused EPI estimate, the
+/// refined, refilled and median-filtered maps, and TV's after its last sweep; the last
+/// step's map is also marked final. `None` for the steps before the EPI fusion and
+/// between TV sweeps.
+fn snapshot_label(steps: &[Step], index: usize) -> Option<String> {
+    let step = *steps.get(index)?;
+    let next = steps.get(index + 1);
+    if next.is_some_and(|n| n.stage() == step.stage()) {
+        return None;
+    }
+    let label = match step {
+        Step::Range | Step::Epi(Direction::Horizontal) => return None,
+        Step::Epi(Direction::Vertical) => "EPI estimate",
+        Step::Refine => "refined",
+        Step::Refill => "refilled at depth steps",
+        Step::Median => "edge-snapping median",
+        Step::Tv { .. } => "TV",
+    };
+    Some(if next.is_none() {
+        format!("{label} (final)")
+    } else {
+        label.to_string()
+    })
 }
 
 fn step_at(schedule: &Schedule, step: usize) -> Result<Step, JsError> {
@@ -128,7 +159,36 @@ impl Run {
         let mut state = self.state()?;
         schedule.finish(step, &mut state);
         self.cursor = state.cursor();
+        let index = schedule.steps().iter().position(|s| *s == step);
+        if let Some(label) = index.and_then(|k| snapshot_label(schedule.steps(), k)) {
+            let disparity = self.state()?.disparity().to_vec();
+            self.snapshots.retain(|(l, _)| *l != label);
+            self.snapshots.push((label, disparity));
+        }
         Ok(())
+    }
+
+    /// The disparity after each stage finished so far, in schedule order: an array of
+    /// `{ label, disparity }` (a `Float32Array`, row-major); the last one of a whole run
+    /// is the result, its label marked "(final)". Labels name the stages for people.
+    #[wasm_bindgen(
+        getter,
+        unchecked_return_type = "{ label: string, disparity: Float32Array }[]"
+    )]
+    pub fn snapshots(&self) -> Result<js_sys::Array, JsError> {
+        let out = js_sys::Array::new();
+        for (label, disparity) in &self.snapshots {
+            let object = js_sys::Object::new();
+            for (key, value) in [
+                ("label", JsValue::from_str(label)),
+                ("disparity", array(disparity)),
+            ] {
+                js_sys::Reflect::set(&object, &key.into(), &value)
+                    .map_err(|_| message("could not build a snapshot object"))?;
+            }
+            out.push(&object);
+        }
+        Ok(out)
     }
 
     /// The disparity after the last step (row-major, top row first).
@@ -175,6 +235,7 @@ impl Run {
             schedule,
             buffer,
             cursor,
+            snapshots: Vec::new(),
         })
     }
 
@@ -322,5 +383,56 @@ impl Estimator {
         self.run
             .as_mut()
             .ok_or_else(|| message("no run: call setInputs first"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_snapshot_after_each_stage_and_the_last_marked_final() {
+        let steps = [
+            Step::Range,
+            Step::Epi(Direction::Horizontal),
+            Step::Epi(Direction::Vertical),
+            Step::Refine,
+            Step::Refill,
+            Step::Median,
+            Step::Tv { sweep: 0 },
+            Step::Tv { sweep: 1 },
+        ];
+        let labels: Vec<_> = (0..steps.len())
+            .map(|k| snapshot_label(&steps, k))
+            .collect();
+        let expected = [
+            None,
+            None,
+            Some("EPI estimate"),
+            Some("refined"),
+            Some("refilled at depth steps"),
+            Some("edge-snapping median"),
+            None,
+            Some("TV (final)"),
+        ];
+        assert_eq!(labels, expected.map(|l| l.map(String::from)));
+        // The EPI stage alone: its estimate is the result.
+        let epi = &steps[..3];
+        assert_eq!(
+            snapshot_label(epi, 2).as_deref(),
+            Some("EPI estimate (final)")
+        );
+        // The median after TV.
+        let late = [
+            Step::Epi(Direction::Vertical),
+            Step::Tv { sweep: 0 },
+            Step::Median,
+        ];
+        assert_eq!(snapshot_label(&late, 1).as_deref(), Some("TV"));
+        assert_eq!(
+            snapshot_label(&late, 2).as_deref(),
+            Some("edge-snapping median (final)")
+        );
+        assert_eq!(snapshot_label(&late, 3), None);
     }
 }
