@@ -6,7 +6,8 @@ import { WorkerPool } from "./pool.js";
 import { estimate, prepare, synthesize, Cancelled } from "./engine.js";
 import { filesFromDrop, arrange, decodeViews, parseConfig, cameraOf } from "./loader.js";
 import { parsePfm, writePfm, writePng16, writePly } from "./formats.js";
-import { drawMap, drawRgb, drawEpis, drawLegend, drawResiduals, viridis, grays, heat } from "./render.js";
+import { drawMap, drawRgb, drawEpis, drawEpiLine, drawLegend, drawResiduals, viridis, grays, heat } from "./render.js";
+import { SurfaceView } from "./surface.js";
 
 const $ = (id) => document.getElementById(id);
 const state = { lightField: null, groundTruth: null, result: null, pending: null, controller: null, pool: null, module: null, name: "" };
@@ -108,6 +109,12 @@ function setLightField(lightField, groundTruth, name, { ignored = [], camera = n
   }
   $("scores").textContent = groundTruth ? "Ground truth loaded: run the estimation." : "Drop a ground-truth PFM, or use a synthetic scene.";
   delete $("scores").dataset.badpix007;
+  $("snapshot").replaceChildren();
+  $("snapshot").disabled = true;
+  $("stage-scores").tBodies[0].replaceChildren();
+  $("err-stage").textContent = "";
+  $("surface-info").textContent = "Run the estimation to see the surface.";
+  state.surface?.show({ disparity: new Float32Array(0), rgb: new Uint8Array(0), channels: 3, width: 0, height: 0, camera: null });
   showCentre();
   showEpis((width / 2) | 0, (height / 2) | 0);
   drawResiduals($("residuals"), []);
@@ -129,7 +136,30 @@ function showCentre() {
 function showEpis(x, y) {
   state.epiAt = [x, y];
   drawEpis($("epi-h"), $("epi-v"), state.lightField, x, y);
-  $("epi-where").textContent = `row ${y}, column ${x}`;
+  let where = `row ${y}, column ${x}`;
+  const shown = shownDisparity();
+  const epi = $("epi-h");
+  if (shown) {
+    const d = shown[y * state.lightField.shape.width + x];
+    if (Number.isFinite(d)) {
+      const ends = drawEpiLine(epi, $("epi-v"), state.lightField.shape, x, y, d);
+      where += `: disparity ${d.toFixed(3)} px; the pink line is the slope it claims`;
+      epi.dataset.disparity = d;
+      epi.dataset.line = ends.join(",");
+    }
+  } else {
+    delete epi.dataset.disparity;
+    delete epi.dataset.line;
+  }
+  $("epi-where").textContent = where;
+}
+
+/** The disparity map the disparity panel shows (the chosen stage's), if any. */
+function shownDisparity() {
+  const result = state.result;
+  if (!result) return null;
+  const k = Number($("snapshot").value);
+  return result.snapshots?.[k]?.disparity ?? result.disparity;
 }
 
 async function loadFiles(files) {
@@ -312,18 +342,71 @@ function showAlignment(align) {
 }
 
 function showResult() {
-  const { disparity, confidence, residuals, range } = state.result;
+  const { disparity, confidence, residuals, snapshots } = state.result;
   const { width, height } = state.lightField.shape;
-  const [min, max] = range;
-  drawMap($("disparity"), disparity, width, height, min, max);
-  $("legend-min").textContent = min.toFixed(2);
-  $("legend-max").textContent = max.toFixed(2);
+  // The maps after each stage, labelled by the wasm side; the last is the result.
+  const select = $("snapshot");
+  select.replaceChildren(...snapshots.map((s, k) => new Option(s.label, String(k))));
+  select.value = String(snapshots.length - 1);
+  select.disabled = snapshots.length < 2;
   drawMap($("confidence"), confidence, width, height, 0, 1, grays);
   drawResiduals($("residuals"), residuals);
   $("residuals").dataset.iterations = residuals.length;
   for (const b of document.querySelectorAll("[data-download]")) b.disabled = false;
+  showSurface(disparity);
+  scoreStages();
+  showStage();
+}
+
+/** The disparity panel, the error map and the EPI line for the stage the select names. */
+function showStage() {
+  const { range, snapshots } = state.result;
+  const { width, height } = state.lightField.shape;
+  const k = Number($("snapshot").value);
+  const shown = shownDisparity();
+  const [min, max] = range;
+  drawMap($("disparity"), shown, width, height, min, max);
+  $("disparity").dataset.snapshot = snapshots[k]?.label ?? "";
+  $("legend-min").textContent = min.toFixed(2);
+  $("legend-max").textContent = max.toFixed(2);
+  if (state.scored) {
+    const error = state.scored[k];
+    drawMap($("error-map"), error.map, width, height, 0, 0.2, heat);
+    $("err-stage").textContent = snapshots[k]?.label ?? "";
+    $("error-map").dataset.snapshot = snapshots[k]?.label ?? "";
+    for (const [i, row] of [...$("stage-scores").tBodies[0].rows].entries()) row.classList.toggle("shown", i === k);
+  }
+  if (state.epiAt) showEpis(...state.epiAt);
+}
+
+/** The 3D view of the final map, when WebGL2 is there. */
+function showSurface(disparity) {
+  const info = $("surface-info");
+  if (!state.surface) {
+    try {
+      state.surface = new SurfaceView($("surface"));
+    } catch (e) {
+      info.textContent = `No 3D view: ${e.message}.`;
+      return;
+    }
+  }
+  const { width, height, channels } = state.lightField.shape;
+  const mesh = state.surface.show({ disparity, rgb: centreView(), channels, width, height, camera: state.camera });
+  $("surface").dataset.triangles = mesh.triangles;
+  $("surface").dataset.metric = mesh.metric;
+  info.textContent =
+    `${mesh.triangles} triangles, ${mesh.metric ? "metric depth from parameters.cfg (z = b·f·D / (d·D + b·f))" : "disparity as relief (no camera in a parameters.cfg)"}. ` +
+    "Drag or use the arrow keys to turn, the wheel or + and − to zoom, 0 to reset.";
+}
+
+/** Scores every stage's map against the ground truth (after the alignment's plane, as
+ * the result), fills the per-stage table and sets the result's scores. */
+function scoreStages() {
+  state.scored = null;
   const scores = $("scores");
   if (!state.groundTruth) return;
+  const { disparity, snapshots } = state.result;
+  const { width, height } = state.lightField.shape;
   const gt = state.groundTruth;
   const border = Math.min(15, Math.floor(Math.min(width, height) / 2) - 1);
   // After alignment the disparity is defined up to a plane no image can observe (the
@@ -331,10 +414,21 @@ function showResult() {
   // after removing the best-fitting plane, and say so.
   const aligned = $("align-info").dataset.align === "aligned";
   const gauge = aligned ? fitDisparityPlane(disparity, gt, width, height, border) : null;
-  const scored = gauge ? disparity.map((d, i) => d - gauge.at(i % width, Math.floor(i / width))) : disparity;
-  const error = scored.map((d, i) => Math.abs(d - gt[i]));
-  drawMap($("error-map"), error, width, height, 0, 0.2, heat);
-  const s = evaluate(scored, gt, width, height, { border });
+  const score = (map) => {
+    const scored = gauge ? map.map((d, i) => d - gauge.at(i % width, Math.floor(i / width))) : map;
+    return { scored, map: scored.map((d, i) => Math.abs(d - gt[i])), s: evaluate(scored, gt, width, height, { border }) };
+  };
+  state.scored = snapshots.map((snapshot) => score(snapshot.disparity));
+  const tbody = $("stage-scores").tBodies[0];
+  tbody.replaceChildren();
+  state.scored.forEach(({ s }, k) => {
+    const row = tbody.insertRow();
+    row.insertCell().textContent = snapshots[k].label;
+    row.insertCell().textContent = `${s.badpix007.toFixed(2)} %`;
+    row.insertCell().textContent = s.mse100.toFixed(3);
+    row.dataset.badpix007 = s.badpix007;
+  });
+  const { s } = score(disparity);
   scores.textContent = `BadPix(0.07) ${s.badpix007.toFixed(2)} %, BadPix(0.03) ${s.badpix003.toFixed(2)} %, ` +
     `MSE×100 ${s.mse100.toFixed(3)} (border ${border} px; white = exact, dark red ≥ 0.2 px)` +
     (gauge ? `, after removing the disparity plane alignment cannot observe (offset ${gauge.offset.toFixed(3)} px at the centre)` : "");
@@ -450,6 +544,17 @@ function wire() {
     const y = Math.min(height - 1, Math.floor(((e.clientY - rect.top) / rect.height) * height));
     showEpis(x, y);
   });
+  // The keyboard moves the picked pixel: arrows by one pixel, with Shift by ten.
+  $("centre").addEventListener("keydown", (e) => {
+    const move = { ArrowLeft: [-1, 0], ArrowRight: [1, 0], ArrowUp: [0, -1], ArrowDown: [0, 1] }[e.key];
+    if (!move || !state.lightField || !state.epiAt) return;
+    e.preventDefault();
+    const { width, height } = state.lightField.shape;
+    const step = e.shiftKey ? 10 : 1;
+    const [x, y] = state.epiAt;
+    showEpis(Math.max(0, Math.min(width - 1, x + step * move[0])), Math.max(0, Math.min(height - 1, y + step * move[1])));
+  });
+  $("snapshot").addEventListener("change", () => state.result && showStage());
 }
 
 async function main() {

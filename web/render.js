@@ -162,3 +162,35 @@ export function drawResiduals(canvas, residuals) {
   residuals.forEach((r, i) => (i ? ctx.lineTo(X(i), Y(r)) : ctx.moveTo(X(i), Y(r))));
   ctx.stroke();
 }
+
+/**
+ * On the EPIs of `drawEpis` (same `stretch`), the line a disparity `d` at pixel (`x`,
+ * `y`) claims: the point the centre view sees there lies at `x − d·(c − c0)` in the view
+ * of column `c` (and at `y − d·(r − r0)` in the view of row `r`; HCI's sign), so on the
+ * EPIs it is a straight line of slope `−d` pixels per view through the picked pixel.
+ * Returns where the line crosses the first and the last view on the horizontal EPI.
+ */
+export function drawEpiLine(hCanvas, vCanvas, shape, x, y, d, stretch = 6) {
+  const { rows, cols } = shape;
+  const r0 = (rows - 1) >> 1, c0 = (cols - 1) >> 1;
+  // At canvas row `t` the EPI shows view `k = t / stretch − ½` (its rows' middle).
+  const line = (canvas, at, count, centre) => {
+    const ctx = canvas.getContext("2d");
+    const xAt = (k) => at - d * (k - centre) + 0.5;
+    ctx.save();
+    ctx.lineWidth = 1.5;
+    ctx.strokeStyle = "#ff2d95";
+    ctx.beginPath();
+    ctx.moveTo(xAt(-0.5), 0);
+    ctx.lineTo(xAt(count - 0.5), count * stretch);
+    ctx.stroke();
+    // The picked pixel itself, on the centre view's EPI rows.
+    ctx.strokeStyle = "#ffffff";
+    ctx.lineWidth = 1;
+    ctx.strokeRect(at - 2, centre * stretch - 1, 5, stretch + 2);
+    ctx.restore();
+    return [xAt(0) - 0.5, xAt(count - 1) - 0.5];
+  };
+  line(vCanvas, y, rows, r0);
+  return line(hCanvas, x, cols, c0);
+}

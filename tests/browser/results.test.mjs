@@ -51,7 +51,8 @@ async function open(query = "", viewport) {
   if (viewport) await page.setViewportSize(viewport);
   page.on("pageerror", (e) => consoleErrors.push(e.message));
   await page.goto(`${server.origin}/${query}`);
-  await page.waitForFunction(() => document.body.dataset.state === "idle");
+  // Started (a query with `run` goes on to estimate at once).
+  await page.waitForFunction(() => !["starting", undefined].includes(document.body.dataset.state), null, { timeout: 60_000 });
   return page;
 }
 
@@ -74,17 +75,25 @@ function pfm(width, height, f) {
 function hciFolder(scene, size) {
   const dataset = join(scratch, "dataset");
   const dir = join(dataset, scene);
-  execFileSync(cli, ["synth", "--scene", scene, "--grid", "5x5", "--size", String(size), "--seed", "3", "--out", dir], { stdio: "pipe" });
+  execFileSync(cli, ["synth", "--scene", scene, "--grid", "5x5", "--size", String(size), "--seed", "3", "--disparity-range=-0.6..0.6", "--out", dir], { stdio: "pipe" });
   writeFileSync(join(dir, "gt_depth_lowres.pfm"), pfm(size, size, (x, y) => 4 + 0.001 * (x + y)));
   writeFileSync(join(dir, "gt_disp_highres.pfm"), pfm(2 * size, 2 * size, () => 0));
   for (const name of ["valid_mask.png", "mask_boundary.png", "object_ids_lowres.png"]) copyFileSync(join(dir, "input_Cam000.png"), join(dir, name));
   writeFileSync(join(dir, "notes.txt"), "not a view\n");
+  // The camera of an HCI scene (cotton's, its sensor scaled to these views: the same
+  // focal length in pixels), for a metric 3D view.
+  writeFileSync(
+    join(dir, "parameters.cfg"),
+    `[intrinsics]\nfocal_length_mm = 100.0\nimage_resolution_x_px = ${size}\nimage_resolution_y_px = ${size}\nsensor_size_mm = ${(35 * size) / 512}\n\n` +
+      "[extrinsics]\nnum_cams_x = 5\nnum_cams_y = 5\nbaseline_mm = 25.0\nfocus_distance_m = 4.25\n\n[meta]\ndisp_min = -1.5\ndisp_max = 1.5\n",
+  );
   return { dataset, dir };
 }
 
 test("a picked HCI folder: disparity ground truth by name, other files named as ignored, the folder's name, the CLI's score", async () => {
   assert.ok(existsSync(cli), `${cli} is missing: cargo build --release -p lfdepth-cli (or set LFDEPTH_BIN)`);
   const { dataset, dir } = hciFolder("occlusion", 96);
+  mkdirSync(artifacts, { recursive: true });
   // The CLI's score of its own estimate of the same folder (same default parameters).
   const expected = JSON.parse(execFileSync(cli, ["eval", "--dataset", dataset, "--json", "--threads", "1"], { encoding: "utf8", stdio: ["ignore", "pipe", "pipe"] })).scenes[0];
   const page = await open("?workers=2");
@@ -96,7 +105,7 @@ test("a picked HCI folder: disparity ground truth by name, other files named as 
   assert.equal(info.name, "occlusion");
   assert.equal(info.groundTruth, "gt_disp_lowres.pfm");
   assert.deepEqual(info.ignored.split("/").sort(), ["gt_depth_lowres.pfm", "gt_disp_highres.pfm", "mask_boundary.png", "notes.txt", "object_ids_lowres.png", "valid_mask.png"]);
-  assert.match(info.text, /^occlusion: 5×5 views of 96×96, with ground truth gt_disp_lowres\.pfm\. Ignored: .*gt_depth_lowres\.pfm/);
+  assert.match(info.text, /^occlusion: 5×5 views of 96×96, with ground truth gt_disp_lowres\.pfm, camera from parameters\.cfg\. Ignored: .*gt_depth_lowres\.pfm/);
   await page.click("#run");
   await settled(page);
   const scores = await page.evaluate(() => ({
@@ -112,6 +121,191 @@ test("a picked HCI folder: disparity ground truth by name, other files named as 
   assert.ok(Math.abs(scores.badpix007 - expected.badpix007) < 1e-9, `page ${scores.badpix007}, CLI ${expected.badpix007}`);
   assert.ok(Math.abs(scores.mse100 - expected.mse100) < 1e-6 * Math.max(1, expected.mse100), `page ${scores.mse100}, CLI ${expected.mse100}`);
   assert.ok(scores.badpix007 < 30, scores.text);
+  // parameters.cfg gives the camera: the 3D view is metric.
+  assert.equal(await page.getAttribute("#surface", "data-metric"), "true");
+  assert.match(info.text, /camera from parameters\.cfg/);
+  await page.locator("#surface").screenshot({ path: join(artifacts, "surface-metric.png") });
+  await page.close();
+});
+
+/** Pixels of a canvas (WebGL ones keep their drawing buffer) as RGBA bytes. */
+const pixels = (page, id) =>
+  page.evaluate((id) => {
+    const source = document.getElementById(id);
+    const copy = new OffscreenCanvas(source.width, source.height);
+    const ctx = copy.getContext("2d");
+    ctx.drawImage(source, 0, 0);
+    return Array.from(ctx.getImageData(0, 0, source.width, source.height).data);
+  }, id);
+
+/** Share of pixels whose colour differs between two RGBA arrays by more than 8 levels. */
+function changed(a, b) {
+  let n = 0;
+  for (let p = 0; p < a.length; p += 4) if (Math.abs(a[p] - b[p]) + Math.abs(a[p + 1] - b[p + 1]) + Math.abs(a[p + 2] - b[p + 2]) > 8) n++;
+  return n / (a.length / 4);
+}
+
+test("the maps after each stage, their errors, the EPI slope line and the 3D view", async () => {
+  const page = await open("?scene=occlusion&size=128&grid=9&workers=2&run");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done", await page.textContent("#error"));
+
+  // Stages: the labels come from the wasm Run; the last map is the result.
+  const labels = await page.$$eval("#snapshot option", (options) => options.map((o) => o.textContent));
+  console.log("maps after:", labels.join(" | "));
+  assert.deepEqual(labels, ["EPI estimate", "refined", "refilled at depth steps", "edge-snapping median", "TV (final)"]);
+  assert.equal(await page.inputValue("#snapshot"), String(labels.length - 1));
+  const rows = await page.$$eval("#stage-scores tbody tr", (trs) => trs.map((tr) => ({ text: tr.textContent, badpix: Number(tr.dataset.badpix007) })));
+  console.log("per stage:", rows.map((r) => r.text).join("; "));
+  assert.equal(rows.length, labels.length);
+  assert.equal(rows.at(-1).badpix, Number(await page.getAttribute("#scores", "data-badpix007")));
+  // The stages improve on the EPI estimate on this scene.
+  assert.ok(rows.at(-1).badpix < rows[0].badpix, JSON.stringify(rows));
+  // The EPI snapshot is the EPI stage's result itself (bit for bit the estimator run
+  // with stage "epi"), and the last is the estimate.
+  const exact = await page.evaluate(async () => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { WorkerPool } = await import("./pool.js");
+    const engine = await import("./engine.js");
+    const module = await WebAssembly.compileStreaming(fetch("./pkg/lfdepth_wasm_bg.wasm"));
+    lf.initSync({ module });
+    const spec = { scene: "occlusion", rows: 5, cols: 5, width: 64, height: 64, channels: 3, seed: 5 };
+    const views = lf.synthesize(spec).views;
+    const shape = { rows: 5, cols: 5, width: 64, height: 64, channels: 3 };
+    const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
+    const pool = await WorkerPool.create(module, 2);
+    const r = await engine.estimate(pool, { views, shape }, {}, { onProgress: () => {}, signal: new AbortController().signal });
+    pool.terminate();
+    const epi = new lf.Estimator(views, shape, { stage: "epi" }).estimate().disparity;
+    const full = new lf.Estimator(views, shape, {}).estimate().disparity;
+    return { epi: same(r.snapshots[0].disparity, epi), last: same(r.snapshots.at(-1).disparity, full), result: same(r.disparity, full), differ: !same(epi, full) };
+  });
+  assert.deepEqual(exact, { epi: true, last: true, result: true, differ: true });
+  // Choosing a stage redraws the disparity and the error map.
+  const [finalMap, finalError] = [await pixels(page, "disparity"), await pixels(page, "error-map")];
+  await page.selectOption("#snapshot", "0");
+  assert.equal(await page.getAttribute("#disparity", "data-snapshot"), "EPI estimate");
+  assert.equal(await page.textContent("#err-stage"), "EPI estimate");
+  assert.ok(changed(finalMap, await pixels(page, "disparity")) > 0.01);
+  assert.ok(changed(finalError, await pixels(page, "error-map")) > 0.01);
+  mkdirSync(artifacts, { recursive: true });
+  await page.locator("#disparity").locator("..").screenshot({ path: join(artifacts, "stage-epi.png") });
+  await page.locator("#error-map").locator("..").screenshot({ path: join(artifacts, "stage-epi-error.png") });
+  await page.selectOption("#snapshot", String(labels.length - 1));
+
+  // The EPI line: through the picked pixel with the slope of its estimated disparity.
+  const epiBefore = await pixels(page, "epi-h");
+  const box = await page.locator("#centre").boundingBox();
+  await page.locator("#centre").click({ position: { x: box.width * 0.3, y: box.height * 0.5 } });
+  const line = await page.evaluate(() => ({ ...document.getElementById("epi-h").dataset, where: document.getElementById("epi-where").textContent }));
+  console.log("EPI:", line.where, line.line);
+  const picked = /^row (\d+), column (\d+): disparity -?\d+\.\d{3} px/.exec(line.where);
+  assert.ok(picked, line.where);
+  const x = Number(picked[2]), d = Number(line.disparity);
+  assert.ok(Math.abs(x - 0.3 * 128) <= 1 && Math.abs(Number(picked[1]) - 64) <= 1, line.where);
+  const [first, last] = line.line.split(",").map(Number);
+  // View 0 of 9 lies 4 columns left of the centre: the point is at x + 4d there.
+  assert.ok(Math.abs(first - (x + 4 * d)) < 1e-6 && Math.abs(last - (x - 4 * d)) < 1e-6, `${line.line} for d = ${d}`);
+  const epiAfter = await pixels(page, "epi-h");
+  assert.ok(changed(epiBefore, epiAfter) > 0, "the line is drawn");
+  // The keyboard moves the pixel too.
+  await page.focus("#centre");
+  await page.keyboard.press("ArrowRight");
+  assert.match(await page.textContent("#epi-where"), new RegExp(`column ${x + 1}:`));
+  await page.locator("#epi-h").locator("..").screenshot({ path: join(artifacts, "epi-line.png") });
+
+  // The 3D view: drawn, and turned by a drag and by the keyboard.
+  const surface = page.locator("#surface");
+  await surface.scrollIntoViewIfNeeded();
+  assert.ok(Number(await surface.getAttribute("data-triangles")) > 10_000);
+  await page.waitForFunction(() => Number(document.getElementById("surface").dataset.drawn) > 0);
+  const background = (rgba) => {
+    let n = 0;
+    for (let p = 0; p < rgba.length; p += 4) if (Math.abs(rgba[p] - 236) + Math.abs(rgba[p + 1] - 239) + Math.abs(rgba[p + 2] - 243) < 6) n++;
+    return n / (rgba.length / 4);
+  };
+  const front = await pixels(page, "surface");
+  console.log(`3D view: ${(100 * (1 - background(front))).toFixed(1)} % of the canvas covered`);
+  assert.ok(background(front) < 0.8, "the surface covers the canvas");
+  await surface.screenshot({ path: join(artifacts, "surface-front.png") });
+  const s = await surface.boundingBox();
+  const drawn = Number(await surface.getAttribute("data-drawn"));
+  await page.mouse.move(s.x + s.width / 2, s.y + s.height / 2);
+  await page.mouse.down();
+  for (let k = 1; k <= 10; k++) await page.mouse.move(s.x + s.width / 2 + 12 * k, s.y + s.height / 2 + 4 * k);
+  await page.mouse.up();
+  await page.waitForFunction((n) => Number(document.getElementById("surface").dataset.drawn) > n, drawn);
+  const turned = await pixels(page, "surface");
+  console.log(`3D view: ${(100 * changed(front, turned)).toFixed(1)} % of the pixels changed after the drag`);
+  assert.ok(changed(front, turned) > 0.05);
+  assert.ok(background(turned) < 0.95);
+  await surface.screenshot({ path: join(artifacts, "surface-turned.png") });
+  await page.focus("#surface");
+  await page.keyboard.press("0");
+  await page.waitForTimeout(200);
+  assert.ok(changed(front, await pixels(page, "surface")) < 0.01, "0 resets the view");
+  await page.keyboard.press("ArrowLeft");
+  await page.keyboard.press("-");
+  await page.waitForTimeout(200);
+  assert.ok(changed(front, await pixels(page, "surface")) > 0.05, "the keys turn and zoom");
+  await page.screenshot({ path: join(artifacts, "results.png"), fullPage: true });
+  await page.close();
+});
+
+test("every control is reached with Tab and shows its focus", async () => {
+  const page = await open("?scene=planes&size=128&grid=5&workers=1&run");
+  await settled(page);
+  const reached = [];
+  for (let k = 0; k < 60; k++) {
+    await page.keyboard.press("Tab");
+    const focus = await page.evaluate(() => {
+      const el = document.activeElement;
+      const style = getComputedStyle(el);
+      return { id: el.id || el.getAttribute("name") || el.tagName, outline: style.outlineStyle, width: parseFloat(style.outlineWidth) };
+    });
+    if (focus.id === "BODY") break;
+    reached.push(focus);
+  }
+  console.log("Tab order:", reached.map((f) => f.id).join(" "));
+  const ids = reached.map((f) => f.id);
+  for (const id of ["drop", "pick-files", "pick-folder", "synth-scene", "synth-go", "preset", "workers", "run", "centre", "snapshot", "surface"]) assert.ok(ids.includes(id), `${id} is not reached by Tab`);
+  // A visible outline on every focused control (the hidden file inputs show theirs on
+  // their label).
+  for (const f of reached.filter((f) => !f.id.startsWith("pick-"))) assert.ok(f.outline !== "none" && f.width >= 2, JSON.stringify(f));
+  const label = await page.evaluate(() => {
+    document.getElementById("pick-folder").focus({ focusVisible: true });
+    return getComputedStyle(document.getElementById("pick-folder").parentElement).outlineStyle;
+  });
+  assert.notEqual(label, "none");
+  await page.focus("#run");
+  await page.keyboard.press("Enter");
+  await page.waitForFunction(() => document.body.dataset.state === "running" || document.body.dataset.state === "done");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done");
+  await page.close();
+});
+
+test("usable on a 390 px wide phone screen", async () => {
+  const page = await open("?scene=occlusion&size=128&grid=5&workers=1&run", { width: 390, height: 844 });
+  await settled(page);
+  const layout = await page.evaluate(() => ({
+    scroll: document.documentElement.scrollWidth,
+    // Every control and canvas lies within the screen's width.
+    outside: [...document.querySelectorAll("button, select, input:not([type=file]), canvas, .button")]
+      .filter((el) => el.offsetParent !== null)
+      .map((el) => ({ id: el.id || el.textContent.trim().slice(0, 20), right: el.getBoundingClientRect().right }))
+      .filter((r) => r.right > 390.5),
+  }));
+  assert.ok(layout.scroll <= 390, `the page scrolls sideways: ${layout.scroll} px wide`);
+  assert.deepEqual(layout.outside, []);
+  mkdirSync(artifacts, { recursive: true });
+  await page.screenshot({ path: join(artifacts, "phone-390.png"), fullPage: true });
+  // What the phone shows at once: the top, and the results further down.
+  await page.screenshot({ path: join(artifacts, "phone-390-top.png") });
+  await page.locator("#disparity").scrollIntoViewIfNeeded();
+  await page.screenshot({ path: join(artifacts, "phone-390-disparity.png") });
+  await page.locator("#surface").scrollIntoViewIfNeeded();
+  await page.screenshot({ path: join(artifacts, "phone-390-surface.png") });
   await page.close();
 });
 
