@@ -30,7 +30,8 @@ before(async () => {
   context = await chromium.launchPersistentContext(profile, {
     executablePath,
     headless: true,
-    // WebGL2 without a GPU: ANGLE on SwiftShader, Chromium's software renderer.
+    // WebGL2 without a GPU: ANGLE on SwiftShader, Chromium's software renderer (Debian's
+    // chromium falls back to it by itself; newer builds want it asked for explicitly).
     args: ["--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-background-networking", "--disable-component-update", "--no-first-run", "--disable-sync", "--disable-quic"],
     viewport: { width: 1280, height: 1000 },
   });
