@@ -115,7 +115,6 @@ function setLightField(lightField, groundTruth, name, { ignored = [], camera = n
   $("err-stage").textContent = "";
   $("surface-info").textContent = "Run the estimation to see the surface.";
   state.surface?.show({ disparity: new Float32Array(0), rgb: new Uint8Array(0), channels: 3, width: 0, height: 0, camera: null });
-  showCentre();
   showEpis((width / 2) | 0, (height / 2) | 0);
   drawResiduals($("residuals"), []);
 }
@@ -135,6 +134,20 @@ function showCentre() {
 
 function showEpis(x, y) {
   state.epiAt = [x, y];
+  // The picked pixel, marked on the centre view.
+  showCentre();
+  const centre = $("centre").getContext("2d");
+  const arm = Math.max(3, Math.round(state.lightField.shape.width / 40));
+  centre.save();
+  centre.strokeStyle = "#ff2d95";
+  centre.lineWidth = Math.max(1, arm / 4);
+  centre.beginPath();
+  for (const [dx, dy] of [[-1, 0], [1, 0], [0, -1], [0, 1]]) {
+    centre.moveTo(x + 0.5 + dx * 2, y + 0.5 + dy * 2);
+    centre.lineTo(x + 0.5 + dx * (arm + 2), y + 0.5 + dy * (arm + 2));
+  }
+  centre.stroke();
+  centre.restore();
   drawEpis($("epi-h"), $("epi-v"), state.lightField, x, y);
   let where = `row ${y}, column ${x}`;
   const shown = shownDisparity();
@@ -494,7 +507,13 @@ async function download(kind) {
   const base = state.name.replace(/[^\w.-]+/g, "_").replace(/^_+|_+$/g, "") || "lightfield";
   if (kind === "pfm") save(writePfm(disparity, width, height), `${base}_disparity.pfm`);
   if (kind === "png16") save(await writePng16(disparity, width, height, range[0], range[1]), `${base}_disparity16.png`);
-  if (kind === "png") $("disparity").toBlob((b) => save(b, `${base}_disparity.png`), "image/png");
+  if (kind === "png") {
+    // The map the panel shows: a stage's before the last is named after it.
+    const k = Number($("snapshot").value);
+    const snapshots = state.result.snapshots;
+    const stage = k < snapshots.length - 1 ? `_${snapshots[k].label.replace(/[^\w]+/g, "_").replace(/_+$/, "")}` : "";
+    $("disparity").toBlob((b) => save(b, `${base}_disparity${stage}.png`), "image/png");
+  }
   if (kind === "ply") {
     const centre = centreView();
     const rgb = channels === 3 ? centre : Uint8Array.from({ length: width * height * 3 }, (_, i) => centre[Math.floor(i / 3) * channels + (channels > 2 ? i % 3 : 0)]);
@@ -511,6 +530,13 @@ function wire() {
     drop.classList.add("over");
   });
   drop.addEventListener("dragleave", () => drop.classList.remove("over"));
+  // From the keyboard the drop zone opens the file picker.
+  drop.addEventListener("keydown", (e) => {
+    if (e.target === drop && (e.key === "Enter" || e.key === " ")) {
+      e.preventDefault();
+      $("pick-files").click();
+    }
+  });
   drop.addEventListener("drop", async (e) => {
     e.preventDefault();
     drop.classList.remove("over");

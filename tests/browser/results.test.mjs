@@ -229,8 +229,9 @@ test("the maps after each stage, their errors, the EPI slope line and the 3D vie
   console.log(`3D view: ${(100 * (1 - background(front))).toFixed(1)} % of the canvas covered`);
   assert.ok(background(front) < 0.8, "the surface covers the canvas");
   await surface.screenshot({ path: join(artifacts, "surface-front.png") });
-  const s = await surface.boundingBox();
   const drawn = Number(await surface.getAttribute("data-drawn"));
+  await surface.hover();
+  const s = await surface.boundingBox();
   await page.mouse.move(s.x + s.width / 2, s.y + s.height / 2);
   await page.mouse.down();
   for (let k = 1; k <= 10; k++) await page.mouse.move(s.x + s.width / 2 + 12 * k, s.y + s.height / 2 + 4 * k);
@@ -241,13 +242,17 @@ test("the maps after each stage, their errors, the EPI slope line and the 3D vie
   assert.ok(changed(front, turned) > 0.05);
   assert.ok(background(turned) < 0.95);
   await surface.screenshot({ path: join(artifacts, "surface-turned.png") });
+  // Each key redraws at the next frame: wait for the frame, then compare.
+  const press = async (key) => {
+    const before = Number(await surface.getAttribute("data-drawn"));
+    await page.keyboard.press(key);
+    await page.waitForFunction((n) => Number(document.getElementById("surface").dataset.drawn) > n, before);
+  };
   await page.focus("#surface");
-  await page.keyboard.press("0");
-  await page.waitForTimeout(200);
+  await press("0");
   assert.ok(changed(front, await pixels(page, "surface")) < 0.01, "0 resets the view");
-  await page.keyboard.press("ArrowLeft");
-  await page.keyboard.press("-");
-  await page.waitForTimeout(200);
+  await press("ArrowLeft");
+  await press("-");
   assert.ok(changed(front, await pixels(page, "surface")) > 0.05, "the keys turn and zoom");
   await page.screenshot({ path: join(artifacts, "results.png"), fullPage: true });
   await page.close();
@@ -278,6 +283,20 @@ test("every control is reached with Tab and shows its focus", async () => {
     return getComputedStyle(document.getElementById("pick-folder").parentElement).outlineStyle;
   });
   assert.notEqual(label, "none");
+  // Enter on the drop zone opens the file picker (clicks its input).
+  await page.evaluate(() => document.getElementById("pick-files").addEventListener("click", (e) => {
+    e.preventDefault();
+    window.__picked = true;
+  }));
+  await page.focus("#drop");
+  await page.keyboard.press("Enter");
+  assert.equal(await page.evaluate(() => window.__picked), true);
+  // What a keyboard user sees: the focused control ringed.
+  await page.focus("#centre");
+  await page.keyboard.press("Shift+Tab");
+  await page.keyboard.press("Tab");
+  mkdirSync(artifacts, { recursive: true });
+  await page.locator("#centre").locator("..").screenshot({ path: join(artifacts, "focus-centre.png") });
   await page.focus("#run");
   await page.keyboard.press("Enter");
   await page.waitForFunction(() => document.body.dataset.state === "running" || document.body.dataset.state === "done");

@@ -1,6 +1,6 @@
-// The page's 3D view geometry (web/surface.js, web/loader.js), without a browser: the
-// camera of a parameters.cfg, metric depth by the HCI benchmark's formula, the mesh's
-// shape and the triangles left out across depth steps.
+// The page's 3D view geometry (web/surface.js), without a browser: the camera of a
+// parameters.cfg (web/loader.js), metric depth by the HCI benchmark's formula, the
+// mesh's shape and the triangles left out across depth steps.
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { join } from "node:path";
@@ -8,7 +8,7 @@ import { pathToFileURL } from "node:url";
 import { root } from "./pkg.mjs";
 
 const { depthMetres, surfaceMesh } = await import(pathToFileURL(join(root, "web/surface.js")).href);
-const { parseConfig, cameraOf, arrange, lightFieldName } = await import(pathToFileURL(join(root, "web/loader.js")).href);
+const { parseConfig, cameraOf } = await import(pathToFileURL(join(root, "web/loader.js")).href);
 
 const COTTON = `[intrinsics]
 focal_length_mm = 100.0
@@ -62,23 +62,4 @@ test("the mesh: a plane is flat, a depth step is not bridged", () => {
   assert.equal(mesh.metric, false);
   // Nearer is towards the viewer (+z).
   assert.ok(mesh.positions[2] > mesh.positions[3 * (width - 1) + 2]);
-});
-
-test("views, ground truth and ignored files of an HCI folder; its name", () => {
-  const file = (name, path) => ({ name, webkitRelativePath: path ?? `scenes/cotton/${name}` });
-  const views = Array.from({ length: 9 }, (_, i) => file(`input_Cam${String(i).padStart(3, "0")}.png`));
-  const others = ["gt_depth_lowres.pfm", "gt_disp_highres.pfm", "gt_disp_lowres.pfm", "valid_mask.png", "object_ids_lowres.png", "parameters.cfg"].map((n) => file(n));
-  const arranged = arrange([...others, ...views]);
-  assert.equal(arranged.views.length, 9);
-  assert.deepEqual([arranged.rows, arranged.cols, arranged.known], [3, 3, true]);
-  assert.deepEqual(arranged.groundTruths.map((f) => f.name), ["gt_disp_lowres.pfm", "gt_disp_highres.pfm"]);
-  assert.equal(arranged.config.name, "parameters.cfg");
-  assert.deepEqual(arranged.ignored, ["gt_depth_lowres.pfm", "object_ids_lowres.png", "valid_mask.png"]);
-  assert.equal(arranged.name, "cotton");
-  // Masks among unnamed views are not views.
-  const shots = Array.from({ length: 9 }, (_, i) => file(`shot${i}.png`, `shot${i}.png`));
-  const loose = arrange([...shots, file("mask.png", "mask.png")]);
-  assert.deepEqual([loose.views.length, loose.ignored], [9, ["mask.png"]]);
-  assert.equal(loose.name, "shot");
-  assert.equal(lightFieldName([file("a.png", "a.png"), file("b.png", "b.png")]), "light field");
 });
