@@ -6,8 +6,9 @@ const HCI = /^input_Cam(\d{3})\.(png|jpe?g|bmp|webp)$/i;
 const ROW_COL = /_(\d+)_(\d+)\.(png|jpe?g|bmp|webp)$/i;
 const IMAGE = /\.(png|jpe?g|bmp|webp)$/i;
 /** Images a light-field folder holds beside its views: masks, object ids, ground-truth
- * or depth renderings, normals, thumbnails. They never count as views. */
-const NOT_A_VIEW = /mask|object_?ids?|^gt_|depth|disp|normal|thumb|preview/i;
+ * or depth renderings, normals, thumbnails (a whole word of the name: `display_01_01.png`
+ * is a view). They never count as views. */
+const NOT_A_VIEW = /(^|[_\-. ])(masks?|object_?ids?|gt|depth|disp|disparity|normals?|thumb|thumbnail|preview)([_\-. ]|$)/i;
 /** The disparity ground truth, by name: HCI's `gt_disp_lowres.pfm` first (the views'
  * resolution), then any other `gt_disp*`, then a PFM naming disparity. Depth PFMs
  * (`gt_depth*`) are never taken for disparity. */

@@ -26,6 +26,10 @@ test("views, ground truth and ignored files of an HCI folder; its name", () => {
   assert.deepEqual([loose.views.length, loose.ignored], [9, ["mask.png"]]);
   assert.equal(loose.name, "shot");
   assert.equal(lightFieldName([file("a.png", "a.png"), file("b.png", "b.png")]), "light field");
+  // Only whole words mark a non-view: "display" is no "disp".
+  const rc = Array.from({ length: 9 }, (_, i) => file(`display_${Math.floor(i / 3)}_${i % 3}.png`, `display_${Math.floor(i / 3)}_${i % 3}.png`));
+  const grid = arrange([...rc, file("display_mask.png", "display_mask.png")]);
+  assert.deepEqual([grid.views.length, grid.rows, grid.cols, grid.known, grid.ignored], [9, 3, 3, true, ["display_mask.png"]]);
 });
 
 test("a dropped folder: every file under it, with its path, and the folder names the light field", async () => {
