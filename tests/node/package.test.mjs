@@ -96,6 +96,42 @@ test("Node imports it ready to use, from ES modules and CommonJS; the browser en
   assert.equal(browser.stdout.trim(), `true ${version}`);
 });
 
+test("TypeScript checks a user's code against the package's types, Node and bundler resolution", () => {
+  const tsc = join(root, "tests/node_modules/typescript/bin/tsc");
+  if (!existsSync(tsc)) throw new Error(`${tsc} is missing: run npm ci in tests/ (cargo xtask test does)`);
+  writeFileSync(join(project, "user.ts"), `
+    import init, { Estimator, decodePng, disparityPng, synthesize, type EstimateParams } from "lfdepth";
+    const params: EstimateParams = { preset: "fast", align: "off", lambda: 0.5 };
+    const lf = synthesize({ scene: "planes", width: 32, height: 32 });
+    const shape = { rows: lf.rows, cols: lf.cols, width: lf.width, height: lf.height, channels: lf.channels };
+    const result = new Estimator(lf.views, shape, params).estimate((p) => console.log(p.stage, p.done, p.total));
+    const png: Uint8Array = disparityPng(result.disparity, result.width, result.height);
+    const channels: number = decodePng(png).channels;
+    await init();
+    console.log(channels, result.timings.map((t) => t.stage + " " + t.ms));
+  `);
+  writeFileSync(join(project, "wrong.ts"), `
+    import type { EstimateParams } from "lfdepth";
+    export const params: EstimateParams = { preset: "slow" };
+  `);
+  // wasm-bindgen's classes declare [Symbol.dispose]: the disposable lib is needed.
+  const check = (resolution, file) => {
+    const module = resolution === "bundler" ? "esnext" : resolution;
+    writeFileSync(join(project, "tsconfig.json"), JSON.stringify({
+      compilerOptions: { module, moduleResolution: resolution, target: "es2022", lib: ["es2022", "esnext.disposable", "dom"], strict: true, noEmit: true, types: [] },
+      files: [file],
+    }));
+    return spawnSync("node", [tsc, "-p", project], { encoding: "utf8", cwd: project });
+  };
+  for (const resolution of ["node16", "bundler"]) {
+    const ok = check(resolution, "user.ts");
+    assert.equal(ok.status, 0, `${resolution}: ${ok.stdout}${ok.stderr}`);
+  }
+  const wrong = check("node16", "wrong.ts");
+  assert.notEqual(wrong.status, 0, "an unknown preset passed the type check");
+  assert.match(wrong.stdout, /"slow"' is not assignable/);
+});
+
 /** The samples of a PFM the tool or the example wrote (little-endian, one channel). */
 function pfmSamples(bytes) {
   let end = 0;
