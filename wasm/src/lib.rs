@@ -9,6 +9,9 @@
 //!   its stages read (what the page sends each worker).
 //! * [`synthesize`], [`render_view`], [`render_ground_truth`]: the core's synthetic scenes.
 //! * [`evaluate`]: the HCI benchmark metrics.
+//! * With the feature `png` (the npm package; the page decodes images in the browser):
+//!   `decodePng` and `disparityPng`, views from PNG files and the colour-mapped picture of
+//!   a map, through the `png` crate as the `lfdepth` tool reads and writes them.
 //!
 //! Parameter objects and stage names follow the core: the keys of `EstimateParams` are
 //! the core's tunables (`lfdepth::options`), a key the core does not know is an error,
@@ -18,6 +21,8 @@ mod estimator;
 mod js;
 mod metrics;
 mod params;
+#[cfg(feature = "png")]
+mod png;
 mod run;
 mod synth;
 mod views;
@@ -25,6 +30,8 @@ mod views;
 pub use estimator::{stage_names, EstimateResult, Estimator, StageTiming};
 pub use metrics::{evaluate, Scores};
 pub use params::estimate_params_typescript;
+#[cfg(feature = "png")]
+pub use png::{decode_png, disparity_png, PngImage};
 pub use run::Run;
 pub use synth::{render_ground_truth, render_view, scene_names, synthesize, SyntheticLightField};
 pub use views::read_views;

@@ -7,6 +7,7 @@
 //! cargo xtask fuzz [SECONDS]   each cargo-fuzz target in fuzz/ for SECONDS (default 60)
 //! cargo xtask web [--port N] [--no-build]   build web/pkg and serve the page (see [`web`])
 //! cargo xtask types            regenerate the TypeScript type of the wasm options (see [`types`])
+//! cargo xtask package [--no-build]   the npm package in target/npm/lfdepth and its tarball (see [`package`])
 //! ```
 //!
 //! `test` first installs what the machine lacks (rustup targets and components), then runs
@@ -23,6 +24,7 @@ mod firmware;
 mod fuzz;
 mod install;
 mod manifest;
+mod package;
 mod report;
 mod steps;
 mod types;
@@ -49,6 +51,9 @@ enum Command {
     Web(web::WebOptions),
     /// Regenerate the TypeScript type of the wasm package's options.
     Types,
+    /// Assemble the npm package (building `web/pkg` first unless `build` is false) and
+    /// pack it.
+    Package { build: bool },
     /// Print usage.
     Help,
 }
@@ -69,6 +74,9 @@ commands:
   web [--port N] [--no-build]
                     build the wasm package into web/pkg and serve web/ on 127.0.0.1
   types             write wasm/src/estimate_params.d.ts from the core's tunable table
+  package [--no-build]
+                    build web/pkg (unless --no-build), assemble the npm package `lfdepth` in
+                    target/npm/lfdepth and pack it into target/npm/lfdepth-VERSION.tgz
   help              print this message";
 
 /// Seconds each fuzz target runs when none are given.
@@ -108,6 +116,12 @@ fn parse_args(args: &[String]) -> Result<Command, String> {
         ("web", options) => web::parse(options).map(Command::Web),
         ("types", []) => Ok(Command::Types),
         ("types", _) => Err("`types` takes no options".to_string()),
+        ("package", []) => Ok(Command::Package { build: true }),
+        ("package", ["--no-build"]) => Ok(Command::Package { build: false }),
+        ("package", other) => Err(format!(
+            "`package` takes only --no-build, not {}",
+            other.join(" ")
+        )),
         (other, _) => Err(format!("unknown command `{other}`")),
     }
 }
@@ -168,6 +182,7 @@ fn main() -> ExitCode {
         Command::Fuzz { seconds } => fuzz::run(&root, seconds),
         Command::Web(options) => web::run(&root, &options),
         Command::Types => types::run(&root),
+        Command::Package { build } => package::run(&root, build),
     };
     if ok {
         ExitCode::SUCCESS
@@ -225,6 +240,14 @@ mod tests {
         assert_eq!(parse(&["types"]), Ok(Command::Types));
         assert!(parse(&["types", "--check"]).is_err());
         assert_eq!(parse(&["firmware"]), Ok(Command::Firmware));
+        assert_eq!(parse(&["package"]), Ok(Command::Package { build: true }));
+        assert_eq!(
+            parse(&["package", "--no-build"]),
+            Ok(Command::Package { build: false })
+        );
+        assert!(parse(&["package", "--publish"])
+            .unwrap_err()
+            .contains("--publish"));
     }
 
     #[test]

@@ -6,7 +6,7 @@
 //! |------------------|---------|
 //! | `fmt`            | `cargo fmt --all --check` |
 //! | `clippy`         | `cargo clippy --workspace --all-targets -- -D warnings` |
-//! | `clippy-wasm`    | the same for `-p lfdepth-wasm --target wasm32-unknown-unknown` |
+//! | `clippy-wasm`    | the same for `-p lfdepth-wasm --all-features --target wasm32-unknown-unknown` |
 //! | `test-core`      | `cargo test -p lfdepth -- --show-output` (debug: integer overflow panics) |
 //! | `nostd-thumbv7em`, `nostd-thumbv6m` | `cargo build -p lfdepth --release --target …` with `RUSTFLAGS=-D warnings` in `target/nostd` |
 //! | `firmware-thumbv7em`, `firmware-thumbv6m` | `cargo build -p lfdepth-firmware --profile firmware --target …` (the stream in a `no_main` image, f32 / Q16), same flags and directory |
@@ -27,6 +27,7 @@
 //! |-----------------|--------------------------------------------|---------|
 //! | `fuzz-check`    | `fuzz/Cargo.toml` and `cli/src/io/` exist  | `cargo check --manifest-path fuzz/Cargo.toml --bins` (stable; proves the fuzz targets compile) |
 //! | `wasm-pack`     | a file under `wasm/src/` has `#[wasm_bindgen` | `wasm-pack build wasm --target web --release --out-dir ../web/pkg` |
+//! | `npm-package`   | `wasm/npm/node.js` exists                  | `cargo build --release -p lfdepth-cli` (the tool the package's test compares with), then the npm package in `target/npm/lfdepth`: `cargo xtask package` without the tarball (wasm-pack with the feature `png` into `target/npm/pkg`) |
 //! | `npm-install`   | `tests/package.json` exists                | `npm ci` (with a lock file) or `npm install`, in `tests/` |
 //! | `node-tests`    | `tests/node/*.test.mjs` exist              | `node --test` on those files |
 //! | `browser-tests` | `tests/browser/*.test.mjs` exist           | `node --test` on those files, with Debian chromium |
@@ -35,7 +36,9 @@
 //! (`--target web`), into `web/pkg/`; Node tests load it too, with
 //! `initSync({ module: readFileSync(".../web/pkg/lfdepth_wasm_bg.wasm") })`.
 //! JS tests get these environment variables: `LFDEPTH_ROOT` (repository root),
-//! `LFDEPTH_WASM_PKG` (`web/pkg`) and, for browser tests, `CHROMIUM_PATH` (launch
+//! `LFDEPTH_WASM_PKG` (`web/pkg`), `LFDEPTH_NPM_PACKAGE` (`target/npm/lfdepth`, which
+//! `tests/node/package.test.mjs` packs and installs into an empty project), `LFDEPTH_CLI`
+//! (`target/release/lfdepth`) and, for browser tests, `CHROMIUM_PATH` (launch
 //! playwright-core's `chromium.launch({ executablePath: process.env.CHROMIUM_PATH })`).
 //!
 //! `--quick` leaves out `clippy-wasm`, the firmware steps, `wasm-build`, `test-release`,
@@ -53,6 +56,8 @@ use crate::report::{self, Outcome, StepResult};
 pub struct Inputs {
     /// Some source under `wasm/src/` exports with `#[wasm_bindgen`.
     pub wasm_exports: bool,
+    /// `wasm/npm/node.js` exists (the npm package's own files).
+    pub npm_package: bool,
     /// `fuzz/Cargo.toml` exists.
     pub fuzz_crate: bool,
     /// `cli/src/io/` exists (the parsers two fuzz targets call).
@@ -74,6 +79,7 @@ impl Inputs {
             wasm_exports: rust_sources(&root.join("wasm/src")).iter().any(|file| {
                 std::fs::read_to_string(file).is_ok_and(|text| text.contains("#[wasm_bindgen"))
             }),
+            npm_package: root.join("wasm/npm/node.js").is_file(),
             fuzz_crate: root.join("fuzz/Cargo.toml").is_file(),
             cli_io: root.join("cli/src/io").is_dir(),
             js_package: root.join("tests/package.json").is_file(),
@@ -122,6 +128,8 @@ pub enum Action {
     Run(Cmd),
     /// `wasm-pack build`, after installing wasm-pack, wasm-bindgen and wasm-opt.
     WasmPack,
+    /// The `lfdepth` tool in release, then the npm package (its own wasm build).
+    NpmPackage,
     /// `npm ci` or `npm install` in `tests/`.
     NpmInstall { lock: bool },
     /// `node --test` on these files.
@@ -189,6 +197,7 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
         "clippy",
         "-p",
         "lfdepth-wasm",
+        "--all-features",
         "--target",
         "wasm32-unknown-unknown",
         "--",
@@ -316,6 +325,12 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
         Action::WasmPack,
     ));
     steps.push(js(
+        "npm-package",
+        inputs.wasm_exports && inputs.npm_package,
+        "no wasm/npm/node.js or no #[wasm_bindgen] export",
+        Action::NpmPackage,
+    ));
+    steps.push(js(
         "npm-install",
         inputs.js_package,
         "no tests/package.json",
@@ -342,7 +357,15 @@ pub fn plan(inputs: &Inputs, quick: bool) -> Vec<Step> {
 fn node_test(root: &Path, files: &[PathBuf]) -> Cmd {
     let mut cmd = Cmd::new("node", &["--test", "--test-reporter=spec"])
         .env("LFDEPTH_ROOT", &root.to_string_lossy())
-        .env("LFDEPTH_WASM_PKG", &root.join("web/pkg").to_string_lossy());
+        .env("LFDEPTH_WASM_PKG", &root.join("web/pkg").to_string_lossy())
+        .env(
+            "LFDEPTH_NPM_PACKAGE",
+            &root.join(crate::package::PACKAGE_DIR).to_string_lossy(),
+        )
+        .env(
+            "LFDEPTH_CLI",
+            &root.join("target/release/lfdepth").to_string_lossy(),
+        );
     for file in files {
         cmd = cmd.arg(file.to_string_lossy());
     }
@@ -356,6 +379,16 @@ fn execute(root: &Path, action: &Action) -> Outcome {
         Action::WasmPack => install::wasm_pack(root)
             .and_then(|()| install::wasm_bindgen(root))
             .and_then(|()| crate::web::build(root)),
+        Action::NpmPackage => Cmd::cargo(&[
+            "build",
+            "--release",
+            "-p",
+            "lfdepth-cli",
+            "--bin",
+            "lfdepth",
+        ])
+        .run(root)
+        .and_then(|()| crate::package::assemble(root).map(|_| ())),
         Action::NpmInstall { lock } => {
             let verb = if *lock { "ci" } else { "install" };
             Cmd::new("npm", &[verb, "--no-audit", "--no-fund"])
@@ -492,6 +525,7 @@ mod tests {
                 "test-release",
                 "fuzz-check",
                 "wasm-pack",
+                "npm-package",
                 "npm-install",
                 "node-tests",
                 "browser-tests"
@@ -516,6 +550,7 @@ mod tests {
     fn js_steps_run_as_soon_as_their_files_exist() {
         let inputs = Inputs {
             wasm_exports: true,
+            npm_package: true,
             fuzz_crate: true,
             cli_io: true,
             js_package: true,
@@ -527,6 +562,11 @@ mod tests {
         assert!(steps.iter().all(|s| s.action.is_ok()));
         let npm = steps.iter().find(|s| s.name == "npm-install").unwrap();
         assert_eq!(npm.action, Ok(Action::NpmInstall { lock: true }));
+        // The package is assembled from web/pkg before the Node tests pack it.
+        let order = names(&steps);
+        let at = |name| order.iter().position(|&n| n == name);
+        assert!(at("wasm-pack") < at("npm-package"));
+        assert!(at("npm-package") < at("node-tests"));
         let node = steps.iter().find(|s| s.name == "node-tests").unwrap();
         assert_eq!(
             node.action,
@@ -563,6 +603,7 @@ mod tests {
             "wasm-build",
             "test-release",
             "wasm-pack",
+            "npm-package",
             "node-tests",
         ] {
             assert_eq!(skipped(&steps, name).as_deref(), Some("--quick"), "{name}");

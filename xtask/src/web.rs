@@ -56,6 +56,12 @@ pub fn parse(args: &[&str]) -> Result<WebOptions, String> {
 /// `wasm-pack build wasm --target web --release --out-dir ../web/pkg`, with wasm-opt
 /// when a recent enough one is there (see `install::wasm_opt`).
 pub fn build(root: &Path) -> Result<(), String> {
+    wasm_pack(root, "../web/pkg", &[])
+}
+
+/// `wasm-pack build wasm --target web --release --out-dir OUT_DIR` (relative to `wasm/`)
+/// with `features` of lfdepth-wasm, with wasm-opt when a recent enough one is there.
+pub fn wasm_pack(root: &Path, out_dir: &str, features: &[&str]) -> Result<(), String> {
     let mut cmd = Command::new("wasm-pack");
     cmd.current_dir(root).args([
         "build",
@@ -64,13 +70,17 @@ pub fn build(root: &Path) -> Result<(), String> {
         "web",
         "--release",
         "--out-dir",
-        "../web/pkg",
+        out_dir,
         "--mode",
         "no-install",
     ]);
     if let Err(why) = crate::install::wasm_opt(root) {
         println!("warning: building without wasm-opt (larger, slower .wasm): {why}");
         cmd.arg("--no-opt");
+    }
+    if !features.is_empty() {
+        // wasm-pack hands what follows `--` to cargo build.
+        cmd.args(["--", "--features", &features.join(",")]);
     }
     println!("$ {cmd:?}");
     let status = cmd

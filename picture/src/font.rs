@@ -1,6 +1,6 @@
 //! A tiny 5×7 bitmap font for legend labels: digits, sign, point, `e`, and `NaN`.
 
-use crate::picture::Rgb;
+use crate::rgb::Rgb;
 
 /// Glyph width in pixels (before scaling).
 pub const WIDTH: usize = 5;

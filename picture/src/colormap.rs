@@ -4,7 +4,7 @@
 //! published degree-5 polynomial fit per channel. Larger disparity (nearer) is warmer.
 
 use crate::font;
-pub use crate::picture::Rgb;
+pub use crate::rgb::Rgb;
 
 /// Per-channel polynomial coefficients of Turbo, constant term first.
 const TURBO: [[f64; 6]; 3] = [
