@@ -17,13 +17,14 @@
 //!   Noise applies to every view.
 //! * Deterministic: only IEEE arithmetic and `libm`, seeded SplitMix64; the same spec gives
 //!   the same bytes on every platform, and `render_view` gives the same bytes as `render`.
-//! * Realistic scenes ([`SceneKind::REALISTIC`], [`REALISTIC_SUITE`]) are rooms: a back
+//! * Realistic scenes ([`SceneKind::REALISTIC`](crate::synth::SceneKind::REALISTIC),
+//!   [`REALISTIC_SUITE`](crate::synth::REALISTIC_SUITE)) are rooms: a back
 //!   wall, a floor receding from the camera, sometimes side walls and a ceiling, objects
 //!   standing on the floor, bumps of fine relief, thin poles and wires. They are lit
 //!   unevenly (a gain on the radiance that falls off with distance from a light, a
 //!   function of the surface point, so every view agrees), and the suite renders them
-//!   through a [`Sensor`]: vignetting, shot noise growing with the signal, read noise.
-//!   [`render_regions`] tells which kind of surface each pixel sees.
+//!   through a [`Sensor`](crate::synth::Sensor): vignetting, shot noise growing with the signal, read noise.
+//!   [`render_regions`](crate::synth::render_regions) tells which kind of surface each pixel sees.
 //!
 //! Measured agreement (tests `subpixel_agreement_of_a_translating_plane` and
 //! `subpixel_agreement_of_caps_and_edges`; 64×64 RGB views of a 9×9 grid compared with an
