@@ -155,6 +155,79 @@ fn synth_estimate_eval_pipeline() {
 }
 
 #[test]
+fn synth_suite_writes_every_scene_with_masks_and_eval_scores_them_in_one_table() {
+    let dir = common::temp();
+    let root = dir.path().join("suite");
+    let stdout = ok(&lfdepth(&[
+        "synth",
+        "--suite",
+        "realistic",
+        "--size",
+        "48",
+        "--out",
+        root.to_str().unwrap(),
+    ]));
+    let names = ["hall", "corridor", "tabletop", "dusk", "relief"];
+    for name in names {
+        let scene = root.join(name);
+        assert!(scene.join("input_Cam080.png").is_file(), "{name}");
+        let cfg = std::fs::read_to_string(scene.join("parameters.cfg")).unwrap();
+        assert!(cfg.contains("sensor = read noise"), "{cfg}");
+        for mask in ["floor", "dim", "relief", "thin", "slope"] {
+            let m = png::read(&scene.join(format!("mask_{mask}.png"))).unwrap();
+            assert_eq!((m.width, m.height, m.channels), (48, 48, 1));
+        }
+        assert!(
+            stdout.contains(&format!("| {name} | ")),
+            "{name} missing from {stdout}"
+        );
+        assert!(
+            stdout.contains(&format!("{name} 9x9 views of 48x48, disparity ")),
+            "{stdout}"
+        );
+    }
+    assert!(
+        stdout.contains("| scene | disparity | <0.005 |"),
+        "{stdout}"
+    );
+    let table = ok(&lfdepth(&[
+        "eval",
+        "--dataset",
+        root.to_str().unwrap(),
+        "--stage",
+        "epi",
+    ]));
+    let lines: Vec<&str> = table.lines().collect();
+    assert_eq!(lines.len(), 8, "{table}");
+    assert!(lines[7].starts_with("| **mean** |"), "{table}");
+    // The suite defines its own ranges, seeds and sensor: those flags are refused.
+    for extra in [
+        &["--noise", "2"][..],
+        &["--scene", "hall"],
+        &["--seed", "3"],
+    ] {
+        let mut args = vec!["synth", "--suite", "realistic", "--out"];
+        let other = dir.path().join("other");
+        args.push(other.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let out = lfdepth(&args);
+        assert!(!out.status.success(), "{extra:?} accepted");
+    }
+    // A folder that is not empty is refused without --force.
+    let out = lfdepth(&[
+        "synth",
+        "--suite",
+        "realistic",
+        "--size",
+        "32",
+        "--out",
+        root.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("not empty"));
+}
+
+#[test]
 fn help_lists_every_command() {
     let stdout = ok(&lfdepth(&["--help"]));
     for command in ["demo", "estimate", "eval", "synth"] {

@@ -17,6 +17,14 @@
 //!   Noise applies to every view.
 //! * Deterministic: only IEEE arithmetic and `libm`, seeded SplitMix64; the same spec gives
 //!   the same bytes on every platform, and `render_view` gives the same bytes as `render`.
+//! * Realistic scenes ([`SceneKind::REALISTIC`](crate::synth::SceneKind::REALISTIC),
+//!   [`REALISTIC_SUITE`](crate::synth::REALISTIC_SUITE)) are rooms: a back
+//!   wall, a floor receding from the camera, sometimes side walls and a ceiling, objects
+//!   standing on the floor, bumps of fine relief, thin poles and wires. They are lit
+//!   unevenly (a gain on the radiance that falls off with distance from a light, a
+//!   function of the surface point, so every view agrees), and the suite renders them
+//!   through a [`Sensor`](crate::synth::Sensor): vignetting, shot noise growing with the signal, read noise.
+//!   [`render_regions`](crate::synth::render_regions) tells which kind of surface each pixel sees.
 //!
 //! Measured agreement (tests `subpixel_agreement_of_a_translating_plane` and
 //! `subpixel_agreement_of_caps_and_edges`; 64×64 RGB views of a 9×9 grid compared with an
@@ -46,6 +54,7 @@
 //! pixel's phases directly).
 
 mod camera;
+mod light;
 mod raster;
 mod rng;
 mod scene;
@@ -57,7 +66,9 @@ use crate::error::{checked_product, Error, Result};
 use crate::lightfield::{Grid, Layout};
 use crate::Homography;
 
+pub use light::Sensor;
 pub use raster::MAX_SUPERSAMPLE;
+pub use scene::region;
 
 /// The kinds of synthetic scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -76,10 +87,26 @@ pub enum SceneKind {
     LowTexture,
     /// A bit of everything.
     Mixed,
+    /// A lit hall: a dim, faintly textured back wall, a floor receding towards the
+    /// bottom of the frame, a pale statue with fine relief, a box and a pole on the floor.
+    Hall,
+    /// A corridor: floor, ceiling and side walls all slanted towards a small back wall,
+    /// the widest disparity range of the suite, boxes and a pole on the floor.
+    Corridor,
+    /// A table top receding from the camera with objects on it: boxes (one without
+    /// texture), round fruit, pencils lying on it and a thin stick standing.
+    Tabletop,
+    /// A room lit from outside the frame: most of it dim and noisy, a slanted side wall,
+    /// a low-texture patch on the back wall.
+    Dusk,
+    /// A slanted bas-relief panel (many shallow bumps) in front of a wall, over a floor,
+    /// with thin wires in front.
+    Relief,
 }
 
 impl SceneKind {
-    /// Every scene kind.
+    /// The basic scene kinds, one idea each (the realistic ones are in
+    /// [`SceneKind::REALISTIC`]).
     pub const ALL: [SceneKind; 7] = [
         SceneKind::Planes,
         SceneKind::Slanted,
@@ -90,8 +117,18 @@ impl SceneKind {
         SceneKind::Mixed,
     ];
 
+    /// The realistic scenes (see [`REALISTIC_SUITE`]): rooms with floors receding from
+    /// the camera, uneven illumination and wide disparity ranges.
+    pub const REALISTIC: [SceneKind; 5] = [
+        SceneKind::Hall,
+        SceneKind::Corridor,
+        SceneKind::Tabletop,
+        SceneKind::Dusk,
+        SceneKind::Relief,
+    ];
+
     /// Lower-case name (`planes`, `slanted`, `spheres`, `occlusion`, `thin`,
-    /// `low-texture`, `mixed`).
+    /// `low-texture`, `mixed`, `hall`, `corridor`, `tabletop`, `dusk`, `relief`).
     pub fn name(&self) -> &'static str {
         match self {
             SceneKind::Planes => "planes",
@@ -101,6 +138,11 @@ impl SceneKind {
             SceneKind::Thin => "thin",
             SceneKind::LowTexture => "low-texture",
             SceneKind::Mixed => "mixed",
+            SceneKind::Hall => "hall",
+            SceneKind::Corridor => "corridor",
+            SceneKind::Tabletop => "tabletop",
+            SceneKind::Dusk => "dusk",
+            SceneKind::Relief => "relief",
         }
     }
 
@@ -117,9 +159,75 @@ impl SceneKind {
         if name.eq_ignore_ascii_case("lowtexture") {
             return Some(SceneKind::LowTexture);
         }
-        SceneKind::ALL.into_iter().find(|k| matches(k.name()))
+        SceneKind::ALL
+            .into_iter()
+            .chain(SceneKind::REALISTIC)
+            .find(|k| matches(k.name()))
     }
 }
+
+/// One scene of the realistic suite: its kind, disparity range and seed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SuiteScene {
+    /// What the scene contains.
+    pub kind: SceneKind,
+    /// Smallest disparity of the scene.
+    pub disparity_min: f32,
+    /// Largest disparity of the scene.
+    pub disparity_max: f32,
+    /// Seed of the arrangement, the textures and the noise.
+    pub seed: u64,
+}
+
+impl SuiteScene {
+    /// The scene as a 9×9 grid of `width × height` RGB views through
+    /// [`Sensor::REALISTIC`] (the suite is 512×512).
+    pub fn spec(&self, width: usize, height: usize) -> SynthSpec {
+        SynthSpec {
+            disparity_min: self.disparity_min,
+            disparity_max: self.disparity_max,
+            seed: self.seed,
+            sensor: Some(Sensor::REALISTIC),
+            ..SynthSpec::new(self.kind, Grid::new(9, 9), width, height)
+        }
+    }
+}
+
+/// The realistic suite: scenes of the kinds the HCI benchmark's two training scenes
+/// lack (receding floors, dim and faintly textured walls, wide disparity ranges, fine
+/// relief, thin structures), rendered through a noisy, vignetting sensor.
+pub const REALISTIC_SUITE: [SuiteScene; 5] = [
+    SuiteScene {
+        kind: SceneKind::Hall,
+        disparity_min: -3.1,
+        disparity_max: 2.7,
+        seed: 1,
+    },
+    SuiteScene {
+        kind: SceneKind::Corridor,
+        disparity_min: -4.0,
+        disparity_max: 4.0,
+        seed: 2,
+    },
+    SuiteScene {
+        kind: SceneKind::Tabletop,
+        disparity_min: -2.0,
+        disparity_max: 3.0,
+        seed: 3,
+    },
+    SuiteScene {
+        kind: SceneKind::Dusk,
+        disparity_min: -1.5,
+        disparity_max: 2.5,
+        seed: 4,
+    },
+    SuiteScene {
+        kind: SceneKind::Relief,
+        disparity_min: -1.2,
+        disparity_max: 1.6,
+        seed: 5,
+    },
+];
 
 /// Per-view misalignment: each non-centre view gets a homography drawn uniformly within
 /// these bounds.
@@ -163,6 +271,9 @@ pub struct SynthSpec {
     pub seed: u64,
     /// Samples per pixel along each axis at edges (1 … [`MAX_SUPERSAMPLE`]).
     pub supersample: usize,
+    /// A sensor's vignetting, signal-dependent noise and read noise (`None` = ideal; the
+    /// Gaussian `noise_sigma` applies in either case).
+    pub sensor: Option<Sensor>,
 }
 
 impl SynthSpec {
@@ -182,6 +293,7 @@ impl SynthSpec {
             misalign: None,
             seed: 0,
             supersample: 3,
+            sensor: None,
         }
     }
 
@@ -249,6 +361,21 @@ impl SynthSpec {
                 0.05,
                 "must be 0..0.05",
             )?;
+        }
+        if let Some(s) = self.sensor {
+            check_range(
+                s.read_noise,
+                "sensor.read_noise",
+                16.0,
+                "must be 0..16 levels",
+            )?;
+            check_range(
+                s.shot_noise,
+                "sensor.shot_noise",
+                1.0,
+                "must be 0..1 levels² per level",
+            )?;
+            check_range(s.vignetting, "sensor.vignetting", 0.9, "must be 0..0.9")?;
         }
         if !(1..=MAX_SUPERSAMPLE).contains(&self.supersample) {
             return Err(invalid(
@@ -371,6 +498,24 @@ pub fn render_ground_truth(spec: &SynthSpec, gt: &mut [f32]) -> Result<()> {
     for d in gt.iter_mut() {
         *d = d.clamp(spec.disparity_min, spec.disparity_max);
     }
+    Ok(())
+}
+
+/// Writes what each centre-view pixel centre sees (`width · height` bytes, row-major):
+/// the [`region`] flags of the visible surface, plus [`region::DIM`] where its lit
+/// radiance is below a fifth of full scale. The basic scenes mark nothing but `DIM`.
+pub fn render_regions(spec: &SynthSpec, out: &mut [u8]) -> Result<()> {
+    spec.validate()?;
+    let needed = checked_product(&[spec.width, spec.height], "the region map")?;
+    if out.len() != needed {
+        return Err(Error::OutputSize {
+            what: "the region map",
+            needed,
+            got: out.len(),
+        });
+    }
+    let scene = scene::Scene::build(spec);
+    raster::regions(spec, &scene, out);
     Ok(())
 }
 

@@ -16,8 +16,9 @@
 //!   (`n` = `supersample`) on a regular grid.
 
 use super::camera::{ViewCamera, NOISE_STREAM};
+use super::light::Lighting;
 use super::rng::Rng;
-use super::scene::{Scene, MAX_SURFACES};
+use super::scene::{region, Scene, MAX_SURFACES};
 use super::surface::{Quad, ViewSurface};
 use super::texture::WAVES;
 use super::SynthSpec;
@@ -153,25 +154,44 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
         run: 0,
         waves: [(1.0, 0.0); WAVES],
     }; MAX_SURFACES];
+    let lighting = scene.lighting.as_ref();
     for (index, pixel) in out.chunks_exact_mut(channels).enumerate() {
         let (i, j) = ((index % width) as f64, (index / width) as f64);
-        let radiance = match pixel_radiance(&camera, surfaces, prepared, offsets, i, j, u, v) {
+        let footprint = pixel_radiance(&camera, surfaces, prepared, offsets, lighting, i, j, u, v);
+        let radiance = match footprint {
             Footprint::Mixed(value) => value,
             Footprint::Plane(k) => {
                 let (Some(p), Some(phasor)) = (prepared.get(k), phasors.get_mut(k)) else {
                     continue;
                 };
-                if camera.misaligned {
-                    let (x, y) = camera.ideal_point(i, j);
+                let (x, y) = camera.ideal_point(i, j);
+                let value = if camera.misaligned {
                     analytic_footprint(p, x, y, camera.jacobian_at(i, j))
                 } else {
                     running_analytic(p, phasor, index, i, j)
+                };
+                match lighting {
+                    // The gain at the surface point of the pixel centre.
+                    Some(light) => {
+                        let g = &p.geometry;
+                        let d = g.alpha + g.beta * x + g.gamma * y;
+                        let gain = light.gain(x + d * u, y + d * v);
+                        value.map(|c| c * gain)
+                    }
+                    None => value,
                 }
             }
         };
+        let vignette = spec
+            .sensor
+            .map(|s| s.vignette(i, j, spec.width, spec.height));
         for (value, linear) in pixel.iter_mut().zip(radiance) {
             let stored = camera.photometric(linear.clamp(0.0, 1.0)) * 255.0;
-            let noisy = if sigma > 0.0 {
+            let noisy = if let (Some(sensor), Some(vignette)) = (spec.sensor, vignette) {
+                let signal = stored * vignette;
+                let sigma = crate::float::sqrt(sigma * sigma + sensor.variance(signal));
+                signal + sigma * noise.normal()
+            } else if sigma > 0.0 {
                 stored + sigma * noise.normal()
             } else {
                 stored
@@ -189,6 +209,7 @@ fn pixel_radiance(
     surfaces: &[super::surface::Surface],
     prepared: &[Prepared],
     offsets: &[f64],
+    lighting: Option<&Lighting>,
     i: f64,
     j: f64,
     u: f64,
@@ -245,7 +266,7 @@ fn pixel_radiance(
             if s.is_plane() {
                 return Footprint::Plane(k as usize);
             }
-            if let Some(value) = curved_analytic(camera, s, &p.geometry, i, j, u, v) {
+            if let Some(value) = curved_analytic(camera, s, &p.geometry, lighting, i, j, u, v) {
                 return Footprint::Mixed(value);
             }
             break;
@@ -290,7 +311,7 @@ fn pixel_radiance(
             if s.is_plane() {
                 return Footprint::Plane(k as usize);
             }
-            if let Some(value) = curved_analytic(camera, s, &p.geometry, i, j, u, v) {
+            if let Some(value) = curved_analytic(camera, s, &p.geometry, lighting, i, j, u, v) {
                 return Footprint::Mixed(value);
             }
         }
@@ -298,9 +319,10 @@ fn pixel_radiance(
     let mut sum = [0.0f64; 3];
     for &(k, sx, sy) in hits {
         if let Some(s) = surfaces.get(k as usize) {
+            let gain = lighting.map_or(1.0, |l| l.gain(sx, sy));
             let value = s.texture.at(sx, sy);
             for (a, b) in sum.iter_mut().zip(value) {
-                *a += b;
+                *a += if lighting.is_some() { b * gain } else { b };
             }
         }
     }
@@ -337,10 +359,12 @@ const MAX_CURVED_ERROR: f64 = 1e-3;
 /// through the local affine approximation of the view → surface map at the pixel centre.
 /// `None` (supersample instead) where the neglected second-order term, measured by
 /// second differences, could exceed [`MAX_CURVED_ERROR`] over the pixel, or near the rim.
+#[allow(clippy::too_many_arguments)]
 fn curved_analytic(
     camera: &ViewCamera,
     surface: &super::surface::Surface,
     geometry: &ViewSurface,
+    lighting: Option<&Lighting>,
     i: f64,
     j: f64,
     u: f64,
@@ -391,7 +415,13 @@ fn curved_analytic(
             *a += b * response * phase;
         }
     }
-    Some(value)
+    match lighting {
+        Some(light) => {
+            let gain = light.gain(cx, cy);
+            Some(value.map(|c| c * gain))
+        }
+        None => Some(value),
+    }
 }
 
 /// Exact box-filtered radiance of a plane at rectified pixel `(i, j)` (linear `index`):
@@ -441,6 +471,46 @@ pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
             }
         }
         *value = best as f32;
+    }
+}
+
+/// Radiance below which a lit surface counts as dim (a fifth of full scale).
+const DIM_RADIANCE: f64 = 0.2;
+
+/// The region flags of the surface seen at each centre-view pixel centre, plus
+/// `region::DIM` where its mean lit base radiance is below [`DIM_RADIANCE`].
+pub(crate) fn regions(spec: &SynthSpec, scene: &Scene, out: &mut [u8]) {
+    let surfaces = scene.surfaces();
+    let mut prepared = [ViewSurface {
+        alpha: 0.0,
+        beta: 0.0,
+        gamma: 0.0,
+        bounds: [0.0; 4],
+        outline: None,
+    }; MAX_SURFACES];
+    for (p, s) in prepared.iter_mut().zip(surfaces) {
+        *p = s.prepare(0.0, 0.0);
+    }
+    let width = spec.width;
+    for (index, value) in out.iter_mut().enumerate() {
+        let (x, y) = ((index % width) as f64, (index / width) as f64);
+        let mut best = (f64::NEG_INFINITY, None);
+        for (k, (s, p)) in surfaces.iter().zip(&prepared).enumerate() {
+            if let Some((d, _, _)) = s.hit(p, x, y, 0.0, 0.0) {
+                if d > best.0 {
+                    best = (d, Some(k));
+                }
+            }
+        }
+        *value = match best.1.and_then(|k| surfaces.get(k).map(|s| (k, s))) {
+            Some((k, s)) => {
+                let base = s.texture.base;
+                let gain = scene.lighting.map_or(1.0, |l| l.gain(x, y));
+                let lit = gain * (base[0] + base[1] + base[2]) / 3.0;
+                scene.region(k) | if lit < DIM_RADIANCE { region::DIM } else { 0 }
+            }
+            None => 0,
+        };
     }
 }
 

@@ -4,13 +4,35 @@
 //! centre view (planes are fitted at their corners, caps peak at most at the maximum), and
 //! every plane keeps `|b|·max|u| + |c|·max|v| ≤ 0.5`, so each ray meets it exactly once.
 
+mod realistic;
+
+use super::light::Lighting;
 use super::rng::Rng;
 use super::surface::{Shape, Support, Surface};
 use super::texture::Texture;
 use super::{SceneKind, SynthSpec};
 
 /// Most surfaces a scene holds (background included).
-pub(crate) const MAX_SURFACES: usize = 16;
+pub(crate) const MAX_SURFACES: usize = 32;
+
+/// What a surface is, as flags (see `render_regions`): for scoring an estimate by
+/// region.
+pub mod region {
+    /// A floor or table top: a plane receding from the camera.
+    pub const FLOOR: u8 = 1;
+    /// A wall or ceiling.
+    pub const WALL: u8 = 2;
+    /// An object standing in the scene (box, ball, statue, panel).
+    pub const OBJECT: u8 = 4;
+    /// A bar or wire 1–3 px wide.
+    pub const THIN: u8 = 8;
+    /// A shallow bump of fine relief.
+    pub const RELIEF: u8 = 16;
+    /// A surface with very weak texture (≈ 2 gray levels).
+    pub const LOW_TEXTURE: u8 = 32;
+    /// Lit radiance below a fifth of full scale at that point.
+    pub const DIM: u8 = 64;
+}
 
 /// Texture contrast (standard deviation of linear radiance) of ordinary surfaces.
 const CONTRAST: f64 = 0.2;
@@ -23,12 +45,21 @@ const MAX_VIEW_SLOPE: f64 = 0.5;
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Scene {
     surfaces: [Surface; MAX_SURFACES],
+    /// The [`region`] flags of each surface.
+    regions: [u8; MAX_SURFACES],
     len: usize,
+    /// Uneven illumination (`None`: every surface shows its own radiance).
+    pub(crate) lighting: Option<Lighting>,
 }
 
 impl Scene {
     pub(crate) fn surfaces(&self) -> &[Surface] {
         self.surfaces.get(..self.len).unwrap_or(&[])
+    }
+
+    /// The [`region`] flags of surface `k`.
+    pub(crate) fn region(&self, k: usize) -> u8 {
+        self.regions.get(k).copied().unwrap_or(0)
     }
 
     /// A scene of the given surfaces (at most [`MAX_SURFACES`]; the first must cover
@@ -45,7 +76,9 @@ impl Scene {
                 },
                 texture,
             }),
+            regions: [0; MAX_SURFACES],
             len: 0,
+            lighting: None,
         };
         for (slot, s) in scene.surfaces.iter_mut().zip(list) {
             *slot = *s;
@@ -65,6 +98,11 @@ impl Scene {
             SceneKind::Thin => b.thin(),
             SceneKind::LowTexture => b.low_texture(),
             SceneKind::Mixed => b.mixed(),
+            SceneKind::Hall => b.hall(),
+            SceneKind::Corridor => b.corridor(),
+            SceneKind::Tabletop => b.tabletop(),
+            SceneKind::Dusk => b.dusk(),
+            SceneKind::Relief => b.relief(),
         }
         b.scene
     }
@@ -101,7 +139,9 @@ impl Builder {
                     },
                     texture: Texture::FLAT,
                 }; MAX_SURFACES],
+                regions: [0; MAX_SURFACES],
                 len: 0,
+                lighting: None,
             },
             rng: Rng::stream(spec.seed, 0x5CE4E, spec.scene as u64),
             gray: spec.channels == 1,
@@ -119,6 +159,20 @@ impl Builder {
         let texture = Texture::random(&mut self.rng, contrast, self.gray);
         if let Some(slot) = self.scene.surfaces.get_mut(self.scene.len) {
             *slot = Surface { shape, texture };
+            self.scene.len += 1;
+        }
+    }
+
+    /// Adds a surface of the given texture contrast, albedo (a factor on its radiance)
+    /// and [`region`] flags.
+    fn push_material(&mut self, shape: Shape, contrast: f64, albedo: f64, region: u8) {
+        let texture = Texture::random(&mut self.rng, contrast, self.gray).scaled(albedo);
+        if let (Some(slot), Some(flags)) = (
+            self.scene.surfaces.get_mut(self.scene.len),
+            self.scene.regions.get_mut(self.scene.len),
+        ) {
+            *slot = Surface { shape, texture };
+            *flags = region;
             self.scene.len += 1;
         }
     }

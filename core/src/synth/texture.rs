@@ -83,6 +83,15 @@ impl Texture {
         texture
     }
 
+    /// The texture with its radiance multiplied by `k` (a darker or brighter material).
+    pub(crate) fn scaled(mut self, k: f64) -> Texture {
+        self.base = self.base.map(|b| b * k);
+        for wave in self.waves.iter_mut() {
+            wave.amplitude = wave.amplitude.map(|a| a * k);
+        }
+        self
+    }
+
     /// Radiance at surface point `(x, y)` (a point sample).
     pub(crate) fn at(&self, x: f64, y: f64) -> [f64; 3] {
         let mut value = self.base;
