@@ -58,12 +58,12 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
     let n = plan.pixels();
     let (mut d, mut c) = (vec![0.0f32; n], vec![0.0f32; n]);
     let mut scratch = vec![0.0f32; pipeline::scratch_len(&plan)];
-    let hyps = lfdepth::epi::estimate(&plan, lf, &mut d, &mut c, &mut scratch).unwrap();
+    let hyps = lfdepth::epi::estimate(plan.epi(), lf, &mut d, &mut c, &mut scratch).unwrap();
     let range = (hyps.min(), hyps.max());
     let (mut rd, mut rc) = (vec![0.0f32; n], vec![0.0f32; n]);
-    refine::refine(&plan, lf, range, &d, &mut rd, &mut rc, &mut scratch).unwrap();
+    refine::refine(plan.refine(), lf, range, &d, &mut rd, &mut rc, &mut scratch).unwrap();
     let mut work = vec![T::ZERO; pipeline::scratch_len(&plan)];
-    let mut duals = vec![0.0f32; tv::dual_len(&plan)];
+    let mut duals = vec![0.0f32; tv::dual_len(plan.tv())];
     let (mut od, mut oc) = (vec![0.0f32; n], vec![0.0f32; n]);
     let maps = Maps::new(lf.width(), lf.height(), &rd, &rc).unwrap();
     let guide = Guide::View(lf.center_view());
@@ -76,14 +76,14 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
         (cpu_seconds() - start) / repeats as f64
     };
     let epi = time(&mut || {
-        lfdepth::epi::estimate(&plan, lf, &mut od, &mut oc, &mut work).unwrap();
+        lfdepth::epi::estimate(plan.epi(), lf, &mut od, &mut oc, &mut work).unwrap();
     });
     let refined = time(&mut || {
-        refine::refine(&plan, lf, range, &d, &mut od, &mut oc, &mut work).unwrap();
+        refine::refine(plan.refine(), lf, range, &d, &mut od, &mut oc, &mut work).unwrap();
     });
     let regularised = time(&mut || {
         tv::refine(
-            &plan,
+            plan.tv(),
             &maps,
             &guide,
             &mut od,
