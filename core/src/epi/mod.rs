@@ -378,7 +378,7 @@ impl<T: Scalar> Levels<T> {
     /// The table for samples of type `S` (`None` unless `S` is `u8`, whose `level()` is
     /// the sample itself).
     fn new<S: Sample>() -> Option<Self> {
-        if core::any::TypeId::of::<S>() != core::any::TypeId::of::<u8>() {
+        if !S::IS_U8 {
             return None;
         }
         let mut table = [T::ZERO; 256];
