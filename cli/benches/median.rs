@@ -16,6 +16,7 @@ use std::time::{Duration, Instant};
 use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use lfdepth::median::{self, MedianParams};
+use lfdepth::setup::DisparityOut;
 use lfdepth::{epi, geofill, refine, LightField, Params, Plan};
 use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
@@ -38,8 +39,10 @@ fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
         lf,
         (hyps.min(), hyps.max()),
         &epi_estimate.disparity,
-        &mut disparity,
-        &mut confidence,
+        DisparityOut {
+            disparity: &mut disparity,
+            confidence: &mut confidence,
+        },
         &mut scratch,
         &mut |_| ControlFlow::Continue(()),
     )

@@ -11,6 +11,7 @@ use lfdepth::align::{
     self, gauge_fit_where, AlignMode, AlignModel, AlignParams, AlignedViews, Interpolation,
     Reference,
 };
+use lfdepth::setup::DisparityOut;
 use lfdepth::synth::SceneKind;
 use lfdepth::{pipeline, Homography, LightField, Params, Plan};
 use lfdepth_cli::engine::Stages;
@@ -254,8 +255,10 @@ fn refine_through_homographies() {
                         init.1,
                         &init.0,
                         rows,
-                        d,
-                        c,
+                        DisparityOut {
+                            disparity: d,
+                            confidence: c,
+                        },
                         &mut scratch,
                     ),
                     Some((maps, how)) => refine::refine_band_mapped(
@@ -266,8 +269,10 @@ fn refine_through_homographies() {
                         init.1,
                         &init.0,
                         rows,
-                        d,
-                        c,
+                        DisparityOut {
+                            disparity: d,
+                            confidence: c,
+                        },
                         &mut scratch,
                     ),
                 }

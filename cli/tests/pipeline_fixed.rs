@@ -14,6 +14,7 @@ use std::process::Command;
 use lfdepth::median::MedianParams;
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::refine::{self, RefineParams};
+use lfdepth::setup::DisparityOut;
 use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::{LightField, Params, Plan, Scalar, Q16};
@@ -231,8 +232,10 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
         &lf,
         range,
         &epi_f.disparity,
-        &mut rf,
-        &mut cf,
+        DisparityOut {
+            disparity: &mut rf,
+            confidence: &mut cf,
+        },
         &mut s,
     )
     .unwrap();
@@ -242,8 +245,10 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
         &lf,
         range,
         &epi_f.disparity,
-        &mut rq,
-        &mut cq,
+        DisparityOut {
+            disparity: &mut rq,
+            confidence: &mut cq,
+        },
         &mut s,
     )
     .unwrap();

@@ -1,5 +1,5 @@
 //! What one stage needs of a run: the validated layout, its pixel count and the stage's
-//! own parameters. A stage takes a [`Setup`] of its parameters (`Setup<'_, EpiParams>`),
+//! own parameters; and [`DisparityOut`], where the stages that estimate write. A stage takes a [`Setup`] of its parameters (`Setup<'_, EpiParams>`),
 //! never the whole plan, so the stages sit below the plan that holds them all
 //! (`Plan::epi()`, `Plan::tv()`, … hand each stage its part).
 
@@ -77,6 +77,16 @@ impl<'a, P> Setup<'a, P> {
     pub fn pixels(&self) -> usize {
         self.pixels
     }
+}
+
+/// Where a stage writes its two per-pixel maps: `disparity` and its `confidence`, the
+/// same length each (a band's values or the whole map, as the stage says).
+#[derive(Debug)]
+pub struct DisparityOut<'a> {
+    /// The disparity (px between adjacent views).
+    pub disparity: &'a mut [f32],
+    /// The confidence of each disparity, in `[0, 1]`.
+    pub confidence: &'a mut [f32],
 }
 
 /// An owned layout and one stage's parameters, validated: what the stages' unit tests

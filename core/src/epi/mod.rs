@@ -24,7 +24,7 @@ use crate::float::clamp_f32;
 use crate::lightfield::{Layout, LightField, Sample};
 use crate::progress::Progress;
 use crate::scalar::Scalar;
-use crate::setup::{Setup, StageParams};
+use crate::setup::{DisparityOut, Setup, StageParams};
 // The firmware stream runs lines over its own band buffers.
 pub(crate) use line::LineEstimator;
 
@@ -272,20 +272,22 @@ fn check_layout<S: Sample>(setup: Setup<'_, EpiParams>, lf: &LightField<'_, S>) 
     Ok(())
 }
 
-/// Disparity and confidence of the lines `lines` of `direction`, written line after line
-/// (`(line − lines.start) · line_len + t`): for [`Direction::Vertical`] that is the
-/// transpose of the image layout. `scratch` needs [`band_scratch_len`] elements.
-#[allow(clippy::too_many_arguments)]
+/// Disparity and confidence of the lines `lines` of `direction` into `out`, written line
+/// after line (`(line − lines.start) · line_len + t`): for [`Direction::Vertical`] that is
+/// the transpose of the image layout. `scratch` needs [`band_scratch_len`] elements.
 pub fn estimate_band<T: Scalar, S: Sample>(
     setup: Setup<'_, EpiParams>,
     hypotheses: &Hypotheses,
     lf: &LightField<'_, S>,
     direction: Direction,
     lines: Range<usize>,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
+    let DisparityOut {
+        disparity,
+        confidence,
+    } = out;
     check_layout(setup, lf)?;
     let total = direction.lines(setup.layout());
     if lines.start > lines.end || lines.end > total {

@@ -150,8 +150,10 @@ fn bands_of_any_size_give_the_serial_result_bit_for_bit() {
                     &lf,
                     direction,
                     start..end,
-                    &mut d[start * n..end * n],
-                    &mut c[start * n..end * n],
+                    DisparityOut {
+                        disparity: &mut d[start * n..end * n],
+                        confidence: &mut c[start * n..end * n],
+                    },
                     &mut s,
                 )
                 .unwrap();
@@ -237,8 +239,10 @@ fn bad_buffers_and_cancellation_are_errors() {
         &lf,
         Direction::Horizontal,
         3..17,
-        &mut d[..14 * 16],
-        &mut c[..14 * 16],
+        DisparityOut {
+            disparity: &mut d[..14 * 16],
+            confidence: &mut c[..14 * 16]
+        },
         &mut scratch
     )
     .is_err());

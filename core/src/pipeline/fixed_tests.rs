@@ -12,6 +12,7 @@ use crate::pipeline::{self, Stages};
 use crate::plan::{Params, Plan};
 use crate::refine::{refine, scratch_len, RefineParams};
 use crate::scalar::{Scalar, Q16};
+use crate::setup::DisparityOut;
 use crate::synth::{self, SceneKind, SynthSpec};
 use crate::Homography;
 
@@ -131,8 +132,10 @@ fn q16_refinement_stays_within_two_hundredths_of_f32_from_the_same_input() {
             &lf,
             range,
             &d,
-            &mut df,
-            &mut cf,
+            DisparityOut {
+                disparity: &mut df,
+                confidence: &mut cf,
+            },
             &mut scratch,
         )
         .unwrap();
@@ -143,8 +146,10 @@ fn q16_refinement_stays_within_two_hundredths_of_f32_from_the_same_input() {
             &lf,
             range,
             &d,
-            &mut dq,
-            &mut cq,
+            DisparityOut {
+                disparity: &mut dq,
+                confidence: &mut cq,
+            },
             &mut fixed_scratch,
         )
         .unwrap();

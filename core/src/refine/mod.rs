@@ -121,7 +121,7 @@ use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample, GRID_MAX};
 use crate::progress::Progress;
 use crate::scalar::Scalar;
-use crate::setup::Setup;
+use crate::setup::{DisparityOut, Setup};
 use photo::{Mapped, Photometric, Rectified, Views, INTENSITY_SCALE, STATS};
 use state::{Planes, Region};
 
@@ -329,18 +329,16 @@ struct Measure<'a, T, P> {
 }
 
 /// Refines the rows `rows` of `disparity` (the whole EPI map, row-major) into `out`
-/// and `confidence` (`rows.len() · width` each, first row of the band first), keeping
-/// the result in `range` (the EPI stage's output range), computing in `T`. `scratch`
-/// needs [`scratch_len`] elements.
-#[allow(clippy::too_many_arguments)]
+/// (`rows.len() · width` values each, first row of the band first), keeping the result
+/// in `range` (the EPI stage's output range), computing in `T`. `scratch` needs
+/// [`scratch_len`] elements.
 pub fn refine_band<T: Scalar, S: Sample>(
     setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
     rows: Range<usize>,
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
     check_inputs(setup, lf, range, disparity)?;
@@ -349,9 +347,7 @@ pub fn refine_band<T: Scalar, S: Sample>(
         views: Views::<T>::new(setup.layout(), p.views).with_slack(p.sampling_slack),
         data: lf.data(),
     };
-    band(
-        setup, &photo, range, disparity, rows, out, confidence, scratch,
-    )
+    band(setup, &photo, range, disparity, rows, out, scratch)
 }
 
 /// [`refine_band`] on an aligned array: `lf` holds the INPUT views and `homographies`
@@ -365,7 +361,7 @@ pub fn refine_band<T: Scalar, S: Sample>(
 /// Slower than the rectified path (three samples and three projections per view and
 /// pixel). Not yet used by the pipelines: the EPI stage and the others still read the
 /// warped copy.
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // `refine_band`'s and the views' homographies
 pub fn refine_band_mapped<T: Scalar, S: Sample>(
     setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
@@ -374,8 +370,7 @@ pub fn refine_band_mapped<T: Scalar, S: Sample>(
     range: (f32, f32),
     disparity: &[f32],
     rows: Range<usize>,
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
     check_inputs(setup, lf, range, disparity)?;
@@ -386,9 +381,7 @@ pub fn refine_band_mapped<T: Scalar, S: Sample>(
         maps: homographies,
         interpolation,
     };
-    band(
-        setup, &photo, range, disparity, rows, out, confidence, scratch,
-    )
+    band(setup, &photo, range, disparity, rows, out, scratch)
 }
 
 fn check_homographies(setup: Setup<'_, RefineParams>, homographies: &[Homography]) -> Result<()> {
@@ -412,17 +405,19 @@ fn check_homographies(setup: Setup<'_, RefineParams>, homographies: &[Homography
 }
 
 /// The body of [`refine_band`] over the views `photo` compares.
-#[allow(clippy::too_many_arguments)]
 fn band<T: Scalar, P: Photometric<T>>(
     setup: Setup<'_, RefineParams>,
     photo: &P,
     range: (f32, f32),
     disparity: &[f32],
     rows: Range<usize>,
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
+    let DisparityOut {
+        disparity: out,
+        confidence,
+    } = out;
     let (width, height) = (setup.layout().width, setup.layout().height);
     if rows.start >= rows.end || rows.end > height {
         return Err(Error::OutOfRange {
@@ -534,19 +529,21 @@ fn band<T: Scalar, P: Photometric<T>>(
     Ok(())
 }
 
-/// The serial stage with progress: every band in order into `out` / `confidence`
-/// (row-major, `setup.pixels()` each).
-#[allow(clippy::too_many_arguments)]
+/// The serial stage with progress: every band in order into `out` (row-major,
+/// `setup.pixels()` values each).
 pub fn refine_with_progress<T: Scalar, S: Sample>(
     setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
+    let DisparityOut {
+        disparity: out,
+        confidence,
+    } = out;
     check_inputs(setup, lf, range, disparity)?;
     let pixels = setup.pixels();
     if out.len() != pixels || confidence.len() != pixels {
@@ -578,7 +575,11 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
                 got: 0,
             });
         };
-        refine_band(setup, lf, range, disparity, rows, out, confidence, scratch)?;
+        let out = DisparityOut {
+            disparity: out,
+            confidence,
+        };
+        refine_band(setup, lf, range, disparity, rows, out, scratch)?;
     }
     match progress(Progress {
         stage: STAGE,
@@ -590,27 +591,19 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
     }
 }
 
-/// The serial stage: refines `disparity` into `out` with a new `confidence`, computing
-/// in `T`.
+/// The serial stage: refines `disparity` into `out` (a new disparity and confidence),
+/// computing in `T`.
 pub fn refine<T: Scalar, S: Sample>(
     setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
-    refine_with_progress(
-        setup,
-        lf,
-        range,
-        disparity,
-        out,
-        confidence,
-        scratch,
-        &mut |_| ControlFlow::Continue(()),
-    )
+    refine_with_progress(setup, lf, range, disparity, out, scratch, &mut |_| {
+        ControlFlow::Continue(())
+    })
 }
 
 #[cfg(test)]

@@ -22,8 +22,10 @@ fn run(scene: &Scene, refine: RefineParams, input: &[f32]) -> (Vec<f32>, Vec<f32
         &lf,
         (-4.0, 4.0),
         input,
-        &mut d,
-        &mut c,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c,
+        },
         &mut scratch,
     )
     .unwrap();
@@ -159,8 +161,10 @@ fn outputs_stay_finite_in_range_on_flat_and_extreme_inputs() {
         &lf,
         (-1.0, 2.0),
         &input,
-        &mut d,
-        &mut c,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c,
+        },
         &mut scratch,
     )
     .unwrap();
@@ -184,8 +188,10 @@ fn bad_inputs_are_errors() {
             &lf,
             (-1.0, 1.0),
             &input,
-            &mut d,
-            &mut c,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c
+            },
             &mut scratch[..short]
         ),
         Err(Error::ScratchTooSmall { .. })
@@ -195,8 +201,10 @@ fn bad_inputs_are_errors() {
         &lf,
         (1.0, -1.0),
         &input,
-        &mut d,
-        &mut c,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c
+        },
         &mut scratch
     )
     .is_err());
@@ -205,8 +213,10 @@ fn bad_inputs_are_errors() {
         &lf,
         (-1.0, 1.0),
         &input[1..],
-        &mut d,
-        &mut c,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c
+        },
         &mut scratch
     )
     .is_err());
@@ -217,8 +227,10 @@ fn bad_inputs_are_errors() {
             &lf,
             (-1.0, 1.0),
             &input,
-            &mut d,
-            &mut c,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c
+            },
             &mut scratch
         ),
         Err(Error::NonFinite { .. })
@@ -231,8 +243,10 @@ fn bad_inputs_are_errors() {
             &lf,
             (-1.0, 1.0),
             &input,
-            &mut d,
-            &mut c,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c
+            },
             &mut scratch,
             &mut cancel
         ),
@@ -289,8 +303,10 @@ fn run_mapped<T: Scalar>(
             (-4.0, 4.0),
             input,
             rows,
-            &mut d[span.clone()],
-            &mut c[span],
+            DisparityOut {
+                disparity: &mut d[span.clone()],
+                confidence: &mut c[span],
+            },
             &mut scratch,
         )?;
     }

@@ -31,6 +31,7 @@ use crate::median;
 use crate::plan::Plan;
 use crate::refine;
 use crate::scalar::Scalar;
+use crate::setup::DisparityOut;
 use crate::tv::{self, Guide, Maps, SolveOutput};
 
 mod part;
@@ -394,8 +395,10 @@ impl Schedule {
                 lf,
                 direction,
                 lines,
-                &mut *out.disparity,
-                &mut *out.confidence,
+                DisparityOut {
+                    disparity: &mut *out.disparity,
+                    confidence: &mut *out.confidence,
+                },
                 scratch.kernel,
             ),
             Step::Refine => {
@@ -406,8 +409,10 @@ impl Schedule {
                     (h.min(), h.max()),
                     state.disparity(),
                     lines,
-                    &mut *out.disparity,
-                    &mut *out.confidence,
+                    DisparityOut {
+                        disparity: &mut *out.disparity,
+                        confidence: &mut *out.confidence,
+                    },
                     scratch.kernel,
                 )
             }
