@@ -32,9 +32,9 @@ fn report_scratch() {
         let f32_bytes = std::mem::size_of::<f32>();
         eprintln!(
             "scratch {size}x{size}: serial {} B; engine worker horizontal {} B, vertical {} B",
-            epi::scratch_len(&plan) * f32_bytes,
-            epi::band_scratch_len(&plan, Direction::Horizontal) * f32_bytes,
-            epi::band_scratch_len(&plan, Direction::Vertical) * f32_bytes,
+            epi::scratch_len(plan.epi()) * f32_bytes,
+            epi::band_scratch_len(plan.epi(), Direction::Horizontal) * f32_bytes,
+            epi::band_scratch_len(plan.epi(), Direction::Vertical) * f32_bytes,
         );
     }
 }
@@ -71,9 +71,9 @@ fn bench(c: &mut Criterion) {
     });
     let plan = Plan::new(spec.layout(), Params::default()).unwrap();
     // The automatic range alone (`lfdepth estimate` prints it as `epi range`), f32.
-    let mut range_scratch = vec![0.0f32; epi::scratch_len(&plan)];
+    let mut range_scratch = vec![0.0f32; epi::scratch_len(plan.epi())];
     group.bench_function("range_9x9x512x512", |b| {
-        b.iter(|| epi::hypotheses(&plan, &lf, &mut range_scratch).unwrap())
+        b.iter(|| epi::hypotheses(plan.epi(), &lf, &mut range_scratch).unwrap())
     });
     let mut d = vec![0.0; plan.pixels()];
     let mut conf = vec![0.0; plan.pixels()];

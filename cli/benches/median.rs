@@ -16,6 +16,7 @@ use std::time::{Duration, Instant};
 use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use lfdepth::median::{self, MedianParams};
+use lfdepth::setup::DisparityOut;
 use lfdepth::{epi, geofill, refine, LightField, Params, Plan};
 use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
 
@@ -28,18 +29,20 @@ fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
         threads: None,
     };
     let epi_estimate = estimate(lf, &options, &mut |_, _, _| {}).unwrap();
-    let mut scratch = vec![0.0f32; epi::scratch_len(plan)];
-    let hyps = epi::hypotheses(plan, lf, &mut scratch).unwrap();
-    let mut scratch = vec![0.0f32; refine::scratch_len(plan)];
+    let mut scratch = vec![0.0f32; epi::scratch_len(plan.epi())];
+    let hyps = epi::hypotheses(plan.epi(), lf, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; refine::scratch_len(plan.refine())];
     let mut disparity = vec![0.0f32; plan.pixels()];
     let mut confidence = vec![0.0f32; plan.pixels()];
     refine::refine_with_progress(
-        plan,
+        plan.refine(),
         lf,
         (hyps.min(), hyps.max()),
         &epi_estimate.disparity,
-        &mut disparity,
-        &mut confidence,
+        DisparityOut {
+            disparity: &mut disparity,
+            confidence: &mut confidence,
+        },
         &mut scratch,
         &mut |_| ControlFlow::Continue(()),
     )
@@ -48,9 +51,9 @@ fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
         return disparity;
     }
     let mut filled = vec![0.0f32; plan.pixels()];
-    let mut scratch = vec![0.0f32; geofill::scratch_len(plan)];
+    let mut scratch = vec![0.0f32; geofill::scratch_len(plan.geofill())];
     geofill::fill(
-        plan,
+        plan.geofill(),
         &lf.center_view(),
         &disparity,
         &mut filled,
@@ -86,10 +89,30 @@ fn engine_passes(
     let guide = lf.center_view();
     let height = plan.layout().height;
     let [a, b, next] = maps;
-    median::filter_pass(plan, &guide, input, None, 0..height, b, settled, scratch).unwrap();
+    median::filter_pass(
+        plan.median(),
+        &guide,
+        input,
+        None,
+        0..height,
+        b,
+        settled,
+        scratch,
+    )
+    .unwrap();
     a.copy_from_slice(input);
     for _ in 1..plan.params().median.passes {
-        median::filter_pass(plan, &guide, b, Some(a), 0..height, next, settled, scratch).unwrap();
+        median::filter_pass(
+            plan.median(),
+            &guide,
+            b,
+            Some(a),
+            0..height,
+            next,
+            settled,
+            scratch,
+        )
+        .unwrap();
         std::mem::swap(a, b);
         std::mem::swap(b, next);
     }
@@ -114,7 +137,7 @@ fn bench_engine_passes(
     input: &[f32],
 ) {
     let passes = plan.params().median.passes;
-    let mut scratch = vec![0.0f32; median::scratch_len(plan)];
+    let mut scratch = vec![0.0f32; median::scratch_len(plan.median())];
     let mut maps = [input.to_vec(), input.to_vec(), input.to_vec()];
     let mut settled = vec![0u8; plan.pixels()];
     group.bench_function(format!("{scene}_{passes}passes_1t"), |bench| {
@@ -140,7 +163,7 @@ fn median_stage(c: &mut Criterion) {
     );
     let passes = MedianParams::default().passes;
     let guide = lf.center_view();
-    let mut scratch = vec![0.0f32; median::scratch_len(&plan)];
+    let mut scratch = vec![0.0f32; median::scratch_len(plan.median())];
     let (mut a, mut b) = (input.clone(), input.clone());
     let mut group = median_group(c);
     bench_engine_passes(&mut group, name, &plan, &lf, &input);
@@ -151,7 +174,7 @@ fn median_stage(c: &mut Criterion) {
             for _ in 0..iters {
                 a.copy_from_slice(&input);
                 for _ in 0..passes {
-                    median::filter(&plan, &guide, &a, &mut b, &mut scratch).unwrap();
+                    median::filter(plan.median(), &guide, &a, &mut b, &mut scratch).unwrap();
                     std::mem::swap(&mut a, &mut b);
                 }
             }

@@ -67,13 +67,13 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> tv::R
     let mut out = vec![0.0f32; w * h];
     let mut history = vec![0.0f32; params.max_iterations];
     tv::refine(
-        &plan,
+        plan.tv(),
         &maps,
         &guide,
         &mut out,
         &mut history,
         scratch,
-        &mut vec![0.0; tv::dual_len(&plan)],
+        &mut vec![0.0; tv::dual_len(plan.tv())],
     )
     .unwrap()
 }
@@ -87,7 +87,7 @@ fn scratch_for<S: Scalar>(inputs: &Inputs, params: TvParams) -> Vec<S> {
         },
     )
     .unwrap();
-    vec![S::ZERO; tv::scratch_len(&plan)]
+    vec![S::ZERO; tv::scratch_len(plan.tv())]
 }
 
 fn bench(c: &mut Criterion) {

@@ -14,6 +14,7 @@ use std::ops::ControlFlow;
 
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::refine;
+use lfdepth::setup::DisparityOut;
 use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::{LightField, Params, Plan, Scalar, Q16};
 use tv_support::{cpu_seconds, load_hci, shared_data};
@@ -58,12 +59,23 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
     let n = plan.pixels();
     let (mut d, mut c) = (vec![0.0f32; n], vec![0.0f32; n]);
     let mut scratch = vec![0.0f32; pipeline::scratch_len(&plan)];
-    let hyps = lfdepth::epi::estimate(&plan, lf, &mut d, &mut c, &mut scratch).unwrap();
+    let hyps = lfdepth::epi::estimate(plan.epi(), lf, &mut d, &mut c, &mut scratch).unwrap();
     let range = (hyps.min(), hyps.max());
     let (mut rd, mut rc) = (vec![0.0f32; n], vec![0.0f32; n]);
-    refine::refine(&plan, lf, range, &d, &mut rd, &mut rc, &mut scratch).unwrap();
+    refine::refine(
+        plan.refine(),
+        lf,
+        range,
+        &d,
+        DisparityOut {
+            disparity: &mut rd,
+            confidence: &mut rc,
+        },
+        &mut scratch,
+    )
+    .unwrap();
     let mut work = vec![T::ZERO; pipeline::scratch_len(&plan)];
-    let mut duals = vec![0.0f32; tv::dual_len(&plan)];
+    let mut duals = vec![0.0f32; tv::dual_len(plan.tv())];
     let (mut od, mut oc) = (vec![0.0f32; n], vec![0.0f32; n]);
     let maps = Maps::new(lf.width(), lf.height(), &rd, &rc).unwrap();
     let guide = Guide::View(lf.center_view());
@@ -76,14 +88,25 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
         (cpu_seconds() - start) / repeats as f64
     };
     let epi = time(&mut || {
-        lfdepth::epi::estimate(&plan, lf, &mut od, &mut oc, &mut work).unwrap();
+        lfdepth::epi::estimate(plan.epi(), lf, &mut od, &mut oc, &mut work).unwrap();
     });
     let refined = time(&mut || {
-        refine::refine(&plan, lf, range, &d, &mut od, &mut oc, &mut work).unwrap();
+        refine::refine(
+            plan.refine(),
+            lf,
+            range,
+            &d,
+            DisparityOut {
+                disparity: &mut od,
+                confidence: &mut oc,
+            },
+            &mut work,
+        )
+        .unwrap();
     });
     let regularised = time(&mut || {
         tv::refine(
-            &plan,
+            plan.tv(),
             &maps,
             &guide,
             &mut od,

@@ -11,6 +11,7 @@ use lfdepth::align::{
     self, gauge_fit_where, AlignMode, AlignModel, AlignParams, AlignedViews, Interpolation,
     Reference,
 };
+use lfdepth::setup::DisparityOut;
 use lfdepth::synth::SceneKind;
 use lfdepth::{pipeline, Homography, LightField, Params, Plan};
 use lfdepth_cli::engine::Stages;
@@ -232,8 +233,8 @@ fn refine_through_homographies() {
         let epi_of = |data: &[f32]| {
             let lf = LightField::new(data, spec.layout()).unwrap();
             let (mut d, mut c) = (vec![0.0f32; n * n], vec![0.0f32; n * n]);
-            let mut scratch = vec![0.0f32; epi::scratch_len(&plan)];
-            let h = epi::estimate(&plan, &lf, &mut d, &mut c, &mut scratch).unwrap();
+            let mut scratch = vec![0.0f32; epi::scratch_len(plan.epi())];
+            let h = epi::estimate(plan.epi(), &lf, &mut d, &mut c, &mut scratch).unwrap();
             (d, (h.min(), h.max()))
         };
         let refine_of = |data: &[f32],
@@ -241,26 +242,37 @@ fn refine_through_homographies() {
                          init: &(Vec<f32>, (f32, f32))| {
             let lf = LightField::new(data, spec.layout()).unwrap();
             let (mut d, mut c) = (vec![0.0f32; n * n], vec![0.0f32; n * n]);
-            let mut scratch = vec![0.0f32; refine::scratch_len(&plan)];
+            let mut scratch = vec![0.0f32; refine::scratch_len(plan.refine())];
             let start = std::time::Instant::now();
-            for b in 0..refine::band_count(&plan) {
-                let rows = refine::band_rows(&plan, b).unwrap();
+            for b in 0..refine::band_count(plan.refine()) {
+                let rows = refine::band_rows(plan.refine(), b).unwrap();
                 let span = rows.start * n..rows.end * n;
                 let (d, c) = (&mut d[span.clone()], &mut c[span]);
                 match maps {
-                    None => {
-                        refine::refine_band(&plan, &lf, init.1, &init.0, rows, d, c, &mut scratch)
-                    }
+                    None => refine::refine_band(
+                        plan.refine(),
+                        &lf,
+                        init.1,
+                        &init.0,
+                        rows,
+                        DisparityOut {
+                            disparity: d,
+                            confidence: c,
+                        },
+                        &mut scratch,
+                    ),
                     Some((maps, how)) => refine::refine_band_mapped(
-                        &plan,
+                        plan.refine(),
                         &lf,
                         maps,
                         how,
                         init.1,
                         &init.0,
                         rows,
-                        d,
-                        c,
+                        DisparityOut {
+                            disparity: d,
+                            confidence: c,
+                        },
                         &mut scratch,
                     ),
                 }

@@ -127,8 +127,8 @@ fn automatic_range_brackets_synthetic_scenes() {
             let (spec, views, gt) = scene(kind, min, max, size);
             let plan = Plan::new(spec.layout(), Params::default()).unwrap();
             let lf = LightField::new(&views, spec.layout()).unwrap();
-            let mut scratch = vec![0.0f32; epi::scratch_len(&plan)];
-            let (lo, hi) = epi::estimate_range(&plan, &lf, &mut scratch).unwrap();
+            let mut scratch = vec![0.0f32; epi::scratch_len(plan.epi())];
+            let (lo, hi) = epi::estimate_range(plan.epi(), &lf, &mut scratch).unwrap();
             let gmin = gt.iter().copied().fold(f32::MAX, f32::min);
             let gmax = gt.iter().copied().fold(f32::MIN, f32::max);
             // Surfaces covering under 1 % of the view may fall outside (they are clamped).

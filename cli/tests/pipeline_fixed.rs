@@ -14,6 +14,7 @@ use std::process::Command;
 use lfdepth::median::MedianParams;
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::refine::{self, RefineParams};
+use lfdepth::setup::DisparityOut;
 use lfdepth::synth::{SceneKind, SynthSpec};
 use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::{LightField, Params, Plan, Scalar, Q16};
@@ -217,33 +218,37 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
     let epi = agreement(&epi_f.disparity, &epi_q.disparity, 0.02);
     let plan = Plan::new(layout, Params::default()).unwrap();
     let hyps = lfdepth::epi::hypotheses(
-        &plan,
+        plan.epi(),
         &lf,
-        &mut vec![0.0f32; lfdepth::epi::scratch_len(&plan)],
+        &mut vec![0.0f32; lfdepth::epi::scratch_len(plan.epi())],
     )
     .unwrap();
     let range = (hyps.min(), hyps.max());
     let n = plan.pixels();
     let (mut rf, mut cf, mut rq, mut cq) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    let mut s = vec![0.0f32; refine::scratch_len(&plan)];
+    let mut s = vec![0.0f32; refine::scratch_len(plan.refine())];
     refine::refine(
-        &plan,
+        plan.refine(),
         &lf,
         range,
         &epi_f.disparity,
-        &mut rf,
-        &mut cf,
+        DisparityOut {
+            disparity: &mut rf,
+            confidence: &mut cf,
+        },
         &mut s,
     )
     .unwrap();
-    let mut s = vec![Q16::ZERO; refine::scratch_len(&plan)];
+    let mut s = vec![Q16::ZERO; refine::scratch_len(plan.refine())];
     refine::refine(
-        &plan,
+        plan.refine(),
         &lf,
         range,
         &epi_f.disparity,
-        &mut rq,
-        &mut cq,
+        DisparityOut {
+            disparity: &mut rq,
+            confidence: &mut cq,
+        },
         &mut s,
     )
     .unwrap();
@@ -251,11 +256,29 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
     let maps = Maps::new(w, h, &rf, &cf).unwrap();
     let guide = Guide::View(lf.center_view());
     let (mut tf, mut tq) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let mut duals = vec![0.0f32; tv::dual_len(&plan)];
-    let mut s = vec![0.0f32; tv::scratch_len(&plan)];
-    tv::refine(&plan, &maps, &guide, &mut tf, &mut [], &mut s, &mut duals).unwrap();
-    let mut s = vec![Q16::ZERO; tv::scratch_len(&plan)];
-    tv::refine(&plan, &maps, &guide, &mut tq, &mut [], &mut s, &mut duals).unwrap();
+    let mut duals = vec![0.0f32; tv::dual_len(plan.tv())];
+    let mut s = vec![0.0f32; tv::scratch_len(plan.tv())];
+    tv::refine(
+        plan.tv(),
+        &maps,
+        &guide,
+        &mut tf,
+        &mut [],
+        &mut s,
+        &mut duals,
+    )
+    .unwrap();
+    let mut s = vec![Q16::ZERO; tv::scratch_len(plan.tv())];
+    tv::refine(
+        plan.tv(),
+        &maps,
+        &guide,
+        &mut tq,
+        &mut [],
+        &mut s,
+        &mut duals,
+    )
+    .unwrap();
     let regularised = agreement(&tf, &tq, 0.02);
     eprintln!(
         "  stages from the same f32 input: EPI {:.3} % (max {:.3}), refinement {:.3} % \

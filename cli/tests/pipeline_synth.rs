@@ -59,8 +59,8 @@ fn refinement_lowers_the_epi_error_on_smooth_scenes() {
         // The EPI stage's hypothesis range bounds every output.
         let plan = Plan::new(s.spec.layout(), no_tv).unwrap();
         let lf = LightField::new(&s.views, s.spec.layout()).unwrap();
-        let mut scratch = vec![0.0f32; lfdepth::epi::scratch_len(&plan)];
-        let hyps = lfdepth::epi::hypotheses(&plan, &lf, &mut scratch).unwrap();
+        let mut scratch = vec![0.0f32; lfdepth::epi::scratch_len(plan.epi())];
+        let hyps = lfdepth::epi::hypotheses(plan.epi(), &lf, &mut scratch).unwrap();
         let (lo, hi) = (hyps.min(), hyps.max());
         assert!(refined
             .disparity

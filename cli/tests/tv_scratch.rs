@@ -33,14 +33,14 @@ fn a_tile_gives_the_same_bits_after_another_tile_in_the_same_scratch() {
     let cv = lfdepth::View::new(&view, w, h, 3, w * 3).unwrap();
     let maps = Maps::new(w, h, &d, &c).unwrap();
     let guide = Guide::View(cv);
-    let tiles = tv::tile_count(&plan);
+    let tiles = tv::tile_count(plan.tv());
     let n = tiles.0 * tiles.1;
     let run = |idx: usize, scratch: &mut [f32]| {
-        let (core, _) = tv::tile_rects(&plan, idx).unwrap();
+        let (core, _) = tv::tile_rects(plan.tv(), idx).unwrap();
         let mut out = vec![0f32; core.width * core.height];
         let mut hist = vec![0f32; plan.params().tv.max_iterations];
         tv::refine_tile(
-            &plan,
+            plan.tv(),
             &maps,
             &guide,
             idx,
@@ -56,9 +56,9 @@ fn a_tile_gives_the_same_bits_after_another_tile_in_the_same_scratch() {
         out
     };
     for idx in 1..n {
-        let mut fresh = vec![0f32; tv::scratch_len(&plan)];
+        let mut fresh = vec![0f32; tv::scratch_len(plan.tv())];
         let a = run(idx, &mut fresh);
-        let mut dirty = vec![0f32; tv::scratch_len(&plan)];
+        let mut dirty = vec![0f32; tv::scratch_len(plan.tv())];
         run(idx - 1, &mut dirty);
         let b = run(idx, &mut dirty);
         let diff = a

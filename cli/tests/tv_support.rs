@@ -206,16 +206,16 @@ pub fn refine_guided<S: lfdepth::Scalar>(
     let guide = Guide::View(lf.center_view());
     let mut out = vec![0.0f32; w * h];
     let mut history = vec![0.0f32; params.max_iterations];
-    let mut scratch = vec![S::ZERO; tv::scratch_len(&plan)];
+    let mut scratch = vec![S::ZERO; tv::scratch_len(plan.tv())];
     let t = Instant::now();
     let report = tv::refine(
-        &plan,
+        plan.tv(),
         &maps,
         &guide,
         &mut out,
         &mut history,
         &mut scratch,
-        &mut vec![0.0; tv::dual_len(&plan)],
+        &mut vec![0.0; tv::dual_len(plan.tv())],
     )
     .unwrap();
     let secs = t.elapsed().as_secs_f64();

@@ -80,15 +80,15 @@ fn refine_serial<S: Scalar>(s: &Scene, tv_params: TvParams) -> (Vec<f32>, Vec<f3
     let guide = Guide::View(lf.center_view());
     let mut out = vec![0.0f32; s.w * s.h];
     let mut history = vec![0.0f32; tv_params.max_iterations];
-    let mut scratch = vec![S::ZERO; tv::scratch_len(&plan)];
+    let mut scratch = vec![S::ZERO; tv::scratch_len(plan.tv())];
     tv::refine(
-        &plan,
+        plan.tv(),
         &maps,
         &guide,
         &mut out,
         &mut history,
         &mut scratch,
-        &mut vec![0.0; tv::dual_len(&plan)],
+        &mut vec![0.0; tv::dual_len(plan.tv())],
     )
     .unwrap();
     (out, history)
@@ -101,7 +101,7 @@ fn refine_parallel(s: &Scene, tv_params: TvParams, threads: usize) -> (Vec<f32>,
     let lf = light_field(&data, &plan);
     let maps = Maps::new(s.w, s.h, &s.input, &s.confidence).unwrap();
     let guide = Guide::View(lf.center_view());
-    let (cols, rows) = tv::tile_count(&plan);
+    let (cols, rows) = tv::tile_count(plan.tv());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -110,12 +110,12 @@ fn refine_parallel(s: &Scene, tv_params: TvParams, threads: usize) -> (Vec<f32>,
         (0..cols * rows)
             .into_par_iter()
             .map(|index| {
-                let (core, _) = tv::tile_rects(&plan, index).unwrap();
+                let (core, _) = tv::tile_rects(plan.tv(), index).unwrap();
                 let mut out = vec![0.0f32; core.width * core.height];
                 let mut history = vec![0.0f32; tv_params.max_iterations];
-                let mut scratch = vec![0.0f32; tv::scratch_len(&plan)];
+                let mut scratch = vec![0.0f32; tv::scratch_len(plan.tv())];
                 tv::refine_tile(
-                    &plan,
+                    plan.tv(),
                     &maps,
                     &guide,
                     index,
@@ -135,7 +135,7 @@ fn refine_parallel(s: &Scene, tv_params: TvParams, threads: usize) -> (Vec<f32>,
     let mut out = vec![0.0f32; s.w * s.h];
     let mut history = vec![0.0f32; tv_params.max_iterations];
     for (index, (core_out, tile_history)) in tiles.iter().enumerate() {
-        let (core, _) = tv::tile_rects(&plan, index).unwrap();
+        let (core, _) = tv::tile_rects(plan.tv(), index).unwrap();
         for y in 0..core.height {
             let dst = (core.y + y) * s.w + core.x;
             out[dst..dst + core.width]
@@ -145,7 +145,7 @@ fn refine_parallel(s: &Scene, tv_params: TvParams, threads: usize) -> (Vec<f32>,
             *h += t;
         }
     }
-    tv::normalise_history(&plan, &mut history);
+    tv::normalise_history(plan.tv(), &mut history);
     (out, history)
 }
 

@@ -163,15 +163,15 @@ fn run_stream<T: Scalar>(
 
     // Work of the overlaps: EPI line samples and TV nodes against the whole frame's.
     let (mh, mv) = plan.margins();
-    let (cols, rows) = tv::tile_count(plan.plan());
+    let (cols, rows) = tv::tile_count(plan.plan().tv());
     let (mut epi, mut nodes) = (0usize, 0usize);
     for index in 0..cols * rows {
-        let (_, region) = tv::tile_rects(plan.plan(), index).unwrap();
+        let (_, region) = tv::tile_rects(plan.plan().tv(), index).unwrap();
         // Columns shared with the tile to the left are moved, not estimated again.
         let shared = if index % cols == 0 {
             0
         } else {
-            let (_, left) = tv::tile_rects(plan.plan(), index - 1).unwrap();
+            let (_, left) = tv::tile_rects(plan.plan().tv(), index - 1).unwrap();
             (left.x + left.width).saturating_sub(region.x)
         };
         let (x0, x1) = (region.x + shared, region.x + region.width);

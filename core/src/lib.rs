@@ -22,6 +22,8 @@ pub mod error;
 pub mod float;
 pub mod geofill;
 pub mod geometry;
+#[cfg(test)]
+mod layer_tests;
 pub mod lightfield;
 pub mod median;
 /// Evaluation against ground truth (feature `scenes`: for tools and the page, not
@@ -35,6 +37,7 @@ pub mod progress;
 pub mod refine;
 pub mod scalar;
 pub mod schedule;
+pub mod setup;
 pub mod stream;
 /// Synthetic light fields with exact ground truth (feature `scenes`: for tests, the demo
 /// and the page, not firmware).

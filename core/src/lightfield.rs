@@ -17,6 +17,9 @@ mod sealed {
 pub trait Sample:
     sealed::Sealed + Copy + Default + PartialEq + core::fmt::Debug + Send + Sync + 'static
 {
+    /// Whether `Self` is `u8`: every sample is its own 8-bit [`Self::level`], so a
+    /// kernel may look levels up in a table of 256, chosen at compile time.
+    const IS_U8: bool;
     /// The sample as intensity in nominal `[0, 1]`.
     fn to_unit(self) -> f32;
     /// Whether every value of the type is finite (true for `u8`).
@@ -33,6 +36,7 @@ pub trait Sample:
 }
 
 impl Sample for u8 {
+    const IS_U8: bool = true;
     #[inline(always)]
     fn to_unit(self) -> f32 {
         self as f32 * (1.0 / 255.0)
@@ -56,6 +60,7 @@ impl Sample for u8 {
 }
 
 impl Sample for f32 {
+    const IS_U8: bool = false;
     #[inline(always)]
     fn to_unit(self) -> f32 {
         self

@@ -394,6 +394,9 @@ pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
 }
 
 #[cfg(test)]
+mod fixed_tests;
+
+#[cfg(test)]
 mod tests {
     extern crate std;
     use std::vec;

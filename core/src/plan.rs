@@ -1,6 +1,7 @@
 //! A [`Plan`]: dimensions and parameters validated once, from which every buffer size
-//! follows. Stages take `&Plan` and report their own scratch needs
-//! (`epi::scratch_len(&plan)`, `tv::scratch_len(&plan)`).
+//! follows. Each stage takes its own part of it, a [`Setup`] of the layout and that
+//! stage's parameters (`plan.epi()`, `plan.tv()`, …), and reports its own scratch needs
+//! (`epi::scratch_len(plan.epi())`, `tv::scratch_len(plan.tv())`).
 
 use crate::align::{AlignMode, AlignParams};
 use crate::epi::EpiParams;
@@ -9,6 +10,7 @@ use crate::geofill::GeoFillParams;
 use crate::lightfield::Layout;
 use crate::median::MedianParams;
 use crate::refine::RefineParams;
+use crate::setup::Setup;
 use crate::tv::TvParams;
 
 /// Parameters of every stage.
@@ -164,6 +166,26 @@ impl Plan {
     /// Pixels of the centre view: the length of every per-pixel output.
     pub fn pixels(&self) -> usize {
         self.pixels
+    }
+    /// What the EPI stage needs: the layout and [`Params::epi`].
+    pub fn epi(&self) -> Setup<'_, EpiParams> {
+        Setup::validated(&self.layout, &self.params.epi, self.pixels)
+    }
+    /// What the refinement needs: the layout and [`Params::refine`].
+    pub fn refine(&self) -> Setup<'_, RefineParams> {
+        Setup::validated(&self.layout, &self.params.refine, self.pixels)
+    }
+    /// What the refill needs: the layout and [`Params::geofill`].
+    pub fn geofill(&self) -> Setup<'_, GeoFillParams> {
+        Setup::validated(&self.layout, &self.params.geofill, self.pixels)
+    }
+    /// What the median needs: the layout and [`Params::median`].
+    pub fn median(&self) -> Setup<'_, MedianParams> {
+        Setup::validated(&self.layout, &self.params.median, self.pixels)
+    }
+    /// What TV needs: the layout and [`Params::tv`].
+    pub fn tv(&self) -> Setup<'_, TvParams> {
+        Setup::validated(&self.layout, &self.params.tv, self.pixels)
     }
 }
 

@@ -7,8 +7,8 @@ use crate::error::{Error, Result};
 /// A progress report: `done` of `total` units of `stage` are finished.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Progress {
-    /// Name of the running stage (e.g. [`crate::epi::STAGE_HORIZONTAL`],
-    /// [`crate::refine::STAGE`], [`crate::tv::STAGE`]).
+    /// Name of the running stage (each stage module's `STAGE` constants: `"epi
+    /// horizontal"`, `"refine"`, `"tv"`, …).
     pub stage: &'static str,
     /// Units finished.
     pub done: u64,

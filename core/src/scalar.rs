@@ -58,6 +58,9 @@ pub trait Scalar:
     const EPSILON: Self;
     /// Short name for reports (`"f32"`, `"q16.16"`).
     const NAME: &'static str;
+    /// Whether `Self` is `f32` (its conversions are the identity): a kernel's
+    /// branch-free `f32` path over whole slices, chosen at compile time.
+    const IS_F32: bool;
 
     /// Converts from `f32` (fixed point: round to nearest, saturate, NaN → 0).
     fn from_f32(v: f32) -> Self;
@@ -120,6 +123,7 @@ impl Scalar for f32 {
     const MIN: Self = f32::MIN;
     const EPSILON: Self = f32::EPSILON;
     const NAME: &'static str = "f32";
+    const IS_F32: bool = true;
 
     #[inline(always)]
     fn from_f32(v: f32) -> Self {
@@ -336,6 +340,7 @@ impl Scalar for Q16 {
     const MIN: Self = Q16(i32::MIN);
     const EPSILON: Self = Q16(1);
     const NAME: &'static str = "q16.16";
+    const IS_F32: bool = false;
 
     #[inline]
     fn from_f32(v: f32) -> Self {

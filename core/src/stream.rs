@@ -259,7 +259,7 @@ impl StreamPlan {
 
     /// Number of bands (rows of tiles).
     pub fn bands(&self) -> usize {
-        tv::tile_count(&self.plan).1
+        tv::tile_count(self.plan.tv()).1
     }
 
     /// Image rows of the disparity band `band` writes.
@@ -397,7 +397,7 @@ impl StreamPlan {
                 return Err(Error::ScratchTooSmall { needed, got });
             }
         }
-        let (cols, _) = tv::tile_count(&self.plan);
+        let (cols, _) = tv::tile_count(self.plan.tv());
         // The region maps keep the stride of the widest region, so that the columns a
         // tile shares with the previous one of the band move left instead of being
         // estimated again; TV reads them through maps of that width.
@@ -417,7 +417,7 @@ impl StreamPlan {
         let mut report = tv::RefineReport::default();
         let mut previous: Option<Rect> = None;
         for tx in 0..cols {
-            let (core, region) = tv::tile_rects(&self.plan, band * cols + tx)?;
+            let (core, region) = tv::tile_rects(self.plan.tv(), band * cols + tx)?;
             let shared = match previous {
                 Some(p) => shift_left(p, region, stride, map_d, map_c),
                 None => 0,

@@ -54,6 +54,7 @@ use heapless::Vec as FixedVec;
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
+use crate::setup::StageParams;
 
 pub use gauge::{gauge_fit, gauge_fit_where, gauge_rms, reprojection_rms, GaugeFit};
 pub use warp::{
@@ -195,6 +196,12 @@ impl Default for AlignParams {
             disparity_step: 0.5,
             centre_anchor: 1.0,
         }
+    }
+}
+
+impl StageParams for AlignParams {
+    fn validate(&self) -> Result<()> {
+        AlignParams::validate(self)
     }
 }
 

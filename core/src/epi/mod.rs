@@ -21,11 +21,11 @@ use core::ops::{ControlFlow, Range};
 
 use crate::error::{check_scratch, Error, Result};
 use crate::float::clamp_f32;
-use crate::lightfield::{LightField, Sample};
-use crate::plan::Plan;
+use crate::lightfield::{Layout, LightField, Sample};
 use crate::progress::Progress;
 use crate::scalar::Scalar;
-// The stream (crate::stream) runs lines over its own band buffers.
+use crate::setup::{DisparityOut, Setup, StageParams};
+// The firmware stream runs lines over its own band buffers.
 pub(crate) use line::LineEstimator;
 
 /// Intensities enter the kernels as `sample · INTENSITY_SCALE`: it keeps the tensor of
@@ -145,6 +145,12 @@ impl Default for EpiParams {
     }
 }
 
+impl StageParams for EpiParams {
+    fn validate(&self) -> Result<()> {
+        EpiParams::validate(self)
+    }
+}
+
 impl EpiParams {
     /// The paper's variant: one unsheared EPI per direction, the usual scales (0.8, 1.5),
     /// coherence fusion.
@@ -205,22 +211,22 @@ impl EpiParams {
 
 impl Direction {
     /// Number of lines (image rows or columns).
-    pub fn lines(&self, plan: &Plan) -> usize {
+    pub fn lines(&self, layout: &Layout) -> usize {
         match self {
-            Direction::Horizontal => plan.layout().height,
-            Direction::Vertical => plan.layout().width,
+            Direction::Horizontal => layout.height,
+            Direction::Vertical => layout.width,
         }
     }
     /// Samples per line.
-    pub fn line_len(&self, plan: &Plan) -> usize {
+    pub fn line_len(&self, layout: &Layout) -> usize {
         match self {
-            Direction::Horizontal => plan.layout().width,
-            Direction::Vertical => plan.layout().height,
+            Direction::Horizontal => layout.width,
+            Direction::Vertical => layout.height,
         }
     }
     /// Views along the EPI and the centre one.
-    fn views(&self, plan: &Plan) -> (usize, usize) {
-        let g = plan.layout().grid;
+    fn views(&self, layout: &Layout) -> (usize, usize) {
+        let g = layout.grid;
         let (r0, c0) = g.center();
         match self {
             Direction::Horizontal => (g.cols, c0),
@@ -229,19 +235,18 @@ impl Direction {
     }
 }
 
-fn used_channels(plan: &Plan) -> usize {
-    match plan.params().epi.color {
+fn used_channels(setup: Setup<'_, EpiParams>) -> usize {
+    match setup.params().color {
         ColorMode::Gray => 1,
-        ColorMode::Tensor => plan.layout().channels.min(3),
+        ColorMode::Tensor => setup.layout().channels.min(3),
     }
 }
 
 /// Scratch (elements of `T`) one band of `direction` needs; independent of the band size.
-pub fn band_scratch_len(plan: &Plan, direction: Direction) -> usize {
-    let (views, centre) = direction.views(plan);
-    let n = direction.line_len(plan);
-    LineEstimator::<f32>::work_len(&plan.params().epi, views, centre, used_channels(plan), n)
-        + 2 * n
+pub fn band_scratch_len(setup: Setup<'_, EpiParams>, direction: Direction) -> usize {
+    let (views, centre) = direction.views(setup.layout());
+    let n = direction.line_len(setup.layout());
+    LineEstimator::<f32>::work_len(setup.params(), views, centre, used_channels(setup), n) + 2 * n
 }
 
 /// Vertical lines the serial stage estimates before it fuses them into the row-major maps
@@ -251,14 +256,14 @@ const VERTICAL_TILE: usize = 4;
 
 /// Scratch (elements of `T`) of [`estimate`], [`estimate_band`] and [`estimate_range`]
 /// (the serial stage's vertical tile included).
-pub fn scratch_len(plan: &Plan) -> usize {
-    let tile = 2 * (VERTICAL_TILE - 1) * Direction::Vertical.line_len(plan);
-    band_scratch_len(plan, Direction::Horizontal)
-        .max(band_scratch_len(plan, Direction::Vertical).saturating_add(tile))
+pub fn scratch_len(setup: Setup<'_, EpiParams>) -> usize {
+    let tile = 2 * (VERTICAL_TILE - 1) * Direction::Vertical.line_len(setup.layout());
+    band_scratch_len(setup, Direction::Horizontal)
+        .max(band_scratch_len(setup, Direction::Vertical).saturating_add(tile))
 }
 
-fn check_layout<S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Result<()> {
-    if lf.layout() != plan.layout() {
+fn check_layout<S: Sample>(setup: Setup<'_, EpiParams>, lf: &LightField<'_, S>) -> Result<()> {
+    if lf.layout() != setup.layout() {
         return Err(Error::InvalidParameter {
             name: "plan",
             reason: "was made for a different light-field layout: build it from this light field",
@@ -267,22 +272,24 @@ fn check_layout<S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Result<()> {
     Ok(())
 }
 
-/// Disparity and confidence of the lines `lines` of `direction`, written line after line
-/// (`(line − lines.start) · line_len + t`): for [`Direction::Vertical`] that is the
-/// transpose of the image layout. `scratch` needs [`band_scratch_len`] elements.
-#[allow(clippy::too_many_arguments)]
+/// Disparity and confidence of the lines `lines` of `direction` into `out`, written line
+/// after line (`(line − lines.start) · line_len + t`): for [`Direction::Vertical`] that is
+/// the transpose of the image layout. `scratch` needs [`band_scratch_len`] elements.
 pub fn estimate_band<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, EpiParams>,
     hypotheses: &Hypotheses,
     lf: &LightField<'_, S>,
     direction: Direction,
     lines: Range<usize>,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
-    check_layout(plan, lf)?;
-    let total = direction.lines(plan);
+    let DisparityOut {
+        disparity,
+        confidence,
+    } = out;
+    check_layout(setup, lf)?;
+    let total = direction.lines(setup.layout());
     if lines.start > lines.end || lines.end > total {
         return Err(Error::OutOfRange {
             what: "band end line",
@@ -290,7 +297,7 @@ pub fn estimate_band<T: Scalar, S: Sample>(
             len: total,
         });
     }
-    let n = direction.line_len(plan);
+    let n = direction.line_len(setup.layout());
     let needed = lines.len() * n;
     if disparity.len() != needed || confidence.len() != needed {
         return Err(Error::OutputSize {
@@ -299,7 +306,7 @@ pub fn estimate_band<T: Scalar, S: Sample>(
             got: disparity.len().min(confidence.len()),
         });
     }
-    let band = BandEstimator::new(plan, *hypotheses, lf, direction);
+    let band = BandEstimator::new(setup, *hypotheses, lf, direction);
     let (d_line, c_line, work) = band.split_scratch(scratch)?;
     for (i, line) in lines.enumerate() {
         band.line(line, work, d_line, c_line)?;
@@ -373,7 +380,7 @@ impl<T: Scalar> Levels<T> {
     /// The table for samples of type `S` (`None` unless `S` is `u8`, whose `level()` is
     /// the sample itself).
     fn new<S: Sample>() -> Option<Self> {
-        if core::any::TypeId::of::<S>() != core::any::TypeId::of::<u8>() {
+        if !S::IS_U8 {
             return None;
         }
         let mut table = [T::ZERO; 256];
@@ -386,24 +393,24 @@ impl<T: Scalar> Levels<T> {
 
 impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
     pub(crate) fn new(
-        plan: &Plan,
+        setup: Setup<'_, EpiParams>,
         hypotheses: Hypotheses,
         lf: &'p LightField<'a, S>,
         direction: Direction,
     ) -> Self {
-        let (views, centre) = direction.views(plan);
-        let params = &plan.params().epi;
+        let (views, centre) = direction.views(setup.layout());
+        let params = setup.params();
         BandEstimator {
             estimator: LineEstimator::new(
                 params,
                 hypotheses,
                 views,
                 centre,
-                plan.layout().channels,
+                setup.layout().channels,
             ),
             lf,
             direction,
-            n: direction.line_len(plan),
+            n: direction.line_len(setup.layout()),
             color: params.color,
             levels: match params.color {
                 ColorMode::Tensor => Levels::new::<S>(),
@@ -489,7 +496,7 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
 /// `data[start + t·step]` and holds `channels` samples. [`ColorMode::Tensor`] writes the
 /// first (at most 3) channels as planes of `n` one after the other, [`ColorMode::Gray`]
 /// their mean as one plane; intensities scaled by [`INTENSITY_SCALE`]. Shared by the
-/// band estimator and the stream (`crate::stream`), whose results must agree bit for bit.
+/// band estimator and the firmware stream, whose results must agree bit for bit.
 /// `what` names `data` in the error when the line runs past its end.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn load_line<T: Scalar, S: Sample>(
@@ -615,20 +622,20 @@ fn load_levels<T: Scalar, S: Sample>(
     Ok(())
 }
 
-/// Resolves the hypotheses of `plan`: the fixed range, or [`estimate_range`] for `Auto`.
+/// Resolves the hypotheses of `setup`: the fixed range, or [`estimate_range`] for `Auto`.
 pub fn hypotheses<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, EpiParams>,
     lf: &LightField<'_, S>,
     scratch: &mut [T],
 ) -> Result<Hypotheses> {
-    let params = &plan.params().epi;
+    let params = setup.params();
     match params.range {
         DisparityRange::Fixed { min, max } => Hypotheses::new(params, min, max),
         DisparityRange::Auto if !params.shear => {
             Hypotheses::new(params, -MAX_DISPARITY, MAX_DISPARITY)
         }
         DisparityRange::Auto => {
-            let (min, max) = estimate_range(plan, lf, scratch)?;
+            let (min, max) = estimate_range(setup, lf, scratch)?;
             Hypotheses::new(params, min, max)
         }
     }
@@ -638,17 +645,17 @@ pub fn hypotheses<T: Scalar, S: Sample>(
 const PROGRESS_LINES: usize = 32;
 
 /// The serial stage with progress: both directions over every line, fused into
-/// `disparity` / `confidence` (row-major, `plan.pixels()` each). Returns the hypotheses.
+/// `disparity` / `confidence` (row-major, `setup.pixels()` each). Returns the hypotheses.
 pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, EpiParams>,
     lf: &LightField<'_, S>,
     disparity: &mut [f32],
     confidence: &mut [f32],
     scratch: &mut [T],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<Hypotheses> {
-    check_layout(plan, lf)?;
-    let pixels = plan.pixels();
+    check_layout(setup, lf)?;
+    let pixels = setup.pixels();
     if disparity.len() != pixels || confidence.len() != pixels {
         return Err(Error::OutputSize {
             what: "the disparity/confidence map",
@@ -656,7 +663,7 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
             got: disparity.len().min(confidence.len()),
         });
     }
-    let needed = scratch_len(plan);
+    let needed = scratch_len(setup);
     check_scratch(needed, scratch.len())?;
     let report =
         |progress: &mut dyn FnMut(Progress) -> ControlFlow<()>, stage, done, total| match progress(
@@ -670,13 +677,13 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
             ControlFlow::Break(()) => Err(Error::Cancelled),
         };
     report(progress, STAGE_RANGE, 0, 1)?;
-    let hyps = hypotheses(plan, lf, scratch)?;
+    let hyps = hypotheses(setup, lf, scratch)?;
     report(progress, STAGE_RANGE, 1, 1)?;
-    let width = plan.layout().width;
-    let height = plan.layout().height;
-    let fusion = plan.params().epi.fusion;
+    let width = setup.layout().width;
+    let height = setup.layout().height;
+    let fusion = setup.params().fusion;
 
-    let band = BandEstimator::new(plan, hyps, lf, Direction::Horizontal);
+    let band = BandEstimator::new(setup, hyps, lf, Direction::Horizontal);
     let (d_line, c_line, work) = band.split_scratch(scratch)?;
     for y in 0..height {
         if y % PROGRESS_LINES == 0 {
@@ -695,7 +702,7 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
 
     // Vertical lines in tiles of `VERTICAL_TILE` columns (their disparity lines, then
     // their confidence lines, before the band's work), each tile fused row by row.
-    let band = BandEstimator::new(plan, hyps, lf, Direction::Vertical);
+    let band = BandEstimator::new(setup, hyps, lf, Direction::Vertical);
     let n = band.n;
     let tile_len = VERTICAL_TILE * n;
     let too_small = Error::ScratchTooSmall {
@@ -752,15 +759,15 @@ pub const STAGE_HORIZONTAL: &str = "epi horizontal";
 pub const STAGE_VERTICAL: &str = "epi vertical";
 
 /// The serial stage: disparity and confidence of the centre view (row-major, `f32`,
-/// `plan.pixels()` each), computed in `T`. `scratch` needs [`scratch_len`] elements.
+/// `setup.pixels()` each), computed in `T`. `scratch` needs [`scratch_len`] elements.
 pub fn estimate<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, EpiParams>,
     lf: &LightField<'_, S>,
     disparity: &mut [f32],
     confidence: &mut [f32],
     scratch: &mut [T],
 ) -> Result<Hypotheses> {
-    estimate_with_progress(plan, lf, disparity, confidence, scratch, &mut |_| {
+    estimate_with_progress(setup, lf, disparity, confidence, scratch, &mut |_| {
         ControlFlow::Continue(())
     })
 }

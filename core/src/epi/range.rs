@@ -6,8 +6,8 @@ use super::hypotheses::Hypotheses;
 use super::{check_layout, scratch_len, BandEstimator, ColorMode, Direction, EpiParams};
 use crate::error::{check_scratch, Result};
 use crate::lightfield::{LightField, Sample};
-use crate::plan::{Params, Plan};
 use crate::scalar::Scalar;
+use crate::setup::Setup;
 
 /// Every how many lines the range probe looks (16 rather than 8: a third of the probe's
 /// time; the HCI ranges moved by at most one 0.05 px bin, docs/stages/epi.md).
@@ -29,12 +29,12 @@ const MARGIN: usize = 16;
 /// Estimates the disparity range of the scene. `scratch` needs [`scratch_len`] elements.
 /// Returns the supported extremes when too few samples are confident to tell.
 pub fn estimate_range<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, EpiParams>,
     lf: &LightField<'_, S>,
     scratch: &mut [T],
 ) -> Result<(f32, f32)> {
-    check_layout(plan, lf)?;
-    let needed = scratch_len(plan);
+    check_layout(setup, lf)?;
+    let needed = scratch_len(setup);
     check_scratch(needed, scratch.len())?;
     let reach = PROBE_REACH + 1.0;
     let probe = Hypotheses::sheared(-PROBE_REACH, PROBE_REACH, 1.0, 1.0)?;
@@ -42,23 +42,18 @@ pub fn estimate_range<T: Scalar, S: Sample>(
     let mut total = 0u64;
     // The probe runs on the gray mean of the channels (a third of the work of the colour
     // tensor; the range ends are padded histogram windows, docs/stages/epi.md).
-    let gray = Plan::new(
-        *plan.layout(),
-        Params {
-            epi: EpiParams {
-                color: ColorMode::Gray,
-                ..plan.params().epi
-            },
-            ..*plan.params()
-        },
-    )?;
+    let gray = EpiParams {
+        color: ColorMode::Gray,
+        ..*setup.params()
+    };
+    let gray = setup.with_params(&gray);
     for direction in [Direction::Horizontal, Direction::Vertical] {
-        let band = BandEstimator::new(&gray, probe, lf, direction);
+        let band = BandEstimator::new(gray, probe, lf, direction);
         let (d, c, work) = band.split_scratch(scratch)?;
-        let n = direction.line_len(plan);
+        let n = direction.line_len(setup.layout());
         let margin = if n > 4 * MARGIN { MARGIN } else { 0 };
         let mut line = RANGE_LINE_STEP / 2;
-        while line < direction.lines(plan) {
+        while line < direction.lines(setup.layout()) {
             band.line(line, work, d, c)?;
             // `split_scratch` gave lines of `n` values and `margin` ≤ n / 4.
             let inner = margin..n - margin;

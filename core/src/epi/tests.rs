@@ -7,18 +7,11 @@ use core::ops::ControlFlow;
 use super::test_scenes::{noise, strips, Scene};
 use super::*;
 use crate::lightfield::{Grid, Layout};
-use crate::plan::Params;
 use crate::scalar::Q16;
+use crate::setup::TestSetup;
 
-fn plan_for(layout: Layout, epi: EpiParams) -> Plan {
-    Plan::new(
-        layout,
-        Params {
-            epi,
-            ..Params::default()
-        },
-    )
-    .unwrap()
+fn stage_for(layout: Layout, epi: EpiParams) -> TestSetup<EpiParams> {
+    TestSetup::new(layout, epi)
 }
 
 fn fixed(min: f32, max: f32) -> EpiParams {
@@ -29,12 +22,12 @@ fn fixed(min: f32, max: f32) -> EpiParams {
 }
 
 fn run<T: Scalar>(scene: &Scene, epi: EpiParams) -> (Vec<f32>, Vec<f32>) {
-    let plan = plan_for(scene.layout, epi);
+    let stage = stage_for(scene.layout, epi);
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
-    let mut d = vec![0.0; plan.pixels()];
-    let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![T::ZERO; scratch_len(&plan)];
-    estimate(&plan, &lf, &mut d, &mut c, &mut scratch).unwrap();
+    let mut d = vec![0.0; stage.pixels()];
+    let mut c = vec![0.0; stage.pixels()];
+    let mut scratch = vec![T::ZERO; scratch_len(stage.setup())];
+    estimate(stage.setup(), &lf, &mut d, &mut c, &mut scratch).unwrap();
     (d, c)
 }
 
@@ -133,29 +126,34 @@ fn estimates_stay_in_range_and_finite_on_any_input() {
 fn bands_of_any_size_give_the_serial_result_bit_for_bit() {
     let scene = strips(Grid::new(7, 9), 37, 29, 3, -1.2, &[0.0, 1.6, -1.2, 2.4]);
     let epi = fixed(-1.5, 2.6);
-    let plan = plan_for(scene.layout, epi);
+    let stage = stage_for(scene.layout, epi);
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
     let (serial_d, serial_c) = run::<f32>(&scene, epi);
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
-    let hyps = hypotheses(&plan, &lf, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    let hyps = hypotheses(stage.setup(), &lf, &mut scratch).unwrap();
     for band in [1usize, 5, 13, 64] {
         let mut maps = Vec::new();
         for direction in [Direction::Horizontal, Direction::Vertical] {
-            let (lines, n) = (direction.lines(&plan), direction.line_len(&plan));
+            let (lines, n) = (
+                direction.lines(stage.layout()),
+                direction.line_len(stage.layout()),
+            );
             let mut d = vec![0.0; lines * n];
             let mut c = vec![0.0; lines * n];
             let mut start = 0;
             while start < lines {
                 let end = (start + band).min(lines);
-                let mut s = vec![0.0f32; band_scratch_len(&plan, direction)];
+                let mut s = vec![0.0f32; band_scratch_len(stage.setup(), direction)];
                 estimate_band(
-                    &plan,
+                    stage.setup(),
                     &hyps,
                     &lf,
                     direction,
                     start..end,
-                    &mut d[start * n..end * n],
-                    &mut c[start * n..end * n],
+                    DisparityOut {
+                        disparity: &mut d[start * n..end * n],
+                        confidence: &mut c[start * n..end * n],
+                    },
                     &mut s,
                 )
                 .unwrap();
@@ -203,10 +201,10 @@ fn automatic_range_brackets_the_scene() {
         (-3.8, [-3.8, -1.0, -3.8]),
     ] {
         let scene = strips(Grid::new(9, 9), 64, 64, 1, background, &fronts);
-        let plan = plan_for(scene.layout, EpiParams::default());
+        let stage = stage_for(scene.layout, EpiParams::default());
         let lf = LightField::new(&scene.data, scene.layout).unwrap();
-        let mut scratch = vec![0.0f32; scratch_len(&plan)];
-        let (lo, hi) = estimate_range(&plan, &lf, &mut scratch).unwrap();
+        let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+        let (lo, hi) = estimate_range(stage.setup(), &lf, &mut scratch).unwrap();
         let gmin = scene.gt.iter().copied().fold(f32::MAX, f32::min);
         let gmax = scene.gt.iter().copied().fold(f32::MIN, f32::max);
         assert!(lo <= gmin && hi >= gmax, "[{lo}, {hi}] vs [{gmin}, {gmax}]");
@@ -220,59 +218,49 @@ fn automatic_range_brackets_the_scene() {
 #[test]
 fn bad_buffers_and_cancellation_are_errors() {
     let scene = strips(Grid::new(3, 3), 16, 16, 1, 0.3, &[]);
-    let plan = plan_for(scene.layout, fixed(-1.0, 1.0));
+    let stage = stage_for(scene.layout, fixed(-1.0, 1.0));
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
-    let mut d = vec![0.0; plan.pixels()];
-    let mut c = vec![0.0; plan.pixels()];
-    let mut small = vec![0.0f32; scratch_len(&plan) - 1];
+    let mut d = vec![0.0; stage.pixels()];
+    let mut c = vec![0.0; stage.pixels()];
+    let mut small = vec![0.0f32; scratch_len(stage.setup()) - 1];
     assert!(matches!(
-        estimate(&plan, &lf, &mut d, &mut c, &mut small),
+        estimate(stage.setup(), &lf, &mut d, &mut c, &mut small),
         Err(Error::ScratchTooSmall { .. })
     ));
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
     assert!(matches!(
-        estimate(&plan, &lf, &mut d[1..], &mut c, &mut scratch),
+        estimate(stage.setup(), &lf, &mut d[1..], &mut c, &mut scratch),
         Err(Error::OutputSize { .. })
     ));
-    let hyps = hypotheses(&plan, &lf, &mut scratch).unwrap();
+    let hyps = hypotheses(stage.setup(), &lf, &mut scratch).unwrap();
     assert!(estimate_band(
-        &plan,
+        stage.setup(),
         &hyps,
         &lf,
         Direction::Horizontal,
         3..17,
-        &mut d[..14 * 16],
-        &mut c[..14 * 16],
+        DisparityOut {
+            disparity: &mut d[..14 * 16],
+            confidence: &mut c[..14 * 16]
+        },
         &mut scratch
     )
     .is_err());
     let mut calls = 0;
-    let mut maps = std::vec![
-        0.0f32;
-        crate::pipeline::stage_map_scratch_len(&plan, crate::pipeline::Stages::Epi)
-    ];
-    let r = crate::pipeline::estimate(
-        &plan,
-        &lf,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut |p| {
-            calls += 1;
-            assert!(p.done <= p.total);
-            if p.stage == STAGE_VERTICAL {
-                ControlFlow::Break(())
-            } else {
-                ControlFlow::Continue(())
-            }
-        },
-    );
+    let r = estimate_with_progress(stage.setup(), &lf, &mut d, &mut c, &mut scratch, &mut |p| {
+        calls += 1;
+        assert!(p.done <= p.total);
+        if p.stage == STAGE_VERTICAL {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
     assert_eq!(r, Err(Error::Cancelled));
     assert!(calls >= 3);
     let other = Layout::packed(Grid::new(3, 3), 17, 16, 1);
-    let plan2 = plan_for(other, fixed(-1.0, 1.0));
-    assert!(estimate(&plan2, &lf, &mut d, &mut c, &mut scratch).is_err());
+    let stage2 = stage_for(other, fixed(-1.0, 1.0));
+    assert!(estimate(stage2.setup(), &lf, &mut d, &mut c, &mut scratch).is_err());
 }
 
 #[test]
@@ -397,18 +385,20 @@ fn the_scratch_bound_covers_every_estimator_the_parameters_make() {
     // Half-sample steps need neither fallback planes nor half-shifted planes of the views
     // at even distances from the centre: a third less than a step of 0.3.
     let layout = Layout::packed(Grid::new(9, 9), 512, 512, 3);
-    let default = scratch_len(&plan_for(layout, EpiParams::default()));
-    let any_step = scratch_len(&plan_for(
+    let default = scratch_len(stage_for(layout, EpiParams::default()).setup());
+    let any_step = stage_for(
         layout,
         EpiParams {
             shear_step: 0.3,
             ..EpiParams::default()
         },
-    ));
-    let large = scratch_len(&plan_for(
+    );
+    let any_step = scratch_len(any_step.setup());
+    let large = stage_for(
         Layout::packed(Grid::new(9, 9), 4096, 4096, 3),
         EpiParams::default(),
-    ));
+    );
+    let large = scratch_len(large.setup());
     std::eprintln!(
         "EPI scratch, 9x9 RGB: 512x512 {} B (step 0.3: {} B), 4096x4096 {} B",
         4 * default,

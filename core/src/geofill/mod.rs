@@ -40,7 +40,7 @@ mod tests;
 
 use crate::error::{check_map_lengths, check_scratch, checked_product, Error, Result};
 use crate::lightfield::{Sample, View};
-use crate::plan::Plan;
+use crate::setup::Setup;
 use band::band_distance;
 use seeds::refill_from_seeds;
 use sweep::{Field, BLOCKED};
@@ -52,24 +52,24 @@ pub const STAGE: &str = "geofill";
 
 /// Scratch (`f32` elements) of [`fill`]: the geodesic distance and the offset (x, y) to
 /// the nearest seed of every pixel, `3 · pixels`.
-pub fn scratch_len(plan: &Plan) -> usize {
-    plan.pixels().saturating_mul(3)
+pub fn scratch_len(setup: Setup<'_, GeoFillParams>) -> usize {
+    setup.pixels().saturating_mul(3)
 }
 
-/// Refills the band around the depth steps of `input` (row-major, `plan.pixels()`) into
+/// Refills the band around the depth steps of `input` (row-major, `setup.pixels()`) into
 /// `out` (same size), guided by `guide` (the centre view). `scratch` needs
 /// [`scratch_len`] elements. Pixels outside the band and non-finite values are copied
 /// unchanged; non-finite values never seed a neighbour.
 pub fn fill<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, GeoFillParams>,
     guide: &View<'_, S>,
     input: &[f32],
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    let layout = plan.layout();
+    let layout = setup.layout();
     let (width, height) = (layout.width, layout.height);
-    let pixels = plan.pixels();
+    let pixels = setup.pixels();
     if guide.width() != width || guide.height() != height {
         return Err(Error::OutputSize {
             what: "the fill's guide view",
@@ -84,9 +84,9 @@ pub fn fill<S: Sample>(
             ("the fill output", out.len()),
         ],
     )?;
-    let needed = scratch_len(plan);
+    let needed = scratch_len(setup);
     check_scratch(needed, scratch.len())?;
-    let p = plan.params().geofill;
+    let p = *setup.params();
     let short = Error::ScratchTooSmall {
         needed,
         got: scratch.len(),

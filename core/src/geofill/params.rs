@@ -1,6 +1,7 @@
 //! The parameters of the refill and their limits.
 
 use crate::error::{Error, Result};
+use crate::setup::StageParams;
 
 /// Widest band (px).
 pub const MAX_BAND: usize = 32;
@@ -59,6 +60,12 @@ impl Default for GeoFillParams {
             sweeps: 2,
             planar: false,
         }
+    }
+}
+
+impl StageParams for GeoFillParams {
+    fn validate(&self) -> Result<()> {
+        GeoFillParams::validate(self)
     }
 }
 

@@ -3,20 +3,17 @@
 use super::band::within_band;
 use super::*;
 use crate::lightfield::{Grid, Layout, LightField};
-use crate::plan::Params;
+use crate::setup::TestSetup;
 
 const W: usize = 48;
 const H: usize = 24;
 
-fn plan() -> Plan {
-    let params = Params {
-        geofill: GeoFillParams {
-            enabled: true,
-            ..GeoFillParams::default()
-        },
-        ..Params::default()
+fn stage() -> TestSetup<GeoFillParams> {
+    let params = GeoFillParams {
+        enabled: true,
+        ..GeoFillParams::default()
     };
-    Plan::new(Layout::packed(Grid::new(3, 3), W, H, 3), params).unwrap()
+    TestSetup::new(Layout::packed(Grid::new(3, 3), W, H, 3), params)
 }
 
 /// A 3×3 grid whose every view is the centre image (only the centre is read).
@@ -52,7 +49,7 @@ fn band_distance_is_the_city_block_distance_up_to_the_band() {
 
 #[test]
 fn fattened_step_moves_to_the_colour_edge() {
-    let plan = plan();
+    let stage = stage();
     // Bright foreground x < 20, dark background beyond; the disparity's step sits
     // 5 px into the background.
     let mut image = vec![0u8; W * H * 3];
@@ -63,13 +60,20 @@ fn fattened_step_moves_to_the_colour_edge() {
         }
     }
     let data = light_field(&image);
-    let lf = LightField::new(&data, *plan.layout()).unwrap();
+    let lf = LightField::new(&data, *stage.layout()).unwrap();
     let input: Vec<f32> = (0..W * H)
         .map(|i| if i % W < 25 { 2.0 } else { 0.5 })
         .collect();
     let mut out = vec![0.0f32; W * H];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
-    fill(&plan, &lf.center_view(), &input, &mut out, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    fill(
+        stage.setup(),
+        &lf.center_view(),
+        &input,
+        &mut out,
+        &mut scratch,
+    )
+    .unwrap();
     for y in 0..H {
         for x in 0..W {
             let want = if x < 20 { 2.0 } else { 0.5 };
@@ -80,16 +84,16 @@ fn fattened_step_moves_to_the_colour_edge() {
 
 #[test]
 fn slanted_band_is_extrapolated_along_the_seed_slope() {
-    let mut params = *plan().params();
-    params.geofill.planar = true;
-    params.geofill.band = 8;
-    let plan = Plan::new(*plan().layout(), params).unwrap();
+    let mut params = *stage().params();
+    params.planar = true;
+    params.band = 8;
+    let stage = TestSetup::new(*stage().layout(), params);
     let mut image = vec![0u8; W * H * 3];
     for (i, px) in image.chunks_exact_mut(3).enumerate() {
         px.fill(if i % W < 20 { 200 } else { 30 });
     }
     let data = light_field(&image);
-    let lf = LightField::new(&data, *plan.layout()).unwrap();
+    let lf = LightField::new(&data, *stage.layout()).unwrap();
     // Background slants by 0.01 px per column; the foreground (2.0) is fattened to
     // x < 24.
     let bg = |x: usize| 0.5 + 0.01 * x as f32;
@@ -97,8 +101,15 @@ fn slanted_band_is_extrapolated_along_the_seed_slope() {
         .map(|i| if i % W < 24 { 2.0 } else { bg(i % W) })
         .collect();
     let mut out = vec![0.0f32; W * H];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
-    fill(&plan, &lf.center_view(), &input, &mut out, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    fill(
+        stage.setup(),
+        &lf.center_view(),
+        &input,
+        &mut out,
+        &mut scratch,
+    )
+    .unwrap();
     for x in 20..W {
         assert!(
             (out[5 * W + x] - bg(x)).abs() < 1e-4,
@@ -110,7 +121,7 @@ fn slanted_band_is_extrapolated_along_the_seed_slope() {
 
 #[test]
 fn thin_structure_inside_a_band_keeps_its_value() {
-    let plan = plan();
+    let stage = stage();
     let bar = |x: usize, y: usize| (18..20).contains(&x) && (8..13).contains(&y);
     let mut image = vec![0u8; W * H * 3];
     for (i, px) in image.chunks_exact_mut(3).enumerate() {
@@ -118,7 +129,7 @@ fn thin_structure_inside_a_band_keeps_its_value() {
         px.fill(if x < 10 || bar(x, y) { 200 } else { 30 });
     }
     let data = light_field(&image);
-    let lf = LightField::new(&data, *plan.layout()).unwrap();
+    let lf = LightField::new(&data, *stage.layout()).unwrap();
     // The foreground (x < 10) is fattened to x < 15, within a band's reach of a
     // short bright bar at disparity 3 whose own steps sit on colour edges.
     let input: Vec<f32> = (0..W * H)
@@ -129,8 +140,15 @@ fn thin_structure_inside_a_band_keeps_its_value() {
         })
         .collect();
     let mut out = vec![0.0f32; W * H];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
-    fill(&plan, &lf.center_view(), &input, &mut out, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    fill(
+        stage.setup(),
+        &lf.center_view(),
+        &input,
+        &mut out,
+        &mut scratch,
+    )
+    .unwrap();
     for y in 0..H {
         for x in 0..W {
             let want = if bar(x, y) {
@@ -147,37 +165,51 @@ fn thin_structure_inside_a_band_keeps_its_value() {
 
 #[test]
 fn step_on_a_colour_edge_is_left_alone() {
-    let plan = plan();
+    let stage = stage();
     let mut image = vec![0u8; W * H * 3];
     for (i, px) in image.chunks_exact_mut(3).enumerate() {
         px.fill(if i % W < 20 { 200 } else { 30 });
     }
     let data = light_field(&image);
-    let lf = LightField::new(&data, *plan.layout()).unwrap();
+    let lf = LightField::new(&data, *stage.layout()).unwrap();
     // The step sits on the colour edge: nothing to move.
     let input: Vec<f32> = (0..W * H)
         .map(|i| if i % W < 20 { 2.0 } else { 0.5 })
         .collect();
     let mut out = vec![0.0f32; W * H];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
-    fill(&plan, &lf.center_view(), &input, &mut out, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    fill(
+        stage.setup(),
+        &lf.center_view(),
+        &input,
+        &mut out,
+        &mut scratch,
+    )
+    .unwrap();
     assert_eq!(out, input);
 }
 
 #[test]
 fn map_without_steps_is_unchanged() {
-    let plan = plan();
+    let stage = stage();
     let image: Vec<u8> = (0..W * H * 3).map(|i| (i * 37 % 251) as u8).collect();
     let data = light_field(&image);
-    let lf = LightField::new(&data, *plan.layout()).unwrap();
+    let lf = LightField::new(&data, *stage.layout()).unwrap();
     // Smooth slant: every neighbour step is below 0.3 px.
     let mut input: Vec<f32> = (0..W * H)
         .map(|i| 0.1 * (i % W) as f32 + 0.05 * (i / W) as f32)
         .collect();
     input[7] = f32::NAN;
     let mut out = vec![0.0f32; W * H];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
-    fill(&plan, &lf.center_view(), &input, &mut out, &mut scratch).unwrap();
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    fill(
+        stage.setup(),
+        &lf.center_view(),
+        &input,
+        &mut out,
+        &mut scratch,
+    )
+    .unwrap();
     for (a, b) in out.iter().zip(&input) {
         assert_eq!(a.to_bits(), b.to_bits());
     }
@@ -185,20 +217,26 @@ fn map_without_steps_is_unchanged() {
 
 #[test]
 fn short_scratch_and_wrong_sizes_are_errors() {
-    let plan = plan();
+    let stage = stage();
     let data = vec![0u8; W * H * 3 * 9];
-    let lf = LightField::new(&data, *plan.layout()).unwrap();
+    let lf = LightField::new(&data, *stage.layout()).unwrap();
     let input = vec![0.0f32; W * H];
     let mut out = vec![0.0f32; W * H];
-    let mut scratch = vec![0.0f32; scratch_len(&plan) - 1];
-    assert!(matches!(
-        fill(&plan, &lf.center_view(), &input, &mut out, &mut scratch),
-        Err(Error::ScratchTooSmall { .. })
-    ));
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup()) - 1];
     assert!(matches!(
         fill(
-            &plan,
+            stage.setup(),
+            &lf.center_view(),
+            &input,
+            &mut out,
+            &mut scratch
+        ),
+        Err(Error::ScratchTooSmall { .. })
+    ));
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    assert!(matches!(
+        fill(
+            stage.setup(),
             &lf.center_view(),
             &input[1..],
             &mut out,
@@ -206,40 +244,6 @@ fn short_scratch_and_wrong_sizes_are_errors() {
         ),
         Err(Error::OutputSize { .. })
     ));
-}
-
-#[test]
-fn a_stream_refuses_the_refill() {
-    let params = *plan().params();
-    let params = Params {
-        refine: crate::refine::RefineParams::off(),
-        median: crate::median::MedianParams::off(),
-        tv: crate::tv::TvParams {
-            sweeps: 0,
-            ..params.tv
-        },
-        epi: crate::epi::EpiParams {
-            range: crate::epi::DisparityRange::Fixed {
-                min: -1.0,
-                max: 1.0,
-            },
-            ..params.epi
-        },
-        ..params
-    };
-    let layout = *plan().layout();
-    assert!(matches!(
-        crate::stream::StreamPlan::new(layout, params),
-        Err(Error::InvalidParameter {
-            name: "geofill.enabled",
-            ..
-        })
-    ));
-    let off = Params {
-        geofill: GeoFillParams::off(),
-        ..params
-    };
-    assert!(crate::stream::StreamPlan::new(layout, off).is_ok());
 }
 
 #[test]

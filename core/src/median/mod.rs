@@ -35,7 +35,7 @@ mod weights;
 
 use crate::error::{check_scratch, Error, Result};
 use crate::lightfield::{Sample, View};
-use crate::plan::Plan;
+use crate::setup::{Setup, StageParams};
 
 use gate::{ColumnCounts, LastFlagged, QuarterRowCounts};
 use pixel::{RowIndices, RowOrder, Window};
@@ -102,6 +102,12 @@ impl Default for MedianParams {
     }
 }
 
+impl StageParams for MedianParams {
+    fn validate(&self) -> Result<()> {
+        MedianParams::validate(self)
+    }
+}
+
 impl MedianParams {
     /// The stage switched off (the paper's pipeline has no such step).
     pub fn off() -> Self {
@@ -136,19 +142,23 @@ impl MedianParams {
     }
 }
 
-fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(usize, usize)> {
-    plan.params().median.validate()?;
-    let (w, h) = (plan.layout().width, plan.layout().height);
+fn check<S: Sample>(
+    setup: Setup<'_, MedianParams>,
+    guide: &View<'_, S>,
+    input: &[f32],
+) -> Result<(usize, usize)> {
+    setup.params().validate()?;
+    let (w, h) = (setup.layout().width, setup.layout().height);
     if guide.width() != w || guide.height() != h {
         return Err(Error::InvalidParameter {
             name: "guide",
             reason: "must be the centre view of the planned light field (same width and height)",
         });
     }
-    if input.len() != plan.pixels() {
+    if input.len() != setup.pixels() {
         return Err(Error::OutputSize {
             what: "the median input disparity",
-            needed: plan.pixels(),
+            needed: setup.pixels(),
             got: input.len(),
         });
     }
@@ -159,26 +169,26 @@ fn check<S: Sample>(plan: &Plan, guide: &View<'_, S>, input: &[f32]) -> Result<(
 /// and [`filter`]: three counts per column (window rows with a step, rows changed since
 /// the previous pass within the window's reach and near its quarter rows) plus every window row's values, slopes and colour levels, padded by 22 columns:
 /// `3 · width + 90 · (width + 22)`.
-pub fn scratch_len(plan: &Plan) -> usize {
-    let width = plan.layout().width;
+pub fn scratch_len(setup: Setup<'_, MedianParams>) -> usize {
+    let width = setup.layout().width;
     width
         .saturating_mul(3)
         .saturating_add(ring::ring_len(width))
 }
 
-/// Filters the image rows `rows` of `input` (row-major, `plan.pixels()`) into `out`
+/// Filters the image rows `rows` of `input` (row-major, `setup.pixels()`) into `out`
 /// (`rows.len() · width`, row-major) with the weighted median guided by `guide`.
 /// `scratch` needs [`scratch_len`] elements. Non-finite input values are passed through
 /// untouched and never enter a neighbour's median.
 pub fn filter_rows<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     input: &[f32],
     rows: Range<usize>,
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    run(plan, guide, input, None, rows, out, None, scratch)
+    run(setup, guide, input, None, rows, out, None, scratch)
 }
 
 /// [`filter_rows`] for a pass after the first, `previous` being the previous pass's
@@ -188,7 +198,7 @@ pub fn filter_rows<S: Sample>(
 /// `previous`, the previous pass computed this pixel from the same values, and it keeps
 /// its value; after the first pass only pixels near the ones that moved are filtered.
 pub fn filter_rows_again<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     input: &[f32],
     previous: &[f32],
@@ -196,7 +206,16 @@ pub fn filter_rows_again<S: Sample>(
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    run(plan, guide, input, Some(previous), rows, out, None, scratch)
+    run(
+        setup,
+        guide,
+        input,
+        Some(previous),
+        rows,
+        out,
+        None,
+        scratch,
+    )
 }
 
 /// One pass of [`filter_rows`] (`previous: None`, the first pass) or
@@ -215,7 +234,7 @@ pub fn filter_rows_again<S: Sample>(
 /// not written by the previous pass make the output wrong, not an error.
 #[allow(clippy::too_many_arguments)] // the arguments of `filter_rows_again`, and one more
 pub fn filter_pass<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     input: &[f32],
     previous: Option<&[f32]>,
@@ -232,7 +251,7 @@ pub fn filter_pass<S: Sample>(
         });
     }
     run(
-        plan,
+        setup,
         guide,
         input,
         previous,
@@ -245,7 +264,7 @@ pub fn filter_pass<S: Sample>(
 
 #[allow(clippy::too_many_arguments)] // every entry point's arguments
 fn run<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     input: &[f32],
     previous: Option<&[f32]>,
@@ -263,7 +282,7 @@ fn run<S: Sample>(
             });
         }
     }
-    let (width, height) = check(plan, guide, input)?;
+    let (width, height) = check(setup, guide, input)?;
     if rows.start > rows.end || rows.end > height {
         return Err(Error::OutOfRange {
             what: "median band end row",
@@ -279,7 +298,7 @@ fn run<S: Sample>(
             got: out.len(),
         });
     }
-    let needed = scratch_len(plan);
+    let needed = scratch_len(setup);
     check_scratch(needed, scratch.len())?;
     let too_small = Error::ScratchTooSmall {
         needed,
@@ -290,7 +309,7 @@ fn run<S: Sample>(
         .ok_or(too_small)?;
     let (change_counts, rest) = rest.split_at_mut_checked(width).ok_or(too_small)?;
     let (quarter_counts, ring) = rest.split_at_mut_checked(width).ok_or(too_small)?;
-    let p = plan.params().median;
+    let p = *setup.params();
     let weights = Weights::new(p.color_sigma);
     let r = p.radius;
     let gated = p.gate > 0.0;
@@ -423,15 +442,15 @@ fn run<S: Sample>(
     Ok(())
 }
 
-/// The whole map: `out` (row-major, `plan.pixels()`) from `input`.
+/// The whole map: `out` (row-major, `setup.pixels()`) from `input`.
 pub fn filter<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     input: &[f32],
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    filter_rows(plan, guide, input, 0..plan.layout().height, out, scratch)
+    filter_rows(setup, guide, input, 0..setup.layout().height, out, scratch)
 }
 
 #[cfg(test)]

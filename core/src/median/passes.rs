@@ -10,14 +10,17 @@ use core::ops::Range;
 
 use crate::error::{Error, Result};
 use crate::lightfield::{Sample, View};
-use crate::plan::Plan;
+use crate::setup::Setup;
+
+use super::MedianParams;
 
 /// Map scratch (`f32` elements) of [`filter_band`]: three maps (the pass's input, the
 /// previous pass's input and the output) and the filter's own [`super::scratch_len`].
-pub fn band_scratch_len(plan: &Plan) -> usize {
-    plan.pixels()
+pub fn band_scratch_len(setup: Setup<'_, MedianParams>) -> usize {
+    setup
+        .pixels()
         .saturating_mul(3)
-        .saturating_add(super::scratch_len(plan))
+        .saturating_add(super::scratch_len(setup))
 }
 
 /// Every pass of the median over image rows `rows` of `input` (row-major, the map
@@ -26,7 +29,7 @@ pub fn band_scratch_len(plan: &Plan) -> usize {
 /// each pass then remembers which pixels its decision settled, and the next skips them
 /// while their rows keep their values (faster, the same result; `super::filter_pass`).
 pub fn filter_band<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     input: &[f32],
     rows: Range<usize>,
@@ -34,9 +37,9 @@ pub fn filter_band<S: Sample>(
     maps: &mut [f32],
     settled: &mut [u8],
 ) -> Result<()> {
-    let layout = plan.layout();
+    let layout = setup.layout();
     let (width, height) = (layout.width, layout.height);
-    let pixels = plan.pixels();
+    let pixels = setup.pixels();
     if rows.start > rows.end || rows.end > height {
         return Err(Error::OutOfRange {
             what: "median band end row",
@@ -52,12 +55,12 @@ pub fn filter_band<S: Sample>(
             got: out.len(),
         });
     }
-    let params = plan.params().median;
+    let params = *setup.params();
     let passes = if params.enabled { params.passes } else { 0 };
     if passes == 0 {
         return copy(out, input.get(band));
     }
-    let needed = band_scratch_len(plan);
+    let needed = band_scratch_len(setup);
     let too_small = Error::ScratchTooSmall {
         needed,
         got: maps.len(),
@@ -94,7 +97,7 @@ pub fn filter_band<S: Sample>(
         };
         let out = next.get_mut(span).ok_or(too_small)?;
         super::run(
-            plan, guide, current, previous, pass_rows, out, flags, scratch,
+            setup, guide, current, previous, pass_rows, out, flags, scratch,
         )?;
         // next → current → before; the oldest map receives the next pass.
         core::mem::swap(&mut before, &mut current);

@@ -9,21 +9,21 @@ use super::weights::Weights;
 use super::*;
 use crate::error::check_scratch;
 use crate::lightfield::{Grid, Layout, LightField};
-use crate::plan::Params;
+use crate::setup::TestSetup;
 
 const SLOPE_ROWS: usize = 2 * MAX_RADIUS + 1;
 
 /// The median as first written: per pixel, every neighbour of the window is weighed
 /// and voted, and the snap test decides on the sums.
 fn reference_rows<S: Sample>(
-    plan: &Plan,
+    stage: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     input: &[f32],
     rows: Range<usize>,
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    let (width, height) = check(plan, guide, input)?;
+    let (width, height) = check(stage, guide, input)?;
     if rows.start > rows.end || rows.end > height {
         return Err(Error::OutOfRange {
             what: "median band end row",
@@ -39,13 +39,13 @@ fn reference_rows<S: Sample>(
             got: out.len(),
         });
     }
-    let needed = scratch_len(plan);
+    let needed = scratch_len(stage);
     check_scratch(needed, scratch.len())?;
     let (column_steps, slopes) = scratch[..needed].split_at_mut(width);
     // Slopes of image row `yy` live in slot `yy % SLOPE_ROWS` (x then y, `width` each),
     // computed when the row first enters a window: each row once per call.
     let mut slot_row = [usize::MAX; SLOPE_ROWS];
-    let p = plan.params().median;
+    let p = stage.params();
     let weights = Weights::new(p.color_sigma);
     let channels = guide.channels();
     let used = channels.min(3);
@@ -211,13 +211,9 @@ fn slope(map: &[f32], width: usize, height: usize, x: usize, y: usize, gate: f32
     (gx, gy)
 }
 
-fn plan_for(width: usize, height: usize, params: MedianParams) -> Plan {
+fn stage_for(width: usize, height: usize, params: MedianParams) -> TestSetup<MedianParams> {
     let layout = Layout::packed(Grid::new(3, 3), width, height, 1);
-    let p = Params {
-        median: params,
-        ..Params::default()
-    };
-    Plan::new(layout, p).unwrap()
+    TestSetup::new(layout, params)
 }
 
 /// A vertical colour edge at x = 16 (dark left, bright right) and a disparity edge
@@ -226,7 +222,7 @@ fn plan_for(width: usize, height: usize, params: MedianParams) -> Plan {
 #[test]
 fn fattened_depth_edge_snaps_to_colour_edge() {
     let (w, h) = (32usize, 24usize);
-    let plan = plan_for(w, h, MedianParams::default());
+    let stage = stage_for(w, h, MedianParams::default());
     let mut views = [0u8; 9 * 32 * 24];
     let centre = 4 * w * h;
     for y in 0..h {
@@ -234,7 +230,7 @@ fn fattened_depth_edge_snaps_to_colour_edge() {
             views[centre + y * w + x] = if x < 16 { 40 } else { 200 };
         }
     }
-    let lf = LightField::new(&views, *plan.layout()).unwrap();
+    let lf = LightField::new(&views, *stage.layout()).unwrap();
     let mut input = [0.0f32; 32 * 24];
     for y in 0..h {
         for x in 0..w {
@@ -243,11 +239,11 @@ fn fattened_depth_edge_snaps_to_colour_edge() {
     }
     let mut out = [0.0f32; 32 * 24];
     filter(
-        &plan,
+        stage.setup(),
         &lf.center_view(),
         &input,
         &mut out,
-        &mut vec![0.0; scratch_len(&plan)],
+        &mut vec![0.0; scratch_len(stage.setup())],
     )
     .unwrap();
     for y in 0..h {
@@ -262,7 +258,7 @@ fn fattened_depth_edge_snaps_to_colour_edge() {
 fn smooth_ramp_is_kept_and_bands_are_bit_identical() {
     let (w, h) = (24usize, 20usize);
     // No gate: every pixel goes through the median.
-    let plan = plan_for(
+    let stage = stage_for(
         w,
         h,
         MedianParams {
@@ -274,7 +270,7 @@ fn smooth_ramp_is_kept_and_bands_are_bit_identical() {
     for (i, v) in views.iter_mut().enumerate() {
         *v = (i * 7 % 13) as u8 + 100;
     }
-    let lf = LightField::new(&views, *plan.layout()).unwrap();
+    let lf = LightField::new(&views, *stage.layout()).unwrap();
     let mut input = [0.0f32; 24 * 20];
     for y in 0..h {
         for x in 0..w {
@@ -283,11 +279,11 @@ fn smooth_ramp_is_kept_and_bands_are_bit_identical() {
     }
     let mut whole = [0.0f32; 24 * 20];
     filter(
-        &plan,
+        stage.setup(),
         &lf.center_view(),
         &input,
         &mut whole,
-        &mut vec![0.0; scratch_len(&plan)],
+        &mut vec![0.0; scratch_len(stage.setup())],
     )
     .unwrap();
     // Interior pixels (full symmetric window) keep their value on a plane.
@@ -301,12 +297,12 @@ fn smooth_ramp_is_kept_and_bands_are_bit_identical() {
     for start in (0..h).step_by(3) {
         let end = (start + 3).min(h);
         filter_rows(
-            &plan,
+            stage.setup(),
             &lf.center_view(),
             &input,
             start..end,
             &mut banded[start * w..end * w],
-            &mut vec![0.0; scratch_len(&plan)],
+            &mut vec![0.0; scratch_len(stage.setup())],
         )
         .unwrap();
     }
@@ -334,73 +330,69 @@ fn bad_parameters_and_sizes_are_errors() {
             ..MedianParams::default()
         },
     ] {
-        let p = Params {
-            median: bad,
-            ..Params::default()
-        };
         assert!(matches!(
-            Plan::new(layout, p),
+            Setup::new(&layout, &bad),
             Err(Error::InvalidParameter { .. })
         ));
     }
-    let plan = plan_for(16, 16, MedianParams::default());
+    let stage = stage_for(16, 16, MedianParams::default());
     let views = [0u8; 9 * 256];
-    let lf = LightField::new(&views, *plan.layout()).unwrap();
+    let lf = LightField::new(&views, *stage.layout()).unwrap();
     let input = [0.0f32; 256];
     let mut out = [0.0f32; 255];
     assert!(filter(
-        &plan,
+        stage.setup(),
         &lf.center_view(),
         &input,
         &mut out,
-        &mut vec![0.0; scratch_len(&plan)]
+        &mut vec![0.0; scratch_len(stage.setup())]
     )
     .is_err());
     let mut out = [0.0f32; 256];
     assert!(filter(
-        &plan,
+        stage.setup(),
         &lf.center_view(),
         &input[..10],
         &mut out,
-        &mut vec![0.0; scratch_len(&plan)]
+        &mut vec![0.0; scratch_len(stage.setup())]
     )
     .is_err());
     assert!(matches!(
         filter(
-            &plan,
+            stage.setup(),
             &lf.center_view(),
             &input,
             &mut out,
-            &mut vec![0.0; scratch_len(&plan) - 1]
+            &mut vec![0.0; scratch_len(stage.setup()) - 1]
         ),
         Err(Error::ScratchTooSmall { .. })
     ));
     assert!(filter_rows(
-        &plan,
+        stage.setup(),
         &lf.center_view(),
         &input,
         10..17,
         &mut out[..112],
-        &mut vec![0.0; scratch_len(&plan)]
+        &mut vec![0.0; scratch_len(stage.setup())]
     )
     .is_err());
 }
 
 #[test]
 fn non_finite_values_pass_through_and_stay_out_of_neighbours() {
-    let plan = plan_for(16, 16, MedianParams::default());
+    let stage = stage_for(16, 16, MedianParams::default());
     let views = [128u8; 9 * 256];
-    let lf = LightField::new(&views, *plan.layout()).unwrap();
+    let lf = LightField::new(&views, *stage.layout()).unwrap();
     let mut input = [0.25f32; 256];
     input[17] = f32::NAN;
     input[40] = f32::INFINITY;
     let mut out = [0.0f32; 256];
     filter(
-        &plan,
+        stage.setup(),
         &lf.center_view(),
         &input,
         &mut out,
-        &mut vec![0.0; scratch_len(&plan)],
+        &mut vec![0.0; scratch_len(stage.setup())],
     )
     .unwrap();
     assert!(out[17].is_nan());
@@ -431,7 +423,7 @@ impl Rng {
 
 const MAX_SIDE: usize = 40;
 
-/// A random side from the smallest a plan takes to `MAX_SIDE`.
+/// A random side from the smallest a stage takes to `MAX_SIDE`.
 fn side(rng: &mut Rng) -> usize {
     let min = crate::lightfield::VIEW_MIN;
     min + rng.below(MAX_SIDE - min + 1)
@@ -526,19 +518,19 @@ fn random_params(rng: &mut Rng) -> MedianParams {
 /// the reference; returns how many pixels the median moved.
 fn check_against_reference<S: Sample>(
     rng: &mut Rng,
-    plan: &Plan,
+    stage: Setup<'_, MedianParams>,
     guide: &View<'_, S>,
     map: &[f32],
     trial: usize,
 ) -> usize {
-    let (w, h) = (plan.layout().width, plan.layout().height);
+    let (w, h) = (stage.layout().width, stage.layout().height);
     let pixels = w * h;
-    let mut scratch = vec![0.0f32; scratch_len(plan)];
+    let mut scratch = vec![0.0f32; scratch_len(stage)];
     let scratch = &mut scratch[..];
     let mut expected = [0.0f32; MAX_SIDE * MAX_SIDE];
-    reference_rows(plan, guide, map, 0..h, &mut expected[..pixels], scratch).unwrap();
+    reference_rows(stage, guide, map, 0..h, &mut expected[..pixels], scratch).unwrap();
     let mut got = [0.0f32; MAX_SIDE * MAX_SIDE];
-    filter(plan, guide, map, &mut got[..pixels], scratch).unwrap();
+    filter(stage, guide, map, &mut got[..pixels], scratch).unwrap();
     let mut banded = [0.0f32; MAX_SIDE * MAX_SIDE];
     let mut start = 0;
     while start < h {
@@ -546,7 +538,7 @@ fn check_against_reference<S: Sample>(
         // Scratch left over from another call must not matter.
         scratch.fill(f32::NAN);
         filter_rows(
-            plan,
+            stage,
             guide,
             map,
             start..end,
@@ -584,10 +576,10 @@ fn equals_the_reference_bit_for_bit_on_random_scenes() {
         let (w, h) = (side(&mut rng), side(&mut rng));
         let channels = [1, 3, 4][rng.below(3)];
         let s = scene(&mut rng, w, h, channels);
-        let plan = plan_for(w, h, random_params(&mut rng));
+        let stage = stage_for(w, h, random_params(&mut rng));
         let guide =
             View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
-        moved += check_against_reference(&mut rng, &plan, &guide, &s.map[..w * h], trial);
+        moved += check_against_reference(&mut rng, stage.setup(), &guide, &s.map[..w * h], trial);
     }
     // The comparison means something only if the selection ran and moved pixels.
     assert!(moved > 200, "only {moved} pixels moved");
@@ -610,9 +602,9 @@ fn equals_the_reference_with_a_float_guide() {
                 _ => f32::from(level) / 255.0 + (rng.unit() - 0.5) / 255.0,
             };
         }
-        let plan = plan_for(w, h, random_params(&mut rng));
+        let stage = stage_for(w, h, random_params(&mut rng));
         let guide = View::new(&colours[..3 * w * h], w, h, 3, 3 * w).unwrap();
-        moved += check_against_reference(&mut rng, &plan, &guide, &s.map[..w * h], trial);
+        moved += check_against_reference(&mut rng, stage.setup(), &guide, &s.map[..w * h], trial);
     }
     assert!(moved > 50, "only {moved} pixels moved");
 }
@@ -625,24 +617,24 @@ fn later_passes_skip_unchanged_windows_with_the_same_result() {
         let (w, h) = (side(&mut rng), side(&mut rng));
         let channels = [1, 3, 4][rng.below(3)];
         let s = scene(&mut rng, w, h, channels);
-        let plan = plan_for(w, h, random_params(&mut rng));
+        let stage = stage_for(w, h, random_params(&mut rng));
         let guide =
             View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
         let pixels = w * h;
-        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
         let mut previous = s.map[..pixels].to_vec();
         let mut input = vec![0.0f32; pixels];
-        filter(&plan, &guide, &previous, &mut input, &mut scratch).unwrap();
+        filter(stage.setup(), &guide, &previous, &mut input, &mut scratch).unwrap();
         for pass in 1..4 {
             let mut expected = vec![0.0f32; pixels];
-            filter(&plan, &guide, &input, &mut expected, &mut scratch).unwrap();
+            filter(stage.setup(), &guide, &input, &mut expected, &mut scratch).unwrap();
             let mut got = vec![0.0f32; pixels];
             let mut start = 0;
             while start < h {
                 let end = (start + 1 + rng.below(h)).min(h);
                 scratch.fill(f32::NAN);
                 filter_rows_again(
-                    &plan,
+                    stage.setup(),
                     &guide,
                     &input,
                     &previous,
@@ -672,19 +664,19 @@ fn later_passes_skip_unchanged_windows_with_the_same_result() {
         skipped_some > 10,
         "too few passes where something moved: {skipped_some}"
     );
-    let plan = plan_for(16, 16, MedianParams::default());
+    let stage = stage_for(16, 16, MedianParams::default());
     let views = [0u8; 256];
     let guide = View::new(&views, 16, 16, 1, 16).unwrap();
     let mut out = [0.0f32; 256];
     assert!(matches!(
         filter_rows_again(
-            &plan,
+            stage.setup(),
             &guide,
             &[0.0; 256],
             &[0.0; 255],
             0..16,
             &mut out,
-            &mut vec![0.0; scratch_len(&plan)]
+            &mut vec![0.0; scratch_len(stage.setup())]
         ),
         Err(Error::OutputSize { .. })
     ));
@@ -701,18 +693,18 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
         let (w, h) = (side(&mut rng), side(&mut rng));
         let channels = [1, 3, 4][rng.below(3)];
         let s = scene(&mut rng, w, h, channels);
-        let plan = plan_for(w, h, random_params(&mut rng));
+        let stage = stage_for(w, h, random_params(&mut rng));
         let guide =
             View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
         let pixels = w * h;
-        let mut scratch = vec![0.0f32; scratch_len(&plan)];
+        let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
         let mut expected = s.map[..pixels].to_vec();
         let mut input = expected.clone();
         let mut previous: Option<Vec<f32>> = None;
         let mut settled = vec![7u8; pixels];
         for pass in 0..4 {
             let mut next = vec![0.0f32; pixels];
-            filter(&plan, &guide, &expected, &mut next, &mut scratch).unwrap();
+            filter(stage.setup(), &guide, &expected, &mut next, &mut scratch).unwrap();
             moved += (0..pixels)
                 .filter(|&i| next[i].to_bits() != expected[i].to_bits())
                 .count();
@@ -723,7 +715,7 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
                 let end = (start + 1 + rng.below(h)).min(h);
                 scratch.fill(f32::NAN);
                 filter_pass(
-                    &plan,
+                    stage.setup(),
                     &guide,
                     &input,
                     previous.as_deref(),
@@ -758,15 +750,15 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
         settled_pixels > 1000,
         "only {settled_pixels} settled pixels"
     );
-    let plan = plan_for(16, 16, MedianParams::default());
+    let stage = stage_for(16, 16, MedianParams::default());
     let views = [0u8; 256];
     let guide = View::new(&views, 16, 16, 1, 16).unwrap();
     let mut out = [0.0f32; 256];
-    let mut scratch = vec![0.0; scratch_len(&plan)];
+    let mut scratch = vec![0.0; scratch_len(stage.setup())];
     let map = [0.0f32; 256];
     assert!(matches!(
         filter_pass(
-            &plan,
+            stage.setup(),
             &guide,
             &map,
             None,
@@ -779,7 +771,7 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
     ));
     assert!(matches!(
         filter_pass(
-            &plan,
+            stage.setup(),
             &guide,
             &map,
             Some(&[0.0; 255]),

@@ -89,20 +89,21 @@
 //!   2^13: unscaled, one view's weighted energy is at most 0.077 (5033 LSB) and the
 //!   rounding of the small terms flipped decisions between a candidate's cost and 0.7
 //!   times the pixel's own. (Measured, Q16 vs f32 default pipeline on the synthetic
-//!   scenes of `fixed_tests`: with the median 97.97–100 % → 98.93–100 %; `f32` decisions
-//!   are unchanged, bit for bit.)
+//!   scenes of `pipeline::fixed_tests`: with the median 97.97–100 % → 98.93–100 %;
+//!   `f32` decisions are unchanged, bit for bit.)
 //! - One pixel's statistics (with the damping and the occlusion floor) are multiplied by
 //!   `STAT_SCALE` = 4 (with a robust scale): weakly textured windows, whose `A` and `B`
 //!   are a few hundred LSB unscaled, decided between the horizontal and the vertical
 //!   solution (`AXIS_AGREEMENT`) on rounding (measured, Q16 vs f32 default pipeline on
-//!   the synthetic scenes of `fixed_tests`, with the median: 98.93–100 % → 99.56–100 %;
-//!   refinement alone 99.90–100 % → 100 %). The window sums of `A` therefore exceed the
+//!   the synthetic scenes of `pipeline::fixed_tests`, with the median: 98.93–100 % →
+//!   99.56–100 %; refinement alone 99.90–100 % → 100 %). The window sums of `A` therefore exceed the
 //!   `MAX / 32` limit above from 256 unscaled (re-summed at 2^-6 of unscaled: still
 //!   2^18 LSB for such a window). A view adds at most `3 · (reach · 16)² · 4` to `A`
 //!   (49152 at reach 4), so a pixel whose views see full-contrast edges at the largest
 //!   reach can saturate; on HCI the largest view term is 779 unscaled (3116 scaled).
 //!
-//! The tests (`fixed_tests`) and `docs/stages/fixed-point.md` measure Q16.16 against `f32`.
+//! The tests in `pipeline::fixed_tests` and `docs/stages/fixed-point.md` measure Q16.16
+//! against `f32`.
 
 mod gauss_newton;
 mod params;
@@ -118,9 +119,9 @@ use crate::align::Interpolation;
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample, GRID_MAX};
-use crate::plan::Plan;
 use crate::progress::Progress;
 use crate::scalar::Scalar;
+use crate::setup::{DisparityOut, Setup};
 use photo::{Mapped, Photometric, Rectified, Views, INTENSITY_SCALE, STATS};
 use state::{Planes, Region};
 
@@ -175,20 +176,20 @@ const REMEMBERED: usize = 4;
 /// share of the pixel's own.
 const PROPAGATION_ACCEPT: f32 = 0.7;
 
-fn jumps(plan: &Plan) -> &'static [usize] {
-    let rounds = plan.params().refine.propagation.min(JUMPS.len());
+fn jumps(setup: Setup<'_, RefineParams>) -> &'static [usize] {
+    let rounds = setup.params().propagation.min(JUMPS.len());
     &JUMPS[JUMPS.len() - rounds..]
 }
 
 /// Rows of context a band needs on each side.
-pub fn halo(plan: &Plan) -> usize {
-    let p = &plan.params().refine;
-    p.iterations * p.radius + jumps(plan).iter().sum::<usize>()
+pub fn halo(setup: Setup<'_, RefineParams>) -> usize {
+    let p = setup.params();
+    p.iterations * p.radius + jumps(setup).iter().sum::<usize>()
 }
 
-fn region_rows(plan: &Plan) -> usize {
-    let rows = plan.params().refine.band_rows + 2 * halo(plan);
-    rows.min(plan.layout().height)
+fn region_rows(setup: Setup<'_, RefineParams>) -> usize {
+    let rows = setup.params().band_rows + 2 * halo(setup);
+    rows.min(setup.layout().height)
 }
 
 /// Values per region pixel the propagation keeps besides the statistics: the state of
@@ -197,22 +198,23 @@ const MEMORY: usize = 1 + REMEMBERED;
 
 /// Scratch (elements of the scalar type) one band needs: `2 + 12 + 5` values per pixel
 /// of the band and its halo; independent of the image height.
-pub fn scratch_len(plan: &Plan) -> usize {
-    region_rows(plan)
-        .saturating_mul(plan.layout().width)
+pub fn scratch_len(setup: Setup<'_, RefineParams>) -> usize {
+    region_rows(setup)
+        .saturating_mul(setup.layout().width)
         .saturating_mul(2 + STATS + MEMORY)
 }
 
 /// Number of bands.
-pub fn band_count(plan: &Plan) -> usize {
-    plan.layout()
+pub fn band_count(setup: Setup<'_, RefineParams>) -> usize {
+    setup
+        .layout()
         .height
-        .div_ceil(plan.params().refine.band_rows.max(1))
+        .div_ceil(setup.params().band_rows.max(1))
 }
 
 /// Image rows of band `index`.
-pub fn band_rows(plan: &Plan, index: usize) -> Result<Range<usize>> {
-    let count = band_count(plan);
+pub fn band_rows(setup: Setup<'_, RefineParams>, index: usize) -> Result<Range<usize>> {
+    let count = band_count(setup);
     if index >= count {
         return Err(Error::OutOfRange {
             what: "refine band",
@@ -220,18 +222,18 @@ pub fn band_rows(plan: &Plan, index: usize) -> Result<Range<usize>> {
             len: count,
         });
     }
-    let rows = plan.params().refine.band_rows;
+    let rows = setup.params().band_rows;
     let start = index * rows;
-    Ok(start..(start + rows).min(plan.layout().height))
+    Ok(start..(start + rows).min(setup.layout().height))
 }
 
 fn check_inputs<S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
 ) -> Result<()> {
-    if lf.layout() != plan.layout() {
+    if lf.layout() != setup.layout() {
         return Err(Error::InvalidParameter {
             name: "plan",
             reason: "was made for a different light-field layout: build it from this light field",
@@ -243,10 +245,10 @@ fn check_inputs<S: Sample>(
             reason: "must be finite with min <= max",
         });
     }
-    if disparity.len() != plan.pixels() {
+    if disparity.len() != setup.pixels() {
         return Err(Error::OutputSize {
             what: "the input disparity",
-            needed: plan.pixels(),
+            needed: setup.pixels(),
             got: disparity.len(),
         });
     }
@@ -327,29 +329,25 @@ struct Measure<'a, T, P> {
 }
 
 /// Refines the rows `rows` of `disparity` (the whole EPI map, row-major) into `out`
-/// and `confidence` (`rows.len() · width` each, first row of the band first), keeping
-/// the result in `range` (the EPI stage's output range), computing in `T`. `scratch`
-/// needs [`scratch_len`] elements.
-#[allow(clippy::too_many_arguments)]
+/// (`rows.len() · width` values each, first row of the band first), keeping the result
+/// in `range` (the EPI stage's output range), computing in `T`. `scratch` needs
+/// [`scratch_len`] elements.
 pub fn refine_band<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
     rows: Range<usize>,
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
-    check_inputs(plan, lf, range, disparity)?;
-    let p = &plan.params().refine;
+    check_inputs(setup, lf, range, disparity)?;
+    let p = setup.params();
     let photo = Rectified {
-        views: Views::<T>::new(plan.layout(), p.views).with_slack(p.sampling_slack),
+        views: Views::<T>::new(setup.layout(), p.views).with_slack(p.sampling_slack),
         data: lf.data(),
     };
-    band(
-        plan, &photo, range, disparity, rows, out, confidence, scratch,
-    )
+    band(setup, &photo, range, disparity, rows, out, scratch)
 }
 
 /// [`refine_band`] on an aligned array: `lf` holds the INPUT views and `homographies`
@@ -363,34 +361,31 @@ pub fn refine_band<T: Scalar, S: Sample>(
 /// Slower than the rectified path (three samples and three projections per view and
 /// pixel). Not yet used by the pipelines: the EPI stage and the others still read the
 /// warped copy.
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments)] // `refine_band`'s and the views' homographies
 pub fn refine_band_mapped<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     homographies: &[Homography],
     interpolation: Interpolation,
     range: (f32, f32),
     disparity: &[f32],
     rows: Range<usize>,
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
-    check_inputs(plan, lf, range, disparity)?;
-    check_homographies(plan, homographies)?;
+    check_inputs(setup, lf, range, disparity)?;
+    check_homographies(setup, homographies)?;
     let photo = Mapped {
-        views: Views::<T>::new(plan.layout(), plan.params().refine.views),
+        views: Views::<T>::new(setup.layout(), setup.params().views),
         data: lf.data(),
         maps: homographies,
         interpolation,
     };
-    band(
-        plan, &photo, range, disparity, rows, out, confidence, scratch,
-    )
+    band(setup, &photo, range, disparity, rows, out, scratch)
 }
 
-fn check_homographies(plan: &Plan, homographies: &[Homography]) -> Result<()> {
-    let views = plan.layout().grid.len();
+fn check_homographies(setup: Setup<'_, RefineParams>, homographies: &[Homography]) -> Result<()> {
+    let views = setup.layout().grid.len();
     if homographies.len() != views {
         return Err(Error::OutputSize {
             what: "the homography slice (one per view)",
@@ -410,18 +405,20 @@ fn check_homographies(plan: &Plan, homographies: &[Homography]) -> Result<()> {
 }
 
 /// The body of [`refine_band`] over the views `photo` compares.
-#[allow(clippy::too_many_arguments)]
 fn band<T: Scalar, P: Photometric<T>>(
-    plan: &Plan,
+    setup: Setup<'_, RefineParams>,
     photo: &P,
     range: (f32, f32),
     disparity: &[f32],
     rows: Range<usize>,
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
-    let (width, height) = (plan.layout().width, plan.layout().height);
+    let DisparityOut {
+        disparity: out,
+        confidence,
+    } = out;
+    let (width, height) = (setup.layout().width, setup.layout().height);
     if rows.start >= rows.end || rows.end > height {
         return Err(Error::OutOfRange {
             what: "band end row",
@@ -429,7 +426,7 @@ fn band<T: Scalar, P: Photometric<T>>(
             len: height,
         });
     }
-    let p = plan.params().refine;
+    let p = *setup.params();
     if rows.len() > p.band_rows {
         return Err(Error::InvalidParameter {
             name: "rows",
@@ -455,7 +452,7 @@ fn band<T: Scalar, P: Photometric<T>>(
             reason: "views this large exceed the fixed-point range in the refinement: use f32",
         });
     }
-    let halo = halo(plan);
+    let halo = halo(setup);
     let first = rows.start.saturating_sub(halo);
     let last = (rows.end + halo).min(height);
     let pixels = (last - first) * width;
@@ -485,8 +482,8 @@ fn band<T: Scalar, P: Photometric<T>>(
         *c = T::from_f32(v);
     }
 
-    let k = Constants::<T>::new(&p, plan.layout().channels.min(3), range);
-    let used = plan.layout().channels.min(3) as f32;
+    let k = Constants::<T>::new(&p, setup.layout().channels.min(3), range);
+    let used = setup.layout().channels.min(3) as f32;
     let memberships = photo.views().terms.iter().sum::<f32>() / used;
     let robust = p.robust_scale * p.robust_scale * used * INTENSITY_SCALE * INTENSITY_SCALE;
     let scale = photo::cost_scale(if p.robust_scale > 0.0 { robust } else { 0.0 }, memberships);
@@ -513,7 +510,7 @@ fn band<T: Scalar, P: Photometric<T>>(
         stats,
         memory,
     };
-    let jumps = jumps(plan);
+    let jumps = jumps(setup);
     propagation::propagate(
         &measure,
         &region,
@@ -532,21 +529,23 @@ fn band<T: Scalar, P: Photometric<T>>(
     Ok(())
 }
 
-/// The serial stage with progress: every band in order into `out` / `confidence`
-/// (row-major, `plan.pixels()` each).
-#[allow(clippy::too_many_arguments)]
+/// The serial stage with progress: every band in order into `out` (row-major,
+/// `setup.pixels()` values each).
 pub fn refine_with_progress<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
-    check_inputs(plan, lf, range, disparity)?;
-    let pixels = plan.pixels();
+    let DisparityOut {
+        disparity: out,
+        confidence,
+    } = out;
+    check_inputs(setup, lf, range, disparity)?;
+    let pixels = setup.pixels();
     if out.len() != pixels || confidence.len() != pixels {
         return Err(Error::OutputSize {
             what: "the refined disparity/confidence",
@@ -554,8 +553,8 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
             got: out.len().min(confidence.len()),
         });
     }
-    let width = plan.layout().width;
-    let bands = band_count(plan);
+    let width = setup.layout().width;
+    let bands = band_count(setup);
     for band in 0..bands {
         let report = Progress {
             stage: STAGE,
@@ -565,7 +564,7 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
         if progress(report).is_break() {
             return Err(Error::Cancelled);
         }
-        let rows = band_rows(plan, band)?;
+        let rows = band_rows(setup, band)?;
         let span = rows.start * width..rows.end * width;
         // `band_rows` are image rows and both maps hold every pixel (checked above).
         let (Some(out), Some(confidence)) = (out.get_mut(span.clone()), confidence.get_mut(span))
@@ -576,7 +575,11 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
                 got: 0,
             });
         };
-        refine_band(plan, lf, range, disparity, rows, out, confidence, scratch)?;
+        let out = DisparityOut {
+            disparity: out,
+            confidence,
+        };
+        refine_band(setup, lf, range, disparity, rows, out, scratch)?;
     }
     match progress(Progress {
         stage: STAGE,
@@ -588,30 +591,20 @@ pub fn refine_with_progress<T: Scalar, S: Sample>(
     }
 }
 
-/// The serial stage: refines `disparity` into `out` with a new `confidence`, computing
-/// in `T`.
+/// The serial stage: refines `disparity` into `out` (a new disparity and confidence),
+/// computing in `T`.
 pub fn refine<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     range: (f32, f32),
     disparity: &[f32],
-    out: &mut [f32],
-    confidence: &mut [f32],
+    out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
-    refine_with_progress(
-        plan,
-        lf,
-        range,
-        disparity,
-        out,
-        confidence,
-        scratch,
-        &mut |_| ControlFlow::Continue(()),
-    )
+    refine_with_progress(setup, lf, range, disparity, out, scratch, &mut |_| {
+        ControlFlow::Continue(())
+    })
 }
 
-#[cfg(test)]
-mod fixed_tests;
 #[cfg(test)]
 mod tests;

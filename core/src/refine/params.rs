@@ -1,6 +1,7 @@
 //! Parameters of the photometric refinement stage.
 
 use crate::error::{Error, Result};
+use crate::setup::StageParams;
 
 /// Which views enter the photo-consistency.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,6 +99,12 @@ impl Default for RefineParams {
             sampling_slack: 0.0,
             skip_settled: SKIP_SETTLED,
         }
+    }
+}
+
+impl StageParams for RefineParams {
+    fn validate(&self) -> Result<()> {
+        RefineParams::validate(self)
     }
 }
 

@@ -5,26 +5,30 @@ use std::vec::Vec;
 use super::*;
 use crate::epi::test_scenes::{noise, strips, Scene};
 use crate::lightfield::Grid;
-use crate::plan::Params;
+use crate::setup::TestSetup;
 
-fn plan_for(scene: &Scene, refine: RefineParams) -> Plan {
-    Plan::new(
-        scene.layout,
-        Params {
-            refine,
-            ..Params::default()
-        },
-    )
-    .unwrap()
+fn stage_for(scene: &Scene, refine: RefineParams) -> TestSetup<RefineParams> {
+    TestSetup::new(scene.layout, refine)
 }
 
 fn run(scene: &Scene, refine: RefineParams, input: &[f32]) -> (Vec<f32>, Vec<f32>) {
-    let plan = plan_for(scene, refine);
+    let stage = stage_for(scene, refine);
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
-    let mut d = vec![0.0; plan.pixels()];
-    let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
-    super::refine(&plan, &lf, (-4.0, 4.0), input, &mut d, &mut c, &mut scratch).unwrap();
+    let mut d = vec![0.0; stage.pixels()];
+    let mut c = vec![0.0; stage.pixels()];
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    super::refine(
+        stage.setup(),
+        &lf,
+        (-4.0, 4.0),
+        input,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c,
+        },
+        &mut scratch,
+    )
+    .unwrap();
     (d, c)
 }
 
@@ -146,19 +150,21 @@ fn bands_and_halos_give_bit_identical_maps() {
 fn outputs_stay_finite_in_range_on_flat_and_extreme_inputs() {
     let mut scene = strips(Grid::new(3, 3), 20, 18, 1, 0.0, &[]);
     scene.data.iter_mut().for_each(|v| *v = 0.5);
-    let plan = plan_for(&scene, RefineParams::default());
+    let stage = stage_for(&scene, RefineParams::default());
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
-    let input: Vec<f32> = (0..plan.pixels()).map(|i| (i % 7) as f32 - 3.0).collect();
-    let mut d = vec![0.0; plan.pixels()];
-    let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
+    let input: Vec<f32> = (0..stage.pixels()).map(|i| (i % 7) as f32 - 3.0).collect();
+    let mut d = vec![0.0; stage.pixels()];
+    let mut c = vec![0.0; stage.pixels()];
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
     super::refine(
-        &plan,
+        stage.setup(),
         &lf,
         (-1.0, 2.0),
         &input,
-        &mut d,
-        &mut c,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c,
+        },
         &mut scratch,
     )
     .unwrap();
@@ -169,54 +175,62 @@ fn outputs_stay_finite_in_range_on_flat_and_extreme_inputs() {
 #[test]
 fn bad_inputs_are_errors() {
     let scene = strips(Grid::new(3, 3), 20, 18, 1, 0.0, &[]);
-    let plan = plan_for(&scene, RefineParams::default());
+    let stage = stage_for(&scene, RefineParams::default());
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
-    let mut input = vec![0.0; plan.pixels()];
-    let mut d = vec![0.0; plan.pixels()];
-    let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![0.0f32; scratch_len(&plan)];
+    let mut input = vec![0.0; stage.pixels()];
+    let mut d = vec![0.0; stage.pixels()];
+    let mut c = vec![0.0; stage.pixels()];
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
     let short = scratch.len() - 1;
     assert!(matches!(
         super::refine(
-            &plan,
+            stage.setup(),
             &lf,
             (-1.0, 1.0),
             &input,
-            &mut d,
-            &mut c,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c
+            },
             &mut scratch[..short]
         ),
         Err(Error::ScratchTooSmall { .. })
     ));
     assert!(super::refine(
-        &plan,
+        stage.setup(),
         &lf,
         (1.0, -1.0),
         &input,
-        &mut d,
-        &mut c,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c
+        },
         &mut scratch
     )
     .is_err());
     assert!(super::refine(
-        &plan,
+        stage.setup(),
         &lf,
         (-1.0, 1.0),
         &input[1..],
-        &mut d,
-        &mut c,
+        DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c
+        },
         &mut scratch
     )
     .is_err());
     input[5] = f32::NAN;
     assert!(matches!(
         super::refine(
-            &plan,
+            stage.setup(),
             &lf,
             (-1.0, 1.0),
             &input,
-            &mut d,
-            &mut c,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c
+            },
             &mut scratch
         ),
         Err(Error::NonFinite { .. })
@@ -225,18 +239,20 @@ fn bad_inputs_are_errors() {
     input[5] = 0.0;
     assert_eq!(
         refine_with_progress(
-            &plan,
+            stage.setup(),
             &lf,
             (-1.0, 1.0),
             &input,
-            &mut d,
-            &mut c,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c
+            },
             &mut scratch,
             &mut cancel
         ),
         Err(Error::Cancelled)
     );
-    assert!(band_rows(&plan, band_count(&plan)).is_err());
+    assert!(band_rows(stage.setup(), band_count(stage.setup())).is_err());
 }
 
 #[test]
@@ -270,25 +286,27 @@ fn run_mapped<T: Scalar>(
     how: Interpolation,
     input: &[f32],
 ) -> Result<Vec<f32>> {
-    let plan = plan_for(scene, RefineParams::default());
+    let stage = stage_for(scene, RefineParams::default());
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
     let w = scene.layout.width;
-    let mut d = vec![0.0; plan.pixels()];
-    let mut c = vec![0.0; plan.pixels()];
-    let mut scratch = vec![T::ZERO; scratch_len(&plan)];
-    for band in 0..band_count(&plan) {
-        let rows = band_rows(&plan, band)?;
+    let mut d = vec![0.0; stage.pixels()];
+    let mut c = vec![0.0; stage.pixels()];
+    let mut scratch = vec![T::ZERO; scratch_len(stage.setup())];
+    for band in 0..band_count(stage.setup()) {
+        let rows = band_rows(stage.setup(), band)?;
         let span = rows.start * w..rows.end * w;
         refine_band_mapped(
-            &plan,
+            stage.setup(),
             &lf,
             maps,
             how,
             (-4.0, 4.0),
             input,
             rows,
-            &mut d[span.clone()],
-            &mut c[span],
+            DisparityOut {
+                disparity: &mut d[span.clone()],
+                confidence: &mut c[span],
+            },
             &mut scratch,
         )?;
     }

@@ -31,6 +31,7 @@ use crate::median;
 use crate::plan::Plan;
 use crate::refine;
 use crate::scalar::Scalar;
+use crate::setup::DisparityOut;
 use crate::tv::{self, Guide, Maps, SolveOutput};
 
 mod part;
@@ -204,15 +205,15 @@ impl Schedule {
         let layout = self.plan.layout();
         match step {
             Step::Range | Step::Refill => 1,
-            Step::Epi(direction) => direction.lines(&self.plan).div_ceil(BAND_LINES),
-            Step::Refine => refine::band_count(&self.plan),
+            Step::Epi(direction) => direction.lines(self.plan.layout()).div_ceil(BAND_LINES),
+            Step::Refine => refine::band_count(self.plan.refine()),
             Step::Median => layout
                 .height
                 .checked_add(self.median_rows.saturating_sub(1))
                 .and_then(|h| h.checked_div(self.median_rows))
                 .unwrap_or(0),
             Step::Tv { .. } => {
-                let (cols, rows) = tv::tile_count(&self.plan);
+                let (cols, rows) = tv::tile_count(self.plan.tv());
                 cols.saturating_mul(rows)
             }
         }
@@ -235,14 +236,14 @@ impl Schedule {
         let height = self.plan.layout().height;
         Ok(match step {
             Step::Range => Region::Range,
-            Step::Epi(direction) => lines(BAND_LINES, direction.lines(&self.plan)),
+            Step::Epi(direction) => lines(BAND_LINES, direction.lines(self.plan.layout())),
             Step::Refine => {
-                let rows = refine::band_rows(&self.plan, index)?;
+                let rows = refine::band_rows(self.plan.refine(), index)?;
                 Region::Lines(rows.start, rows.end)
             }
             Step::Refill => Region::Lines(0, height),
             Step::Median => lines(self.median_rows, height),
-            Step::Tv { .. } => Region::Rect(tv::tile_rects(&self.plan, index)?.0),
+            Step::Tv { .. } => Region::Rect(tv::tile_rects(self.plan.tv(), index)?.0),
         })
     }
 
@@ -268,7 +269,7 @@ impl Schedule {
     pub fn part_len(&self, step: Step, index: usize) -> Result<PartLen> {
         let region = self.region(step, index)?;
         let line_len = match step {
-            Step::Epi(direction) => direction.line_len(&self.plan),
+            Step::Epi(direction) => direction.line_len(self.plan.layout()),
             _ => self.plan.layout().width,
         };
         let both = |len: usize| PartLen {
@@ -320,28 +321,28 @@ impl Schedule {
         let none = ScratchLen::default();
         match step {
             Step::Range => ScratchLen {
-                kernel: epi::scratch_len(plan),
+                kernel: epi::scratch_len(plan.epi()),
                 ..none
             },
             Step::Epi(direction) => ScratchLen {
-                kernel: epi::band_scratch_len(plan, direction),
+                kernel: epi::band_scratch_len(plan.epi(), direction),
                 ..none
             },
             Step::Refine => ScratchLen {
-                kernel: refine::scratch_len(plan),
+                kernel: refine::scratch_len(plan.refine()),
                 ..none
             },
             Step::Refill => ScratchLen {
-                maps: geofill::scratch_len(plan),
+                maps: geofill::scratch_len(plan.geofill()),
                 ..none
             },
             Step::Median => ScratchLen {
-                maps: median::band_scratch_len(plan),
+                maps: median::band_scratch_len(plan.median()),
                 flags: plan.pixels(),
                 ..none
             },
             Step::Tv { .. } => ScratchLen {
-                kernel: tv::scratch_len(plan),
+                kernel: tv::scratch_len(plan.tv()),
                 ..none
             },
         }
@@ -385,41 +386,45 @@ impl Schedule {
         };
         match step {
             Step::Range => {
-                let hypotheses = epi::hypotheses(plan, lf, scratch.kernel)?;
+                let hypotheses = epi::hypotheses(plan.epi(), lf, scratch.kernel)?;
                 write_range(&mut *out.disparity, (hypotheses.min(), hypotheses.max()))
             }
             Step::Epi(direction) => epi::estimate_band(
-                plan,
+                plan.epi(),
                 &range()?,
                 lf,
                 direction,
                 lines,
-                &mut *out.disparity,
-                &mut *out.confidence,
+                DisparityOut {
+                    disparity: &mut *out.disparity,
+                    confidence: &mut *out.confidence,
+                },
                 scratch.kernel,
             ),
             Step::Refine => {
                 let h = range()?;
                 refine::refine_band(
-                    plan,
+                    plan.refine(),
                     lf,
                     (h.min(), h.max()),
                     state.disparity(),
                     lines,
-                    &mut *out.disparity,
-                    &mut *out.confidence,
+                    DisparityOut {
+                        disparity: &mut *out.disparity,
+                        confidence: &mut *out.confidence,
+                    },
                     scratch.kernel,
                 )
             }
             Step::Refill => geofill::fill(
-                plan,
+                plan.geofill(),
                 &lf.center_view(),
                 state.disparity(),
                 &mut *out.disparity,
                 scratch.maps,
             ),
             Step::Median => median::filter_band(
-                plan,
+                plan.median(),
                 &lf.center_view(),
                 state.disparity(),
                 lines,
@@ -431,7 +436,7 @@ impl Schedule {
                 },
             ),
             Step::Tv { sweep } => {
-                let (core, region) = tv::tile_rects(plan, index)?;
+                let (core, region) = tv::tile_rects(plan.tv(), index)?;
                 let maps =
                     Maps::checked_in(width, height, state.disparity(), state.confidence(), region)?;
                 let maps = if sweep > 0 {
@@ -441,7 +446,7 @@ impl Schedule {
                 };
                 out.history.fill(0.0);
                 tv::refine_tile(
-                    plan,
+                    plan.tv(),
                     &maps,
                     &Guide::View(lf.center_view()),
                     index,
@@ -511,7 +516,7 @@ impl Schedule {
             (_, Region::Rect(_)) => Err(Error::SizeOverflow { what: "a part" }),
             (step, Region::Lines(start, _)) => {
                 let line_len = match step {
-                    Step::Epi(direction) => direction.line_len(&self.plan),
+                    Step::Epi(direction) => direction.line_len(self.plan.layout()),
                     _ => width,
                 };
                 let at = start * line_len;
@@ -549,7 +554,7 @@ impl Schedule {
                     state.swap_duals();
                 } else {
                     swap_d(state);
-                    tv::normalise_history(&self.plan, state.history_mut());
+                    tv::normalise_history(self.plan.tv(), state.history_mut());
                 }
             }
         }

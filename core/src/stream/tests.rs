@@ -255,3 +255,43 @@ fn bad_streams_are_refused_with_errors() {
     assert_eq!(CrossBand::<u8>::slot(layout.grid, 8, 4), Some(16));
     assert_eq!(CrossBand::<u8>::slot(layout.grid, 4, 4), Some(4));
 }
+
+#[test]
+fn a_stream_refuses_the_refill() {
+    let params = Params {
+        geofill: crate::geofill::GeoFillParams {
+            enabled: true,
+            ..crate::geofill::GeoFillParams::default()
+        },
+        ..Params::default()
+    };
+    let params = Params {
+        refine: crate::refine::RefineParams::off(),
+        median: crate::median::MedianParams::off(),
+        tv: crate::tv::TvParams {
+            sweeps: 0,
+            ..params.tv
+        },
+        epi: crate::epi::EpiParams {
+            range: crate::epi::DisparityRange::Fixed {
+                min: -1.0,
+                max: 1.0,
+            },
+            ..params.epi
+        },
+        ..params
+    };
+    let layout = Layout::packed(Grid::new(3, 3), 48, 24, 3);
+    assert!(matches!(
+        StreamPlan::new(layout, params),
+        Err(Error::InvalidParameter {
+            name: "geofill.enabled",
+            ..
+        })
+    ));
+    let off = Params {
+        geofill: crate::geofill::GeoFillParams::off(),
+        ..params
+    };
+    assert!(StreamPlan::new(layout, off).is_ok());
+}

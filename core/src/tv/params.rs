@@ -1,6 +1,7 @@
 //! Parameters of the TV stage.
 
 use crate::error::{Error, Result};
+use crate::setup::StageParams;
 
 /// Which norm couples the two forward edges of a node (the α-norm of the constraint sets).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,6 +86,12 @@ fn finite_in(name: &'static str, v: f32, ok: bool, reason: &'static str) -> Resu
         Ok(())
     } else {
         Err(Error::InvalidParameter { name, reason })
+    }
+}
+
+impl StageParams for TvParams {
+    fn validate(&self) -> Result<()> {
+        TvParams::validate(self)
     }
 }
 

@@ -5,11 +5,12 @@ use core::ops::ControlFlow;
 
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::Sample;
-use crate::plan::Plan;
 use crate::progress::Progress;
 use crate::scalar::Scalar;
+use crate::setup::Setup;
 
 use super::solver::{scratch_len_for, solve, Guide, Maps, Rect, SolveOutput, SolveReport};
+use super::TvParams;
 
 /// What a whole refinement did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -40,9 +41,9 @@ fn region_side(tile: usize, halo: usize, len: usize) -> usize {
 
 /// Scratch elements (of the scalar type) one tile needs: the same for every tile and
 /// independent of the image size beyond one tile plus halo.
-pub fn scratch_len(plan: &Plan) -> usize {
-    let tv = &plan.params().tv;
-    let layout = plan.layout();
+pub fn scratch_len(setup: Setup<'_, TvParams>) -> usize {
+    let tv = setup.params();
+    let layout = setup.layout();
     scratch_len_for(
         region_side(tv.tile, tv.halo, layout.width),
         region_side(tv.tile, tv.halo, layout.height),
@@ -50,16 +51,16 @@ pub fn scratch_len(plan: &Plan) -> usize {
 }
 
 /// Number of tiles `(columns, rows)`.
-pub fn tile_count(plan: &Plan) -> (usize, usize) {
-    let tile = plan.params().tv.tile.max(1);
-    let layout = plan.layout();
+pub fn tile_count(setup: Setup<'_, TvParams>) -> (usize, usize) {
+    let tile = setup.params().tile.max(1);
+    let layout = setup.layout();
     (layout.width.div_ceil(tile), layout.height.div_ceil(tile))
 }
 
 /// The core and the region (core + halo, clipped to the image) of tile `index`
 /// (row-major over [`tile_count`]).
-pub fn tile_rects(plan: &Plan, index: usize) -> Result<(Rect, Rect)> {
-    let (cols, rows) = tile_count(plan);
+pub fn tile_rects(setup: Setup<'_, TvParams>, index: usize) -> Result<(Rect, Rect)> {
+    let (cols, rows) = tile_count(setup);
     if index >= cols * rows {
         return Err(Error::OutOfRange {
             what: "tile",
@@ -67,8 +68,8 @@ pub fn tile_rects(plan: &Plan, index: usize) -> Result<(Rect, Rect)> {
             len: cols * rows,
         });
     }
-    let tv = &plan.params().tv;
-    let (w, h) = (plan.layout().width, plan.layout().height);
+    let tv = setup.params();
+    let (w, h) = (setup.layout().width, setup.layout().height);
     // `cols > 0` (checked above); the checked forms keep the division's panic out.
     let (tx, ty) = (
         index.checked_rem(cols).unwrap_or_default(),
@@ -95,8 +96,8 @@ pub fn tile_rects(plan: &Plan, index: usize) -> Result<(Rect, Rect)> {
     Ok((core, region))
 }
 
-fn check_maps(plan: &Plan, maps: &Maps<'_>) -> Result<()> {
-    let layout = plan.layout();
+fn check_maps(setup: Setup<'_, TvParams>, maps: &Maps<'_>) -> Result<()> {
+    let layout = setup.layout();
     if maps.width() != layout.width || maps.height() != layout.height {
         return Err(Error::InvalidParameter {
             name: "maps",
@@ -109,25 +110,25 @@ fn check_maps(plan: &Plan, maps: &Maps<'_>) -> Result<()> {
 /// Solves tile `index` and writes its core into `out` (core pixel `(x, y)` at
 /// `out.disparity[y · out.stride + x]`), adding its residual history to `out.history`.
 pub fn refine_tile<S: Scalar, P: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, TvParams>,
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
     index: usize,
     out: SolveOutput<'_>,
     scratch: &mut [S],
 ) -> Result<SolveReport> {
-    check_maps(plan, maps)?;
-    let (core, region) = tile_rects(plan, index)?;
-    solve(maps, guide, &plan.params().tv, region, core, out, scratch)
+    check_maps(setup, maps)?;
+    let (core, region) = tile_rects(setup, index)?;
+    solve(maps, guide, setup.params(), region, core, out, scratch)
 }
 
 /// Turns a history accumulated over every tile (squared dual updates) into the RMS dual
 /// update per node and iteration — the residual norm curve.
-pub fn normalise_history(plan: &Plan, history: &mut [f32]) {
-    let (cols, rows) = tile_count(plan);
+pub fn normalise_history(setup: Setup<'_, TvParams>, history: &mut [f32]) {
+    let (cols, rows) = tile_count(setup);
     let mut nodes = 0usize;
     for index in 0..cols * rows {
-        if let Ok((_, region)) = tile_rects(plan, index) {
+        if let Ok((_, region)) = tile_rects(setup, index) {
             nodes += region.width * region.height;
         }
     }
@@ -139,11 +140,11 @@ pub fn normalise_history(plan: &Plan, history: &mut [f32]) {
 
 /// Floats of caller memory [`refine`] needs for the outer sweeps
 /// ([`super::TvParams::sweeps`]): two duals of the whole map, or nothing without sweeps.
-pub fn dual_len(plan: &Plan) -> usize {
-    if plan.params().tv.sweeps == 0 {
+pub fn dual_len(setup: Setup<'_, TvParams>) -> usize {
+    if setup.params().sweeps == 0 {
         0
     } else {
-        plan.pixels().saturating_mul(4)
+        setup.pixels().saturating_mul(4)
     }
 }
 
@@ -152,7 +153,7 @@ pub fn dual_len(plan: &Plan) -> usize {
 /// [`normalise_history`]; pass an empty slice to skip it). `duals` ([`dual_len`] floats)
 /// carries the dual from one outer sweep to the next.
 pub fn refine<S: Scalar, P: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, TvParams>,
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
     out: &mut [f32],
@@ -160,16 +161,23 @@ pub fn refine<S: Scalar, P: Sample>(
     scratch: &mut [S],
     duals: &mut [f32],
 ) -> Result<RefineReport> {
-    refine_with_progress(plan, maps, guide, out, history, scratch, duals, &mut |_| {
-        ControlFlow::Continue(())
-    })
+    refine_with_progress(
+        setup,
+        maps,
+        guide,
+        out,
+        history,
+        scratch,
+        duals,
+        &mut |_| ControlFlow::Continue(()),
+    )
 }
 
 /// [`refine`], reporting each tile solve to `progress` (stage [`super::STAGE`]; done out
 /// of tiles × passes); `ControlFlow::Break(())` stops with [`Error::Cancelled`].
 #[allow(clippy::too_many_arguments)]
 pub fn refine_with_progress<S: Scalar, P: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, TvParams>,
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
     out: &mut [f32],
@@ -178,17 +186,17 @@ pub fn refine_with_progress<S: Scalar, P: Sample>(
     duals: &mut [f32],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<RefineReport> {
-    check_maps(plan, maps)?;
-    if out.len() != plan.pixels() {
+    check_maps(setup, maps)?;
+    if out.len() != setup.pixels() {
         return Err(Error::OutputSize {
             what: "the refined disparity",
-            needed: plan.pixels(),
+            needed: setup.pixels(),
             got: out.len(),
         });
     }
-    let needed = scratch_len(plan);
+    let needed = scratch_len(setup);
     check_scratch(needed, scratch.len())?;
-    let needed = dual_len(plan);
+    let needed = dual_len(setup);
     let short = Error::BufferTooSmall {
         what: "the outer sweeps' duals",
         needed,
@@ -197,9 +205,9 @@ pub fn refine_with_progress<S: Scalar, P: Sample>(
     let duals = duals.get_mut(..needed).ok_or(short)?;
     let (mut previous, mut next) = duals.split_at_mut_checked(needed / 2).ok_or(short)?;
     history.fill(0.0);
-    let width = plan.layout().width;
-    let sweeps = plan.params().tv.sweeps;
-    let (cols, rows) = tile_count(plan);
+    let width = setup.layout().width;
+    let sweeps = setup.params().sweeps;
+    let (cols, rows) = tile_count(setup);
     let tiles = checked_product(&[cols, rows], "the TV tiles")?;
     let solves = checked_product(&[tiles, sweeps + 1], "the TV tile solves")?;
     let mut report = RefineReport::default();
@@ -211,7 +219,7 @@ pub fn refine_with_progress<S: Scalar, P: Sample>(
         };
         for index in 0..tiles {
             tell(progress, sweep * tiles + index, solves)?;
-            let (core, _) = tile_rects(plan, index)?;
+            let (core, _) = tile_rects(setup, index)?;
             let start = core.y * width + core.x;
             let got = out.len();
             let disparity = out.get_mut(start..).ok_or(Error::OutputSize {
@@ -220,7 +228,7 @@ pub fn refine_with_progress<S: Scalar, P: Sample>(
                 got,
             })?;
             let tile = refine_tile(
-                plan,
+                setup,
                 &maps,
                 guide,
                 index,
@@ -240,7 +248,7 @@ pub fn refine_with_progress<S: Scalar, P: Sample>(
         }
         core::mem::swap(&mut previous, &mut next);
     }
-    normalise_history(plan, history);
+    normalise_history(setup, history);
     tell(progress, solves, solves)?;
     Ok(report)
 }

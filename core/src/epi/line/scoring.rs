@@ -44,7 +44,7 @@ fn slopes<T: Scalar>(tensor: &mut Tensor<'_, T>, range: Range<usize>) {
     };
     let sums = sxx.iter().zip(sxk).zip(skk);
     let out = slope.iter_mut().zip(coherence.iter_mut());
-    if core::any::TypeId::of::<T>() == core::any::TypeId::of::<f32>() {
+    if T::IS_F32 {
         // `T` is `f32` (its conversions are the identity): the same formulas without
         // branches so that the loop vectorises: every division by a safe denominator (1
         // where the scalar form does not divide) and `lane_sqrt` (the `libm` square root
@@ -164,7 +164,7 @@ impl<T: Scalar> LineEstimator<T> {
         // their lines take each sample's residual slope and coherence.
         slopes(tensor, range.clone());
         let (slope, coherence_line) = (&tensor.jxx[..], &tensor.jxk[..]);
-        if core::any::TypeId::of::<T>() == core::any::TypeId::of::<f32>() {
+        if T::IS_F32 {
             self.score_lanes(hyps, i, slope, coherence_line, state, range);
             return;
         }

@@ -7,11 +7,12 @@ use std::vec::Vec;
 
 use core::ops::ControlFlow;
 
-use super::*;
-use crate::lightfield::Grid;
+use crate::lightfield::{Grid, LightField};
 use crate::pipeline::{self, Stages};
-use crate::plan::Params;
-use crate::scalar::Q16;
+use crate::plan::{Params, Plan};
+use crate::refine::{refine, scratch_len, RefineParams};
+use crate::scalar::{Scalar, Q16};
+use crate::setup::DisparityOut;
 use crate::synth::{self, SceneKind, SynthSpec};
 use crate::Homography;
 
@@ -123,13 +124,35 @@ fn q16_refinement_stays_within_two_hundredths_of_f32_from_the_same_input() {
         let pixels = plan.pixels();
         let (mut d, mut c) = (vec![0.0f32; pixels], vec![0.0f32; pixels]);
         let mut scratch = vec![0.0f32; pipeline::scratch_len(&plan)];
-        let hyps = crate::epi::estimate(&plan, &lf, &mut d, &mut c, &mut scratch).unwrap();
+        let hyps = crate::epi::estimate(plan.epi(), &lf, &mut d, &mut c, &mut scratch).unwrap();
         let range = (hyps.min(), hyps.max());
         let (mut df, mut cf) = (vec![0.0f32; pixels], vec![0.0f32; pixels]);
-        refine(&plan, &lf, range, &d, &mut df, &mut cf, &mut scratch).unwrap();
-        let mut fixed_scratch = vec![Q16::ZERO; scratch_len(&plan)];
+        refine(
+            plan.refine(),
+            &lf,
+            range,
+            &d,
+            DisparityOut {
+                disparity: &mut df,
+                confidence: &mut cf,
+            },
+            &mut scratch,
+        )
+        .unwrap();
+        let mut fixed_scratch = vec![Q16::ZERO; scratch_len(plan.refine())];
         let (mut dq, mut cq) = (vec![0.0f32; pixels], vec![0.0f32; pixels]);
-        refine(&plan, &lf, range, &d, &mut dq, &mut cq, &mut fixed_scratch).unwrap();
+        refine(
+            plan.refine(),
+            &lf,
+            range,
+            &d,
+            DisparityOut {
+                disparity: &mut dq,
+                confidence: &mut cq,
+            },
+            &mut fixed_scratch,
+        )
+        .unwrap();
         let (share, max) = agreement(&df, &dq, 0.02);
         let (confidence_share, _) = agreement(&cf, &cq, 0.02);
         std::eprintln!(
