@@ -378,7 +378,7 @@ pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
     history: &mut [f32],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<AlignReport> {
-    let result = align_views(plan, lf, stages, buffers, progress)?;
+    let result = align_alone(plan, lf, stages, buffers, progress)?;
     if result.skipped {
         run(
             plan, lf, stages, disparity, confidence, scratch, maps, history, progress,
@@ -391,6 +391,19 @@ pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
         )?;
     }
     Ok(result)
+}
+
+/// [`align_views`] in a frame of its own: the alignment's locals are not on the stack
+/// while the stages run (docs/EMBEDDED.md, "Stack").
+#[inline(never)]
+fn align_alone<S: Sample, A: WarpSample + Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    buffers: &mut AlignBuffers<'_, A>,
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+) -> Result<AlignReport> {
+    align_views(plan, lf, stages, buffers, progress)
 }
 
 #[cfg(test)]
