@@ -80,7 +80,8 @@ pub fn run<S: Sample, M: ViewMap>(
     homographies: &mut [Homography],
     scratch: &mut [f32],
     map: &mut M,
-) -> Result<AlignReport> {
+    report: &mut AlignReport,
+) -> Result<()> {
     let grid = lf.grid();
     let (width, height) = (lf.width(), lf.height());
     let (r0, c0) = grid.center();
@@ -209,10 +210,10 @@ pub fn run<S: Sample, M: ViewMap>(
             }
         }
     }
-    let first = alternate(&mut state, params, homographies, width, height, map)?;
-    if first.identity_rms <= params.rectified_rms {
+    alternate(&mut state, params, homographies, width, height, map, report)?;
+    if report.identity_rms <= params.rectified_rms {
         // Nothing to undo: the second pass would only re-measure the same positions.
-        return Ok(first);
+        return Ok(());
     }
 
     // Second pass: predicted positions and template shapes from the first estimate, so
@@ -223,7 +224,7 @@ pub fn run<S: Sample, M: ViewMap>(
         .and_then(Homography::inverse)
         .map(|h| model::from_homography(&h))
     else {
-        return alternate(&mut state, params, homographies, width, height, map);
+        return alternate(&mut state, params, homographies, width, height, map, report);
     };
     {
         let points = Points {
@@ -253,5 +254,5 @@ pub fn run<S: Sample, M: ViewMap>(
             state.set_ob(v, i, q);
         }
     }
-    alternate(&mut state, params, homographies, width, height, map)
+    alternate(&mut state, params, homographies, width, height, map, report)
 }

@@ -343,8 +343,11 @@ pub fn refine_band<T: Scalar, S: Sample>(
 ) -> Result<()> {
     check_inputs(plan, lf, range, disparity)?;
     let p = &plan.params().refine;
+    let mut views = Views::<T>::empty();
+    views.init(plan.layout(), p.views);
+    views.set_slack(p.sampling_slack);
     let photo = Rectified {
-        views: Views::<T>::new(plan.layout(), p.views).with_slack(p.sampling_slack),
+        views: &views,
         data: lf.data(),
     };
     band(
@@ -411,6 +414,9 @@ fn check_homographies(plan: &Plan, homographies: &[Homography]) -> Result<()> {
 
 /// The body of [`refine_band`] over the views `photo` compares.
 #[allow(clippy::too_many_arguments)]
+// Not inlined: its locals and the compared views' tables of `refine_band` are not in one
+// frame (docs/EMBEDDED.md, "Stack").
+#[inline(never)]
 fn band<T: Scalar, P: Photometric<T>>(
     plan: &Plan,
     photo: &P,
