@@ -1,4 +1,4 @@
-//! The whole-frame pipeline (`pipeline::run_aligned`: alignment prelude → EPI → refine →
+//! The whole-frame pipeline (`pipeline::run_aligned_into`: alignment prelude → EPI → refine →
 //! refill → weighted median → TV) on a small synthetic frame held in fixed memory. The stream is
 //! the firmware's way to process a large frame in bounded memory; this entry exists so
 //! that the panic-free link check (`--features panic-free,whole-frame`) also covers every
