@@ -268,14 +268,27 @@ pub fn align_views<S: Sample, A: WarpSample + Sample>(
     buffers: &mut AlignBuffers<'_, A>,
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<AlignReport> {
+    let mut report = AlignReport::default();
+    align_views_into(plan, lf, stages, buffers, progress, &mut report)?;
+    Ok(report)
+}
+
+/// [`align_views`] into `report` (see [`align::estimate_into`]).
+fn align_views_into<S: Sample, A: WarpSample + Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    buffers: &mut AlignBuffers<'_, A>,
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+    out: &mut AlignReport,
+) -> Result<()> {
     same_layout(plan, lf)?;
     let params = &align_params(plan, stages);
     if params.mode == AlignMode::Off {
         buffers.homographies.fill(Homography::IDENTITY);
-        return Ok(AlignReport {
-            skipped: true,
-            ..AlignReport::default()
-        });
+        out.start(0);
+        out.skipped = true;
+        return Ok(());
     }
     let needed = aligned_len(plan)?;
     if buffers.aligned.len() < needed {
@@ -286,9 +299,16 @@ pub fn align_views<S: Sample, A: WarpSample + Sample>(
         });
     }
     report(progress, STAGE_ALIGN, 0, 1)?;
-    let result = align::estimate(lf, params, buffers.homographies, buffers.scratch)?;
+    align::estimate_into(
+        lf,
+        params,
+        buffers.homographies,
+        buffers.scratch,
+        &mut align::Serial,
+        out,
+    )?;
     report(progress, STAGE_ALIGN, 1, 1)?;
-    if !result.skipped {
+    if !out.skipped {
         warp_views(
             plan,
             lf,
@@ -298,7 +318,7 @@ pub fn align_views<S: Sample, A: WarpSample + Sample>(
             progress,
         )?;
     }
-    Ok(result)
+    Ok(())
 }
 
 /// Warps the views `stages` read ([`reads_view`]) of `lf` by `homographies` (rectified →
@@ -378,8 +398,42 @@ pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
     history: &mut [f32],
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<AlignReport> {
-    let result = align_views(plan, lf, stages, buffers, progress)?;
-    if result.skipped {
+    let mut report = AlignReport::default();
+    run_aligned_into(
+        plan,
+        lf,
+        stages,
+        buffers,
+        disparity,
+        confidence,
+        scratch,
+        maps,
+        history,
+        progress,
+        &mut report,
+    )?;
+    Ok(report)
+}
+
+/// [`run_aligned`] with the alignment's report written to `report` instead of returned:
+/// a firmware keeps it in static memory, off its stack (it holds a `ViewReport` per view
+/// of the largest grid, ≈ 2.4 KB on 32-bit targets).
+#[allow(clippy::too_many_arguments)]
+pub fn run_aligned_into<T: Scalar, S: Sample, A: WarpSample + Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    buffers: &mut AlignBuffers<'_, A>,
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+    maps: &mut [f32],
+    history: &mut [f32],
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+    report: &mut AlignReport,
+) -> Result<()> {
+    align_alone(plan, lf, stages, buffers, progress, report)?;
+    if report.skipped {
         run(
             plan, lf, stages, disparity, confidence, scratch, maps, history, progress,
         )?;
@@ -390,7 +444,21 @@ pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
             plan, &aligned, stages, disparity, confidence, scratch, maps, history, progress,
         )?;
     }
-    Ok(result)
+    Ok(())
+}
+
+/// [`align_views`] in a frame of its own: the alignment's locals are not on the stack
+/// while the stages run (docs/EMBEDDED.md, "Stack").
+#[inline(never)]
+fn align_alone<S: Sample, A: WarpSample + Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+    buffers: &mut AlignBuffers<'_, A>,
+    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+    out: &mut AlignReport,
+) -> Result<()> {
+    align_views_into(plan, lf, stages, buffers, progress, out)
 }
 
 #[cfg(test)]

@@ -23,6 +23,10 @@ const IMAGE: &str = if cfg!(feature = "whole-frame") {
 /// `.bss`.
 static mut MEMORY: Memory = Memory::ZERO;
 
+/// The whole frame's alignment report (a static of its own: `Memory` stays in `.bss`).
+#[cfg(feature = "whole-frame")]
+static mut REPORT: lfdepth::align::AlignReport = lfdepth::align::AlignReport::EMPTY;
+
 /// Where a debugger finds the result: the checksum, or `u32::MAX` after an error.
 #[no_mangle]
 pub static mut LFDEPTH_RESULT: u32 = 0;
@@ -89,7 +93,16 @@ pub extern "C" fn lfdepth_reset() -> ! {
     // SAFETY: the only reference ever taken to MEMORY; no interrupts or threads exist.
     let memory = unsafe { &mut *addr_of_mut!(MEMORY) };
     let mut meter = report::Meter::start();
-    let result = match run(memory, &mut |stage| meter.mark(stage)) {
+    // SAFETY: the only reference ever taken to REPORT.
+    #[cfg(feature = "whole-frame")]
+    let outcome = run(
+        memory,
+        unsafe { &mut *addr_of_mut!(REPORT) },
+        &mut |stage| meter.mark(stage),
+    );
+    #[cfg(not(feature = "whole-frame"))]
+    let outcome = run(memory, &mut |stage| meter.mark(stage));
+    let result = match outcome {
         Ok(summary) => summary.checksum,
         Err(_) => u32::MAX,
     };

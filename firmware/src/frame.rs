@@ -1,4 +1,4 @@
-//! The whole-frame pipeline (`pipeline::run_aligned`: alignment prelude → EPI → refine →
+//! The whole-frame pipeline (`pipeline::run_aligned_into`: alignment prelude → EPI → refine →
 //! refill → weighted median → TV) on a small synthetic frame held in fixed memory. The stream is
 //! the firmware's way to process a large frame in bounded memory; this entry exists so
 //! that the panic-free link check (`--features panic-free,whole-frame`) also covers every
@@ -11,6 +11,7 @@
 
 use core::ops::ControlFlow;
 
+use lfdepth::align::AlignReport;
 use lfdepth::geometry::Homography;
 use lfdepth::pipeline::{self, AlignBuffers, Stages};
 use lfdepth::{Error, Grid, Layout, LightField, Params, Plan, Result, Scalar};
@@ -68,7 +69,13 @@ fn slice<T>(buffer: &mut [T], needed: usize) -> Result<&mut [T]> {
 /// `mark(stage)` is called when the work of `stage` begins (`sensor`; `pipeline`, the
 /// pipeline's work before the first stage reports progress; each stage from its first
 /// progress report on; `checksum`), so that a device can count the cost of each.
-pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<Summary> {
+/// The alignment's report goes to `report`: a device keeps it in a static of its own
+/// (≈ 2.4 KB off the stack; not in `Memory`, which must stay all zeros to stay in `.bss`).
+pub fn run(
+    memory: &mut Memory,
+    report: &mut AlignReport,
+    mark: &mut impl FnMut(&'static str),
+) -> Result<Summary> {
     mark("sensor");
     let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
     let plan = Plan::new(layout, Params::default())?;
@@ -89,7 +96,7 @@ pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<S
     let scratch = slice(&mut memory.kernel, pipeline::scratch_len(&plan))?;
     let maps = slice(&mut memory.maps, pipeline::map_scratch_len(&plan))?;
     mark("pipeline");
-    pipeline::run_aligned(
+    pipeline::run_aligned_into(
         &plan,
         &lf,
         Stages::Full,
@@ -103,6 +110,7 @@ pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<S
             mark(progress.stage);
             ControlFlow::Continue(())
         },
+        report,
     )?;
     mark("checksum");
     let mut checksum = 0u32;

@@ -19,7 +19,8 @@ mod device;
 #[cfg(not(target_os = "none"))]
 fn main() {
     let mut memory = Box::new(frame::Memory::ZERO);
-    match frame::run(&mut memory, &mut |_| {}) {
+    let mut report = Box::new(lfdepth::align::AlignReport::EMPTY);
+    match frame::run(&mut memory, &mut report, &mut |_| {}) {
         Ok(summary) => println!(
             "whole-frame {}x{}: checksum {:#010x}, {} scratch bytes, mean |d - gt| = {:.4} px",
             frame::WIDTH,

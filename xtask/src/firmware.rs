@@ -17,8 +17,10 @@
 //! to one tick, ±40 instructions per reading).
 //!
 //! One line per image and target (checksums, instructions), then the instructions per
-//! stage; fails on a checksum difference, a run that does not report, or a run past its
-//! time limit.
+//! stage, then each image's deepest stack by the static analysis of
+//! `firmware/tools/stack_depth.py` (needs `python3`, `llvm-objdump` and `llvm-nm`; skipped
+//! with a notice without them); fails on a checksum difference, a run that does not
+//! report, a run past its time limit, or a stack above [`STACK_LIMITS`] (16 KiB).
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -55,6 +57,24 @@ pub const IMAGES: [(&str, &str); 2] = [
     ("stream", "qemu,panic-free"),
     ("whole-frame", "qemu,panic-free,whole-frame"),
 ];
+
+/// The deepest stack (bytes, from the reset handler) each image may need: a
+/// microcontroller's 16 KiB, the whole frame (alignment prelude and every stage)
+/// included (docs/EMBEDDED.md, "Stack").
+pub const STACK_LIMITS: [(&str, u64); 2] = [("stream", 16 * 1024), ("whole-frame", 16 * 1024)];
+
+/// The depth `stack_depth.py` reports (`deepest stack from lfdepth_reset: N bytes`).
+pub fn parse_stack(text: &str) -> Option<u64> {
+    text.lines()
+        .find_map(|l| l.strip_prefix("deepest stack from lfdepth_reset: "))
+        .and_then(|rest| rest.strip_suffix(" bytes"))
+        .and_then(|n| n.trim().parse().ok())
+}
+
+/// The static stack analysis of `elf`.
+pub fn stack_depth(elf: &Path) -> Cmd {
+    Cmd::new("python3", &["firmware/tools/stack_depth.py"]).arg(elf.to_string_lossy())
+}
 
 /// Instructions per tick of the boards' 25 MHz timer under `-icount shift=0`.
 pub const INSTRUCTIONS_PER_TICK: u64 = 40;
@@ -292,12 +312,42 @@ pub fn run(root: &Path) -> Result<(), String> {
             );
         }
     }
+    if ["python3", "llvm-objdump", "llvm-nm"]
+        .iter()
+        .all(|p| crate::exec::available(p))
+    {
+        println!("\ndeepest stack (firmware/tools/stack_depth.py):");
+        for (image, limit) in STACK_LIMITS {
+            for target in TARGETS {
+                let elf = kept(root, target.triple, image);
+                let depth = parse_stack(&stack_depth(&elf).output(root)?);
+                let verdict = match depth {
+                    Some(d) if d <= limit => "within",
+                    _ => "ABOVE",
+                };
+                println!(
+                    "{image:<18} {:<30} {} bytes, {verdict} the limit of {} bytes",
+                    target.triple,
+                    depth.map_or_else(|| "unreadable".to_string(), grouped),
+                    grouped(limit),
+                );
+                if verdict != "within" {
+                    failures.push(format!(
+                        "the {image} image's stack on {} is above {limit} bytes",
+                        target.triple
+                    ));
+                }
+            }
+        }
+    } else {
+        println!("\nSKIPPED: the stack check needs python3, llvm-objdump and llvm-nm on PATH");
+    }
     if failures.is_empty() {
-        println!("\nevery emulated checksum equals the host's");
+        println!("\nevery emulated checksum equals the host's, every stack within its limit");
         Ok(())
     } else {
         Err(format!(
-            "emulated run differs from the host or failed: {}",
+            "emulated run differs from the host, failed or needs too much stack: {}",
             failures.join("; ")
         ))
     }
@@ -342,6 +392,14 @@ mod tests {
                 ("stream 128x128".to_string(), 0x6fc0_9da7)
             ]
         );
+    }
+
+    #[test]
+    fn stack_depth_is_read() {
+        let text = "deepest stack from lfdepth_reset: 15108 bytes\n    1776  lfdepth_reset\n";
+        assert_eq!(parse_stack(text), Some(15108));
+        assert_eq!(parse_stack("recursion: f"), None);
+        assert!(STACK_LIMITS.iter().all(|&(_, l)| l == 16 * 1024));
     }
 
     #[test]

@@ -3,8 +3,6 @@
 //! that corners cover the whole image — a homography is best conditioned by spread-out
 //! points.
 
-use heapless::Vec as FixedVec;
-
 use super::pyramid::Image;
 use super::MAX_FEATURES;
 
@@ -43,15 +41,15 @@ fn min_eigenvalue(img: &Image<'_>, x: usize, y: usize) -> f32 {
 
 /// Up to `count` corners of `img` (a pyramid level `level`, scale `2^level`), at most one
 /// per cell of a grid of about `count` cells, keeping `margin` full-resolution pixels
-/// from the border.
+/// from the border, handed to `keep` one by one (it returns `false` when it holds no
+/// more).
 pub fn detect(
     img: &Image<'_>,
     level: usize,
     count: usize,
     margin: usize,
-    out: &mut FixedVec<Corner, MAX_FEATURES>,
+    mut keep: impl FnMut(Corner) -> bool,
 ) {
-    out.clear();
     let scale = 1usize << level;
     let border = (margin / scale).max(WINDOW + 2);
     if img.width <= 2 * border + 1 || img.height <= 2 * border + 1 {
@@ -84,7 +82,7 @@ pub fn detect(
                     }
                 }
             }
-            if best.strength > MIN_STRENGTH && out.push(best).is_err() {
+            if best.strength > MIN_STRENGTH && !keep(best) {
                 return;
             }
         }
@@ -93,6 +91,8 @@ pub fn detect(
 
 #[cfg(test)]
 mod tests {
+    use heapless::Vec as FixedVec;
+
     use super::*;
 
     #[test]
@@ -113,8 +113,8 @@ mod tests {
             width: w,
             height: h,
         };
-        let mut out = FixedVec::new();
-        detect(&img, 0, 16, 4, &mut out);
+        let mut out: FixedVec<Corner, MAX_FEATURES> = FixedVec::new();
+        detect(&img, 0, 16, 4, |c| out.push(c).is_ok());
         assert!(out.len() >= 12, "{}", out.len());
         for c in &out {
             // Checkerboard corners sit between pixels 8k − 1 and 8k.
@@ -127,7 +127,8 @@ mod tests {
             width: w,
             height: h,
         };
-        detect(&img, 0, 16, 4, &mut out);
+        out.clear();
+        detect(&img, 0, 16, 4, |c| out.push(c).is_ok());
         assert!(out.is_empty());
     }
 }

@@ -290,6 +290,48 @@ pub struct AlignReport {
     pub disparity_coherence: f32,
 }
 
+impl AlignReport {
+    /// The report of no estimate (equal to `AlignReport::default()`), for constants: a
+    /// firmware keeps its report in static memory
+    /// ([`crate::pipeline::run_aligned_into`]).
+    pub const EMPTY: AlignReport = AlignReport {
+        skipped: false,
+        warning: None,
+        features: 0,
+        views: FixedVec::new(),
+        identity_rms: 0.0,
+        rms: 0.0,
+        iterations: 0,
+        disparity_shift: 0.0,
+        disparity_coherence: 0.0,
+    };
+
+    /// Sets every field as `AlignReport { features, ..AlignReport::default() }` would,
+    /// in place (no second report on the stack).
+    pub(crate) fn start(&mut self, features: usize) {
+        let AlignReport {
+            skipped,
+            warning,
+            features: f,
+            views,
+            identity_rms,
+            rms,
+            iterations,
+            disparity_shift,
+            disparity_coherence,
+        } = self;
+        *skipped = false;
+        *warning = None;
+        *f = features;
+        views.clear();
+        *identity_rms = 0.0;
+        *rms = 0.0;
+        *iterations = 0;
+        *disparity_shift = 0.0;
+        *disparity_coherence = 0.0;
+    }
+}
+
 /// One view's share of a batch of per-view work — tracking the centre view's corners
 /// into it (its row of the track table: `(x, y)` per corner, NaN where not found) or
 /// fitting its homography to its tracks. The views of a batch are independent of each
@@ -406,6 +448,22 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
     scratch: &mut [f32],
     map: &mut M,
 ) -> Result<AlignReport> {
+    let mut report = AlignReport::default();
+    estimate_into(lf, params, homographies, scratch, map, &mut report)?;
+    Ok(report)
+}
+
+/// [`estimate_with`] into `report`, the one report of the whole estimate: passed down
+/// instead of returned from each level, it is on a firmware's stack once instead of once
+/// or twice per frame (≈ 2.4 KB each, a `ViewReport` per view of a 17×17 grid).
+pub(crate) fn estimate_into<S: Sample, M: ViewMap>(
+    lf: &LightField<'_, S>,
+    params: &AlignParams,
+    homographies: &mut [Homography],
+    scratch: &mut [f32],
+    map: &mut M,
+    report: &mut AlignReport,
+) -> Result<()> {
     params.validate()?;
     let layout = *lf.layout();
     let views = layout.grid.len();
@@ -419,7 +477,7 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
     let needed = scratch_len(&layout, params)?;
     check_scratch(needed, scratch.len())?;
     homographies.fill(Homography::IDENTITY);
-    let mut report = AlignReport::default();
+    report.start(0);
     let set = match params.views {
         AlignedViews::All | AlignedViews::Read => solve::ViewSet::All,
         AlignedViews::Cross => solve::ViewSet::Cross,
@@ -427,12 +485,12 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
     match params.mode {
         AlignMode::Off => {
             report.skipped = true;
-            Ok(report)
+            Ok(())
         }
         AlignMode::On => {
-            let report = solve::run(lf, params, set, homographies, scratch, map)?;
+            solve::run(lf, params, set, homographies, scratch, map, report)?;
             anchor_on_centre(&layout, params, set, homographies);
-            Ok(report)
+            Ok(())
         }
         AlignMode::Auto => {
             let probe = solve::run(
@@ -442,33 +500,34 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
                 homographies,
                 scratch,
                 map,
+                report,
             );
             homographies.fill(Homography::IDENTITY);
-            let probe = match probe {
-                Ok(r) => r,
-                Err(e) => {
-                    report.skipped = true;
-                    report.warning = Some(e);
-                    return Ok(report);
-                }
-            };
-            if probe.identity_rms <= params.rectified_rms.max(1.25 * probe.rms) {
+            if let Err(e) = probe {
+                report.start(0);
                 report.skipped = true;
-                report.features = probe.features;
-                report.identity_rms = probe.identity_rms;
-                report.rms = probe.identity_rms;
-                return Ok(report);
+                report.warning = Some(e);
+                return Ok(());
             }
-            match solve::run(lf, params, set, homographies, scratch, map) {
-                Ok(r) => {
+            if report.identity_rms <= params.rectified_rms.max(1.25 * report.rms) {
+                let (features, identity_rms) = (report.features, report.identity_rms);
+                report.start(features);
+                report.skipped = true;
+                report.identity_rms = identity_rms;
+                report.rms = identity_rms;
+                return Ok(());
+            }
+            match solve::run(lf, params, set, homographies, scratch, map, report) {
+                Ok(()) => {
                     anchor_on_centre(&layout, params, set, homographies);
-                    Ok(r)
+                    Ok(())
                 }
                 Err(e) => {
                     homographies.fill(Homography::IDENTITY);
+                    report.start(0);
                     report.skipped = true;
                     report.warning = Some(e);
-                    Ok(report)
+                    Ok(())
                 }
             }
         }

@@ -23,8 +23,6 @@ mod observations;
 mod tracking;
 mod views;
 
-use heapless::Vec as FixedVec;
-
 use super::corners;
 use super::model;
 use super::pyramid::Pyramid;
@@ -33,7 +31,7 @@ use crate::error::{checked_product, Error, Result};
 use crate::geometry::Homography;
 use crate::lightfield::{LightField, Sample};
 use alternate::alternate;
-use observations::State;
+use observations::{Corners, State};
 use tracking::{track_batches, track_first, track_second, Centre, Points};
 use views::{baseline, view_order, views_where, PROBE_FEATURES};
 
@@ -44,9 +42,10 @@ pub use views::ViewSet;
 pub struct Tracks;
 
 /// Per-corner tables in scratch (a point's `x`, `y`, `d`; the first pass's disparity
-/// sums `d_num`, `d_den` and the prediction from them): on the stack they made
-/// `align::solve::run` the whole-frame firmware's deepest frame (≈ 12 KB of its 27 KB).
-const CORNER_TABLES: usize = 6;
+/// sums `d_num`, `d_den` and the prediction from them; the detected corners' `x`, `y`
+/// and strength): on the stack they made `align::solve::run` the whole-frame firmware's
+/// deepest frame (≈ 18 KB of its 27 KB).
+const CORNER_TABLES: usize = 9;
 
 impl Tracks {
     /// Scratch for `views` views: each (view, corner)'s observation and inlier weight,
@@ -81,7 +80,8 @@ pub fn run<S: Sample, M: ViewMap>(
     homographies: &mut [Homography],
     scratch: &mut [f32],
     map: &mut M,
-) -> Result<AlignReport> {
+    report: &mut AlignReport,
+) -> Result<()> {
     let grid = lf.grid();
     let (width, height) = (lf.width(), lf.height());
     let (r0, c0) = grid.center();
@@ -102,7 +102,10 @@ pub fn run<S: Sample, M: ViewMap>(
     let (d, rest) = corner_table(rest).ok_or(too_small)?;
     let (d_num, rest) = corner_table(rest).ok_or(too_small)?;
     let (d_den, rest) = corner_table(rest).ok_or(too_small)?;
-    let (predicted, _) = corner_table(rest).ok_or(too_small)?;
+    let (predicted, rest) = corner_table(rest).ok_or(too_small)?;
+    let (corner_x, rest) = corner_table(rest).ok_or(too_small)?;
+    let (corner_y, rest) = corner_table(rest).ok_or(too_small)?;
+    let (corner_strength, _) = corner_table(rest).ok_or(too_small)?;
 
     pyramid.build(&lf.center_view(), centre_pyr);
     let centre_pyr = &*centre_pyr;
@@ -121,7 +124,7 @@ pub fn run<S: Sample, M: ViewMap>(
     }
     let mut state = State {
         grid,
-        corners: FixedVec::new(),
+        corners: Corners::new(corner_x, corner_y, corner_strength),
         obs,
         weight,
         x,
@@ -135,7 +138,7 @@ pub fn run<S: Sample, M: ViewMap>(
         level,
         features,
         MARGIN,
-        &mut state.corners,
+        |c| state.corners.push(c),
     );
     let n = state.corners.len();
     if n < params.min_inliers {
@@ -147,7 +150,7 @@ pub fn run<S: Sample, M: ViewMap>(
     state.obs.fill(f32::NAN);
     state.weight.fill(0.0);
     for i in 0..n {
-        let Some(&c) = state.corners.get(i) else {
+        let Some(c) = state.corners.get(i) else {
             break;
         };
         state.set_ob(centre, i, Some((c.x, c.y)));
@@ -207,10 +210,10 @@ pub fn run<S: Sample, M: ViewMap>(
             }
         }
     }
-    let first = alternate(&mut state, params, homographies, width, height, map)?;
-    if first.identity_rms <= params.rectified_rms {
+    alternate(&mut state, params, homographies, width, height, map, report)?;
+    if report.identity_rms <= params.rectified_rms {
         // Nothing to undo: the second pass would only re-measure the same positions.
-        return Ok(first);
+        return Ok(());
     }
 
     // Second pass: predicted positions and template shapes from the first estimate, so
@@ -221,7 +224,7 @@ pub fn run<S: Sample, M: ViewMap>(
         .and_then(Homography::inverse)
         .map(|h| model::from_homography(&h))
     else {
-        return alternate(&mut state, params, homographies, width, height, map);
+        return alternate(&mut state, params, homographies, width, height, map, report);
     };
     {
         let points = Points {
@@ -251,5 +254,5 @@ pub fn run<S: Sample, M: ViewMap>(
             state.set_ob(v, i, q);
         }
     }
-    alternate(&mut state, params, homographies, width, height, map)
+    alternate(&mut state, params, homographies, width, height, map, report)
 }

@@ -47,3 +47,34 @@ fn recovers_misalignment_modulo_gauge() {
         assert!(after < 0.1, "{model:?}: {after}");
     }
 }
+
+#[test]
+fn a_started_report_equals_a_new_one() {
+    assert_eq!(AlignReport::EMPTY, AlignReport::default());
+    let mut report = AlignReport {
+        skipped: true,
+        warning: Some(Error::NonFinite { what: "test" }),
+        features: 3,
+        identity_rms: 1.0,
+        rms: 2.0,
+        iterations: 4,
+        disparity_shift: 0.5,
+        disparity_coherence: 0.25,
+        ..AlignReport::default()
+    };
+    report
+        .views
+        .push(ViewReport {
+            inliers: 9,
+            rms: 0.5,
+        })
+        .unwrap();
+    report.start(7);
+    assert_eq!(
+        report,
+        AlignReport {
+            features: 7,
+            ..AlignReport::default()
+        }
+    );
+}

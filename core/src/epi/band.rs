@@ -27,10 +27,11 @@ pub(super) struct Band<T: Scalar> {
 }
 
 impl<T: Scalar> Band<T> {
-    /// Bands of the mixing rows `smooth[k]`, `derivative[k]` of `views` views.
+    /// Bands of the mixing rows of `views` views: `rows(k)` gives row `k` of the
+    /// smoothing and of the derivative matrix. It is called twice per row (the two
+    /// 17×17 matrices are not held: on a firmware's stack they were 2.3 KB).
     pub(super) fn new(
-        smooth: &[[f32; GRID_MAX]; GRID_MAX],
-        derivative: &[[f32; GRID_MAX]; GRID_MAX],
+        rows: impl Fn(usize) -> ([f32; GRID_MAX], [f32; GRID_MAX]),
         active: [bool; GRID_MAX],
         views: usize,
     ) -> Self {
@@ -46,7 +47,8 @@ impl<T: Scalar> Band<T> {
         let mut spans = [(0usize, 0usize); GRID_MAX];
         let mut taps = 1;
         for (k, span) in spans.iter_mut().enumerate().take(views) {
-            let used = |j: &usize| significant(&smooth[k], *j) || significant(&derivative[k], *j);
+            let (smooth, derivative) = rows(k);
+            let used = |j: &usize| significant(&smooth, *j) || significant(&derivative, *j);
             let first = (0..views).find(used).unwrap_or(k);
             let last = (0..views).rev().find(used).unwrap_or(k);
             *span = (first, last.max(first));
@@ -61,17 +63,18 @@ impl<T: Scalar> Band<T> {
         };
         let last_view = views.saturating_sub(1);
         for (k, &(first, last)) in spans.iter().enumerate().take(views) {
+            let (smooth, derivative) = rows(k);
             // The window starts early enough to stay inside the views where it can.
             let start = first.min(views.saturating_sub(Self::width_for(taps)));
             band.start[k] = start;
             for m in 0..GRID_MAX {
                 let j = (start + m).min(last_view);
                 if start + m == j && (first..=last).contains(&j) {
-                    if significant(&smooth[k], j) {
-                        band.smooth[k][m] = T::from_f32(smooth[k][j]);
+                    if let (true, Some(&v)) = (significant(&smooth, j), smooth.get(j)) {
+                        band.smooth[k][m] = T::from_f32(v);
                     }
-                    if significant(&derivative[k], j) {
-                        band.derivative[k][m] = T::from_f32(derivative[k][j]);
+                    if let (true, Some(&v)) = (significant(&derivative, j), derivative.get(j)) {
+                        band.derivative[k][m] = T::from_f32(v);
                     }
                 }
             }

@@ -84,6 +84,34 @@ fn shifts_by_halves(hyps: &Hypotheses, views: usize, centre: usize) -> bool {
     (0..views).any(|k| half_shift(hyps, k, centre))
 }
 
+/// Entry `(i, j)` of the per-view Scharr cross smoothing (`[3, 10, 3]`, renormalised at
+/// the ends) and of the central difference (one-sided at the ends) across `last + 1`
+/// views: the same values as the matrices built row by row (every entry is written once
+/// onto zero).
+fn scharr_and_difference(i: usize, j: usize, last: usize) -> (f32, f32) {
+    let (im, ip) = (i.saturating_sub(1), (i + 1).min(last));
+    let side = if im < i { 3.0 } else { 0.0 } + if ip > i { 3.0 } else { 0.0 };
+    let norm = 10.0 + side;
+    let smooth = if j == i {
+        10.0 / norm
+    } else if (j == im && im < i) || (j == ip && ip > i) {
+        3.0 / norm
+    } else {
+        0.0
+    };
+    let diff = if ip > im && (j == ip || j == im) {
+        let scale = 1.0 / (ip - im) as f32;
+        if j == ip {
+            scale
+        } else {
+            -scale
+        }
+    } else {
+        0.0
+    };
+    (smooth, diff)
+}
+
 impl<T: Scalar> LineEstimator<T> {
     /// `views` cameras along the EPI, the centre one at `centre`, `channels` loaded planes.
     pub(crate) fn new(
@@ -101,48 +129,36 @@ impl<T: Scalar> LineEstimator<T> {
         // at the ends) and a central difference (one-sided at the ends). Averaging
         // per-view differences keeps the slope scale exact at the ends of the EPI,
         // where clamped ("nearest") borders would flatten the signal.
-        let mut gauss = [[0.0f32; GRID_MAX]; GRID_MAX];
-        for (k, row) in gauss.iter_mut().enumerate().take(views) {
-            truncated_gaussian(params.inner_sigma, views, k, row);
-        }
         let last = views.saturating_sub(1);
-        let mut smooth = [[0.0f32; GRID_MAX]; GRID_MAX];
-        let mut diff = [[0.0f32; GRID_MAX]; GRID_MAX];
-        for i in 0..views {
-            let (im, ip) = (i.saturating_sub(1), (i + 1).min(last));
-            let side = if im < i { 3.0 } else { 0.0 } + if ip > i { 3.0 } else { 0.0 };
-            let norm = 10.0 + side;
-            smooth[i][i] += 10.0 / norm;
-            if im < i {
-                smooth[i][im] += 3.0 / norm;
-            }
-            if ip > i {
-                smooth[i][ip] += 3.0 / norm;
-            }
-            if ip > im {
-                let scale = 1.0 / (ip - im) as f32;
-                diff[i][ip] += scale;
-                diff[i][im] -= scale;
-            }
-        }
-        let mut mix_smooth = [[0.0f32; GRID_MAX]; GRID_MAX];
-        let mut mix_derivative = [[0.0f32; GRID_MAX]; GRID_MAX];
         let mut active = [false; GRID_MAX];
-        for k in 0..views {
-            for j in 0..views {
-                for i in 0..views {
-                    mix_smooth[k][j] += gauss[k][i] * smooth[i][j];
-                    mix_derivative[k][j] += gauss[k][i] * diff[i][j];
+        for (a, &w) in active.iter_mut().zip(&outer_weights).take(views) {
+            *a = T::from_f32(w) != T::ZERO;
+        }
+        // Row k of the mixing matrices: row k of the inner Gaussian times the Scharr and
+        // the difference matrices (their entries computed where used), each view's
+        // outer weight entering as √w in both gradients, so that the tensor terms are
+        // plain products (w·gx² = (√w·gx)²). Computed row by row where the band needs
+        // them: the five 17×17 tables made this the firmware's deepest stack frame.
+        let inner_sigma = params.inner_sigma;
+        let mix_rows = |k: usize| {
+            let mut mix_smooth = [0.0f32; GRID_MAX];
+            let mut mix_derivative = [0.0f32; GRID_MAX];
+            let mut gauss = [0.0f32; GRID_MAX];
+            truncated_gaussian(inner_sigma, views, k, &mut gauss);
+            let mixed = mix_smooth.iter_mut().zip(mix_derivative.iter_mut());
+            for (j, (ms, md)) in mixed.enumerate().take(views) {
+                for (i, &g) in gauss.iter().enumerate().take(views) {
+                    let (smooth, diff) = scharr_and_difference(i, j, last);
+                    *ms += g * smooth;
+                    *md += g * diff;
                 }
             }
-            // The outer weight of view k enters as √w in both gradients, so the tensor
-            // terms are plain products (w·gx² = (√w·gx)²).
-            let root = crate::float::sqrtf(outer_weights[k].max(0.0));
-            active[k] = T::from_f32(outer_weights[k]) != T::ZERO;
-            for m in mix_smooth[k].iter_mut().chain(mix_derivative[k].iter_mut()) {
+            let root = crate::float::sqrtf(outer_weights.get(k).map_or(0.0, |w| w.max(0.0)));
+            for m in mix_smooth.iter_mut().chain(mix_derivative.iter_mut()) {
                 *m *= root;
             }
-        }
+            (mix_smooth, mix_derivative)
+        };
         let half_shifts = shifts_by_halves(&hypotheses, views, centre);
         let coarse = match params.search {
             Search::CoarseToFine { margin } if hypotheses.count() > 3 => {
@@ -181,7 +197,7 @@ impl<T: Scalar> LineEstimator<T> {
             derivative: Kernel::derivative(params.inner_sigma),
             smoothing: Kernel::scharr_smoothing(params.inner_sigma),
             outer: Kernel::gaussian(params.outer_sigma),
-            band: Band::new(&mix_smooth, &mix_derivative, active, views),
+            band: Band::new(mix_rows, active, views),
             views,
             centre,
             channels: match params.color {
@@ -381,5 +397,59 @@ impl<T: Scalar> LineEstimator<T> {
             *d = d.clamp(lo, hi);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod mixing_tests {
+    use super::*;
+
+    /// The Scharr and difference matrices as whole tables, row by row.
+    fn matrices(views: usize) -> ([[f32; GRID_MAX]; GRID_MAX], [[f32; GRID_MAX]; GRID_MAX]) {
+        let last = views.saturating_sub(1);
+        let mut smooth = [[0.0f32; GRID_MAX]; GRID_MAX];
+        let mut diff = [[0.0f32; GRID_MAX]; GRID_MAX];
+        for i in 0..views {
+            let (im, ip) = (i.saturating_sub(1), (i + 1).min(last));
+            let side = if im < i { 3.0 } else { 0.0 } + if ip > i { 3.0 } else { 0.0 };
+            let norm = 10.0 + side;
+            smooth[i][i] += 10.0 / norm;
+            if im < i {
+                smooth[i][im] += 3.0 / norm;
+            }
+            if ip > i {
+                smooth[i][ip] += 3.0 / norm;
+            }
+            if ip > im {
+                let scale = 1.0 / (ip - im) as f32;
+                diff[i][ip] += scale;
+                diff[i][im] -= scale;
+            }
+        }
+        (smooth, diff)
+    }
+
+    #[test]
+    fn entries_equal_the_tables_bit_for_bit() {
+        for views in 1..=GRID_MAX {
+            let (smooth, diff) = matrices(views);
+            for i in 0..views {
+                for j in 0..views {
+                    let (s, d) = scharr_and_difference(i, j, views - 1);
+                    assert_eq!(
+                        s.to_bits(),
+                        smooth[i][j].to_bits(),
+                        "{views} views ({i}, {j})"
+                    );
+                    assert_eq!(
+                        d.to_bits(),
+                        diff[i][j].to_bits(),
+                        "{views} views ({i}, {j})"
+                    );
+                }
+            }
+        }
+        // A tap is there: the test would see a wrong one.
+        assert!(scharr_and_difference(1, 0, 2).0 > 0.0);
     }
 }

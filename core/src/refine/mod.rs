@@ -343,8 +343,11 @@ pub fn refine_band<T: Scalar, S: Sample>(
 ) -> Result<()> {
     check_inputs(setup, lf, range, disparity)?;
     let p = setup.params();
+    let mut views = Views::<T>::empty();
+    views.init(setup.layout(), p.views);
+    views.set_slack(p.sampling_slack);
     let photo = Rectified {
-        views: Views::<T>::new(setup.layout(), p.views).with_slack(p.sampling_slack),
+        views: &views,
         data: lf.data(),
     };
     band(setup, &photo, range, disparity, rows, out, scratch)
@@ -405,6 +408,9 @@ fn check_homographies(setup: Setup<'_, RefineParams>, homographies: &[Homography
 }
 
 /// The body of [`refine_band`] over the views `photo` compares.
+// Not inlined: its locals and the compared views' tables of `refine_band` are not in one
+// frame (docs/EMBEDDED.md, "Stack").
+#[inline(never)]
 fn band<T: Scalar, P: Photometric<T>>(
     setup: Setup<'_, RefineParams>,
     photo: &P,

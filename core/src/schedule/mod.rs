@@ -385,23 +385,25 @@ impl Schedule {
             _ => 0..0,
         };
         match step {
-            Step::Range => {
+            Step::Range => alone(|| {
                 let hypotheses = epi::hypotheses(plan.epi(), lf, scratch.kernel)?;
                 write_range(&mut *out.disparity, (hypotheses.min(), hypotheses.max()))
-            }
-            Step::Epi(direction) => epi::estimate_band(
-                plan.epi(),
-                &range()?,
-                lf,
-                direction,
-                lines,
-                DisparityOut {
-                    disparity: &mut *out.disparity,
-                    confidence: &mut *out.confidence,
-                },
-                scratch.kernel,
-            ),
-            Step::Refine => {
+            }),
+            Step::Epi(direction) => alone(|| {
+                epi::estimate_band(
+                    plan.epi(),
+                    &range()?,
+                    lf,
+                    direction,
+                    lines,
+                    DisparityOut {
+                        disparity: &mut *out.disparity,
+                        confidence: &mut *out.confidence,
+                    },
+                    scratch.kernel,
+                )
+            }),
+            Step::Refine => alone(|| {
                 let h = range()?;
                 refine::refine_band(
                     plan.refine(),
@@ -415,27 +417,31 @@ impl Schedule {
                     },
                     scratch.kernel,
                 )
-            }
-            Step::Refill => geofill::fill(
-                plan.geofill(),
-                &lf.center_view(),
-                state.disparity(),
-                &mut *out.disparity,
-                scratch.maps,
-            ),
-            Step::Median => median::filter_band(
-                plan.median(),
-                &lf.center_view(),
-                state.disparity(),
-                lines,
-                &mut *out.disparity,
-                scratch.maps,
-                match scratch.flags.get_mut(..plan.pixels()) {
-                    Some(flags) => flags,
-                    None => &mut [],
-                },
-            ),
-            Step::Tv { sweep } => {
+            }),
+            Step::Refill => alone(|| {
+                geofill::fill(
+                    plan.geofill(),
+                    &lf.center_view(),
+                    state.disparity(),
+                    &mut *out.disparity,
+                    scratch.maps,
+                )
+            }),
+            Step::Median => alone(|| {
+                median::filter_band(
+                    plan.median(),
+                    &lf.center_view(),
+                    state.disparity(),
+                    lines,
+                    &mut *out.disparity,
+                    scratch.maps,
+                    match scratch.flags.get_mut(..plan.pixels()) {
+                        Some(flags) => flags,
+                        None => &mut [],
+                    },
+                )
+            }),
+            Step::Tv { sweep } => alone(|| {
                 let (core, region) = tv::tile_rects(plan.tv(), index)?;
                 let maps =
                     Maps::checked_in(width, height, state.disparity(), state.confidence(), region)?;
@@ -459,7 +465,7 @@ impl Schedule {
                     scratch.kernel,
                 )
                 .map(|_| ())
-            }
+            }),
         }
     }
 
@@ -563,3 +569,12 @@ impl Schedule {
 
 #[cfg(test)]
 mod tests;
+
+/// Runs one step's part in a frame of its own: the stages' locals (the EPI line
+/// estimator, the refinement's per-view tables, the median's windows) never share one
+/// frame, so the deepest stack is that of one stage, not of all of them together
+/// (docs/EMBEDDED.md, "Stack").
+#[inline(never)]
+fn alone<R>(part: impl FnOnce() -> R) -> R {
+    part()
+}

@@ -114,13 +114,11 @@ pub(super) fn alternate<M: ViewMap>(
     width: usize,
     height: usize,
     map: &mut M,
-) -> Result<AlignReport> {
+    report: &mut AlignReport,
+) -> Result<()> {
     let grid = state.grid;
     let n = state.corners.len();
-    let mut report = AlignReport {
-        features: n,
-        ..AlignReport::default()
-    };
+    report.start(n);
     maps.fill(Homography::IDENTITY);
     state.solve_points(maps);
     let mut previous = f32::INFINITY;
@@ -242,7 +240,7 @@ pub(super) fn alternate<M: ViewMap>(
             *map = Homography::IDENTITY;
         }
     }
-    Ok(report)
+    Ok(())
 }
 
 /// RMS of the inlier observations when every view is taken as already rectified.

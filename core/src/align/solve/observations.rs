@@ -1,7 +1,6 @@
 //! The track table and the per-corner unknowns: observations and their inlier flags per
 //! view and corner, and the points step that solves each corner's position and disparity.
 
-use heapless::Vec as FixedVec;
 use nalgebra::{Matrix3, Vector3};
 
 use super::views::baseline;
@@ -14,10 +13,68 @@ use crate::lightfield::Grid;
 /// Side of the plane-patch grid of [`AlignModel::PlanePatches`](crate::align::AlignModel::PlanePatches).
 pub(super) const PATCHES: usize = 4;
 
+/// The centre view's corners, as three per-corner tables in the alignment scratch (a
+/// fixed-capacity list of them made `align::solve::run`'s frame 6 KB larger).
+pub(super) struct Corners<'s> {
+    x: &'s mut [f32; MAX_FEATURES],
+    y: &'s mut [f32; MAX_FEATURES],
+    strength: &'s mut [f32; MAX_FEATURES],
+    len: usize,
+}
+
+impl<'s> Corners<'s> {
+    /// An empty list over three tables.
+    pub(super) fn new(
+        x: &'s mut [f32; MAX_FEATURES],
+        y: &'s mut [f32; MAX_FEATURES],
+        strength: &'s mut [f32; MAX_FEATURES],
+    ) -> Self {
+        Corners {
+            x,
+            y,
+            strength,
+            len: 0,
+        }
+    }
+    /// Appends `c`; `false` when the list is full.
+    pub(super) fn push(&mut self, c: Corner) -> bool {
+        let i = self.len;
+        match (
+            self.x.get_mut(i),
+            self.y.get_mut(i),
+            self.strength.get_mut(i),
+        ) {
+            (Some(x), Some(y), Some(s)) => {
+                (*x, *y, *s) = (c.x, c.y, c.strength);
+                self.len += 1;
+                true
+            }
+            _ => false,
+        }
+    }
+    pub(super) fn len(&self) -> usize {
+        self.len
+    }
+    pub(super) fn get(&self, i: usize) -> Option<Corner> {
+        if i >= self.len {
+            return None;
+        }
+        Some(Corner {
+            x: *self.x.get(i)?,
+            y: *self.y.get(i)?,
+            strength: *self.strength.get(i)?,
+        })
+    }
+    /// The corners in detection order.
+    pub(super) fn iter(&self) -> impl Iterator<Item = Corner> + '_ {
+        (0..self.len).map_while(|i| self.get(i))
+    }
+}
+
 /// The track table and per-corner unknowns, over borrowed scratch.
 pub(super) struct State<'s> {
     pub(super) grid: Grid,
-    pub(super) corners: FixedVec<Corner, MAX_FEATURES>,
+    pub(super) corners: Corners<'s>,
     /// `(x, y)` per view and corner; NaN when not tracked.
     pub(super) obs: &'s mut [f32],
     /// 1 for an inlier observation, 0 otherwise.
@@ -122,7 +179,7 @@ impl State<'_> {
             let mut count = 0;
             let (cx, cy) = (width as f32 * 0.5, height as f32 * 0.5);
             for i in 0..self.corners.len().min(MAX_FEATURES) {
-                if self.solved[i] && in_patch(&self.corners[i]) {
+                if self.solved[i] && self.corners.get(i).is_some_and(|c| in_patch(&c)) {
                     let a = Vector3::new(self.x[i] - cx, self.y[i] - cy, 1.0);
                     ata += a * a.transpose();
                     atb += a * self.d[i];
@@ -136,7 +193,7 @@ impl State<'_> {
                 continue;
             };
             for i in 0..self.corners.len().min(MAX_FEATURES) {
-                if !(self.solved[i] && self.corners.get(i).is_some_and(in_patch)) {
+                if !(self.solved[i] && self.corners.get(i).is_some_and(|c| in_patch(&c))) {
                     continue;
                 }
                 let d = plane[0] * (self.x[i] - cx) + plane[1] * (self.y[i] - cy) + plane[2];

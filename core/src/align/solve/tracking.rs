@@ -4,8 +4,8 @@
 
 use heapless::Vec as FixedVec;
 
+use super::observations::Corners;
 use super::views::{baseline, row_col, TASK_BATCH};
-use crate::align::corners::Corner;
 use crate::align::model::{self, Mat};
 use crate::align::pyramid::Pyramid;
 use crate::align::track::{self, Pair};
@@ -50,7 +50,7 @@ pub(super) struct Centre<'c, 'l, S: Sample> {
     pub(super) lf: &'c LightField<'l, S>,
     pub(super) pyramid: &'c Pyramid,
     pub(super) centre_pyr: &'c [f32],
-    pub(super) corners: &'c [Corner],
+    pub(super) corners: &'c Corners<'c>,
 }
 
 /// The per-corner unknowns the second pass predicts from.

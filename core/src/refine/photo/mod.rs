@@ -120,50 +120,95 @@ pub(crate) struct Views<T> {
 impl<T: Scalar> Views<T> {
     /// The views of `set`.
     pub(crate) fn new(layout: &Layout, set: ViewSet) -> Self {
+        let mut views = Self::empty();
+        views.init(layout, set);
+        views
+    }
+
+    /// [`Views::EMPTY`], written straight into the caller's place (not inlined: a
+    /// constant this large is otherwise copied through a temporary on the stack).
+    #[inline(never)]
+    pub(crate) fn empty() -> Self {
+        Self::EMPTY
+    }
+
+    /// Tables of no views, to [`Views::init`] where they lie.
+    pub(crate) const EMPTY: Self = Views {
+        axis: [AxisTap::EMPTY; MAX_AXIS],
+        axis_len: 0,
+        regular: false,
+        regular_groups: [0; GROUPS],
+        regular_offset: [T::ZERO; CHUNK],
+        regular_start: [0; CHUNK],
+        regular_in_row: [false; CHUNK],
+        regular_x: [T::ZERO; CHUNK],
+        regular_y: [T::ZERO; CHUNK],
+        regular_max: [T::ZERO; CHUNK],
+        regular_samples: [0; CHUNK],
+        taps: [StoredTap::EMPTY; MAX_VIEWS],
+        len: 0,
+        steps: [(T::ZERO, T::ZERO); STEPS],
+        terms: [0.0; GROUPS],
+        centre: 0,
+        channels: 0,
+        row_stride: 0,
+        view_stride: 0,
+        x_max: T::ZERO,
+        y_max: T::ZERO,
+        x_last: 0,
+        y_last: 0,
+        x_cell: T::ZERO,
+        y_cell: T::ZERO,
+        half: T::ZERO,
+        levels: [T::ZERO; 256],
+        slack: None,
+    };
+
+    /// Makes these the views of `set`, field by field where they lie: built as a new
+    /// value and moved, the tables (≈ 5.7 KB on 32-bit targets) were twice on the
+    /// refinement's stack (docs/EMBEDDED.md, "Stack").
+    pub(crate) fn init(&mut self, layout: &Layout, set: ViewSet) {
+        let views = self;
         let grid = layout.grid;
         let (r0, c0) = grid.center();
         let used = layout.channels.min(3);
         let coordinate = |v: usize| T::from_i32(i32::try_from(v).unwrap_or(i32::MAX));
         let unit = T::from_f32(INTENSITY_SCALE / 255.0);
-        let mut levels = [T::ZERO; 256];
-        for (level, l) in (0i32..).zip(levels.iter_mut()) {
-            *l = T::from_i32(level) * unit;
-        }
         let x_last = layout.width.saturating_sub(2);
         let y_last = layout.height.saturating_sub(2);
-        let mut views = Views {
-            axis: [AxisTap::default(); MAX_AXIS],
-            axis_len: 0,
-            regular: false,
-            regular_groups: [0; GROUPS],
-            regular_offset: [T::ZERO; CHUNK],
-            regular_start: [0; CHUNK],
-            regular_in_row: [false; CHUNK],
-            regular_x: [T::ZERO; CHUNK],
-            regular_y: [T::ZERO; CHUNK],
-            regular_max: [T::ZERO; CHUNK],
-            regular_samples: [0; CHUNK],
-            taps: [StoredTap::default(); MAX_VIEWS],
-            len: 0,
-            steps: core::array::from_fn(|reach| {
-                let h = 0.5 / (reach.max(1) as f32);
-                (T::from_f32(h), T::from_f32(0.5 / h))
-            }),
-            terms: [0.0; GROUPS],
-            centre: grid.index(r0, c0) * layout.view_stride,
-            channels: layout.channels,
-            row_stride: layout.row_stride,
-            view_stride: layout.view_stride,
-            x_max: coordinate(layout.width.saturating_sub(1)),
-            y_max: coordinate(layout.height.saturating_sub(1)),
-            x_last,
-            y_last,
-            x_cell: coordinate(x_last),
-            y_cell: coordinate(y_last),
-            half: T::from_f32(0.5),
-            levels,
-            slack: None,
-        };
+        views.axis.fill(AxisTap::EMPTY);
+        views.axis_len = 0;
+        views.regular = false;
+        views.regular_groups.fill(0);
+        views.regular_offset.fill(T::ZERO);
+        views.regular_start.fill(0);
+        views.regular_in_row.fill(false);
+        views.regular_x.fill(T::ZERO);
+        views.regular_y.fill(T::ZERO);
+        views.regular_max.fill(T::ZERO);
+        views.regular_samples.fill(0);
+        views.taps.fill(StoredTap::EMPTY);
+        views.len = 0;
+        views.steps = core::array::from_fn(|reach| {
+            let h = 0.5 / (reach.max(1) as f32);
+            (T::from_f32(h), T::from_f32(0.5 / h))
+        });
+        views.terms.fill(0.0);
+        views.centre = grid.index(r0, c0) * layout.view_stride;
+        views.channels = layout.channels;
+        views.row_stride = layout.row_stride;
+        views.view_stride = layout.view_stride;
+        views.x_max = coordinate(layout.width.saturating_sub(1));
+        views.y_max = coordinate(layout.height.saturating_sub(1));
+        views.x_last = x_last;
+        views.y_last = y_last;
+        views.x_cell = coordinate(x_last);
+        views.y_cell = coordinate(y_last);
+        views.half = T::from_f32(0.5);
+        for (level, l) in (0i32..).zip(views.levels.iter_mut()) {
+            *l = T::from_i32(level) * unit;
+        }
+        views.slack = None;
         for r in 0..grid.rows {
             for c in 0..grid.cols {
                 let (dr, dc) = (r as isize - r0 as isize, c as isize - c0 as isize);
@@ -259,7 +304,6 @@ impl<T: Scalar> Views<T> {
                 (*x, *y, *m, *n) = frame;
             }
         }
-        views
     }
 
     /// Accumulates the statistics of pixel `(x, y)` at disparity `d` into `out`
@@ -320,9 +364,15 @@ impl<T: Scalar> Views<T> {
 
     /// These views with a sampling slack of `slack` px (`RefineParams::sampling_slack`;
     /// zero or less: none).
+    #[cfg(test)]
     pub(crate) fn with_slack(mut self, slack: f32) -> Self {
-        self.slack = (slack > 0.0).then(|| T::from_f32(slack));
+        self.set_slack(slack);
         self
+    }
+
+    /// [`Views::with_slack`] in place.
+    pub(crate) fn set_slack(&mut self, slack: f32) {
+        self.slack = (slack > 0.0).then(|| T::from_f32(slack));
     }
 }
 
@@ -338,14 +388,15 @@ pub(crate) trait Photometric<T> {
 
 /// Rectified views, read where they lie.
 pub(crate) struct Rectified<'a, T, S> {
-    pub views: Views<T>,
+    /// Borrowed: the tables are large, and a firmware's stack is small.
+    pub views: &'a Views<T>,
     pub data: &'a [S],
 }
 
 impl<T: Scalar, S: Sample> Photometric<T> for Rectified<'_, T, S> {
     #[inline(always)]
     fn views(&self) -> &Views<T> {
-        &self.views
+        self.views
     }
     #[inline(always)]
     fn pixel(&self, x: usize, y: usize, d: T, robust: (T, T), out: &mut [T; STATS]) {

@@ -89,6 +89,18 @@ pub(super) struct StoredTap {
     pub(super) second_group: u8,
 }
 
+impl StoredTap {
+    /// No view (a table's unused entry).
+    pub(super) const EMPTY: Self = StoredTap {
+        start: 0,
+        du: 0,
+        dv: 0,
+        reach: 0,
+        group: 0,
+        second_group: 0,
+    };
+}
+
 /// Entries of [`Views::steps`]: reaches 0…`GRID_MAX / 2`.
 pub(super) const STEPS: usize = GRID_MAX / 2 + 1;
 
@@ -107,6 +119,17 @@ pub(super) struct AxisTap<T> {
     pub(super) group: usize,
     /// Distance from the centre view (grid steps).
     pub(super) reach: usize,
+}
+
+impl<T: Scalar> AxisTap<T> {
+    /// No view (a table's unused entry).
+    pub(super) const EMPTY: Self = AxisTap {
+        start: 0,
+        offset: T::ZERO,
+        in_row: false,
+        group: 0,
+        reach: 0,
+    };
 }
 
 impl<T: Scalar> Views<T> {
