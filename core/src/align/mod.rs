@@ -53,7 +53,7 @@ use heapless::Vec as FixedVec;
 
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::geometry::Homography;
-use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
+use crate::lightfield::{Grid, Layout, LightField, Sample, GRID_MAX};
 
 pub use gauge::{gauge_fit, gauge_fit_where, gauge_rms, reprojection_rms, GaugeFit};
 pub use warp::{
@@ -399,6 +399,21 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
     scratch: &mut [f32],
     map: &mut M,
 ) -> Result<AlignReport> {
+    estimate_present(lf, params, &|_| true, homographies, scratch, map)
+}
+
+/// [`estimate_with`] on a light field of which only the views `present` accepts
+/// (row-major grid index) exist: the others are never read and keep the identity. The
+/// probe of [`AlignMode::Auto`] and the estimate use the views of their set that exist
+/// (the centre view must); with every view present the result is [`estimate_with`]'s.
+pub fn estimate_present<S: Sample, M: ViewMap>(
+    lf: &LightField<'_, S>,
+    params: &AlignParams,
+    present: &dyn Fn(usize) -> bool,
+    homographies: &mut [Homography],
+    scratch: &mut [f32],
+    map: &mut M,
+) -> Result<AlignReport> {
     params.validate()?;
     let layout = *lf.layout();
     let views = layout.grid.len();
@@ -423,8 +438,8 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
             Ok(report)
         }
         AlignMode::On => {
-            let report = solve::run(lf, params, set, homographies, scratch, map)?;
-            anchor_on_centre(&layout, params, set, homographies);
+            let report = solve::run(lf, params, set, present, homographies, scratch, map)?;
+            anchor_on_centre(&layout, params, set, present, homographies);
             Ok(report)
         }
         AlignMode::Auto => {
@@ -432,6 +447,7 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
                 lf,
                 params,
                 solve::ViewSet::Probe,
+                present,
                 homographies,
                 scratch,
                 map,
@@ -452,9 +468,9 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
                 report.rms = probe.identity_rms;
                 return Ok(report);
             }
-            match solve::run(lf, params, set, homographies, scratch, map) {
+            match solve::run(lf, params, set, present, homographies, scratch, map) {
                 Ok(r) => {
-                    anchor_on_centre(&layout, params, set, homographies);
+                    anchor_on_centre(&layout, params, set, present, homographies);
                     Ok(r)
                 }
                 Err(e) => {
@@ -468,6 +484,28 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
     }
 }
 
+/// Whether [`estimate`] with `params` may read view `view` (row-major grid index) of a
+/// `grid`: none when off; the centre view and the views of `params.views`
+/// ([`AlignedViews::Read`] counts as every view, as in [`estimate`]) when on; in auto
+/// mode also the probe's views (a few near the centre and the four corners).
+pub fn reads_view(grid: Grid, params: &AlignParams, view: usize) -> bool {
+    if view >= grid.len() {
+        return false;
+    }
+    let set = match params.views {
+        AlignedViews::All | AlignedViews::Read => solve::ViewSet::All,
+        AlignedViews::Cross => solve::ViewSet::Cross,
+    };
+    let (r0, c0) = grid.center();
+    let in_set =
+        |set| view == grid.index(r0, c0) || solve::view_order(grid, set, &|_| true).contains(&view);
+    match params.mode {
+        AlignMode::Off => false,
+        AlignMode::On => in_set(set),
+        AlignMode::Auto => in_set(set) || in_set(solve::ViewSet::Probe),
+    }
+}
+
 /// Moves an estimated frame onto the centre camera's when the two differ by at most
 /// `params.centre_anchor` pixels at the view's corners beyond a common translation (see
 /// [`AlignParams::centre_anchor`]): every map of `set` is composed with the inverse of
@@ -476,6 +514,7 @@ fn anchor_on_centre(
     layout: &Layout,
     params: &AlignParams,
     set: solve::ViewSet,
+    present: &dyn Fn(usize) -> bool,
     homographies: &mut [Homography],
 ) -> bool {
     if params.reference != Reference::Estimated || params.centre_anchor <= 0.0 {
@@ -513,10 +552,11 @@ fn anchor_on_centre(
     }
     let cols = grid.cols.max(1);
     for (v, map) in homographies.iter_mut().enumerate() {
-        let estimated = match set {
-            solve::ViewSet::Cross => v / cols == r0 || v % cols == c0,
-            _ => true,
-        };
+        let estimated = present(v)
+            && match set {
+                solve::ViewSet::Cross => v / cols == r0 || v % cols == c0,
+                _ => true,
+            };
         if estimated {
             *map = map.compose(&back);
         }
