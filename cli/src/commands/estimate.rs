@@ -12,7 +12,7 @@ use super::{CliError, LimitArgs, ScalarArg, Stage, ViewArgs};
 use crate::colormap;
 use crate::engine::{self, Estimate, EstimateOptions, Precision};
 use crate::io::scene::{self, Scene, Views};
-use crate::io::{pfm, png};
+use crate::io::{needs, pfm, png};
 use crate::progress::StageProgress;
 use crate::report;
 
@@ -74,11 +74,12 @@ pub fn estimate_scene(
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, CliError> {
     let context = || format!("estimating {}", scene.dir().display());
+    let present = &scene.decoded;
     let result = match &scene.views {
         Views::U8(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate_with(&lf, options, precision, progress)),
+            .and_then(|lf| engine::estimate_present(&lf, options, precision, present, progress)),
         Views::F32(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate_with(&lf, options, precision, progress)),
+            .and_then(|lf| engine::estimate_present(&lf, options, precision, present, progress)),
     };
     result.map_err(|e| CliError::core(context(), e))
 }
@@ -121,7 +122,12 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
         )));
     }
     let params = args.params.params(config)?;
-    let scene = scene::read_views(files, &args.limits.limits())?;
+    if let Some(note) = &files.grid_note {
+        eprintln!("note: {note}");
+    }
+    let needs = needs::views_to_read(&files, &params, args.stage.into())?;
+    let summary = needs.summary(&files);
+    let scene = scene::read_selected(files, &args.limits.limits(), &needs.wanted)?;
     let load_time = start.elapsed();
     let l = scene.layout;
     eprintln!(
@@ -136,6 +142,7 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
             Views::F32(_) => "16-bit",
         }
     );
+    eprintln!("{summary}");
     let config = scene.files.config.as_ref();
     let options = EstimateOptions {
         params,

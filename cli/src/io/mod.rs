@@ -3,6 +3,7 @@
 
 pub mod cfg;
 pub mod limits;
+pub mod needs;
 pub mod output;
 pub mod pattern;
 pub mod pfm;

@@ -48,12 +48,33 @@ pub struct ViewFiles {
     pub dir: PathBuf,
     /// The view grid.
     pub grid: Grid,
-    /// One file per view, row-major.
+    /// One file per view, row-major; for an absent view, the name it would have.
     pub paths: Vec<PathBuf>,
+    /// Whether each view's file exists (row-major).
+    pub present: Vec<bool>,
     /// The pattern the names follow.
     pub pattern: String,
     /// `parameters.cfg`, when present.
     pub config: Option<SceneConfig>,
+    /// How the grid was chosen when the names leave it open (for the user to check).
+    pub grid_note: Option<String>,
+}
+
+impl ViewFiles {
+    /// The file name of view `index` (row-major).
+    pub fn name(&self, index: usize) -> String {
+        self.paths
+            .get(index)
+            .and_then(|p| p.file_name())
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+    }
+
+    /// Row-major indices of the absent views.
+    pub fn absent(&self) -> Vec<usize> {
+        (0..self.present.len())
+            .filter(|&i| !self.present[i])
+            .collect()
+    }
 }
 
 /// Decoded view samples, packed view after view in row-major grid order.
@@ -72,8 +93,10 @@ pub struct Scene {
     pub files: ViewFiles,
     /// The packed layout of [`Scene::views`].
     pub layout: Layout,
-    /// The samples.
+    /// The samples; views not decoded (absent, or read by no chosen stage) are zero.
     pub views: Views,
+    /// Whether each view was decoded (row-major).
+    pub decoded: Vec<bool>,
 }
 
 impl Scene {
@@ -196,6 +219,36 @@ fn square_for(count: usize) -> usize {
     side
 }
 
+/// The grid of views numbered by index from `base` when neither `--grid` nor
+/// `parameters.cfg` gives it: the smallest square holding the highest index. A run of
+/// indices with no gap could also be a linear array: when their count is no square that
+/// is an error asking for `--grid`; when it is, the square comes with a note saying how
+/// to ask for a row or a column instead.
+fn index_grid(
+    dir: &Path,
+    indices: &[usize],
+    base: usize,
+) -> Result<(Grid, Option<String>), IoError> {
+    let max = indices.iter().copied().max().unwrap_or(base);
+    let count = max - base + 1;
+    let gapless = indices.len() == count;
+    let side = square_for(count);
+    if gapless && side * side != count {
+        return Err(folder_error(
+            dir,
+            format!(
+                "holds {count} views numbered by index, which fill no square grid: pass --grid 1x{count} for one row of cameras, --grid {count}x1 for one column, or the grid RxC they were taken on"
+            ),
+        ));
+    }
+    let note = gapless.then(|| {
+        format!(
+            "{count} views numbered by index read as a {side}x{side} grid; if they are one row or column of cameras, pass --grid 1x{count} or --grid {count}x1"
+        )
+    });
+    Ok((Grid::new(side, side), note))
+}
+
 /// Finds the views of the light field in `dir` without decoding them.
 pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
     if !dir.is_dir() {
@@ -242,6 +295,7 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
     // Position (row, col) of each file, 0-based.
     let positions: Vec<(usize, usize)>;
     let grid: Grid;
+    let grid_note: Option<String>;
     let base: usize;
     let cfg_grid = config
         .as_ref()
@@ -256,13 +310,9 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
         } else {
             1
         };
-        let max = indices.iter().copied().max().unwrap_or(0);
-        grid = match options.grid.or(cfg_grid) {
-            Some(g) => g,
-            None => {
-                let side = square_for(max - base + 1);
-                Grid::new(side, side)
-            }
+        (grid, grid_note) = match options.grid.or(cfg_grid) {
+            Some(g) => (g, None),
+            None => index_grid(dir, &indices, base)?,
         };
         let cols = grid.cols.max(1);
         positions = indices
@@ -281,6 +331,7 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
                 cols.iter().max().unwrap_or(&0) - base + 1,
             ),
         };
+        grid_note = None;
         positions = rows
             .iter()
             .zip(&cols)
@@ -333,44 +384,29 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
             ),
         ));
     }
-    let missing: Vec<String> = (0..g.len())
-        .filter(|&i| slots[i].is_none())
-        .map(|i| {
-            let (r, c) = (i / g.cols, i % g.cols);
-            pattern.render(
-                Numbers {
-                    row: Some(r + base),
-                    col: Some(c + base),
-                    index: Some(i + base),
-                    digits,
-                },
+    let name = |i: usize| {
+        let (r, c) = (i / g.cols, i % g.cols);
+        pattern.render(
+            Numbers {
+                row: Some(r + base),
+                col: Some(c + base),
+                index: Some(i + base),
                 digits,
-            )
-        })
-        .collect();
-    if !missing.is_empty() {
-        return Err(folder_error(
-            dir,
-            format!(
-                "{} of the {}x{} views are missing: {}",
-                missing.len(),
-                g.rows,
-                g.cols,
-                name_list(&missing)
-            ),
-        ));
-    }
-    let paths = slots
-        .iter()
-        .flatten()
-        .map(|&k| dir.join(&found[k].name))
+            },
+            digits,
+        )
+    };
+    let paths = (0..g.len())
+        .map(|i| dir.join(slots[i].map_or_else(|| name(i), |k| found[k].name.clone())))
         .collect();
     Ok(ViewFiles {
         dir: dir.to_path_buf(),
         grid,
         paths,
+        present: slots.iter().map(Option::is_some).collect(),
         pattern: pattern.as_str().to_string(),
         config,
+        grid_note,
     })
 }
 
@@ -400,19 +436,18 @@ fn odd_ones<K: Copy + PartialEq>(keys: &[K]) -> (K, Vec<usize>) {
 }
 
 /// The error for views that differ from the rest in `what` (a size, a sample format):
-/// names the odd views, and one view that has the common value.
+/// names the odd views, and one view that has the common value. `paths` are the views
+/// compared, `odd` indices into them.
 fn odd_views_error(
-    files: &ViewFiles,
+    paths: &[&PathBuf],
     odd: &[usize],
     odd_value: String,
     common_value: String,
     what: &str,
 ) -> IoError {
-    let good = (0..files.paths.len())
-        .find(|i| !odd.contains(i))
-        .unwrap_or(0);
+    let good = (0..paths.len()).find(|i| !odd.contains(i)).unwrap_or(0);
     let name = |i: usize| {
-        files.paths[i]
+        paths[i]
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
     };
@@ -424,18 +459,41 @@ fn odd_views_error(
     };
     IoError::format(format!(
         "is {odd_value} but the other {} views (e.g. {}) are {common_value}{others}: {what}",
-        files.paths.len() - odd.len(),
+        paths.len() - odd.len(),
         name(good),
     ))
-    .in_file(&files.paths[odd[0]])
+    .in_file(paths[odd[0]])
 }
 
-/// Decodes located views: first every header, which must agree on size and sample
-/// format and fit `limits` (nothing is decoded otherwise), then the pixels.
+/// Decodes every view of `files`, all of which must exist (see [`read_selected`]).
 pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
-    let dir = files.dir.clone();
-    let read: Vec<Result<pngio::Header, IoError>> = files
-        .paths
+    let absent = files.absent();
+    if !absent.is_empty() {
+        let names: Vec<String> = absent.iter().map(|&i| files.name(i)).collect();
+        return Err(folder_error(
+            &files.dir,
+            format!(
+                "{} of the {}x{} views are missing: {}",
+                absent.len(),
+                files.grid.rows,
+                files.grid.cols,
+                name_list(&names)
+            ),
+        ));
+    }
+    let wanted = vec![true; files.paths.len()];
+    read_selected(files, limits, &wanted)
+}
+
+/// Headers of the views `selected` (indices into `files.paths`), read in parallel and
+/// checked to agree on size and sample format: `(width, height, channels, bit depth)`.
+fn common_header(
+    files: &ViewFiles,
+    selected: &[usize],
+    limits: &Limits,
+) -> Result<(Vec<pngio::Header>, pngio::Header), IoError> {
+    let paths: Vec<&PathBuf> = selected.iter().map(|&i| &files.paths[i]).collect();
+    let read: Vec<Result<pngio::Header, IoError>> = paths
         .par_iter()
         .map(|p| pngio::read_header(p, limits.max_view_pixels))
         .collect();
@@ -446,7 +504,7 @@ pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
     if !odd.is_empty() {
         let (w, h) = sizes[odd[0]];
         return Err(odd_views_error(
-            &files,
+            &paths,
             &odd,
             format!("{w}x{h} pixels"),
             format!("{width}x{height}"),
@@ -454,32 +512,61 @@ pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
         ));
     }
     let formats: Vec<(usize, u8)> = headers.iter().map(|h| (h.channels, h.bit_depth)).collect();
-    let ((channels, depth), odd) = odd_ones(&formats);
+    let ((channels, bit_depth), odd) = odd_ones(&formats);
     if !odd.is_empty() {
         let (c, d) = formats[odd[0]];
         return Err(odd_views_error(
-            &files,
+            &paths,
             &odd,
             format!("{c} channel(s) of {d} bits"),
-            format!("{channels} of {depth}"),
+            format!("{channels} of {bit_depth}"),
             "save all views alike",
         ));
     }
+    let common = pngio::Header {
+        width,
+        height,
+        channels,
+        bit_depth,
+    };
+    Ok((headers, common))
+}
+
+/// Decodes the views `wanted` accepts (row-major; each must exist) in parallel, after
+/// every one of their headers was read and found to agree and to fit `limits` (nothing
+/// is decoded otherwise). The other views of the packed light field stay zero: they
+/// must be views no stage reads.
+pub fn read_selected(files: ViewFiles, limits: &Limits, wanted: &[bool]) -> Result<Scene, IoError> {
+    let dir = files.dir.clone();
+    let selected: Vec<usize> = (0..files.paths.len())
+        .filter(|&i| wanted.get(i) == Some(&true))
+        .collect();
+    if let Some(&i) = selected.iter().find(|&&i| !files.present[i]) {
+        return Err(IoError::format("is missing").in_file(&files.paths[i]));
+    }
+    if selected.is_empty() {
+        return Err(folder_error(&dir, "no view is to be read".into()));
+    }
+    let (headers, common) = common_header(&files, &selected, limits)?;
+    let pngio::Header {
+        width,
+        height,
+        channels: in_channels,
+        bit_depth: depth,
+    } = common;
     limits
         .check_light_field(files.paths.len(), width, height)
         .map_err(|e| IoError::format(e.to_string()).in_file(&dir))?;
-    let in_channels = channels;
     // Gray+alpha keeps gray only; the estimators ignore alpha anyway.
     let channels = if in_channels == 2 { 1 } else { in_channels };
     let layout = Layout::packed(files.grid, width, height, channels);
     let total = layout.validate().map_err(|e| IoError::core(&dir, e))?;
-    let decoded: Vec<Result<Image, IoError>> = files
-        .paths
+    let decoded: Vec<Result<Image, IoError>> = selected
         .par_iter()
-        .map(|p| pngio::read_limited(p, limits.max_view_pixels))
+        .map(|&i| pngio::read_limited(&files.paths[i], limits.max_view_pixels))
         .collect();
     let mut images = Vec::with_capacity(decoded.len());
-    for (image, (path, header)) in decoded.into_iter().zip(files.paths.iter().zip(&headers)) {
+    for ((image, header), &i) in decoded.into_iter().zip(&headers).zip(&selected) {
         let image = image?;
         if (image.width, image.height, image.channels, image.bit_depth())
             != (
@@ -490,39 +577,60 @@ pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
             )
         {
             return Err(
-                IoError::format("changed while it was being read: try again").in_file(path),
+                IoError::format("changed while it was being read: try again")
+                    .in_file(&files.paths[i]),
             );
         }
-        images.push(image);
+        images.push((i, image));
     }
-    let views = match depth {
+    let views = pack(&layout, total, in_channels, depth, &images);
+    let mut decoded = vec![false; files.paths.len()];
+    for &i in &selected {
+        decoded[i] = true;
+    }
+    Ok(Scene {
+        files,
+        layout,
+        views,
+        decoded,
+    })
+}
+
+/// Packs decoded `(view index, image)` pairs into a zeroed light field of `total`
+/// samples: 8-bit images as `u8`, 16-bit ones as `f32` in `[0, 1]`; gray+alpha
+/// (`in_channels` 2) keeps its gray channel.
+fn pack(
+    layout: &Layout,
+    total: usize,
+    in_channels: usize,
+    depth: u8,
+    images: &[(usize, Image)],
+) -> Views {
+    let step = if in_channels == 2 { 2 } else { 1 };
+    match depth {
         8 => {
-            let mut out = Vec::with_capacity(total);
-            for image in &images {
+            let mut out = vec![0u8; total];
+            for (i, image) in images {
                 if let Samples::Eight(s) = &image.samples {
-                    if in_channels == 2 {
-                        out.extend(s.iter().step_by(2));
-                    } else {
-                        out.extend_from_slice(s);
+                    let at = i * layout.view_stride;
+                    for (o, &v) in out[at..].iter_mut().zip(s.iter().step_by(step)) {
+                        *o = v;
                     }
                 }
             }
             Views::U8(out)
         }
         _ => {
-            let mut out = Vec::with_capacity(total);
-            let step = if in_channels == 2 { 2 } else { 1 };
-            for image in &images {
+            let mut out = vec![0.0f32; total];
+            for (i, image) in images {
                 if let Samples::Sixteen(s) = &image.samples {
-                    out.extend(s.iter().step_by(step).map(|&v| f32::from(v) / 65535.0));
+                    let at = i * layout.view_stride;
+                    for (o, &v) in out[at..].iter_mut().zip(s.iter().step_by(step)) {
+                        *o = f32::from(v) / 65535.0;
+                    }
                 }
             }
             Views::F32(out)
         }
-    };
-    Ok(Scene {
-        files,
-        layout,
-        views,
-    })
+    }
 }
