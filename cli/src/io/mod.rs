@@ -2,6 +2,7 @@
 //! none panics or allocates more than the file can justify.
 
 pub mod cfg;
+pub mod formats;
 pub mod limits;
 pub mod needs;
 pub mod output;

@@ -1,18 +1,22 @@
 //! Loading a light field from a folder of views.
 //!
-//! Views are found by file name:
-//! - `input_CamNNN.png` (the HCI benchmark): row-major index from 0; the grid comes from
-//!   `--grid`, else `parameters.cfg` (`num_cams_y` × `num_cams_x`), else the smallest
-//!   square holding the highest index;
+//! Views are PNG, JPEG or TIFF files ([`super::formats`]; `.png`, `.jpg`/`.jpeg`,
+//! `.tif`/`.tiff`, the container told by the file's first bytes), found by file name:
+//! - `input_CamNNN.png` (the HCI benchmark; any of the extensions): row-major index from
+//!   0; the grid comes from `--grid`, else `parameters.cfg` (`num_cams_y` ×
+//!   `num_cams_x`), else the smallest square holding the highest index — a gapless run
+//!   of indices whose count is no square could be a linear array and needs `--grid`;
 //! - `NAME_RR_CC.png`: row and column, 0- or 1-based (the smallest number found decides);
 //!   the grid comes from `--grid`, `parameters.cfg` or the largest row and column;
 //! - anything else through `--pattern` (see [`super::pattern`]).
 //!
-//! Every view's header is read first: the views must agree on size and sample format
-//! and fit the caps of [`super::limits`], else nothing is decoded and the error names
-//! the odd view or the flag that raises the cap. Views are then decoded in parallel.
-//! 8-bit images are kept as `u8`, 16-bit ones become `f32` in `[0, 1]`; a gray+alpha
-//! image keeps only its gray channel.
+//! Views of the grid may be absent ([`ViewFiles::present`]): only the views a run reads
+//! must exist ([`super::needs`]), and only those are decoded ([`read_selected`]). Their
+//! headers are read first: they must agree on size and sample format and fit the caps
+//! of [`super::limits`], else nothing is decoded and the error names the odd view or the
+//! flag that raises the cap. Views are then decoded in parallel. 8-bit images are kept
+//! as `u8`, 16-bit ones become `f32` in `[0, 1]`; a gray+alpha image keeps only its gray
+//! channel.
 
 use std::path::{Path, PathBuf};
 
@@ -20,13 +24,12 @@ use lfdepth::{Grid, Layout};
 use rayon::prelude::*;
 
 use super::cfg::{self, SceneConfig};
+use super::formats;
 use super::limits::Limits;
 use super::pattern::{Numbers, Pattern};
 use super::png::{self as pngio, Image, Samples};
 use super::IoError;
 
-/// The HCI benchmark's view names.
-pub const HCI_PATTERN: &str = "input_Cam{index:03}.png";
 /// The camera parameters file of a scene.
 pub const CONFIG_FILE: &str = "parameters.cfg";
 /// The ground-truth disparity of a scene's centre view.
@@ -146,16 +149,39 @@ fn file_names(dir: &Path) -> Result<Vec<String>, IoError> {
     Ok(names)
 }
 
-/// Guesses the naming pattern from the files present.
-fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
-    let hci = Pattern::parse(HCI_PATTERN)?;
-    if names.iter().any(|n| hci.matches(n).is_some()) {
-        return Ok(hci);
-    }
-    // NAME_RR_CC.png: group by NAME.
-    let mut prefixes: Vec<String> = Vec::new();
+/// The name without a view extension (`.png`, `.jpg`, `.tif`, … in any case) and that
+/// extension as written, when it has one.
+fn split_extension(name: &str) -> Option<(&str, &str)> {
+    let (stem, ext) = name.rsplit_once('.')?;
+    formats::VIEW_EXTENSIONS
+        .iter()
+        .any(|e| e.eq_ignore_ascii_case(ext))
+        .then_some((stem, ext))
+}
+
+/// The HCI pattern with each extension found among `names` (`input_Cam{index:03}.EXT`).
+fn hci_patterns(names: &[String]) -> Vec<String> {
+    let mut found: Vec<String> = Vec::new();
     for name in names {
-        let Some(stem) = name.strip_suffix(".png") else {
+        let Some((stem, ext)) = split_extension(name) else {
+            continue;
+        };
+        let digits = stem.strip_prefix("input_Cam");
+        if digits.is_some_and(|d| d.len() == 3 && d.bytes().all(|b| b.is_ascii_digit())) {
+            let pattern = format!("input_Cam{{index:03}}.{ext}");
+            if !found.contains(&pattern) {
+                found.push(pattern);
+            }
+        }
+    }
+    found
+}
+
+/// `NAME_RR_CC.EXT` names among `names`: each distinct `(NAME, EXT)`.
+fn row_col_prefixes(names: &[String]) -> Vec<(String, String)> {
+    let mut prefixes: Vec<(String, String)> = Vec::new();
+    for name in names {
+        let Some((stem, ext)) = split_extension(name) else {
             continue;
         };
         let mut parts = stem.rsplitn(3, '_');
@@ -165,12 +191,32 @@ fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
         };
         let digits =
             |s: &str| !s.is_empty() && s.len() <= 9 && s.bytes().all(|b| b.is_ascii_digit());
-        if digits(row) && digits(col) && !prefixes.iter().any(|p| p == prefix) {
-            prefixes.push(prefix.to_string());
+        let key = (prefix.to_string(), ext.to_string());
+        if digits(row) && digits(col) && !prefixes.contains(&key) {
+            prefixes.push(key);
         }
     }
-    match prefixes.as_slice() {
-        [prefix] => {
+    prefixes
+}
+
+/// Guesses the naming pattern from the files present.
+fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
+    match hci_patterns(names).as_slice() {
+        [] => {}
+        [one] => return Pattern::parse(one),
+        many => {
+            return Err(folder_error(
+                dir,
+                format!(
+                    "holds HCI-named views in several formats ({}): pass --pattern to choose, e.g. --pattern '{}'",
+                    many.join(", "),
+                    many[0]
+                ),
+            ))
+        }
+    }
+    match row_col_prefixes(names).as_slice() {
+        [(prefix, ext)] => {
             let escaped = prefix.replace(['{', '}'], "");
             if escaped != *prefix {
                 return Err(folder_error(
@@ -178,17 +224,17 @@ fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
                     format!("view names starting `{prefix}` contain braces: rename the files"),
                 ));
             }
-            Pattern::parse(&format!("{prefix}_{{row}}_{{col}}.png"))
+            Pattern::parse(&format!("{prefix}_{{row}}_{{col}}.{ext}"))
         }
         [] => {
-            let pngs = names.iter().filter(|n| n.ends_with(".png")).count();
+            let images = names.iter().filter(|n| split_extension(n).is_some()).count();
             Err(folder_error(
                 dir,
-                if pngs == 0 {
-                    "holds no PNG views: expected input_CamNNN.png or NAME_RR_CC.png files".into()
+                if images == 0 {
+                    "holds no PNG views (nor JPEG or TIFF ones): expected input_CamNNN.png or NAME_RR_CC.png files (.jpg, .tif alike)".into()
                 } else {
                     format!(
-                        "none of its {pngs} PNG files is named like a view (input_CamNNN.png or NAME_RR_CC.png): pass --pattern, e.g. --pattern 'view_{{row}}_{{col}}.png'"
+                        "none of its {images} image files is named like a view (input_CamNNN.png or NAME_RR_CC.png): pass --pattern, e.g. --pattern 'view_{{row}}_{{col}}.png'"
                     )
                 },
             ))
@@ -196,9 +242,15 @@ fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
         many => Err(folder_error(
             dir,
             format!(
-                "holds views of several light fields ({}): pass --pattern to choose, e.g. --pattern '{}_{{row}}_{{col}}.png'",
-                name_list(&many.iter().map(|p| format!("{p}_RR_CC.png")).collect::<Vec<_>>()),
-                many[0]
+                "holds views of several light fields ({}): pass --pattern to choose, e.g. --pattern '{}_{{row}}_{{col}}.{}'",
+                name_list(
+                    &many
+                        .iter()
+                        .map(|(p, e)| format!("{p}_RR_CC.{e}"))
+                        .collect::<Vec<_>>()
+                ),
+                many[0].0,
+                many[0].1
             ),
         )),
     }
@@ -305,7 +357,7 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
         let indices: Vec<usize> = found.iter().map(|f| f.numbers.index.unwrap_or(0)).collect();
         let min = indices.iter().copied().min().unwrap_or(0);
         // The HCI benchmark numbers from 0 even if Cam000 were missing.
-        base = if pattern.as_str() == HCI_PATTERN || min == 0 {
+        base = if pattern.as_str().starts_with("input_Cam{index:03}.") || min == 0 {
             0
         } else {
             1
@@ -495,7 +547,7 @@ fn common_header(
     let paths: Vec<&PathBuf> = selected.iter().map(|&i| &files.paths[i]).collect();
     let read: Vec<Result<pngio::Header, IoError>> = paths
         .par_iter()
-        .map(|p| pngio::read_header(p, limits.max_view_pixels))
+        .map(|p| formats::read_header(p, limits.max_view_pixels))
         .collect();
     // The first failing view in grid order, whatever the threads' timing.
     let headers = read.into_iter().collect::<Result<Vec<_>, _>>()?;
@@ -563,7 +615,7 @@ pub fn read_selected(files: ViewFiles, limits: &Limits, wanted: &[bool]) -> Resu
     let total = layout.validate().map_err(|e| IoError::core(&dir, e))?;
     let decoded: Vec<Result<Image, IoError>> = selected
         .par_iter()
-        .map(|&i| pngio::read_limited(&files.paths[i], limits.max_view_pixels))
+        .map(|&i| formats::read_limited(&files.paths[i], limits.max_view_pixels))
         .collect();
     let mut images = Vec::with_capacity(decoded.len());
     for ((image, header), &i) in decoded.into_iter().zip(&headers).zip(&selected) {
