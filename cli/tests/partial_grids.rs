@@ -138,3 +138,52 @@ fn alignment_uses_the_views_that_exist() {
         );
     }
 }
+
+/// The centre row of a synthetic scene as `name(k)` for k = 0..9, in a folder of its
+/// own (no parameters.cfg).
+fn centre_row(scene: &Path, to: &Path, name: impl Fn(usize) -> String) {
+    std::fs::create_dir_all(to).unwrap();
+    for k in 0..9 {
+        let from = scene.join(format!("input_Cam{:03}.png", 36 + k));
+        std::fs::copy(from, to.join(name(k))).unwrap();
+    }
+}
+
+#[test]
+fn linear_arrays_are_named_never_read_as_a_square() {
+    let dir = common::temp();
+    let full = synth(dir.path(), "full", 32, &[]);
+    let out = dir.path().join("out.pfm");
+    let row = dir.path().join("row");
+    centre_row(&full, &row, |k| format!("rail_00_{k:02}.png"));
+    assert_fails(
+        &estimate(&row, &out, &["--align", "off"]),
+        &["one row of cameras", "1x9"],
+    );
+    let column = dir.path().join("column");
+    centre_row(&full, &column, |k| format!("rail_{k:02}_00.png"));
+    assert_fails(
+        &estimate(&column, &out, &["--align", "off"]),
+        &["one column of cameras", "9x1"],
+    );
+    // Numbered by index, nine views could be a 3×3 grid: read so, with a note.
+    let indexed = dir.path().join("indexed");
+    centre_row(&full, &indexed, |k| format!("input_Cam{k:03}.png"));
+    let said = ok(&estimate(&indexed, &out, &["--align", "off"]));
+    assert!(
+        said.contains("3x3 grid") && said.contains("--grid 1x9"),
+        "{said}"
+    );
+    assert_fails(
+        &estimate(&indexed, &out, &["--grid", "1x9"]),
+        &["one row of cameras"],
+    );
+    // Seven fill no square: the grid must be given.
+    for k in 7..9 {
+        std::fs::remove_file(indexed.join(format!("input_Cam{k:03}.png"))).unwrap();
+    }
+    assert_fails(
+        &estimate(&indexed, &out, &[]),
+        &["7 views numbered by index", "--grid 1x7", "--grid 7x1"],
+    );
+}

@@ -301,6 +301,37 @@ fn index_grid(
     Ok((Grid::new(side, side), note))
 }
 
+/// Refuses a grid the estimator cannot use; a single row or column of cameras (a linear
+/// array) is named as such.
+fn check_grid(dir: &Path, g: Grid) -> Result<(), IoError> {
+    use lfdepth::lightfield::{GRID_MAX, GRID_MIN};
+    let fits = |n: usize| (GRID_MIN..=GRID_MAX).contains(&n);
+    if fits(g.rows) && fits(g.cols) {
+        return Ok(());
+    }
+    let line = match (g.rows, g.cols) {
+        (1, n) if n > 1 => Some("one row"),
+        (n, 1) if n > 1 => Some("one column"),
+        _ => None,
+    };
+    match line {
+        Some(line) => Err(folder_error(
+            dir,
+            format!(
+                "its views form {line} of cameras (a {}x{} linear array): lfdepth estimates from the horizontal and the vertical EPIs of a grid of at least {GRID_MIN}x{GRID_MIN} views and cannot yet use one direction alone; if the views are a grid, pass --grid RxC",
+                g.rows, g.cols
+            ),
+        )),
+        None => Err(IoError::core(
+            dir,
+            lfdepth::Error::GridSize {
+                rows: g.rows,
+                cols: g.cols,
+            },
+        )),
+    }
+}
+
 /// Finds the views of the light field in `dir` without decoding them.
 pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
     if !dir.is_dir() {
@@ -391,17 +422,7 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
             .collect();
     }
     let g = grid;
-    if !(lfdepth::lightfield::GRID_MIN..=lfdepth::lightfield::GRID_MAX).contains(&g.rows)
-        || !(lfdepth::lightfield::GRID_MIN..=lfdepth::lightfield::GRID_MAX).contains(&g.cols)
-    {
-        return Err(IoError::core(
-            dir,
-            lfdepth::Error::GridSize {
-                rows: g.rows,
-                cols: g.cols,
-            },
-        ));
-    }
+    check_grid(dir, g)?;
     let mut slots: Vec<Option<usize>> = vec![None; g.len()];
     let mut extra = Vec::new();
     for (k, &(r, c)) in positions.iter().enumerate() {
