@@ -273,9 +273,9 @@ fn square_for(count: usize) -> usize {
 
 /// The grid of views numbered by index from `base` when neither `--grid` nor
 /// `parameters.cfg` gives it: the smallest square holding the highest index. A run of
-/// indices with no gap could also be a linear array: when their count is no square that
-/// is an error asking for `--grid`; when it is, the square comes with a note saying how
-/// to ask for a row or a column instead.
+/// at most `GRID_MAX` indices with no gap could also be a linear array: when their
+/// count is no square that is an error asking for `--grid`; when it is, the square
+/// comes with a note saying how to ask for a row or a column instead.
 fn index_grid(
     dir: &Path,
     indices: &[usize],
@@ -283,7 +283,8 @@ fn index_grid(
 ) -> Result<(Grid, Option<String>), IoError> {
     let max = indices.iter().copied().max().unwrap_or(base);
     let count = max - base + 1;
-    let gapless = indices.len() == count;
+    // A linear array of more than the largest grid side is no light field lfdepth reads.
+    let gapless = indices.len() == count && count <= lfdepth::lightfield::GRID_MAX;
     let side = square_for(count);
     if gapless && side * side != count {
         return Err(folder_error(
