@@ -245,3 +245,22 @@ fn one_based_index_pattern() {
     );
     assert!(e.contains("missing") && e.contains("view5.png"), "{e}");
 }
+
+#[test]
+fn index_names_without_a_grid() {
+    let dir = common::temp();
+    common::hci_views(dir.path(), 81, 16);
+    let files = scene::locate(dir.path(), &LoadOptions::default()).unwrap();
+    // Too many for one row or column: a square, no note.
+    assert_eq!((files.grid, files.grid_note), (Grid::new(9, 9), None));
+    let dir = common::temp();
+    common::hci_views(dir.path(), 9, 16);
+    let files = scene::locate(dir.path(), &LoadOptions::default()).unwrap();
+    assert_eq!(files.grid, Grid::new(3, 3));
+    assert!(files.grid_note.is_some_and(|n| n.contains("--grid 1x9")));
+    // A gap: a grid with views absent, not a linear array.
+    std::fs::remove_file(dir.path().join("input_Cam004.png")).unwrap();
+    let files = scene::locate(dir.path(), &LoadOptions::default()).unwrap();
+    assert_eq!(files.absent(), vec![4]);
+    assert_eq!((files.grid, files.grid_note), (Grid::new(3, 3), None));
+}

@@ -8,8 +8,8 @@ use core::ops::ControlFlow;
 use crate::align::{self, AlignMode, AlignParams, AlignReport, AlignedViews, WarpSample};
 use crate::error::{check_map_lengths, check_scratch, Error, Result};
 use crate::geometry::Homography;
-use crate::lightfield::{LightField, Sample};
-use crate::plan::Plan;
+use crate::lightfield::{Grid, LightField, Sample};
+use crate::plan::{Params, Plan};
 use crate::progress::report;
 pub use crate::progress::Progress;
 use crate::scalar::Scalar;
@@ -165,7 +165,12 @@ pub const STAGE_WARP: &str = "warp";
 /// [`Stages::Full`]) also its `views`; TV reads only the centre view. Only these views
 /// need warping.
 pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
-    let grid = plan.layout().grid;
+    stages_read_view(plan.layout().grid, plan.params(), stages, view)
+}
+
+/// [`reads_view`] before there is a plan: whether `stages` with `params` on a `grid`
+/// read view `view` (what a loader needs to know before it decodes any view).
+pub fn stages_read_view(grid: Grid, params: &Params, stages: Stages, view: usize) -> bool {
     if view >= grid.len() {
         return false;
     }
@@ -179,7 +184,7 @@ pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
     if r == r0 || c == c0 {
         return true;
     }
-    let refine = &plan.params().refine;
+    let refine = &params.refine;
     stages == Stages::Full
         && refine.enabled
         && refine
@@ -187,26 +192,38 @@ pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
             .contains(r as isize - r0 as isize, c as isize - c0 as isize)
 }
 
+/// Whether the alignment prelude of `params` ([`align_views`], with
+/// [`align_params_for`]) may read view `view` of a `grid` before `stages` run: see
+/// [`align::reads_view`]. A view neither this nor [`stages_read_view`] accepts is never
+/// read and may be absent.
+pub fn alignment_reads_view(grid: Grid, params: &Params, stages: Stages, view: usize) -> bool {
+    align::reads_view(grid, &align_params_for(grid, params, stages), view)
+}
+
 /// The alignment parameters of `plan` for `stages`: [`AlignedViews::Read`] becomes
 /// [`AlignedViews::Cross`] when the stages read no view off the centre row and column,
 /// else [`AlignedViews::All`].
 pub fn align_params(plan: &Plan, stages: Stages) -> AlignParams {
-    let mut params = plan.params().align;
-    if params.views == AlignedViews::Read {
-        let grid = plan.layout().grid;
+    align_params_for(plan.layout().grid, plan.params(), stages)
+}
+
+/// [`align_params`] before there is a plan.
+pub fn align_params_for(grid: Grid, params: &Params, stages: Stages) -> AlignParams {
+    let mut align = params.align;
+    if align.views == AlignedViews::Read {
         let (r0, c0) = grid.center();
         let off_cross = (0..grid.len()).any(|v| {
             v.checked_div(grid.cols) != Some(r0)
                 && v.checked_rem(grid.cols) != Some(c0)
-                && reads_view(plan, stages, v)
+                && stages_read_view(grid, params, stages, v)
         });
-        params.views = if off_cross {
+        align.views = if off_cross {
             AlignedViews::All
         } else {
             AlignedViews::Cross
         };
     }
-    params
+    align
 }
 
 /// The plan the stages run with on views that were warped (aligned): `plan` with the
@@ -302,6 +319,7 @@ fn align_views_into<S: Sample, A: WarpSample + Sample>(
     align::estimate_into(
         lf,
         params,
+        &|_| true,
         buffers.homographies,
         buffers.scratch,
         &mut align::Serial,
@@ -740,5 +758,39 @@ mod tests {
             }),
             Err(Error::OutputSize { .. })
         ));
+    }
+
+    #[test]
+    fn views_read_before_a_plan() {
+        let grid = Grid::new(9, 9);
+        let layout = crate::Layout::packed(grid, 32, 32, 1);
+        let mut params = Params::default();
+        for views in [ViewSet::Cross, ViewSet::CrossDiagonals] {
+            params.refine.views = views;
+            let plan = Plan::new(layout, params).unwrap();
+            for stages in [Stages::Epi, Stages::Full] {
+                for v in 0..90 {
+                    assert_eq!(
+                        stages_read_view(grid, &params, stages, v),
+                        reads_view(&plan, stages, v)
+                    );
+                }
+            }
+        }
+        let count = |params: &Params, stages| {
+            (0..81)
+                .filter(|&v| alignment_reads_view(grid, params, stages, v))
+                .count()
+        };
+        params.refine.views = ViewSet::Cross;
+        assert_eq!(count(&params, Stages::Full), 0, "alignment off");
+        params.align.mode = AlignMode::Auto;
+        // The cross, and the probe's four corners.
+        assert_eq!(count(&params, Stages::Full), 21);
+        params.align.mode = AlignMode::On;
+        assert_eq!(count(&params, Stages::Full), 17);
+        params.refine.views = ViewSet::CrossDiagonals;
+        assert_eq!(count(&params, Stages::Full), 81);
+        assert_eq!(count(&params, Stages::Epi), 17);
     }
 }

@@ -12,17 +12,20 @@ use super::{CliError, LimitArgs, ScalarArg, Stage, ViewArgs};
 use crate::colormap;
 use crate::engine::{self, Estimate, EstimateOptions, Precision};
 use crate::io::scene::{self, Scene, Views};
-use crate::io::{pfm, png};
+use crate::io::{formats, needs, pfm, png};
 use crate::progress::StageProgress;
 use crate::report;
 
 /// Arguments of `lfdepth estimate`.
 #[derive(Debug, Args)]
 pub struct EstimateArgs {
-    /// Folder holding the views (an HCI scene folder or NAME_RR_CC.png files).
+    /// Folder holding the views: an HCI scene folder or NAME_RR_CC.png files (PNG, JPEG
+    /// or TIFF). Only the views the chosen stages read must exist: the centre row and
+    /// column of the grid (and the refinement's views when they reach further).
     #[arg(value_name = "INPUT")]
     pub input: PathBuf,
-    /// Disparity map to write (PFM, one channel, rows bottom-to-top).
+    /// Disparity map to write: PFM (one channel, rows bottom-to-top), or 32-bit float
+    /// TIFF when the name ends in .tif or .tiff.
     #[arg(short, long, value_name = "OUT.pfm")]
     pub output: PathBuf,
     /// Also write the disparity as a colour PNG with a legend bar.
@@ -36,11 +39,11 @@ pub struct EstimateArgs {
     /// from --png-range or the map; the range is stored in its text chunks).
     #[arg(long, value_name = "OUT.png")]
     pub png16: Option<PathBuf>,
-    /// Also write depth in metres (PFM) from parameters.cfg with the HCI formula
+    /// Also write depth in metres (PFM, or float TIFF for .tif) from parameters.cfg with the HCI formula
     /// z = b·f·D / (d·D + b·f); NaN where the disparity lies at or beyond infinity.
     #[arg(long, value_name = "DEPTH.pfm")]
     pub depth: Option<PathBuf>,
-    /// Also write the per-pixel confidence in [0, 1] (PFM).
+    /// Also write the per-pixel confidence in [0, 1] (PFM, or float TIFF for .tif).
     #[arg(long, value_name = "CONF.pfm")]
     pub confidence: Option<PathBuf>,
     /// How far to run: `epi` (initial estimate) or `full` (with TV refinement).
@@ -74,11 +77,12 @@ pub fn estimate_scene(
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, CliError> {
     let context = || format!("estimating {}", scene.dir().display());
+    let present = &scene.decoded;
     let result = match &scene.views {
         Views::U8(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate_with(&lf, options, precision, progress)),
+            .and_then(|lf| engine::estimate_present(&lf, options, precision, present, progress)),
         Views::F32(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate_with(&lf, options, precision, progress)),
+            .and_then(|lf| engine::estimate_present(&lf, options, precision, present, progress)),
     };
     result.map_err(|e| CliError::core(context(), e))
 }
@@ -121,7 +125,12 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
         )));
     }
     let params = args.params.params(config)?;
-    let scene = scene::read_views(files, &args.limits.limits())?;
+    if let Some(note) = &files.grid_note {
+        eprintln!("note: {note}");
+    }
+    let needs = needs::views_to_read(&files, &params, args.stage.into())?;
+    let summary = needs.summary(&files);
+    let scene = scene::read_selected(files, &args.limits.limits(), &needs.wanted)?;
     let load_time = start.elapsed();
     let l = scene.layout;
     eprintln!(
@@ -136,6 +145,7 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
             Views::F32(_) => "16-bit",
         }
     );
+    eprintln!("{summary}");
     let config = scene.files.config.as_ref();
     let options = EstimateOptions {
         params,
@@ -150,12 +160,12 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     let estimate = result?;
     super::params::print_alignment(estimate.align.as_ref());
     let (w, h) = (estimate.width, estimate.height);
-    pfm::write(
+    formats::write_map(
         &args.output,
         &pfm::Pfm::new(w, h, estimate.disparity.clone())?,
     )?;
     if let Some(path) = &args.confidence {
-        pfm::write(path, &pfm::Pfm::new(w, h, estimate.confidence.clone())?)?;
+        formats::write_map(path, &pfm::Pfm::new(w, h, estimate.confidence.clone())?)?;
     }
     if let (Some(path), Some(config)) = (&args.depth, config) {
         let depth = estimate
@@ -163,7 +173,7 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
             .iter()
             .map(|&d| config.depth_m(f64::from(d)).map_or(f32::NAN, |z| z as f32))
             .collect();
-        pfm::write(path, &pfm::Pfm::new(w, h, depth)?)?;
+        formats::write_map(path, &pfm::Pfm::new(w, h, depth)?)?;
     }
     if let Some(path) = &args.png {
         let range = args.png_range.map(|r| (r.min, r.max));

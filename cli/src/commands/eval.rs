@@ -13,7 +13,7 @@ use crate::engine::EstimateOptions;
 use crate::io::pfm::{self, Pfm};
 use crate::io::png::{self, Samples};
 use crate::io::scene::{self, GROUND_TRUTH_FILE};
-use crate::io::IoError;
+use crate::io::{needs, IoError};
 use crate::progress::StageProgress;
 use crate::report::{self, SceneRow};
 
@@ -274,9 +274,12 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
             .display()
             .to_string();
         let start = Instant::now();
-        let loaded = scene::load_limited(dir, &args.views.load_options(), &args.limits.limits())?;
+        let files = scene::locate(dir, &args.views.load_options())?;
+        let params = args.params.params(files.config.as_ref())?;
+        let wanted = needs::views_to_read(&files, &params, args.stage.into())?.wanted;
+        let loaded = scene::read_selected(files, &args.limits.limits(), &wanted)?;
         let options = EstimateOptions {
-            params: args.params.params(loaded.files.config.as_ref())?,
+            params,
             stage: args.stage.into(),
             threads: args.threads.map(usize::from),
         };

@@ -55,7 +55,10 @@ pub struct ViewArgs {
     /// left out (input_CamNNN.png or NAME_RR_CC.png).
     #[arg(long, value_name = "PATTERN")]
     pub pattern: Option<String>,
-    /// View grid as ROWSxCOLS (e.g. 9x9); default from parameters.cfg or the file names.
+    /// View grid as ROWSxCOLS (e.g. 9x9); default from parameters.cfg or the file names
+    /// (the largest row and column, or for views numbered by index the smallest square
+    /// holding the highest index). Views no chosen stage reads may be absent. A single
+    /// row or column of cameras (1xN, Nx1) is refused: the estimator needs at least 3x3.
     #[arg(long, value_name = "RxC", value_parser = parse_grid)]
     pub grid: Option<Grid>,
 }

@@ -85,10 +85,36 @@ pub fn estimate_with<S: Sample + Sync>(
     }
 }
 
+/// [`estimate_with`] on a light field of which only the views `present` marks
+/// (row-major; an empty slice marks every view) hold data: the alignment reads no other
+/// view, and the stages must read none (the loader checks, `io::needs`).
+pub fn estimate_present<S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    precision: Precision,
+    present: &[bool],
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    match precision {
+        Precision::F32 => estimate_among::<f32, S>(lf, options, present, progress),
+        Precision::Q16 => estimate_among::<Q16, S>(lf, options, present, progress),
+    }
+}
+
 /// [`estimate`] with every stage (EPI, refinement, TV) computing in `T`.
 pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
     options: &EstimateOptions,
+    progress: &mut dyn FnMut(&str, u64, u64),
+) -> Result<Estimate, lfdepth::Error> {
+    estimate_among::<T, S>(lf, options, &[], progress)
+}
+
+/// [`estimate_in`] with the views `present` marks (see [`estimate_present`]).
+fn estimate_among<T: Scalar, S: Sample + Sync>(
+    lf: &LightField<'_, S>,
+    options: &EstimateOptions,
+    present: &[bool],
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, lfdepth::Error> {
     let plan = Plan::new(*lf.layout(), options.params)?;
@@ -119,10 +145,10 @@ pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
             let result = match &pool {
-                Some(pool) => {
-                    pool.install(|| align_then_run::<T, S>(&plan, lf, options.stage, &tracker))
-                }
-                None => align_then_run::<T, S>(&plan, lf, options.stage, &tracker),
+                Some(pool) => pool.install(|| {
+                    align_then_run::<T, S>(&plan, lf, options.stage, present, &tracker)
+                }),
+                None => align_then_run::<T, S>(&plan, lf, options.stage, present, &tracker),
             };
             finished.store(true, Ordering::Release);
             result
@@ -177,6 +203,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
+    present: &[bool],
     tracker: &Tracker<'_>,
 ) -> Result<Estimate, lfdepth::Error> {
     let params = &pipeline::align_params(plan, stages);
@@ -188,9 +215,10 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     let layout = *plan.layout();
     let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
     let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
-    let report = align::estimate_with(
+    let report = align::estimate_present(
         lf,
         params,
+        &|v| present.get(v).copied().unwrap_or(present.is_empty()),
         &mut homographies,
         &mut scratch,
         &mut ParallelViews,

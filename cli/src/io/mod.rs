@@ -2,7 +2,9 @@
 //! none panics or allocates more than the file can justify.
 
 pub mod cfg;
+pub mod formats;
 pub mod limits;
+pub mod needs;
 pub mod output;
 pub mod pattern;
 pub mod pfm;

@@ -1,18 +1,22 @@
 //! Loading a light field from a folder of views.
 //!
-//! Views are found by file name:
-//! - `input_CamNNN.png` (the HCI benchmark): row-major index from 0; the grid comes from
-//!   `--grid`, else `parameters.cfg` (`num_cams_y` × `num_cams_x`), else the smallest
-//!   square holding the highest index;
+//! Views are PNG, JPEG or TIFF files ([`super::formats`]; `.png`, `.jpg`/`.jpeg`,
+//! `.tif`/`.tiff`, the container told by the file's first bytes), found by file name:
+//! - `input_CamNNN.png` (the HCI benchmark; any of the extensions): row-major index from
+//!   0; the grid comes from `--grid`, else `parameters.cfg` (`num_cams_y` ×
+//!   `num_cams_x`), else the smallest square holding the highest index — a gapless run
+//!   of indices whose count is no square could be a linear array and needs `--grid`;
 //! - `NAME_RR_CC.png`: row and column, 0- or 1-based (the smallest number found decides);
 //!   the grid comes from `--grid`, `parameters.cfg` or the largest row and column;
 //! - anything else through `--pattern` (see [`super::pattern`]).
 //!
-//! Every view's header is read first: the views must agree on size and sample format
-//! and fit the caps of [`super::limits`], else nothing is decoded and the error names
-//! the odd view or the flag that raises the cap. Views are then decoded in parallel.
-//! 8-bit images are kept as `u8`, 16-bit ones become `f32` in `[0, 1]`; a gray+alpha
-//! image keeps only its gray channel.
+//! Views of the grid may be absent ([`ViewFiles::present`]): only the views a run reads
+//! must exist ([`super::needs`]), and only those are decoded ([`read_selected`]). Their
+//! headers are read first: they must agree on size and sample format and fit the caps
+//! of [`super::limits`], else nothing is decoded and the error names the odd view or the
+//! flag that raises the cap. Views are then decoded in parallel. 8-bit images are kept
+//! as `u8`, 16-bit ones become `f32` in `[0, 1]`; a gray+alpha image keeps only its gray
+//! channel.
 
 use std::path::{Path, PathBuf};
 
@@ -20,13 +24,12 @@ use lfdepth::{Grid, Layout};
 use rayon::prelude::*;
 
 use super::cfg::{self, SceneConfig};
+use super::formats;
 use super::limits::Limits;
 use super::pattern::{Numbers, Pattern};
 use super::png::{self as pngio, Image, Samples};
 use super::IoError;
 
-/// The HCI benchmark's view names.
-pub const HCI_PATTERN: &str = "input_Cam{index:03}.png";
 /// The camera parameters file of a scene.
 pub const CONFIG_FILE: &str = "parameters.cfg";
 /// The ground-truth disparity of a scene's centre view.
@@ -48,12 +51,33 @@ pub struct ViewFiles {
     pub dir: PathBuf,
     /// The view grid.
     pub grid: Grid,
-    /// One file per view, row-major.
+    /// One file per view, row-major; for an absent view, the name it would have.
     pub paths: Vec<PathBuf>,
+    /// Whether each view's file exists (row-major).
+    pub present: Vec<bool>,
     /// The pattern the names follow.
     pub pattern: String,
     /// `parameters.cfg`, when present.
     pub config: Option<SceneConfig>,
+    /// How the grid was chosen when the names leave it open (for the user to check).
+    pub grid_note: Option<String>,
+}
+
+impl ViewFiles {
+    /// The file name of view `index` (row-major).
+    pub fn name(&self, index: usize) -> String {
+        self.paths
+            .get(index)
+            .and_then(|p| p.file_name())
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+    }
+
+    /// Row-major indices of the absent views.
+    pub fn absent(&self) -> Vec<usize> {
+        (0..self.present.len())
+            .filter(|&i| !self.present[i])
+            .collect()
+    }
 }
 
 /// Decoded view samples, packed view after view in row-major grid order.
@@ -72,8 +96,10 @@ pub struct Scene {
     pub files: ViewFiles,
     /// The packed layout of [`Scene::views`].
     pub layout: Layout,
-    /// The samples.
+    /// The samples; views not decoded (absent, or read by no chosen stage) are zero.
     pub views: Views,
+    /// Whether each view was decoded (row-major).
+    pub decoded: Vec<bool>,
 }
 
 impl Scene {
@@ -123,16 +149,39 @@ fn file_names(dir: &Path) -> Result<Vec<String>, IoError> {
     Ok(names)
 }
 
-/// Guesses the naming pattern from the files present.
-fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
-    let hci = Pattern::parse(HCI_PATTERN)?;
-    if names.iter().any(|n| hci.matches(n).is_some()) {
-        return Ok(hci);
-    }
-    // NAME_RR_CC.png: group by NAME.
-    let mut prefixes: Vec<String> = Vec::new();
+/// The name without a view extension (`.png`, `.jpg`, `.tif`, … in any case) and that
+/// extension as written, when it has one.
+fn split_extension(name: &str) -> Option<(&str, &str)> {
+    let (stem, ext) = name.rsplit_once('.')?;
+    formats::VIEW_EXTENSIONS
+        .iter()
+        .any(|e| e.eq_ignore_ascii_case(ext))
+        .then_some((stem, ext))
+}
+
+/// The HCI pattern with each extension found among `names` (`input_Cam{index:03}.EXT`).
+fn hci_patterns(names: &[String]) -> Vec<String> {
+    let mut found: Vec<String> = Vec::new();
     for name in names {
-        let Some(stem) = name.strip_suffix(".png") else {
+        let Some((stem, ext)) = split_extension(name) else {
+            continue;
+        };
+        let digits = stem.strip_prefix("input_Cam");
+        if digits.is_some_and(|d| d.len() == 3 && d.bytes().all(|b| b.is_ascii_digit())) {
+            let pattern = format!("input_Cam{{index:03}}.{ext}");
+            if !found.contains(&pattern) {
+                found.push(pattern);
+            }
+        }
+    }
+    found
+}
+
+/// `NAME_RR_CC.EXT` names among `names`: each distinct `(NAME, EXT)`.
+fn row_col_prefixes(names: &[String]) -> Vec<(String, String)> {
+    let mut prefixes: Vec<(String, String)> = Vec::new();
+    for name in names {
+        let Some((stem, ext)) = split_extension(name) else {
             continue;
         };
         let mut parts = stem.rsplitn(3, '_');
@@ -142,12 +191,32 @@ fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
         };
         let digits =
             |s: &str| !s.is_empty() && s.len() <= 9 && s.bytes().all(|b| b.is_ascii_digit());
-        if digits(row) && digits(col) && !prefixes.iter().any(|p| p == prefix) {
-            prefixes.push(prefix.to_string());
+        let key = (prefix.to_string(), ext.to_string());
+        if digits(row) && digits(col) && !prefixes.contains(&key) {
+            prefixes.push(key);
         }
     }
-    match prefixes.as_slice() {
-        [prefix] => {
+    prefixes
+}
+
+/// Guesses the naming pattern from the files present.
+fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
+    match hci_patterns(names).as_slice() {
+        [] => {}
+        [one] => return Pattern::parse(one),
+        many => {
+            return Err(folder_error(
+                dir,
+                format!(
+                    "holds HCI-named views in several formats ({}): pass --pattern to choose, e.g. --pattern '{}'",
+                    many.join(", "),
+                    many[0]
+                ),
+            ))
+        }
+    }
+    match row_col_prefixes(names).as_slice() {
+        [(prefix, ext)] => {
             let escaped = prefix.replace(['{', '}'], "");
             if escaped != *prefix {
                 return Err(folder_error(
@@ -155,17 +224,17 @@ fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
                     format!("view names starting `{prefix}` contain braces: rename the files"),
                 ));
             }
-            Pattern::parse(&format!("{prefix}_{{row}}_{{col}}.png"))
+            Pattern::parse(&format!("{prefix}_{{row}}_{{col}}.{ext}"))
         }
         [] => {
-            let pngs = names.iter().filter(|n| n.ends_with(".png")).count();
+            let images = names.iter().filter(|n| split_extension(n).is_some()).count();
             Err(folder_error(
                 dir,
-                if pngs == 0 {
-                    "holds no PNG views: expected input_CamNNN.png or NAME_RR_CC.png files".into()
+                if images == 0 {
+                    "holds no PNG views (nor JPEG or TIFF ones): expected input_CamNNN.png or NAME_RR_CC.png files (.jpg, .tif alike)".into()
                 } else {
                     format!(
-                        "none of its {pngs} PNG files is named like a view (input_CamNNN.png or NAME_RR_CC.png): pass --pattern, e.g. --pattern 'view_{{row}}_{{col}}.png'"
+                        "none of its {images} image files is named like a view (input_CamNNN.png or NAME_RR_CC.png): pass --pattern, e.g. --pattern 'view_{{row}}_{{col}}.png'"
                     )
                 },
             ))
@@ -173,9 +242,15 @@ fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
         many => Err(folder_error(
             dir,
             format!(
-                "holds views of several light fields ({}): pass --pattern to choose, e.g. --pattern '{}_{{row}}_{{col}}.png'",
-                name_list(&many.iter().map(|p| format!("{p}_RR_CC.png")).collect::<Vec<_>>()),
-                many[0]
+                "holds views of several light fields ({}): pass --pattern to choose, e.g. --pattern '{}_{{row}}_{{col}}.{}'",
+                name_list(
+                    &many
+                        .iter()
+                        .map(|(p, e)| format!("{p}_RR_CC.{e}"))
+                        .collect::<Vec<_>>()
+                ),
+                many[0].0,
+                many[0].1
             ),
         )),
     }
@@ -194,6 +269,68 @@ fn square_for(count: usize) -> usize {
         side += 1;
     }
     side
+}
+
+/// The grid of views numbered by index from `base` when neither `--grid` nor
+/// `parameters.cfg` gives it: the smallest square holding the highest index. A run of
+/// at most `GRID_MAX` indices with no gap could also be a linear array: when their
+/// count is no square that is an error asking for `--grid`; when it is, the square
+/// comes with a note saying how to ask for a row or a column instead.
+fn index_grid(
+    dir: &Path,
+    indices: &[usize],
+    base: usize,
+) -> Result<(Grid, Option<String>), IoError> {
+    let max = indices.iter().copied().max().unwrap_or(base);
+    let count = max - base + 1;
+    // A linear array of more than the largest grid side is no light field lfdepth reads.
+    let gapless = indices.len() == count && count <= lfdepth::lightfield::GRID_MAX;
+    let side = square_for(count);
+    if gapless && side * side != count {
+        return Err(folder_error(
+            dir,
+            format!(
+                "holds {count} views numbered by index, which fill no square grid: pass --grid 1x{count} for one row of cameras, --grid {count}x1 for one column, or the grid RxC they were taken on"
+            ),
+        ));
+    }
+    let note = gapless.then(|| {
+        format!(
+            "{count} views numbered by index read as a {side}x{side} grid; if they are one row or column of cameras, pass --grid 1x{count} or --grid {count}x1"
+        )
+    });
+    Ok((Grid::new(side, side), note))
+}
+
+/// Refuses a grid the estimator cannot use; a single row or column of cameras (a linear
+/// array) is named as such.
+fn check_grid(dir: &Path, g: Grid) -> Result<(), IoError> {
+    use lfdepth::lightfield::{GRID_MAX, GRID_MIN};
+    let fits = |n: usize| (GRID_MIN..=GRID_MAX).contains(&n);
+    if fits(g.rows) && fits(g.cols) {
+        return Ok(());
+    }
+    let line = match (g.rows, g.cols) {
+        (1, n) if n > 1 => Some("one row"),
+        (n, 1) if n > 1 => Some("one column"),
+        _ => None,
+    };
+    match line {
+        Some(line) => Err(folder_error(
+            dir,
+            format!(
+                "its views form {line} of cameras (a {}x{} linear array): lfdepth estimates from the horizontal and the vertical EPIs of a grid of at least {GRID_MIN}x{GRID_MIN} views and cannot yet use one direction alone; if the views are a grid, pass --grid RxC",
+                g.rows, g.cols
+            ),
+        )),
+        None => Err(IoError::core(
+            dir,
+            lfdepth::Error::GridSize {
+                rows: g.rows,
+                cols: g.cols,
+            },
+        )),
+    }
 }
 
 /// Finds the views of the light field in `dir` without decoding them.
@@ -242,6 +379,7 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
     // Position (row, col) of each file, 0-based.
     let positions: Vec<(usize, usize)>;
     let grid: Grid;
+    let grid_note: Option<String>;
     let base: usize;
     let cfg_grid = config
         .as_ref()
@@ -251,18 +389,14 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
         let indices: Vec<usize> = found.iter().map(|f| f.numbers.index.unwrap_or(0)).collect();
         let min = indices.iter().copied().min().unwrap_or(0);
         // The HCI benchmark numbers from 0 even if Cam000 were missing.
-        base = if pattern.as_str() == HCI_PATTERN || min == 0 {
+        base = if pattern.as_str().starts_with("input_Cam{index:03}.") || min == 0 {
             0
         } else {
             1
         };
-        let max = indices.iter().copied().max().unwrap_or(0);
-        grid = match options.grid.or(cfg_grid) {
-            Some(g) => g,
-            None => {
-                let side = square_for(max - base + 1);
-                Grid::new(side, side)
-            }
+        (grid, grid_note) = match options.grid.or(cfg_grid) {
+            Some(g) => (g, None),
+            None => index_grid(dir, &indices, base)?,
         };
         let cols = grid.cols.max(1);
         positions = indices
@@ -281,6 +415,7 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
                 cols.iter().max().unwrap_or(&0) - base + 1,
             ),
         };
+        grid_note = None;
         positions = rows
             .iter()
             .zip(&cols)
@@ -288,17 +423,7 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
             .collect();
     }
     let g = grid;
-    if !(lfdepth::lightfield::GRID_MIN..=lfdepth::lightfield::GRID_MAX).contains(&g.rows)
-        || !(lfdepth::lightfield::GRID_MIN..=lfdepth::lightfield::GRID_MAX).contains(&g.cols)
-    {
-        return Err(IoError::core(
-            dir,
-            lfdepth::Error::GridSize {
-                rows: g.rows,
-                cols: g.cols,
-            },
-        ));
-    }
+    check_grid(dir, g)?;
     let mut slots: Vec<Option<usize>> = vec![None; g.len()];
     let mut extra = Vec::new();
     for (k, &(r, c)) in positions.iter().enumerate() {
@@ -333,44 +458,29 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
             ),
         ));
     }
-    let missing: Vec<String> = (0..g.len())
-        .filter(|&i| slots[i].is_none())
-        .map(|i| {
-            let (r, c) = (i / g.cols, i % g.cols);
-            pattern.render(
-                Numbers {
-                    row: Some(r + base),
-                    col: Some(c + base),
-                    index: Some(i + base),
-                    digits,
-                },
+    let name = |i: usize| {
+        let (r, c) = (i / g.cols, i % g.cols);
+        pattern.render(
+            Numbers {
+                row: Some(r + base),
+                col: Some(c + base),
+                index: Some(i + base),
                 digits,
-            )
-        })
-        .collect();
-    if !missing.is_empty() {
-        return Err(folder_error(
-            dir,
-            format!(
-                "{} of the {}x{} views are missing: {}",
-                missing.len(),
-                g.rows,
-                g.cols,
-                name_list(&missing)
-            ),
-        ));
-    }
-    let paths = slots
-        .iter()
-        .flatten()
-        .map(|&k| dir.join(&found[k].name))
+            },
+            digits,
+        )
+    };
+    let paths = (0..g.len())
+        .map(|i| dir.join(slots[i].map_or_else(|| name(i), |k| found[k].name.clone())))
         .collect();
     Ok(ViewFiles {
         dir: dir.to_path_buf(),
         grid,
         paths,
+        present: slots.iter().map(Option::is_some).collect(),
         pattern: pattern.as_str().to_string(),
         config,
+        grid_note,
     })
 }
 
@@ -400,19 +510,18 @@ fn odd_ones<K: Copy + PartialEq>(keys: &[K]) -> (K, Vec<usize>) {
 }
 
 /// The error for views that differ from the rest in `what` (a size, a sample format):
-/// names the odd views, and one view that has the common value.
+/// names the odd views, and one view that has the common value. `paths` are the views
+/// compared, `odd` indices into them.
 fn odd_views_error(
-    files: &ViewFiles,
+    paths: &[&PathBuf],
     odd: &[usize],
     odd_value: String,
     common_value: String,
     what: &str,
 ) -> IoError {
-    let good = (0..files.paths.len())
-        .find(|i| !odd.contains(i))
-        .unwrap_or(0);
+    let good = (0..paths.len()).find(|i| !odd.contains(i)).unwrap_or(0);
     let name = |i: usize| {
-        files.paths[i]
+        paths[i]
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
     };
@@ -424,20 +533,43 @@ fn odd_views_error(
     };
     IoError::format(format!(
         "is {odd_value} but the other {} views (e.g. {}) are {common_value}{others}: {what}",
-        files.paths.len() - odd.len(),
+        paths.len() - odd.len(),
         name(good),
     ))
-    .in_file(&files.paths[odd[0]])
+    .in_file(paths[odd[0]])
 }
 
-/// Decodes located views: first every header, which must agree on size and sample
-/// format and fit `limits` (nothing is decoded otherwise), then the pixels.
+/// Decodes every view of `files`, all of which must exist (see [`read_selected`]).
 pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
-    let dir = files.dir.clone();
-    let read: Vec<Result<pngio::Header, IoError>> = files
-        .paths
+    let absent = files.absent();
+    if !absent.is_empty() {
+        let names: Vec<String> = absent.iter().map(|&i| files.name(i)).collect();
+        return Err(folder_error(
+            &files.dir,
+            format!(
+                "{} of the {}x{} views are missing: {}",
+                absent.len(),
+                files.grid.rows,
+                files.grid.cols,
+                name_list(&names)
+            ),
+        ));
+    }
+    let wanted = vec![true; files.paths.len()];
+    read_selected(files, limits, &wanted)
+}
+
+/// Headers of the views `selected` (indices into `files.paths`), read in parallel and
+/// checked to agree on size and sample format: `(width, height, channels, bit depth)`.
+fn common_header(
+    files: &ViewFiles,
+    selected: &[usize],
+    limits: &Limits,
+) -> Result<(Vec<pngio::Header>, pngio::Header), IoError> {
+    let paths: Vec<&PathBuf> = selected.iter().map(|&i| &files.paths[i]).collect();
+    let read: Vec<Result<pngio::Header, IoError>> = paths
         .par_iter()
-        .map(|p| pngio::read_header(p, limits.max_view_pixels))
+        .map(|p| formats::read_header(p, limits.max_view_pixels))
         .collect();
     // The first failing view in grid order, whatever the threads' timing.
     let headers = read.into_iter().collect::<Result<Vec<_>, _>>()?;
@@ -446,7 +578,7 @@ pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
     if !odd.is_empty() {
         let (w, h) = sizes[odd[0]];
         return Err(odd_views_error(
-            &files,
+            &paths,
             &odd,
             format!("{w}x{h} pixels"),
             format!("{width}x{height}"),
@@ -454,32 +586,61 @@ pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
         ));
     }
     let formats: Vec<(usize, u8)> = headers.iter().map(|h| (h.channels, h.bit_depth)).collect();
-    let ((channels, depth), odd) = odd_ones(&formats);
+    let ((channels, bit_depth), odd) = odd_ones(&formats);
     if !odd.is_empty() {
         let (c, d) = formats[odd[0]];
         return Err(odd_views_error(
-            &files,
+            &paths,
             &odd,
             format!("{c} channel(s) of {d} bits"),
-            format!("{channels} of {depth}"),
+            format!("{channels} of {bit_depth}"),
             "save all views alike",
         ));
     }
+    let common = pngio::Header {
+        width,
+        height,
+        channels,
+        bit_depth,
+    };
+    Ok((headers, common))
+}
+
+/// Decodes the views `wanted` accepts (row-major; each must exist) in parallel, after
+/// every one of their headers was read and found to agree and to fit `limits` (nothing
+/// is decoded otherwise). The other views of the packed light field stay zero: they
+/// must be views no stage reads.
+pub fn read_selected(files: ViewFiles, limits: &Limits, wanted: &[bool]) -> Result<Scene, IoError> {
+    let dir = files.dir.clone();
+    let selected: Vec<usize> = (0..files.paths.len())
+        .filter(|&i| wanted.get(i) == Some(&true))
+        .collect();
+    if let Some(&i) = selected.iter().find(|&&i| !files.present[i]) {
+        return Err(IoError::format("is missing").in_file(&files.paths[i]));
+    }
+    if selected.is_empty() {
+        return Err(folder_error(&dir, "no view is to be read".into()));
+    }
+    let (headers, common) = common_header(&files, &selected, limits)?;
+    let pngio::Header {
+        width,
+        height,
+        channels: in_channels,
+        bit_depth: depth,
+    } = common;
     limits
         .check_light_field(files.paths.len(), width, height)
         .map_err(|e| IoError::format(e.to_string()).in_file(&dir))?;
-    let in_channels = channels;
     // Gray+alpha keeps gray only; the estimators ignore alpha anyway.
     let channels = if in_channels == 2 { 1 } else { in_channels };
     let layout = Layout::packed(files.grid, width, height, channels);
     let total = layout.validate().map_err(|e| IoError::core(&dir, e))?;
-    let decoded: Vec<Result<Image, IoError>> = files
-        .paths
+    let decoded: Vec<Result<Image, IoError>> = selected
         .par_iter()
-        .map(|p| pngio::read_limited(p, limits.max_view_pixels))
+        .map(|&i| formats::read_limited(&files.paths[i], limits.max_view_pixels))
         .collect();
     let mut images = Vec::with_capacity(decoded.len());
-    for (image, (path, header)) in decoded.into_iter().zip(files.paths.iter().zip(&headers)) {
+    for ((image, header), &i) in decoded.into_iter().zip(&headers).zip(&selected) {
         let image = image?;
         if (image.width, image.height, image.channels, image.bit_depth())
             != (
@@ -490,39 +651,60 @@ pub fn read_views(files: ViewFiles, limits: &Limits) -> Result<Scene, IoError> {
             )
         {
             return Err(
-                IoError::format("changed while it was being read: try again").in_file(path),
+                IoError::format("changed while it was being read: try again")
+                    .in_file(&files.paths[i]),
             );
         }
-        images.push(image);
+        images.push((i, image));
     }
-    let views = match depth {
+    let views = pack(&layout, total, in_channels, depth, &images);
+    let mut decoded = vec![false; files.paths.len()];
+    for &i in &selected {
+        decoded[i] = true;
+    }
+    Ok(Scene {
+        files,
+        layout,
+        views,
+        decoded,
+    })
+}
+
+/// Packs decoded `(view index, image)` pairs into a zeroed light field of `total`
+/// samples: 8-bit images as `u8`, 16-bit ones as `f32` in `[0, 1]`; gray+alpha
+/// (`in_channels` 2) keeps its gray channel.
+fn pack(
+    layout: &Layout,
+    total: usize,
+    in_channels: usize,
+    depth: u8,
+    images: &[(usize, Image)],
+) -> Views {
+    let step = if in_channels == 2 { 2 } else { 1 };
+    match depth {
         8 => {
-            let mut out = Vec::with_capacity(total);
-            for image in &images {
+            let mut out = vec![0u8; total];
+            for (i, image) in images {
                 if let Samples::Eight(s) = &image.samples {
-                    if in_channels == 2 {
-                        out.extend(s.iter().step_by(2));
-                    } else {
-                        out.extend_from_slice(s);
+                    let at = i * layout.view_stride;
+                    for (o, &v) in out[at..].iter_mut().zip(s.iter().step_by(step)) {
+                        *o = v;
                     }
                 }
             }
             Views::U8(out)
         }
         _ => {
-            let mut out = Vec::with_capacity(total);
-            let step = if in_channels == 2 { 2 } else { 1 };
-            for image in &images {
+            let mut out = vec![0.0f32; total];
+            for (i, image) in images {
                 if let Samples::Sixteen(s) = &image.samples {
-                    out.extend(s.iter().step_by(step).map(|&v| f32::from(v) / 65535.0));
+                    let at = i * layout.view_stride;
+                    for (o, &v) in out[at..].iter_mut().zip(s.iter().step_by(step)) {
+                        *o = f32::from(v) / 65535.0;
+                    }
                 }
             }
             Views::F32(out)
         }
-    };
-    Ok(Scene {
-        files,
-        layout,
-        views,
-    })
+    }
 }

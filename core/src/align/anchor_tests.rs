@@ -32,6 +32,7 @@ fn a_frame_near_the_centre_camera_is_anchored_on_it_and_a_far_one_is_not() {
         &layout,
         &params,
         solve::ViewSet::Cross,
+        &|_| true,
         &mut hs
     ));
     assert_eq!(hs[4], Homography::IDENTITY);
@@ -50,6 +51,7 @@ fn a_frame_near_the_centre_camera_is_anchored_on_it_and_a_far_one_is_not() {
         &layout,
         &params,
         solve::ViewSet::All,
+        &|_| true,
         &mut hs
     ));
     assert_eq!(hs[4], far);
@@ -64,6 +66,7 @@ fn a_frame_near_the_centre_camera_is_anchored_on_it_and_a_far_one_is_not() {
         &layout,
         &off,
         solve::ViewSet::All,
+        &|_| true,
         &mut hs
     ));
     let centre = AlignParams {
@@ -74,6 +77,7 @@ fn a_frame_near_the_centre_camera_is_anchored_on_it_and_a_far_one_is_not() {
         &layout,
         &centre,
         solve::ViewSet::All,
+        &|_| true,
         &mut hs
     ));
     assert_eq!(hs[4], near);

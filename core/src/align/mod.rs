@@ -53,7 +53,7 @@ use heapless::Vec as FixedVec;
 
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::geometry::Homography;
-use crate::lightfield::{Layout, LightField, Sample, GRID_MAX};
+use crate::lightfield::{Grid, Layout, LightField, Sample, GRID_MAX};
 use crate::setup::StageParams;
 
 pub use gauge::{gauge_fit, gauge_fit_where, gauge_rms, reprojection_rms, GaugeFit};
@@ -448,17 +448,33 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
     scratch: &mut [f32],
     map: &mut M,
 ) -> Result<AlignReport> {
+    estimate_present(lf, params, &|_| true, homographies, scratch, map)
+}
+
+/// [`estimate_with`] on a light field of which only the views `present` accepts
+/// (row-major grid index) exist: the others are never read and keep the identity. The
+/// probe of [`AlignMode::Auto`] and the estimate use the views of their set that exist
+/// (the centre view must); with every view present the result is [`estimate_with`]'s.
+pub fn estimate_present<S: Sample, M: ViewMap>(
+    lf: &LightField<'_, S>,
+    params: &AlignParams,
+    present: &dyn Fn(usize) -> bool,
+    homographies: &mut [Homography],
+    scratch: &mut [f32],
+    map: &mut M,
+) -> Result<AlignReport> {
     let mut report = AlignReport::default();
-    estimate_into(lf, params, homographies, scratch, map, &mut report)?;
+    estimate_into(lf, params, present, homographies, scratch, map, &mut report)?;
     Ok(report)
 }
 
-/// [`estimate_with`] into `report`, the one report of the whole estimate: passed down
+/// [`estimate_present`] into `report`, the one report of the whole estimate: passed down
 /// instead of returned from each level, it is on a firmware's stack once instead of once
 /// or twice per frame (≈ 2.4 KB each, a `ViewReport` per view of a 17×17 grid).
 pub(crate) fn estimate_into<S: Sample, M: ViewMap>(
     lf: &LightField<'_, S>,
     params: &AlignParams,
+    present: &dyn Fn(usize) -> bool,
     homographies: &mut [Homography],
     scratch: &mut [f32],
     map: &mut M,
@@ -488,15 +504,26 @@ pub(crate) fn estimate_into<S: Sample, M: ViewMap>(
             Ok(())
         }
         AlignMode::On => {
-            solve::run(lf, params, set, homographies, scratch, map, report)?;
-            anchor_on_centre(&layout, params, set, homographies);
+            solve::run(
+                lf,
+                params,
+                solve::Tracked { set, present },
+                homographies,
+                scratch,
+                map,
+                report,
+            )?;
+            anchor_on_centre(&layout, params, set, present, homographies);
             Ok(())
         }
         AlignMode::Auto => {
             let probe = solve::run(
                 lf,
                 params,
-                solve::ViewSet::Probe,
+                solve::Tracked {
+                    set: solve::ViewSet::Probe,
+                    present,
+                },
                 homographies,
                 scratch,
                 map,
@@ -517,9 +544,17 @@ pub(crate) fn estimate_into<S: Sample, M: ViewMap>(
                 report.rms = identity_rms;
                 return Ok(());
             }
-            match solve::run(lf, params, set, homographies, scratch, map, report) {
+            match solve::run(
+                lf,
+                params,
+                solve::Tracked { set, present },
+                homographies,
+                scratch,
+                map,
+                report,
+            ) {
                 Ok(()) => {
-                    anchor_on_centre(&layout, params, set, homographies);
+                    anchor_on_centre(&layout, params, set, present, homographies);
                     Ok(())
                 }
                 Err(e) => {
@@ -534,6 +569,28 @@ pub(crate) fn estimate_into<S: Sample, M: ViewMap>(
     }
 }
 
+/// Whether [`estimate`] with `params` may read view `view` (row-major grid index) of a
+/// `grid`: none when off; the centre view and the views of `params.views`
+/// ([`AlignedViews::Read`] counts as every view, as in [`estimate`]) when on; in auto
+/// mode also the probe's views (a few near the centre and the four corners).
+pub fn reads_view(grid: Grid, params: &AlignParams, view: usize) -> bool {
+    if view >= grid.len() {
+        return false;
+    }
+    let set = match params.views {
+        AlignedViews::All | AlignedViews::Read => solve::ViewSet::All,
+        AlignedViews::Cross => solve::ViewSet::Cross,
+    };
+    let (r0, c0) = grid.center();
+    let in_set =
+        |set| view == grid.index(r0, c0) || solve::view_order(grid, set, &|_| true).contains(&view);
+    match params.mode {
+        AlignMode::Off => false,
+        AlignMode::On => in_set(set),
+        AlignMode::Auto => in_set(set) || in_set(solve::ViewSet::Probe),
+    }
+}
+
 /// Moves an estimated frame onto the centre camera's when the two differ by at most
 /// `params.centre_anchor` pixels at the view's corners beyond a common translation (see
 /// [`AlignParams::centre_anchor`]): every map of `set` is composed with the inverse of
@@ -542,6 +599,7 @@ fn anchor_on_centre(
     layout: &Layout,
     params: &AlignParams,
     set: solve::ViewSet,
+    present: &dyn Fn(usize) -> bool,
     homographies: &mut [Homography],
 ) -> bool {
     if params.reference != Reference::Estimated || params.centre_anchor <= 0.0 {
@@ -579,10 +637,11 @@ fn anchor_on_centre(
     }
     let cols = grid.cols.max(1);
     for (v, map) in homographies.iter_mut().enumerate() {
-        let estimated = match set {
-            solve::ViewSet::Cross => v / cols == r0 || v % cols == c0,
-            _ => true,
-        };
+        let estimated = present(v)
+            && match set {
+                solve::ViewSet::Cross => v / cols == r0 || v % cols == c0,
+                _ => true,
+            };
         if estimated {
             *map = map.compose(&back);
         }

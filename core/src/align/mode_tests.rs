@@ -146,3 +146,83 @@ fn random_and_non_finite_inputs_never_panic() {
         }
     }
 }
+
+/// Runs `estimate_present` with only the views `present` accepts, the others holding
+/// `fill` (which must not matter).
+fn run_present(
+    data: &[u8],
+    layout: Layout,
+    params: &AlignParams,
+    present: &dyn Fn(usize) -> bool,
+    fill: u8,
+) -> (Result<AlignReport>, std::vec::Vec<Homography>) {
+    let mut data = data.to_vec();
+    for (v, view) in data.chunks_mut(layout.view_stride).enumerate() {
+        if !present(v) {
+            view.fill(fill);
+        }
+    }
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let mut hs = std::vec![Homography::IDENTITY; layout.grid.len()];
+    let mut scratch = std::vec![0.0f32; scratch_len(&layout, params).unwrap()];
+    let r = estimate_present(&lf, params, present, &mut hs, &mut scratch, &mut Serial);
+    (r, hs)
+}
+
+#[test]
+fn alignment_uses_the_views_that_exist() {
+    let grid = Grid::new(5, 5);
+    let (data, layout, truth) = testscene::render(grid, 128, 128, Some((1.0, 2.0, 0.005, 0.0)), 3);
+    let cross = |v: usize| v / 5 == 2 || v % 5 == 2;
+    for mode in [AlignMode::Auto, AlignMode::On] {
+        let params = AlignParams {
+            mode,
+            views: AlignedViews::Cross,
+            ..AlignParams::default()
+        };
+        // Only the centre row and column exist: the probe's corners are left out.
+        let (report, hs) = run_present(&data, layout, &params, &cross, 0);
+        let report = report.unwrap();
+        assert!(!report.skipped, "{mode:?}: {report:?}");
+        let (again, hs_noise) = run_present(&data, layout, &params, &cross, 200);
+        assert_eq!(again.unwrap().rms, report.rms);
+        assert_eq!(hs, hs_noise, "absent views are never read");
+        for v in (0..25).filter(|&v| !cross(v)) {
+            assert_eq!(hs[v], Homography::IDENTITY);
+        }
+        // Only the cross is estimated: its registration modulo the gauge.
+        let fit = gauge_fit_where(&hs, &truth, grid, 128, 128, &cross).unwrap();
+        std::eprintln!("{mode:?}: {report:?} cross registration {}", fit.rms);
+        assert!(fit.rms < 0.2, "{mode:?}: {}", fit.rms);
+    }
+    // Every view present: exactly `estimate`.
+    let params = AlignParams::default();
+    let (a, ha) = run_present(&data, layout, &params, &|_| true, 0);
+    let (b, hb) = run(&data, layout, &params);
+    assert_eq!((a.unwrap().rms, ha), (b.unwrap().rms, hb));
+}
+
+#[test]
+fn reads_view_names_the_probe_and_the_set() {
+    let grid = Grid::new(5, 5);
+    let on_cross = AlignParams {
+        mode: AlignMode::On,
+        views: AlignedViews::Cross,
+        ..AlignParams::default()
+    };
+    let count = |p: &AlignParams| (0..30).filter(|&v| reads_view(grid, p, v)).count();
+    assert_eq!(count(&on_cross), 9);
+    // Auto adds the probe's four corners.
+    let auto_cross = AlignParams {
+        mode: AlignMode::Auto,
+        ..on_cross
+    };
+    assert_eq!(count(&auto_cross), 13);
+    assert!(reads_view(grid, &auto_cross, 0) && !reads_view(grid, &auto_cross, 1));
+    assert_eq!(count(&AlignParams::default()), 25);
+    let off = AlignParams {
+        mode: AlignMode::Off,
+        ..AlignParams::default()
+    };
+    assert_eq!(count(&off), 0);
+}

@@ -33,7 +33,8 @@ use crate::lightfield::{LightField, Sample};
 use alternate::alternate;
 use observations::{Corners, State};
 use tracking::{track_batches, track_first, track_second, Centre, Points};
-use views::{baseline, view_order, views_where, PROBE_FEATURES};
+pub(super) use views::view_order;
+use views::{baseline, views_where, PROBE_FEATURES};
 
 pub use views::ViewSet;
 
@@ -69,19 +70,28 @@ fn corner_table(scratch: &mut [f32]) -> Option<(&mut [f32; MAX_FEATURES], &mut [
 /// Corners keep this far (full-resolution pixels) from the border.
 const MARGIN: usize = 12;
 
-/// Estimates the homographies of the views in `set` (others stay identities) and reports.
+/// The views an estimate tracks: those of `set` for which `present` holds (row-major
+/// grid index); the others stay identities and are never read.
+#[derive(Clone, Copy)]
+pub struct Tracked<'a> {
+    pub set: ViewSet,
+    pub present: &'a dyn Fn(usize) -> bool,
+}
+
+/// Estimates the homographies of the `tracked` views and reports.
 /// The tracking of each view (the bulk of the work) runs through `map`, a batch of
 /// mutually independent views at a time; its result does not depend on how `map` runs
 /// them.
 pub fn run<S: Sample, M: ViewMap>(
     lf: &LightField<'_, S>,
     params: &AlignParams,
-    set: ViewSet,
+    tracked: Tracked<'_>,
     homographies: &mut [Homography],
     scratch: &mut [f32],
     map: &mut M,
     report: &mut AlignReport,
 ) -> Result<()> {
+    let Tracked { set, present } = tracked;
     let grid = lf.grid();
     let (width, height) = (lf.width(), lf.height());
     let (r0, c0) = grid.center();
@@ -162,7 +172,7 @@ pub fn run<S: Sample, M: ViewMap>(
     // First pass, ring after ring of views around the centre (Chebyshev distance): the
     // disparity measured in the inner rings predicts each corner's position in the next
     // ring; the views of one ring are independent of each other.
-    let order = view_order(grid, set);
+    let order = view_order(grid, set, present);
     let ring = |v: usize| {
         let b = baseline(grid, v);
         libm::fabsf(b.0).max(libm::fabsf(b.1)) as usize

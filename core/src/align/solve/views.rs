@@ -59,17 +59,25 @@ pub(super) fn row_col(grid: Grid, v: usize) -> (usize, usize) {
     )
 }
 
-/// The views to track, centre excluded, nearest baselines first.
-pub(super) fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS> {
+/// The views of `set` (centre excluded) for which `present` holds, nearest baselines
+/// first.
+pub(crate) fn view_order(
+    grid: Grid,
+    set: ViewSet,
+    present: &dyn Fn(usize) -> bool,
+) -> FixedVec<usize, MAX_VIEWS> {
     let (r0, c0) = grid.center();
     let centre = grid.index(r0, c0);
     let mut out: FixedVec<usize, MAX_VIEWS> = FixedVec::new();
+    if grid.is_empty() {
+        return out;
+    }
     match set {
         ViewSet::All | ViewSet::Cross => {
             for v in 0..grid.len() {
                 let (r, c) = row_col(grid, v);
                 let wanted = set == ViewSet::All || r == r0 || c == c0;
-                if v != centre && wanted {
+                if v != centre && wanted && present(v) {
                     let _ = out.push(v);
                 }
             }
@@ -92,7 +100,7 @@ pub(super) fn view_order(grid: Grid, set: ViewSet) -> FixedVec<usize, MAX_VIEWS>
             ];
             for (r, c) in picks {
                 let v = grid.index(r, c);
-                if v != centre && !out.contains(&v) {
+                if v != centre && !out.contains(&v) && present(v) {
                     let _ = out.push(v);
                 }
             }

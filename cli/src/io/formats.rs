@@ -1,0 +1,313 @@
+//! View containers besides PNG — JPEG (`zune-jpeg`) and TIFF (`tiff`) — behind one
+//! header/decode pair that dispatches on the file's first bytes, and float maps as
+//! 32-bit TIFF beside PFM.
+//!
+//! Every format answers its header first, so the caps of [`super::limits`] hold before
+//! any pixel is decoded. Decoded views are [`Image`]s as from PNG: 8-bit samples stay
+//! 8-bit, 16-bit TIFF samples stay 16-bit (full precision: the loader scales them to
+//! `f32` in `[0, 1]`). JPEG views are 8-bit gray or RGB (CMYK and YCbCr are converted
+//! to RGB); TIFF views may be gray, gray+alpha, RGB or RGBA of 8 or 16 bits, in any
+//! compression the `tiff` crate reads.
+
+use std::fs::File;
+use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
+use std::path::Path;
+
+use tiff::decoder::{Decoder as TiffDecoder, DecodingResult, Limits as TiffLimits};
+use tiff::ColorType as TiffColor;
+use zune_jpeg::zune_core::colorspace::ColorSpace;
+use zune_jpeg::zune_core::options::DecoderOptions;
+use zune_jpeg::JpegDecoder;
+
+use super::png::{self as pngio, Header, Image, Samples};
+use super::{write_bytes, IoError};
+
+/// File name extensions of views, lower case (matched case-insensitively).
+pub const VIEW_EXTENSIONS: [&str; 5] = ["png", "jpg", "jpeg", "tif", "tiff"];
+
+/// A view file's container, from its first bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// PNG.
+    Png,
+    /// JPEG (JFIF, EXIF).
+    Jpeg,
+    /// TIFF (little- or big-endian, classic or BigTIFF).
+    Tiff,
+}
+
+/// The container `magic` (a file's first four bytes) starts, if any.
+pub fn sniff(magic: &[u8]) -> Option<Format> {
+    match magic {
+        [0x89, b'P', b'N', b'G', ..] => Some(Format::Png),
+        [0xFF, 0xD8, 0xFF, ..] => Some(Format::Jpeg),
+        [b'I', b'I', 42 | 43, 0, ..] | [b'M', b'M', 0, 42 | 43, ..] => Some(Format::Tiff),
+        _ => None,
+    }
+}
+
+fn open(path: &Path) -> Result<(BufReader<File>, Format), IoError> {
+    let file = File::open(path).map_err(|e| IoError::os(path, "read", e))?;
+    let meta = file.metadata().map_err(|e| IoError::os(path, "read", e))?;
+    if !meta.is_file() {
+        return Err(
+            IoError::format("is not a file: views must be PNG, JPEG or TIFF files").in_file(path),
+        );
+    }
+    let mut reader = BufReader::new(file);
+    let mut magic = [0u8; 4];
+    let got = read_up_to(&mut reader, &mut magic).map_err(|e| IoError::os(path, "read", e))?;
+    reader
+        .seek(SeekFrom::Start(0))
+        .map_err(|e| IoError::os(path, "read", e))?;
+    let format = sniff(&magic[..got]).ok_or_else(|| {
+        IoError::format("is not a PNG, JPEG or TIFF image (its first bytes say so): save the views as PNG, JPEG or TIFF")
+            .in_file(path)
+    })?;
+    Ok((reader, format))
+}
+
+fn read_up_to(reader: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match reader.read(&mut buf[got..])? {
+            0 => break,
+            n => got += n,
+        }
+    }
+    Ok(got)
+}
+
+/// Reads the header of a view file (PNG, JPEG or TIFF) without decoding its pixels,
+/// refusing more than `max_pixels`; errors name the file.
+pub fn read_header(path: &Path, max_pixels: u64) -> Result<Header, IoError> {
+    let (reader, format) = open(path)?;
+    match format {
+        Format::Png => pngio::read_header(path, max_pixels),
+        Format::Jpeg => jpeg_start(reader, max_pixels).map(|(_, h)| h),
+        Format::Tiff => tiff_start(reader, max_pixels).map(|(_, h)| h),
+    }
+    .map_err(|e| e.in_file(path))
+}
+
+/// Decodes a view file (PNG, JPEG or TIFF) whose header declares at most `max_pixels`
+/// pixels; a larger one is refused before its pixels are decoded. Errors name the file.
+pub fn read_limited(path: &Path, max_pixels: u64) -> Result<Image, IoError> {
+    let (reader, format) = open(path)?;
+    match format {
+        Format::Png => pngio::read_limited(path, max_pixels),
+        Format::Jpeg => jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+        Format::Tiff => tiff_start(reader, max_pixels).and_then(|(d, h)| tiff_finish(d, h)),
+    }
+    .map_err(|e| e.in_file(path))
+}
+
+/// Checks a declared size against the cap, in the words of the format.
+fn check_size(kind: &str, width: usize, height: usize, max_pixels: u64) -> Result<(), IoError> {
+    if width == 0 || height == 0 {
+        return Err(IoError::format(format!(
+            "the {kind} image is {width}x{height} pixels: an empty image cannot be used"
+        )));
+    }
+    let limits = super::limits::Limits {
+        max_view_pixels: max_pixels,
+        ..super::limits::Limits::default()
+    };
+    limits
+        .check_view(width, height)
+        .map_err(|e| IoError::format(format!("the {kind} header declares {e}")))
+}
+
+type Jpeg = JpegDecoder<BufReader<File>>;
+
+fn jpeg_error(e: impl std::fmt::Display) -> IoError {
+    IoError::format(format!("not a readable JPEG image: {e}"))
+}
+
+/// Reads a JPEG's headers (not its pixels) and checks them against `max_pixels`.
+fn jpeg_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Jpeg, Header), IoError> {
+    // JPEG sizes are 16-bit; the caps below are the ones that count.
+    let options = DecoderOptions::default()
+        .set_max_width(usize::from(u16::MAX))
+        .set_max_height(usize::from(u16::MAX));
+    let mut decoder = JpegDecoder::new_with_options(reader, options);
+    decoder.decode_headers().map_err(jpeg_error)?;
+    let info = decoder
+        .info()
+        .ok_or_else(|| jpeg_error("no frame header"))?;
+    let (width, height) = (usize::from(info.width), usize::from(info.height));
+    check_size("JPEG", width, height, max_pixels)?;
+    let gray = decoder.input_colorspace() == Some(ColorSpace::Luma);
+    let out = if gray {
+        ColorSpace::Luma
+    } else {
+        ColorSpace::RGB
+    };
+    decoder.set_options(options.jpeg_set_out_colorspace(out));
+    let header = Header {
+        width,
+        height,
+        channels: if gray { 1 } else { 3 },
+        bit_depth: 8,
+    };
+    Ok((decoder, header))
+}
+
+fn jpeg_finish(mut decoder: Jpeg, header: Header) -> Result<Image, IoError> {
+    let len = header.width * header.height * header.channels;
+    let mut samples = vec![0u8; len];
+    decoder.decode_into(&mut samples).map_err(jpeg_error)?;
+    Ok(Image {
+        width: header.width,
+        height: header.height,
+        channels: header.channels,
+        samples: Samples::Eight(samples),
+    })
+}
+
+type Tiff = TiffDecoder<BufReader<File>>;
+
+fn tiff_error(e: impl std::fmt::Display) -> IoError {
+    IoError::format(format!("not a readable TIFF image: {e}"))
+}
+
+/// Reads a TIFF's first image directory (not its pixels) and checks it against
+/// `max_pixels`.
+fn tiff_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Tiff, Header), IoError> {
+    let mut decoder = TiffDecoder::new(reader).map_err(tiff_error)?;
+    let (w, h) = decoder.dimensions().map_err(tiff_error)?;
+    let (width, height) = (w as usize, h as usize);
+    check_size("TIFF", width, height, max_pixels)?;
+    let color = decoder.colortype().map_err(tiff_error)?;
+    let (channels, bit_depth) = match color {
+        TiffColor::Gray(d) => (1, d),
+        TiffColor::GrayA(d) => (2, d),
+        TiffColor::RGB(d) => (3, d),
+        TiffColor::RGBA(d) => (4, d),
+        other => {
+            return Err(IoError::format(format!(
+                "TIFF colour type {other:?} is not supported: re-save the view as gray or RGB"
+            )))
+        }
+    };
+    if bit_depth != 8 && bit_depth != 16 {
+        return Err(IoError::format(format!(
+            "TIFF samples of {bit_depth} bits are not supported: re-save the view with 8 or 16 bits"
+        )));
+    }
+    // The whole image is decoded at once: room for exactly that, nothing more.
+    let bytes = width * height * channels * usize::from(bit_depth / 8);
+    let limits = {
+        let mut l = TiffLimits::default();
+        l.decoding_buffer_size = bytes;
+        l
+    };
+    let header = Header {
+        width,
+        height,
+        channels,
+        bit_depth,
+    };
+    Ok((decoder.with_limits(limits), header))
+}
+
+fn tiff_finish(mut decoder: Tiff, header: Header) -> Result<Image, IoError> {
+    let samples = match decoder.read_image().map_err(tiff_error)? {
+        DecodingResult::U8(s) if header.bit_depth == 8 => Samples::Eight(s),
+        DecodingResult::U16(s) if header.bit_depth == 16 => Samples::Sixteen(s),
+        _ => {
+            return Err(IoError::format(
+                "the TIFF samples are not of the type its header declares: re-save the view",
+            ))
+        }
+    };
+    let len = match &samples {
+        Samples::Eight(s) => s.len(),
+        Samples::Sixteen(s) => s.len(),
+    };
+    if len != header.width * header.height * header.channels {
+        return Err(IoError::format(
+            "the TIFF image holds fewer samples than its size needs: the file is truncated",
+        ));
+    }
+    Ok(Image {
+        width: header.width,
+        height: header.height,
+        channels: header.channels,
+        samples,
+    })
+}
+
+/// Whether `path` names a TIFF file (`.tif`, `.tiff`, any case): maps written there are
+/// 32-bit float TIFF instead of PFM.
+pub fn is_tiff_name(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
+}
+
+/// Encodes a one-channel float map (row-major, top row first) as a 32-bit float TIFF.
+pub fn encode_float_tiff(width: usize, height: usize, values: &[f32]) -> Result<Vec<u8>, IoError> {
+    let too_large = || IoError::format(format!("a {width}x{height} map is too large for TIFF"));
+    let (w, h) = (
+        u32::try_from(width).map_err(|_| too_large())?,
+        u32::try_from(height).map_err(|_| too_large())?,
+    );
+    if values.len() != width * height {
+        return Err(IoError::format(format!(
+            "a {width}x{height} map needs {} values but has {}",
+            width * height,
+            values.len()
+        )));
+    }
+    let mut out = Cursor::new(Vec::new());
+    let fail = |e: tiff::TiffError| IoError::format(format!("TIFF encoding failed: {e}"));
+    tiff::encoder::TiffEncoder::new(&mut out)
+        .map_err(fail)?
+        .write_image::<tiff::encoder::colortype::Gray32Float>(w, h, values)
+        .map_err(fail)?;
+    Ok(out.into_inner())
+}
+
+/// Writes a float map as PFM, or as 32-bit float TIFF when `path` ends in `.tif` or
+/// `.tiff`; atomically, like every output.
+pub fn write_map(path: &Path, map: &super::pfm::Pfm) -> Result<(), IoError> {
+    if is_tiff_name(path) {
+        let bytes =
+            encode_float_tiff(map.width, map.height, &map.data).map_err(|e| e.in_file(path))?;
+        write_bytes(path, &bytes)
+    } else {
+        super::pfm::write(path, map)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn magic_bytes() {
+        assert_eq!(sniff(b"\x89PNG"), Some(Format::Png));
+        assert_eq!(sniff(&[0xFF, 0xD8, 0xFF, 0xE0]), Some(Format::Jpeg));
+        assert_eq!(sniff(b"II*\0"), Some(Format::Tiff));
+        assert_eq!(sniff(b"MM\0*"), Some(Format::Tiff));
+        assert_eq!(sniff(b"PF\n1"), None);
+        assert_eq!(sniff(b""), None);
+    }
+
+    #[test]
+    fn float_tiff_round_trips() {
+        let values = [0.5f32, -1.25, f32::NAN, 3.0, 1e-7, 7.5];
+        let bytes = encode_float_tiff(3, 2, &values).unwrap();
+        let mut decoder = TiffDecoder::new(Cursor::new(bytes)).unwrap();
+        assert_eq!(decoder.dimensions().unwrap(), (3, 2));
+        let DecodingResult::F32(back) = decoder.read_image().unwrap() else {
+            panic!("not f32");
+        };
+        assert_eq!(back.len(), 6);
+        for (a, b) in back.iter().zip(values) {
+            assert!(a.to_bits() == b.to_bits(), "{a} {b}");
+        }
+        assert!(encode_float_tiff(3, 3, &values).is_err());
+    }
+}

@@ -1,0 +1,189 @@
+//! Light fields as they come, through the binary: only the views the chosen stages read
+//! must exist (the centre row and column, EPINET's cross and diagonals, a grid with a
+//! corner missing), the CLI says which views it read, and an absent view a stage needs
+//! is named with what would do without it.
+
+mod common;
+
+use std::path::Path;
+use std::process::Output;
+
+use common::{assert_fails, lfdepth};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A synthetic 9×9 scene of `size`² in `dir/name` (views `input_CamNNN.png`).
+fn synth(dir: &Path, name: &str, size: usize, extra: &[&str]) -> std::path::PathBuf {
+    let out = dir.join(name);
+    let size = size.to_string();
+    let mut args = vec![
+        "synth",
+        "--scene",
+        "mixed",
+        "--size",
+        &size,
+        "--out",
+        s(&out),
+    ];
+    args.extend_from_slice(extra);
+    let run = lfdepth(&args);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    out
+}
+
+/// A copy of `scene` holding only the views `keep(row, col)` accepts (and every other
+/// file).
+fn keep_views(scene: &Path, to: &Path, keep: impl Fn(usize, usize) -> bool) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(scene).unwrap() {
+        let entry = entry.unwrap();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let index = name
+            .strip_prefix("input_Cam")
+            .and_then(|n| n.strip_suffix(".png"))
+            .and_then(|n| n.parse::<usize>().ok());
+        if index.is_none_or(|i| keep(i / 9, i % 9)) {
+            std::fs::copy(entry.path(), to.join(&name)).unwrap();
+        }
+    }
+}
+
+/// Which views of a 9×9 grid a folder keeps, by row and column.
+type Keep = fn(usize, usize) -> bool;
+
+fn estimate(input: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["estimate", s(input), "-o", s(out), "-q", "--threads", "2"];
+    args.extend_from_slice(extra);
+    lfdepth(&args)
+}
+
+fn ok(out: &Output) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{stderr}");
+    stderr
+}
+
+#[test]
+fn views_no_stage_reads_may_be_absent() {
+    let dir = common::temp();
+    let full = synth(dir.path(), "full", 48, &[]);
+    let reference = dir.path().join("full.pfm");
+    let said = ok(&estimate(&full, &reference, &["--align", "off"]));
+    assert!(
+        said.contains("reading 17 of the 9x9 views: 17 the stages read"),
+        "{said}"
+    );
+    let reference = std::fs::read(&reference).unwrap();
+    let layouts: [(&str, usize, Keep); 3] = [
+        ("cross", 64, |r, c| r == 4 || c == 4),
+        ("cross-and-diagonals", 48, |r, c| {
+            r == 4 || c == 4 || r == c || r + c == 8
+        }),
+        ("corner-missing", 1, |r, c| (r, c) != (8, 8)),
+    ];
+    for (name, absent, keep) in layouts {
+        let folder = dir.path().join(name);
+        keep_views(&full, &folder, keep);
+        for align in ["off", "auto"] {
+            let out = dir.path().join(format!("{name}-{align}.pfm"));
+            let said = ok(&estimate(&folder, &out, &["--align", align]));
+            assert!(said.contains(&format!("{absent} absent")), "{name}: {said}");
+            // The stages read the same views, and auto finds the array rectified.
+            assert_eq!(
+                std::fs::read(&out).unwrap(),
+                reference,
+                "{name}, --align {align}"
+            );
+        }
+    }
+}
+
+#[test]
+fn an_absent_view_a_stage_reads_is_named() {
+    let dir = common::temp();
+    let full = synth(dir.path(), "full", 32, &[]);
+    // Row 4, column 2: on the centre row the EPI stage reads.
+    std::fs::remove_file(full.join("input_Cam038.png")).unwrap();
+    let out = dir.path().join("out.pfm");
+    assert_fails(
+        &estimate(&full, &out, &["--align", "off"]),
+        &["input_Cam038.png", "missing", "centre row and column"],
+    );
+    // Off the cross, read by the refinement only when its views reach there.
+    let full = synth(dir.path(), "again", 32, &[]);
+    std::fs::remove_file(full.join("input_Cam000.png")).unwrap();
+    ok(&estimate(&full, &out, &["--align", "off"]));
+}
+
+#[test]
+fn alignment_uses_the_views_that_exist() {
+    let dir = common::temp();
+    let full = synth(dir.path(), "misaligned", 96, &["--misalign"]);
+    let cross = dir.path().join("cross");
+    keep_views(&full, &cross, |r, c| r == 4 || c == 4);
+    let out = dir.path().join("out.pfm");
+    for align in ["on", "auto"] {
+        let said = ok(&estimate(&cross, &out, &["--align", align]));
+        assert!(said.contains("64 absent"), "{said}");
+        // Every view of the cross, centre included, gets a homography.
+        assert!(
+            said.contains("alignment: 17 views aligned"),
+            "{align}: {said}"
+        );
+    }
+}
+
+/// The centre row of a synthetic scene as `name(k)` for k = 0..9, in a folder of its
+/// own (no parameters.cfg).
+fn centre_row(scene: &Path, to: &Path, name: impl Fn(usize) -> String) {
+    std::fs::create_dir_all(to).unwrap();
+    for k in 0..9 {
+        let from = scene.join(format!("input_Cam{:03}.png", 36 + k));
+        std::fs::copy(from, to.join(name(k))).unwrap();
+    }
+}
+
+#[test]
+fn linear_arrays_are_named_never_read_as_a_square() {
+    let dir = common::temp();
+    let full = synth(dir.path(), "full", 32, &[]);
+    let out = dir.path().join("out.pfm");
+    let row = dir.path().join("row");
+    centre_row(&full, &row, |k| format!("rail_00_{k:02}.png"));
+    assert_fails(
+        &estimate(&row, &out, &["--align", "off"]),
+        &["one row of cameras", "1x9"],
+    );
+    let column = dir.path().join("column");
+    centre_row(&full, &column, |k| format!("rail_{k:02}_00.png"));
+    assert_fails(
+        &estimate(&column, &out, &["--align", "off"]),
+        &["one column of cameras", "9x1"],
+    );
+    // Numbered by index, nine views could be a 3×3 grid: read so, with a note.
+    let indexed = dir.path().join("indexed");
+    centre_row(&full, &indexed, |k| format!("input_Cam{k:03}.png"));
+    let said = ok(&estimate(&indexed, &out, &["--align", "off"]));
+    assert!(
+        said.contains("3x3 grid") && said.contains("--grid 1x9"),
+        "{said}"
+    );
+    assert_fails(
+        &estimate(&indexed, &out, &["--grid", "1x9"]),
+        &["one row of cameras"],
+    );
+    // Seven fill no square: the grid must be given.
+    for k in 7..9 {
+        std::fs::remove_file(indexed.join(format!("input_Cam{k:03}.png"))).unwrap();
+    }
+    assert_fails(
+        &estimate(&indexed, &out, &[]),
+        &["7 views numbered by index", "--grid 1x7", "--grid 7x1"],
+    );
+}
