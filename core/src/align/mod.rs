@@ -292,8 +292,7 @@ pub struct AlignReport {
 
 impl AlignReport {
     /// The report of no estimate (equal to `AlignReport::default()`), for constants: a
-    /// firmware keeps its report in static memory
-    /// ([`crate::pipeline::run_aligned_into`]).
+    /// firmware keeps its report in static memory and has the pipeline fill it in place.
     pub const EMPTY: AlignReport = AlignReport {
         skipped: false,
         warning: None,
