@@ -83,22 +83,33 @@ pub struct Shape {
 
 impl Shape {
     /// The packed layout: grid 1…9 × 1…9, views 1…24 pixels a side.
+    #[allow(dead_code)]
     pub fn layout(&self) -> Layout {
+        self.layout_from(1)
+    }
+
+    /// The packed layout with views `least`…`least + 23` pixels a side.
+    pub fn layout_from(&self, least: usize) -> Layout {
         Layout::packed(
             Grid::new(
                 1 + usize::from(self.rows % 9),
                 1 + usize::from(self.cols % 9),
             ),
-            1 + usize::from(self.width % 24),
-            1 + usize::from(self.height % 24),
+            least + usize::from(self.width % 24),
+            least + usize::from(self.height % 24),
             if self.color { 3 } else { 1 },
         )
     }
 
-    /// The samples of [`Shape::layout`]: a hashed texture seen by each view shifted by
-    /// the disparity, plus noise.
+    /// The samples of [`Shape::layout`].
+    #[allow(dead_code)]
     pub fn samples(&self) -> Vec<u8> {
-        let l = self.layout();
+        self.samples_for(self.layout())
+    }
+
+    /// The samples of `l` (one of this shape's layouts): a hashed texture seen by each
+    /// view shifted by the disparity, plus noise.
+    pub fn samples_for(&self, l: Layout) -> Vec<u8> {
         let (cr, cc) = (l.grid.rows as f32 / 2.0, l.grid.cols as f32 / 2.0);
         let d = f32::from(self.disparity.clamp(-12, 12)) / 4.0;
         let mut out = Vec::with_capacity(l.grid.len() * l.width * l.height * l.channels);
