@@ -47,11 +47,26 @@ pub fn scores_text(scores: &Scores) -> String {
         .collect()
 }
 
+/// The warning for an estimate with NaN or infinite pixels in the evaluated window, or
+/// `None`. The benchmark's protocol counts such a pixel as good (NaN compares false), so
+/// the BadPix scores of a map with holes look better than they are.
+pub fn invalid_warning(scores: &Scores) -> Option<String> {
+    (scores.invalid_pct > 0.0).then(|| {
+        format!(
+            "{:.3} % of the evaluated pixels of the estimate are NaN or infinite: the benchmark's protocol counts them as good pixels, so BadPix is lower than the map deserves",
+            scores.invalid_pct
+        )
+    })
+}
+
 fn scores_value(scores: &Scores) -> Value {
-    let map: serde_json::Map<String, Value> = METRICS
+    let mut map: serde_json::Map<String, Value> = METRICS
         .iter()
         .map(|(_, key, get)| ((*key).to_string(), finite_json(get(scores))))
         .collect();
+    if let Some(warning) = invalid_warning(scores) {
+        map.insert("warning".into(), json!(warning));
+    }
     Value::Object(map)
 }
 
@@ -65,7 +80,8 @@ fn finite_json(v: f64) -> Value {
 }
 
 /// The scores as a JSON object with the reference evaluator's keys
-/// (`badpix007`, `badpix003`, `badpix001`, `mse100`, `q25`, `invalid_pct`).
+/// (`badpix007`, `badpix003`, `badpix001`, `mse100`, `q25`, `invalid_pct`), and
+/// `warning` when [`invalid_warning`] has one.
 pub fn scores_json(scores: &Scores) -> String {
     scores_value(scores).to_string()
 }
@@ -75,23 +91,44 @@ pub fn scores_json(scores: &Scores) -> String {
 pub struct SceneRow {
     /// The scene folder relative to the dataset root.
     pub scene: String,
-    /// Its scores.
-    pub scores: Scores,
+    /// Its scores, or why it could not be scored.
+    pub result: Result<Scores, String>,
     /// Wall time to load and estimate it.
     pub seconds: f64,
 }
 
-/// The mean of every metric and of the time over the rows.
+/// The mean of every metric and of the time over the scenes that were scored.
 fn mean(rows: &[SceneRow]) -> (Vec<f64>, f64) {
-    let n = rows.len().max(1) as f64;
+    let scored: Vec<(&Scores, f64)> = rows
+        .iter()
+        .filter_map(|r| r.result.as_ref().ok().map(|s| (s, r.seconds)))
+        .collect();
+    if scored.is_empty() {
+        return (vec![f64::NAN; 5], f64::NAN);
+    }
+    let n = scored.len() as f64;
     let metrics = METRICS[..5]
         .iter()
-        .map(|(_, _, get)| rows.iter().map(|r| get(&r.scores)).sum::<f64>() / n)
+        .map(|(_, _, get)| scored.iter().map(|(s, _)| get(s)).sum::<f64>() / n)
         .collect();
-    (metrics, rows.iter().map(|r| r.seconds).sum::<f64>() / n)
+    (metrics, scored.iter().map(|(_, t)| t).sum::<f64>() / n)
 }
 
-/// A Markdown table: one row per scene, then the mean.
+/// Rows that failed, `(scene, why)`.
+fn failures(rows: &[SceneRow]) -> Vec<(&str, &str)> {
+    rows.iter()
+        .filter_map(|r| {
+            r.result
+                .as_ref()
+                .err()
+                .map(|e| (r.scene.as_str(), e.as_str()))
+        })
+        .collect()
+}
+
+/// A Markdown table: one row per scene (`failed` for a scene that could not be scored),
+/// then the mean over the scored scenes; below it a `warning:` line per scene whose
+/// estimate has invalid pixels and an `error:` line per failed scene.
 pub fn dataset_markdown(rows: &[SceneRow]) -> String {
     let mut out = String::from(
         "| scene | BadPix0.07 | BadPix0.03 | BadPix0.01 | MSE×100 | Q25 | seconds |\n",
@@ -101,24 +138,55 @@ pub fn dataset_markdown(rows: &[SceneRow]) -> String {
         let cells: String = values.iter().map(|v| format!(" {v:.3} |")).collect();
         format!("| {name} |{cells} {seconds:.2} |\n")
     };
+    let mut notes = String::new();
     for row in rows {
-        let values: Vec<f64> = METRICS[..5]
-            .iter()
-            .map(|(_, _, get)| get(&row.scores))
-            .collect();
-        out.push_str(&line(&row.scene, &values, row.seconds));
+        match &row.result {
+            Ok(scores) => {
+                let values: Vec<f64> = METRICS[..5].iter().map(|(_, _, get)| get(scores)).collect();
+                let name = match invalid_warning(scores) {
+                    Some(warning) => {
+                        notes.push_str(&format!("warning: {}: {warning}\n", row.scene));
+                        format!("{} (invalid pixels!)", row.scene)
+                    }
+                    None => row.scene.clone(),
+                };
+                out.push_str(&line(&name, &values, row.seconds));
+            }
+            Err(why) => {
+                notes.push_str(&format!("error: {}: {why}\n", row.scene));
+                out.push_str(&format!(
+                    "| {} | failed | – | – | – | – | {:.2} |\n",
+                    row.scene, row.seconds
+                ));
+            }
+        }
     }
     let (values, seconds) = mean(rows);
-    out.push_str(&line("**mean**", &values, seconds));
+    let failed = failures(rows).len();
+    let label = if failed == 0 {
+        "**mean**".to_string()
+    } else {
+        format!("**mean** of {} scored", rows.len() - failed)
+    };
+    out.push_str(&line(&label, &values, seconds));
+    if !notes.is_empty() {
+        out.push('\n');
+        out.push_str(&notes);
+    }
     out
 }
 
-/// The same table as JSON: `{"scenes": [{"scene", metrics…, "seconds"}], "mean": {…}}`.
+/// The same table as JSON: `{"scenes": [{"scene", metrics…, "seconds"}], "mean": {…}}`;
+/// a failed scene has `"error"` instead of metrics, a scene with invalid pixels a
+/// `"warning"`, and `"failed"` counts the failed scenes.
 pub fn dataset_json(rows: &[SceneRow]) -> String {
     let scenes: Vec<Value> = rows
         .iter()
         .map(|r| {
-            let mut v = scores_value(&r.scores);
+            let mut v = match &r.result {
+                Ok(scores) => scores_value(scores),
+                Err(why) => json!({ "error": why }),
+            };
             if let Value::Object(map) = &mut v {
                 map.insert("scene".into(), json!(r.scene));
                 map.insert("seconds".into(), finite_json(r.seconds));
@@ -133,7 +201,12 @@ pub fn dataset_json(rows: &[SceneRow]) -> String {
         .map(|((_, key, _), v)| ((*key).to_string(), finite_json(*v)))
         .collect();
     mean_map.insert("seconds".into(), finite_json(seconds));
-    json!({ "scenes": scenes, "mean": Value::Object(mean_map) }).to_string()
+    json!({
+        "scenes": scenes,
+        "mean": Value::Object(mean_map),
+        "failed": failures(rows).len(),
+    })
+    .to_string()
 }
 
 #[cfg(test)]
@@ -163,12 +236,12 @@ mod tests {
         let rows = [
             SceneRow {
                 scene: "a".into(),
-                scores: scores(1.0),
+                result: Ok(scores(1.0)),
                 seconds: 1.0,
             },
             SceneRow {
                 scene: "b".into(),
-                scores: scores(3.0),
+                result: Ok(scores(3.0)),
                 seconds: 3.0,
             },
         ];
@@ -184,6 +257,42 @@ mod tests {
         let mut nan = scores(1.0);
         nan.q25 = f64::NAN;
         assert!(scores_json(&nan).contains("\"q25\":null"));
+        assert!(!scores_json(&nan).contains("warning"));
+    }
+
+    #[test]
+    fn failed_scenes_and_invalid_pixels_are_reported() {
+        let mut holes = scores(1.0);
+        holes.invalid_pct = 25.0;
+        let rows = [
+            SceneRow {
+                scene: "a".into(),
+                result: Ok(holes),
+                seconds: 1.0,
+            },
+            SceneRow {
+                scene: "b".into(),
+                result: Err("b/input_Cam003.png: damaged".into()),
+                seconds: 0.5,
+            },
+        ];
+        let md = dataset_markdown(&rows);
+        assert!(md.contains("| a (invalid pixels!) | 1.000 |"), "{md}");
+        assert!(md.contains("| b | failed |"), "{md}");
+        assert!(md.contains("| **mean** of 1 scored | 1.000 |"), "{md}");
+        assert!(md.contains("warning: a: 25.000 %"), "{md}");
+        assert!(md.contains("error: b: b/input_Cam003.png: damaged"), "{md}");
+        let json: Value = serde_json::from_str(&dataset_json(&rows)).unwrap();
+        assert_eq!(json["failed"], json!(1));
+        assert!(json["scenes"][0]["warning"]
+            .as_str()
+            .unwrap()
+            .contains("25.000 %"));
+        assert_eq!(
+            json["scenes"][1]["error"],
+            json!("b/input_Cam003.png: damaged")
+        );
+        assert_eq!(json["mean"]["badpix007"], json!(1.0));
     }
 
     #[test]

@@ -234,7 +234,7 @@ fn help_lists_every_command() {
         assert!(stdout.contains(command), "{stdout}");
     }
     let out = lfdepth(&["eval", "--dataset", "/nonexistent/lfdepth"]);
-    common::assert_fails(&out, &["/nonexistent/lfdepth", "not a folder"]);
+    common::assert_fails(&out, &["/nonexistent/lfdepth", "does not exist"]);
 }
 
 #[test]

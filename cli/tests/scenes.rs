@@ -217,7 +217,7 @@ fn one_row_grids_and_ambiguous_folders_are_refused() {
     let e = load_err(dir.path(), options(Some("x_{row}.png"), None));
     assert!(e.contains("pattern"), "{e}");
     let e = load_err(&dir.path().join("absent"), LoadOptions::default());
-    assert!(e.contains("absent") && e.contains("not a folder"), "{e}");
+    assert!(e.contains("absent") && e.contains("does not exist"), "{e}");
     // Files that match no view pattern.
     let dir = common::temp();
     png::write(&dir.path().join("photo.png"), &common::view(16, 16, 1, 0)).unwrap();

@@ -34,8 +34,8 @@ pub struct DemoArgs {
     /// Synthetic scene: planes, slanted, spheres, occlusion, thin, low-texture or mixed.
     #[arg(long, value_name = "NAME", value_parser = parse_scene, default_value = "mixed")]
     pub scene: SceneKind,
-    /// View width and height in pixels (9x9 views), 16 or more; at most 2574 within the
-    /// default --max-pixels (81 views).
+    /// View width and height in pixels (9x9 views), 31 or more (the score ignores a
+    /// 15-pixel border); at most 2574 within the default --max-pixels (81 views).
     #[arg(long, value_name = "N", default_value_t = 256)]
     pub size: usize,
     /// How far to run: `epi` or `full`.
@@ -116,6 +116,14 @@ pub fn run(args: &DemoArgs) -> Result<(), CliError> {
     spec.seed = args.seed;
     spec.misalign = args.misalign.then(default_misalignment);
     check_spec(&spec, &args.limits.limits(), "--size")?;
+    let least = super::eval::MIN_SCORED_SIDE;
+    if args.size < least {
+        return Err(CliError::Usage(format!(
+            "--size {}: the demo scores its estimate with the benchmark, which ignores a {}-pixel border, so views need at least {least} pixels a side: give --size {least} or more",
+            args.size,
+            lfdepth::metrics::BORDER
+        )));
+    }
     let dir = prepare_folder(&args.out, args.force)?;
     let start = Instant::now();
     let rendered = render(&spec)?;

@@ -103,6 +103,38 @@ pub fn write_colour_png(
     Ok(())
 }
 
+/// Compares the image resolution `parameters.cfg` states with the views' size. Metric
+/// depth takes its focal length in pixels from the cfg's resolution, so with `--depth`
+/// a mismatch is refused (the depth would be off by the ratio); without it the
+/// disparity is unaffected and a warning is printed.
+fn check_config_resolution(
+    config: &crate::io::cfg::SceneConfig,
+    input: &Path,
+    width: usize,
+    height: usize,
+    depth: bool,
+) -> Result<(), CliError> {
+    let (Some(x), Some(y)) = (config.image_resolution_x_px, config.image_resolution_y_px) else {
+        return Ok(());
+    };
+    if (x, y) == (width, height) {
+        return Ok(());
+    }
+    let cfg = input.join(scene::CONFIG_FILE);
+    let what = format!(
+        "{}: image_resolution_x_px/y_px say {x}x{y} pixels but the views are {width}x{height}",
+        cfg.display()
+    );
+    if depth {
+        return Err(CliError::Usage(format!(
+            "{what}: --depth would scale the focal length by the wrong resolution (depth off by up to {:.1} %); correct the file's resolution (and focal length, if the views were resized) or leave out --depth",
+            100.0 * ((x.max(y) as f64) / (width.max(height) as f64) - 1.0).abs()
+        )));
+    }
+    eprintln!("warning: {what}; the disparity does not depend on it, but metric depth from this file would be wrong");
+    Ok(())
+}
+
 /// Runs `lfdepth estimate`. Everything that can be checked without the views' pixels
 /// (outputs, parameters) is checked before they are decoded.
 pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
@@ -147,6 +179,9 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     );
     eprintln!("{summary}");
     let config = scene.files.config.as_ref();
+    if let Some(config) = config {
+        check_config_resolution(config, &args.input, l.width, l.height, args.depth.is_some())?;
+    }
     let options = EstimateOptions {
         params,
         stage: args.stage.into(),

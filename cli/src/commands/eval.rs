@@ -134,6 +134,25 @@ pub fn read_mask_limited(
     Ok(nonzero)
 }
 
+/// The smallest side of a map the benchmark can score: it ignores
+/// [`metrics::BORDER`] pixels along every edge.
+pub const MIN_SCORED_SIDE: usize = 2 * metrics::BORDER + 1;
+
+/// Refuses a ground truth too small to keep any pixel inside the benchmark's border.
+pub fn check_scorable(gt: &Pfm, gt_path: &Path) -> Result<(), CliError> {
+    if gt.width >= MIN_SCORED_SIDE && gt.height >= MIN_SCORED_SIDE {
+        return Ok(());
+    }
+    Err(IoError::format(format!(
+        "is {}x{} pixels: the benchmark ignores a {}-pixel border, so scoring needs a map of at least {MIN_SCORED_SIDE}x{MIN_SCORED_SIDE} pixels",
+        gt.width,
+        gt.height,
+        metrics::BORDER
+    ))
+    .in_file(gt_path)
+    .into())
+}
+
 /// Scores `est` against `gt` (embedding a symmetric crop, see [`embed_cropped`]).
 pub fn score(
     est: &Pfm,
@@ -160,6 +179,7 @@ pub fn score(
             metrics::BORDER
         )));
     };
+    check_scorable(gt, gt_path)?;
     let mut scratch = vec![0f32; metrics::scratch_len(gt.width, gt.height)];
     let options = EvalOptions {
         border: metrics::BORDER,
@@ -207,6 +227,9 @@ pub fn run(args: &EvalArgs) -> Result<(), CliError> {
         None => None,
     };
     let scores = score(&est, &gt, mask.as_deref(), est_path, gt_path)?;
+    if let Some(warning) = report::invalid_warning(&scores) {
+        eprintln!("warning: {}: {warning}", est_path.display());
+    }
     if args.json {
         println!("{}", report::scores_json(&scores));
     } else {
@@ -216,17 +239,23 @@ pub fn run(args: &EvalArgs) -> Result<(), CliError> {
 }
 
 /// Scene folders under `root` (itself included) holding a ground truth and PNG views,
-/// sorted.
+/// sorted. Symbolic links to folders are followed; a folder reached twice (a link cycle,
+/// or two links to one scene) is visited once.
 pub fn find_scenes(root: &Path) -> Result<Vec<PathBuf>, IoError> {
     let mut found = Vec::new();
+    let mut seen = std::collections::HashSet::new();
     let mut stack = vec![root.to_path_buf()];
     while let Some(dir) = stack.pop() {
+        let real = std::fs::canonicalize(&dir).map_err(|e| IoError::os(&dir, "resolve", e))?;
+        if !seen.insert(real) {
+            continue;
+        }
         let entries = std::fs::read_dir(&dir).map_err(|e| IoError::os(&dir, "list", e))?;
         for entry in entries {
             let entry = entry.map_err(|e| IoError::os(&dir, "list", e))?;
             let path = entry.path();
-            // Follow real folders only, so a link cycle cannot loop forever.
-            if entry.file_type().map(|t| t.is_dir()).unwrap_or(false) {
+            // `is_dir` follows links; a broken link is no folder.
+            if path.is_dir() {
                 stack.push(path);
             }
         }
@@ -248,13 +277,42 @@ fn has_png(dir: &Path) -> bool {
         .unwrap_or(false)
 }
 
+/// Loads, estimates and scores one scene of a dataset.
+fn score_scene(args: &EvalArgs, dir: &Path, name: &str) -> Result<Scores, CliError> {
+    let gt_path = dir.join(GROUND_TRUTH_FILE);
+    let gt = pfm::read(&gt_path)?;
+    check_scorable(&gt, &gt_path)?;
+    let files = scene::locate(dir, &args.views.load_options())?;
+    let params = args.params.params(files.config.as_ref())?;
+    let wanted = needs::views_to_read(&files, &params, args.stage.into())?.wanted;
+    let loaded = scene::read_selected(files, &args.limits.limits(), &wanted)?;
+    let options = EstimateOptions {
+        params,
+        stage: args.stage.into(),
+        threads: args.threads.map(usize::from),
+    };
+    let mut bar = StageProgress::new(false);
+    let result = estimate_scene(&loaded, &options, args.scalar.into(), &mut |s, d, t| {
+        bar.update(s, d, t)
+    });
+    bar.finish();
+    let estimate = result?;
+    if estimate.align.is_some() {
+        eprint!("{name}: ");
+        super::params::print_alignment(estimate.align.as_ref());
+    }
+    let est = Pfm::new(estimate.width, estimate.height, estimate.disparity)?;
+    score(&est, &gt, None, dir, &gt_path)
+}
+
+/// Estimates and scores every scene under `root`. A scene that fails is reported in
+/// the table (and on stderr) and the others are still evaluated; the command then
+/// fails, after printing the table.
 fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
     if !root.is_dir() {
-        return Err(
-            IoError::format("is not a folder: give the folder holding the scenes")
-                .in_file(root)
-                .into(),
-        );
+        return Err(IoError::format(scene::not_a_folder(root, "scenes"))
+            .in_file(root)
+            .into());
     }
     let scenes = find_scenes(root)?;
     if scenes.is_empty() {
@@ -274,35 +332,18 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
             .display()
             .to_string();
         let start = Instant::now();
-        let files = scene::locate(dir, &args.views.load_options())?;
-        let params = args.params.params(files.config.as_ref())?;
-        let wanted = needs::views_to_read(&files, &params, args.stage.into())?.wanted;
-        let loaded = scene::read_selected(files, &args.limits.limits(), &wanted)?;
-        let options = EstimateOptions {
-            params,
-            stage: args.stage.into(),
-            threads: args.threads.map(usize::from),
-        };
-        let mut bar = StageProgress::new(false);
-        let result = estimate_scene(&loaded, &options, args.scalar.into(), &mut |s, d, t| {
-            bar.update(s, d, t)
-        });
-        bar.finish();
-        let estimate = result?;
-        eprint!("{name}: ");
-        super::params::print_alignment(estimate.align.as_ref());
+        let result = score_scene(args, dir, &name);
         let seconds = start.elapsed().as_secs_f64();
-        let gt_path = dir.join(GROUND_TRUTH_FILE);
-        let gt = pfm::read(&gt_path)?;
-        let est = Pfm::new(estimate.width, estimate.height, estimate.disparity)?;
-        let scores = score(&est, &gt, None, dir, &gt_path)?;
-        eprintln!(
-            "{name}: BadPix0.07 {:.3}, {seconds:.2} s",
-            scores.badpix_007
-        );
+        match &result {
+            Ok(scores) => eprintln!(
+                "{name}: BadPix0.07 {:.3}, {seconds:.2} s",
+                scores.badpix_007
+            ),
+            Err(e) => eprintln!("{name}: error: {e}"),
+        }
         rows.push(SceneRow {
             scene: name,
-            scores,
+            result: result.map_err(|e| e.to_string()),
             seconds,
         });
     }
@@ -310,6 +351,13 @@ fn run_dataset(args: &EvalArgs, root: &Path) -> Result<(), CliError> {
         println!("{}", report::dataset_json(&rows));
     } else {
         print!("{}", report::dataset_markdown(&rows));
+    }
+    let failed = rows.iter().filter(|r| r.result.is_err()).count();
+    if failed > 0 {
+        return Err(CliError::Usage(format!(
+            "{failed} of the {} scenes could not be scored (see the table); the others were",
+            rows.len()
+        )));
     }
     Ok(())
 }

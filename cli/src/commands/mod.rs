@@ -256,7 +256,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
 
 /// Creates an output folder (and its parents).
 pub fn create_dir(dir: &std::path::Path) -> Result<PathBuf, CliError> {
-    std::fs::create_dir_all(dir).map_err(|e| IoError::os(dir, "create the folder", e))?;
+    std::fs::create_dir_all(dir).map_err(|e| IoError::os(dir, "create", e))?;
     Ok(dir.to_path_buf())
 }
 

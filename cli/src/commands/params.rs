@@ -217,6 +217,19 @@ impl FromArgMatches for ParamArgs {
     }
 }
 
+/// The scene's `disp_min`/`disp_max` as `--disparity-range cfg` uses them: finite,
+/// `disp_min <= disp_max`, both within ±[`lfdepth::epi::MAX_DISPARITY`]. The error names the file's
+/// keys, not the flag.
+fn check_config_range(min: f64, max: f64) -> Result<(), CliError> {
+    let limit = f64::from(lfdepth::epi::MAX_DISPARITY);
+    if min.is_finite() && max.is_finite() && min <= max && min >= -limit && max <= limit {
+        return Ok(());
+    }
+    Err(CliError::Usage(format!(
+        "the scene's parameters.cfg gives disp_min = {min} and disp_max = {max}, which --disparity-range cfg cannot use: they must be finite with disp_min <= disp_max, both within -{limit}..{limit} px; fix the file or give --disparity-range MIN..MAX or auto"
+    )))
+}
+
 impl ParamArgs {
     /// The parameters these flags ask for; `config` is the scene's parameters.cfg.
     /// Out-of-range values are reported here, before any view is decoded, naming the
@@ -243,6 +256,7 @@ impl ParamArgs {
                             "--disparity-range cfg needs disp_min and disp_max in the scene's parameters.cfg: give MIN..MAX or auto instead".into(),
                         )
                     })?;
+                    check_config_range(min, max)?;
                     Value::Range(DisparityRange::Fixed {
                         min: min as f32,
                         max: max as f32,

@@ -1,5 +1,5 @@
-//! Portable float maps (PFM): `Pf` (one channel) and `PF` (three channels; the first is
-//! taken as the disparity), either endianness (negative scale = little-endian), rows
+//! Portable float maps (PFM): `Pf` (one channel) and `PF` (three channels, accepted only
+//! when all three are equal, as a grey map saved in colour), either endianness (negative scale = little-endian), rows
 //! stored bottom-to-top. Header parsing follows the benchmark's reference reader
 //! (`shared/tools/hci_metrics.py`): one field per line, lines starting with `#` skipped,
 //! width and height on one line or two, samples multiplied by `|scale|`.
@@ -103,7 +103,8 @@ fn truncate(text: &str) -> String {
     s
 }
 
-/// Decodes a PFM file held in memory. For `PF` (colour) files the first channel is
+/// Decodes a PFM file held in memory: exactly the bytes the header declares (trailing
+/// bytes are refused). A `PF` (colour) file must have three equal channels; its first is
 /// returned. Never panics; the declared size is checked against the byte count before
 /// anything is allocated.
 pub fn decode(bytes: &[u8]) -> Result<Pfm, IoError> {
@@ -161,6 +162,12 @@ pub fn decode(bytes: &[u8]) -> Result<Pfm, IoError> {
             "PFM header declares {width}x{height} pixels, too many to address: the file is corrupt"
         )));
     };
+    if body.len() > needed {
+        return Err(IoError::format(format!(
+            "PFM data has {} byte(s) more than the {width}x{height} map the header declares: the header's size is wrong or the file holds more than one map",
+            body.len() - needed
+        )));
+    }
     if body.len() < needed {
         return Err(IoError::format(format!(
             "PFM data is truncated: a {width}x{height} {} map needs {needed} bytes after the header but the file has {}",
@@ -188,11 +195,24 @@ pub fn decode(bytes: &[u8]) -> Result<Pfm, IoError> {
             };
         }
     }
+    if channels == 3 && !grey(body, width * height) {
+        return Err(IoError::format(
+            "a colour PFM (`PF`) whose channels differ is not a disparity map: save the map as one-channel `Pf` (a `PF` file with three equal channels is read as its first)",
+        ));
+    }
     Ok(Pfm {
         width,
         height,
         data,
     })
+}
+
+/// Whether every pixel of `pixels` three-channel samples has three equal channels (bit
+/// for bit, so NaN maps compare equal too).
+fn grey(body: &[u8], pixels: usize) -> bool {
+    body.chunks_exact(12)
+        .take(pixels)
+        .all(|p| p[0..4] == p[4..8] && p[0..4] == p[8..12])
 }
 
 /// Encodes a single-channel map as `Pf`, little-endian (scale `-1`), bottom row first.
@@ -247,13 +267,32 @@ mod tests {
     }
 
     #[test]
-    fn colour_maps_yield_the_first_channel_bottom_up() {
+    fn grey_colour_maps_yield_the_first_channel_bottom_up() {
         let mut bytes = b"PF\n1 2\n1.0\n".to_vec();
-        // Stored bottom row first: bottom pixel (r,g,b) = (1,9,9), top = (2,9,9).
-        for v in [1f32, 9.0, 9.0, 2.0, 9.0, 9.0] {
+        // Stored bottom row first: bottom pixel 1, top pixel 2, each in three channels.
+        for v in [1f32, 1.0, 1.0, 2.0, 2.0, 2.0] {
             bytes.extend_from_slice(&v.to_be_bytes());
         }
         assert_eq!(decode(&bytes).unwrap().data, vec![2.0, 1.0]);
+        // Channels that differ: a colour image, not a map.
+        let mut colour = b"PF\n1 2\n1.0\n".to_vec();
+        for v in [1f32, 9.0, 9.0, 2.0, 9.0, 9.0] {
+            colour.extend_from_slice(&v.to_be_bytes());
+        }
+        let msg = decode(&colour).unwrap_err().to_string();
+        assert!(
+            msg.contains("channels differ") && msg.contains("`Pf`"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn trailing_bytes_are_refused() {
+        let mut bytes = encode(&Pfm::new(2, 1, vec![1.0, 2.0]).unwrap());
+        assert!(decode(&bytes).is_ok());
+        bytes.push(0);
+        let msg = decode(&bytes).unwrap_err().to_string();
+        assert!(msg.contains("1 byte(s) more than the 2x1 map"), "{msg}");
     }
 
     #[test]

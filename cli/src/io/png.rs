@@ -84,7 +84,72 @@ const MAX_DEFLATE_RATIO: u64 = 1100;
 const METADATA_LIMIT: usize = 64 << 20;
 
 fn describe(e: ::png::DecodingError) -> IoError {
-    IoError::format(format!("not a readable PNG image: {e}"))
+    IoError::format(format!("not a readable PNG image: {}", explain(&e)))
+}
+
+/// The `png` crate's message in words a user can act on: chunk types by their four
+/// letters (the crate prints its `ChunkType` structure), checksum and deflate failures
+/// as a damaged file, an early end as a truncated one.
+fn explain(e: &::png::DecodingError) -> String {
+    use ::png::DecodingError;
+    let damaged = "the file is damaged: export or copy it again";
+    match e {
+        DecodingError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            format!("the file ends early (truncated): {damaged}")
+        }
+        DecodingError::IoError(io) => format!("reading it failed: {io}"),
+        DecodingError::LimitsExceeded => format!(
+            "its metadata chunks need more than {} MiB: the file is corrupt or not a light-field view",
+            METADATA_LIMIT >> 20
+        ),
+        other => {
+            let text = chunk_names(&other.to_string());
+            if text.starts_with("CRC error") {
+                let chunk = text
+                    .rsplit_once("while decoding ")
+                    .map(|(_, rest)| rest.trim_end_matches(" chunk."))
+                    .filter(|name| name.len() == 4)
+                    .map_or_else(|| "a chunk".to_string(), |name| format!("its {name} chunk"));
+                format!("the checksum (CRC) of {chunk} does not match: {damaged}")
+            } else if text.starts_with("Corrupt deflate stream") {
+                format!("its compressed pixel data is corrupt: {damaged}")
+            } else {
+                format!("{}: {damaged}", text.trim_end_matches('.'))
+            }
+        }
+    }
+}
+
+/// `text` with every `ChunkType { type: IHDR, critical: … }` replaced by `IHDR` (by
+/// `an invalid` when the type is not four ASCII letters).
+fn chunk_names(text: &str) -> String {
+    const OPEN: &str = "ChunkType { type: ";
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(start) = rest.find(OPEN) {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + OPEN.len()..];
+        // The type's characters come from the file and may be anything, braces included:
+        // the structure ends at the first ` }` after its `critical` field.
+        let end = after.find(", critical: ").and_then(|critical| {
+            after[critical..]
+                .find(" }")
+                .map(|close| (critical, critical + close))
+        });
+        let Some((critical, close)) = end else {
+            out.push_str("an invalid");
+            return out;
+        };
+        let name = &after[..critical];
+        if name.len() == 4 && name.bytes().all(|b| b.is_ascii_alphabetic()) {
+            out.push_str(name);
+        } else {
+            out.push_str("an invalid");
+        }
+        rest = &after[close + 2..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// What a PNG header promises, as [`decode`] would return it (palette and sub-byte
@@ -202,10 +267,19 @@ pub fn decode_limited(bytes: &[u8], max_pixels: u64) -> Result<Image, IoError> {
 }
 
 fn open(path: &Path) -> Result<(BufReader<File>, u64), IoError> {
+    // What the name is, before opening it: opening a FIFO would wait for a writer.
+    let kind = std::fs::metadata(path).map_err(|e| IoError::os(path, "read", e))?;
+    if !kind.is_file() {
+        return Err(IoError::format(format!(
+            "is {}, not a file: a view must be a PNG file",
+            super::kind_of(&kind.file_type())
+        ))
+        .in_file(path));
+    }
     let file = File::open(path).map_err(|e| IoError::os(path, "read", e))?;
     let meta = file.metadata().map_err(|e| IoError::os(path, "read", e))?;
     if !meta.is_file() {
-        return Err(IoError::format("is not a file: views must be PNG files").in_file(path));
+        return Err(IoError::format("is not a file: a view must be a PNG file").in_file(path));
     }
     Ok((BufReader::new(file), meta.len()))
 }
@@ -368,6 +442,24 @@ mod tests {
     fn disparity_mapping_hits_both_ends() {
         let img = disparity_to_gray16(4, 1, &[-1.0, 1.0, 0.0, f32::NAN], -1.0, 1.0);
         assert_eq!(img.samples, Samples::Sixteen(vec![0, 65535, 32768, 0]));
+    }
+
+    #[test]
+    fn chunk_types_are_named_by_their_letters() {
+        assert_eq!(
+            chunk_names("while decoding ChunkType { type: IHDR, critical: true, private: false, reserved: false, safecopy: false } chunk."),
+            "while decoding IHDR chunk."
+        );
+        assert_eq!(chunk_names("no chunk here"), "no chunk here");
+        assert_eq!(
+            chunk_names("ChunkType { type: e { , critical: false } chunk appeared before IHDR"),
+            "an invalid chunk appeared before IHDR"
+        );
+        assert_eq!(chunk_names("cut ChunkType { type: IDAT"), "cut an invalid");
+        assert_eq!(
+            chunk_names("ChunkType { type: a }b, critical: false, safecopy: true } chunk"),
+            "an invalid chunk"
+        );
     }
 
     #[test]

@@ -133,16 +133,16 @@ fn folder_error(dir: &Path, message: String) -> IoError {
     IoError::format(message).in_file(dir)
 }
 
-/// File names (not paths) of the plain files in `dir`, sorted.
+/// Names (not paths) of the entries of `dir`, sorted: plain files and anything else, so
+/// that a view name taken by a folder, a FIFO or a broken or looping link is reported as
+/// such when it is read, not as a missing view.
 fn file_names(dir: &Path) -> Result<Vec<String>, IoError> {
     let entries = std::fs::read_dir(dir).map_err(|e| IoError::os(dir, "list", e))?;
     let mut names = Vec::new();
     for entry in entries {
         let entry = entry.map_err(|e| IoError::os(dir, "list", e))?;
-        if entry.path().is_file() {
-            if let Some(name) = entry.file_name().to_str() {
-                names.push(name.to_string());
-            }
+        if let Some(name) = entry.file_name().to_str() {
+            names.push(name.to_string());
         }
     }
     names.sort();
@@ -256,6 +256,21 @@ fn detect_pattern(dir: &Path, names: &[String]) -> Result<Pattern, IoError> {
     }
 }
 
+/// Why `path` (not a folder) cannot be the folder holding the `what`: it does not exist,
+/// or what it is instead.
+pub fn not_a_folder(path: &Path, what: &str) -> String {
+    match std::fs::metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            format!("does not exist: give the folder that holds the {what}")
+        }
+        Err(e) => format!("cannot be opened ({e}): give the folder that holds the {what}"),
+        Ok(meta) => format!(
+            "is {}, not a folder: give the folder that holds the {what}",
+            super::kind_of(&meta.file_type())
+        ),
+    }
+}
+
 /// Grid position of a matched file.
 struct Found {
     name: String,
@@ -336,10 +351,7 @@ fn check_grid(dir: &Path, g: Grid) -> Result<(), IoError> {
 /// Finds the views of the light field in `dir` without decoding them.
 pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
     if !dir.is_dir() {
-        return Err(folder_error(
-            dir,
-            "is not a folder: give the folder that holds the views".into(),
-        ));
+        return Err(folder_error(dir, not_a_folder(dir, "views")));
     }
     let config_path = dir.join(CONFIG_FILE);
     let config = if config_path.is_file() {

@@ -1,0 +1,72 @@
+//! Replays the regression corpus of the byte-level fuzz targets
+//! (`fuzz/regressions/<target>/`): every input that once crashed a target, or gave an
+//! unclear answer, goes through the same call the target makes and must give a value or
+//! an error in words, never a panic. The structured targets (`options_parse`,
+//! `stages`, `align`) keep theirs in `fuzz/regressions/` too, for `cargo fuzz run`;
+//! each crash they found is also a unit test in the crate it concerns (see
+//! docs/FUZZING.md).
+
+use std::path::PathBuf;
+
+use lfdepth_cli::io::limits::Limits;
+use lfdepth_cli::io::{cfg, pfm, png};
+
+fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
+    let dir =
+        PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../fuzz/regressions")).join(target);
+    let mut files: Vec<(PathBuf, Vec<u8>)> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| {
+            let path = e.unwrap().path();
+            let bytes = std::fs::read(&path).unwrap();
+            (path, bytes)
+        })
+        .collect();
+    files.sort();
+    assert!(!files.is_empty(), "{} is empty", dir.display());
+    files
+}
+
+/// An error message in words: not empty, no Rust debug structure.
+fn in_words(message: &str, path: &std::path::Path) {
+    assert!(!message.is_empty(), "{}", path.display());
+    assert!(
+        !message.contains(" { ") && !message.contains("ChunkType"),
+        "{}: {message}",
+        path.display()
+    );
+}
+
+#[test]
+fn view_decode_regressions() {
+    for (path, bytes) in corpus("view_decode") {
+        // The target's first byte picks the format (PNG is the only one today).
+        let Some((_, data)) = bytes.split_first() else {
+            continue;
+        };
+        match png::decode_limited(data, Limits::default().max_view_pixels) {
+            Ok(image) => assert!(image.width > 0 && image.height > 0),
+            Err(e) => in_words(&e.to_string(), &path),
+        }
+    }
+}
+
+#[test]
+fn pfm_decode_regressions() {
+    for (path, bytes) in corpus("pfm_decode") {
+        if let Err(e) = pfm::decode(&bytes) {
+            in_words(&e.to_string(), &path);
+        }
+    }
+}
+
+#[test]
+fn cfg_parse_regressions() {
+    for (path, bytes) in corpus("cfg_parse") {
+        if let Ok(text) = std::str::from_utf8(&bytes) {
+            if let Err(e) = cfg::parse(text) {
+                in_words(&e.to_string(), &path);
+            }
+        }
+    }
+}
