@@ -169,7 +169,8 @@ fn dataset(root: &Path, outside: &Path) {
     symlink(outside.join("elsewhere"), root.join("linked")).unwrap();
     symlink(root, root.join("cycle")).unwrap();
     synth(&root.join("broken"), 32);
-    std::fs::write(root.join("broken/input_Cam003.png"), b"not a png").unwrap();
+    // The centre view: every stage reads it.
+    std::fs::write(root.join("broken/input_Cam040.png"), b"not a png").unwrap();
 }
 
 #[cfg(unix)]
@@ -194,7 +195,7 @@ fn eval_dataset_follows_links_and_reports_a_broken_scene_after_the_others() {
     assert!(table.contains("| broken | failed |"), "{table}");
     assert!(table.contains("| **mean** of 2 scored |"), "{table}");
     assert!(
-        table.contains("error: broken: ") && table.contains("input_Cam003.png"),
+        table.contains("error: broken: ") && table.contains("input_Cam040.png"),
         "{table}"
     );
     assert!(!table.contains("cycle"), "{table}\n{line}");
@@ -214,7 +215,7 @@ fn eval_dataset_follows_links_and_reports_a_broken_scene_after_the_others() {
     assert!(scenes[0]["error"]
         .as_str()
         .unwrap()
-        .contains("input_Cam003.png"));
+        .contains("input_Cam040.png"));
     assert!(scenes[1]["badpix007"].is_number());
 }
 

@@ -47,6 +47,15 @@ pub fn sniff(magic: &[u8]) -> Option<Format> {
 }
 
 fn open(path: &Path) -> Result<(BufReader<File>, Format), IoError> {
+    // What the name is, before opening it: opening a FIFO would wait for a writer.
+    let kind = std::fs::metadata(path).map_err(|e| IoError::os(path, "read", e))?;
+    if !kind.is_file() {
+        return Err(IoError::format(format!(
+            "is {}, not a file: views must be PNG, JPEG or TIFF files",
+            super::kind_of(&kind.file_type())
+        ))
+        .in_file(path));
+    }
     let file = File::open(path).map_err(|e| IoError::os(path, "read", e))?;
     let meta = file.metadata().map_err(|e| IoError::os(path, "read", e))?;
     if !meta.is_file() {
