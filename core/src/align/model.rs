@@ -156,15 +156,15 @@ pub fn ransac(
     Some((refit, inliers))
 }
 
-/// The matrix of a [`crate::Homography`].
-pub fn from_homography(h: &crate::Homography) -> Mat {
+/// The matrix of a [`crate::geometry::Homography`].
+pub fn from_homography(h: &crate::geometry::Homography) -> Mat {
     // Not `from_row_slice`, whose length check the link check counts as a panic path.
     let [m0, m1, m2, m3, m4, m5, m6, m7, m8] = h.m;
     Mat::new(m0, m1, m2, m3, m4, m5, m6, m7, m8)
 }
 
-/// The [`crate::Homography`] of a matrix, scaled so that `h₃₃ = 1`.
-pub fn to_homography(m: &Mat) -> Option<crate::Homography> {
+/// The [`crate::geometry::Homography`] of a matrix, scaled so that `h₃₃ = 1`.
+pub fn to_homography(m: &Mat) -> Option<crate::geometry::Homography> {
     let s = m[(2, 2)];
     if s.abs().partial_cmp(&1e-12) != Some(core::cmp::Ordering::Greater) {
         return None;
@@ -177,7 +177,7 @@ pub fn to_homography(m: &Mat) -> Option<crate::Homography> {
     }
     out.iter()
         .all(|v| v.is_finite())
-        .then_some(crate::Homography { m: out })
+        .then_some(crate::geometry::Homography { m: out })
 }
 
 /// `m · (x, y, 1)` as a homogeneous vector.

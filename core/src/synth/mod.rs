@@ -538,4 +538,6 @@ fn check_view(spec: &SynthSpec, row: usize, col: usize) -> Result<()> {
 }
 
 #[cfg(test)]
+mod realistic_tests;
+#[cfg(test)]
 mod tests;
