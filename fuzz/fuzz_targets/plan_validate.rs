@@ -163,9 +163,9 @@ fuzz_target!(|input: Input| {
     };
     assert_eq!(plan.pixels(), width * height);
     // Scratch sizes of a valid plan are computed without panicking (checked arithmetic).
-    let _ = epi::scratch_len(&plan);
+    let _ = epi::scratch_len(plan.epi());
     for direction in [Direction::Horizontal, Direction::Vertical] {
-        let _ = epi::band_scratch_len(&plan, direction);
+        let _ = epi::band_scratch_len(plan.epi(), direction);
     }
     assert!(needed >= grid.len() * width * height * channels);
     if needed > MAX_SAMPLES {

@@ -13,6 +13,7 @@ use core::ops::ControlFlow;
 use common::{Setting, Shape};
 use lfdepth::pipeline::{self, Stages};
 use lfdepth::tv::{self, Guide, Maps};
+use lfdepth::setup::DisparityOut;
 use lfdepth::{epi, geofill, median, refine};
 use lfdepth::{LightField, Plan, Sample, Scalar, Q16};
 use libfuzzer_sys::arbitrary::{self, Arbitrary};
@@ -107,25 +108,27 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
             }
         }
         Entry::Epi => {
-            let Some(mut scratch) = buffer::<T>(epi::scratch_len(plan)) else {
+            let Some(mut scratch) = buffer::<T>(epi::scratch_len(plan.epi())) else {
                 return;
             };
-            if let Ok(h) = epi::estimate(plan, lf, &mut disparity, &mut confidence, &mut scratch) {
+            if let Ok(h) = epi::estimate(plan.epi(), lf, &mut disparity, &mut confidence, &mut scratch) {
                 assert!(!(h.min() > h.max()), "hypotheses {} > {}", h.min(), h.max());
                 confidence_ok(&confidence);
             }
         }
         Entry::Refine => {
-            let Some(mut scratch) = buffer::<T>(refine::scratch_len(plan)) else {
+            let Some(mut scratch) = buffer::<T>(refine::scratch_len(plan.refine())) else {
                 return;
             };
             if refine::refine(
-                plan,
+                plan.refine(),
                 lf,
                 (-2.0, 2.0),
                 &map,
-                &mut disparity,
-                &mut confidence,
+                DisparityOut {
+                    disparity: &mut disparity,
+                    confidence: &mut confidence,
+                },
                 &mut scratch,
             )
             .is_ok()
@@ -134,21 +137,21 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
             }
         }
         Entry::Median => {
-            let Some(mut scratch) = buffer::<f32>(median::scratch_len(plan)) else {
+            let Some(mut scratch) = buffer::<f32>(median::scratch_len(plan.median())) else {
                 return;
             };
-            let _ = median::filter(plan, &lf.center_view(), &map, &mut disparity, &mut scratch);
+            let _ = median::filter(plan.median(), &lf.center_view(), &map, &mut disparity, &mut scratch);
         }
         Entry::Geofill => {
-            let Some(mut scratch) = buffer::<f32>(geofill::scratch_len(plan)) else {
+            let Some(mut scratch) = buffer::<f32>(geofill::scratch_len(plan.geofill())) else {
                 return;
             };
-            let _ = geofill::fill(plan, &lf.center_view(), &map, &mut disparity, &mut scratch);
+            let _ = geofill::fill(plan.geofill(), &lf.center_view(), &map, &mut disparity, &mut scratch);
         }
         Entry::Tv => {
             let (Some(mut scratch), Some(mut duals)) = (
-                buffer::<T>(tv::scratch_len(plan)),
-                buffer::<f32>(tv::dual_len(plan)),
+                buffer::<T>(tv::scratch_len(plan.tv())),
+                buffer::<f32>(tv::dual_len(plan.tv())),
             ) else {
                 return;
             };
@@ -158,7 +161,7 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
             };
             let mut history = vec![0f32; 4];
             let _ = tv::refine(
-                plan,
+                plan.tv(),
                 &maps,
                 &Guide::View(lf.center_view()),
                 &mut disparity,
