@@ -388,6 +388,7 @@ fn execute(root: &Path, action: &Action) -> Outcome {
             "lfdepth",
         ])
         .run(root)
+        .and_then(|()| crate::package::build(root))
         .and_then(|()| crate::package::assemble(root).map(|_| ())),
         Action::NpmInstall { lock } => {
             let verb = if *lock { "ci" } else { "install" };
