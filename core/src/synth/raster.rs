@@ -19,7 +19,7 @@ use super::camera::{ViewCamera, NOISE_STREAM};
 use super::light::Lighting;
 use super::rng::Rng;
 use super::scene::{region, Scene, MAX_SURFACES};
-use super::surface::{Quad, ViewSurface};
+use super::surface::{Quad, Surface, ViewSurface};
 use super::texture::WAVES;
 use super::SynthSpec;
 
@@ -448,9 +448,8 @@ fn running_analytic(p: &Prepared, phasor: &mut Phasors, index: usize, i: f64, j:
     value
 }
 
-/// The centre-view ground truth: disparity of the surface seen at each pixel centre.
-pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
-    let surfaces = scene.surfaces();
+/// Every surface prepared for the centre view (`u = v = 0`).
+fn centre_surfaces(surfaces: &[Surface]) -> [ViewSurface; MAX_SURFACES] {
     let mut prepared = [ViewSurface {
         alpha: 0.0,
         beta: 0.0,
@@ -461,15 +460,36 @@ pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
     for (p, s) in prepared.iter_mut().zip(surfaces) {
         *p = s.prepare(0.0, 0.0);
     }
+    prepared
+}
+
+/// The disparity and index of the nearest surface (largest disparity; the first of
+/// equals) hit at centre-view point `(x, y)`, `None` where no surface is.
+fn front_surface(
+    surfaces: &[Surface],
+    prepared: &[ViewSurface],
+    x: f64,
+    y: f64,
+) -> Option<(f64, usize)> {
+    let mut best: Option<(f64, usize)> = None;
+    for (k, (s, p)) in surfaces.iter().zip(prepared).enumerate() {
+        if let Some((d, _, _)) = s.hit(p, x, y, 0.0, 0.0) {
+            if d > best.map_or(f64::NEG_INFINITY, |(b, _)| b) {
+                best = Some((d, k));
+            }
+        }
+    }
+    best
+}
+
+/// The centre-view ground truth: disparity of the surface seen at each pixel centre.
+pub(crate) fn ground_truth(spec: &SynthSpec, scene: &Scene, gt: &mut [f32]) {
+    let surfaces = scene.surfaces();
+    let prepared = centre_surfaces(surfaces);
     let width = spec.width;
     for (index, value) in gt.iter_mut().enumerate() {
         let (x, y) = ((index % width) as f64, (index / width) as f64);
-        let mut best = f64::NEG_INFINITY;
-        for (s, p) in surfaces.iter().zip(&prepared) {
-            if let Some((d, _, _)) = s.hit(p, x, y, 0.0, 0.0) {
-                best = best.max(d);
-            }
-        }
+        let best = front_surface(surfaces, &prepared, x, y).map_or(f64::NEG_INFINITY, |(d, _)| d);
         *value = best as f32;
     }
 }
@@ -481,28 +501,12 @@ const DIM_RADIANCE: f64 = 0.2;
 /// `region::DIM` where its mean lit base radiance is below [`DIM_RADIANCE`].
 pub(crate) fn regions(spec: &SynthSpec, scene: &Scene, out: &mut [u8]) {
     let surfaces = scene.surfaces();
-    let mut prepared = [ViewSurface {
-        alpha: 0.0,
-        beta: 0.0,
-        gamma: 0.0,
-        bounds: [0.0; 4],
-        outline: None,
-    }; MAX_SURFACES];
-    for (p, s) in prepared.iter_mut().zip(surfaces) {
-        *p = s.prepare(0.0, 0.0);
-    }
+    let prepared = centre_surfaces(surfaces);
     let width = spec.width;
     for (index, value) in out.iter_mut().enumerate() {
         let (x, y) = ((index % width) as f64, (index / width) as f64);
-        let mut best = (f64::NEG_INFINITY, None);
-        for (k, (s, p)) in surfaces.iter().zip(&prepared).enumerate() {
-            if let Some((d, _, _)) = s.hit(p, x, y, 0.0, 0.0) {
-                if d > best.0 {
-                    best = (d, Some(k));
-                }
-            }
-        }
-        *value = match best.1.and_then(|k| surfaces.get(k).map(|s| (k, s))) {
+        let front = front_surface(surfaces, &prepared, x, y);
+        *value = match front.and_then(|(_, k)| surfaces.get(k).map(|s| (k, s))) {
             Some((k, s)) => {
                 let base = s.texture.base;
                 let gain = scene.lighting.map_or(1.0, |l| l.gain(x, y));
