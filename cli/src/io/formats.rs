@@ -47,22 +47,7 @@ pub fn sniff(magic: &[u8]) -> Option<Format> {
 }
 
 fn open(path: &Path) -> Result<(BufReader<File>, Format), IoError> {
-    // What the name is, before opening it: opening a FIFO would wait for a writer.
-    let kind = std::fs::metadata(path).map_err(|e| IoError::os(path, "read", e))?;
-    if !kind.is_file() {
-        return Err(IoError::format(format!(
-            "is {}, not a file: views must be PNG, JPEG or TIFF files",
-            super::kind_of(&kind.file_type())
-        ))
-        .in_file(path));
-    }
-    let file = File::open(path).map_err(|e| IoError::os(path, "read", e))?;
-    let meta = file.metadata().map_err(|e| IoError::os(path, "read", e))?;
-    if !meta.is_file() {
-        return Err(
-            IoError::format("is not a file: views must be PNG, JPEG or TIFF files").in_file(path),
-        );
-    }
+    let (file, _) = super::open_regular(path, "views must be PNG, JPEG or TIFF files")?;
     let mut reader = BufReader::new(file);
     let mut magic = [0u8; 4];
     let got = read_up_to(&mut reader, &mut magic).map_err(|e| IoError::os(path, "read", e))?;

@@ -95,6 +95,29 @@ impl std::error::Error for IoError {
     }
 }
 
+/// Opens `path` for reading if it is a plain file, with its length; anything else (a
+/// folder, a FIFO, a device) is refused by what it is, `hint` saying what it must be.
+/// The kind is read before opening: opening a FIFO would wait for a writer.
+pub(crate) fn open_regular(
+    path: &std::path::Path,
+    hint: &str,
+) -> Result<(std::fs::File, u64), IoError> {
+    let kind = std::fs::metadata(path).map_err(|e| IoError::os(path, "read", e))?;
+    if !kind.is_file() {
+        return Err(IoError::format(format!(
+            "is {}, not a file: {hint}",
+            kind_of(&kind.file_type())
+        ))
+        .in_file(path));
+    }
+    let file = std::fs::File::open(path).map_err(|e| IoError::os(path, "read", e))?;
+    let meta = file.metadata().map_err(|e| IoError::os(path, "read", e))?;
+    if !meta.is_file() {
+        return Err(IoError::format(format!("is not a file: {hint}")).in_file(path));
+    }
+    Ok((file, meta.len()))
+}
+
 /// What a file-system entry that is not a plain file is, for messages ("a folder").
 pub(crate) fn kind_of(kind: &std::fs::FileType) -> &'static str {
     #[cfg(unix)]

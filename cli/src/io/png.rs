@@ -267,21 +267,8 @@ pub fn decode_limited(bytes: &[u8], max_pixels: u64) -> Result<Image, IoError> {
 }
 
 fn open(path: &Path) -> Result<(BufReader<File>, u64), IoError> {
-    // What the name is, before opening it: opening a FIFO would wait for a writer.
-    let kind = std::fs::metadata(path).map_err(|e| IoError::os(path, "read", e))?;
-    if !kind.is_file() {
-        return Err(IoError::format(format!(
-            "is {}, not a file: a view must be a PNG file",
-            super::kind_of(&kind.file_type())
-        ))
-        .in_file(path));
-    }
-    let file = File::open(path).map_err(|e| IoError::os(path, "read", e))?;
-    let meta = file.metadata().map_err(|e| IoError::os(path, "read", e))?;
-    if !meta.is_file() {
-        return Err(IoError::format("is not a file: a view must be a PNG file").in_file(path));
-    }
-    Ok((BufReader::new(file), meta.len()))
+    let (file, len) = super::open_regular(path, "a view must be a PNG file")?;
+    Ok((BufReader::new(file), len))
 }
 
 /// Reads the header of a PNG file without decoding its pixels, refusing more than
