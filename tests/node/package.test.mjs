@@ -1,50 +1,50 @@
 // The npm package as a user gets it: `npm pack` of target/npm/lfdepth (assembled by
 // `cargo xtask package`, or the npm-package step of `cargo xtask test`), installed from
 // the tarball into an empty project, imported there, and its example run there on
-// synthetic scenes written by `lfdepth synth` and on the HCI scenes: the PFM and the PNG
-// it writes equal, byte for byte, those of `lfdepth estimate` on the same folder (on
-// views that need alignment, to the 8-bit rounding of the warped views).
+// synthetic scenes written by `lfdepth synth` (aligned or not) and on the HCI scenes: the
+// PFM and the PNG it writes equal, byte for byte, those of `lfdepth estimate` on the same
+// folder. The example also runs under Node 18, the oldest Node the package supports
+// (installed from the npm registry into target/js-cache on first use).
 import { test, before, after } from "node:test";
 import assert from "node:assert/strict";
 import { execFileSync, spawnSync } from "node:child_process";
 import { copyFileSync, existsSync, mkdtempSync, readFileSync, readdirSync, rmSync, statSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, resolve } from "node:path";
-import { root } from "./pkg.mjs";
+import { installPacked, root, run } from "./packed.mjs";
 
-const packageDir = process.env.LFDEPTH_NPM_PACKAGE ?? join(root, "target/npm/lfdepth");
 const cli = process.env.LFDEPTH_CLI ?? join(root, "target/release/lfdepth");
 const hciDir = resolve(root, "../shared/data/hci");
 
+/** The oldest Node the package's `engines` admits, as a release of the npm registry's
+ *  `node-<platform>-<arch>` packages (the binaries the `node` package installs). */
+const NODE_18 = "18.20.8";
+
 let work, project, tarball;
 
-function run(program, args, options = {}) {
-  const result = spawnSync(program, args, { encoding: "utf8", maxBuffer: 64 << 20, ...options });
-  if (result.error) throw result.error;
-  assert.equal(result.status, 0, `${program} ${args.join(" ")} failed (${result.status}):\n${result.stdout}\n${result.stderr}`);
-  return result;
-}
-
 before(() => {
-  for (const [path, how] of [
-    [join(packageDir, "package.json"), "cargo xtask package"],
-    [cli, "cargo build --release -p lfdepth-cli"],
-  ]) {
-    if (!existsSync(path)) throw new Error(`${path} is missing: build it with \`${how}\` (cargo xtask test does)`);
-  }
+  if (!existsSync(cli)) throw new Error(`${cli} is missing: build it with \`cargo build --release -p lfdepth-cli\` (cargo xtask test does)`);
   work = mkdtempSync(join(tmpdir(), "lfdepth-package-"));
-  const packed = JSON.parse(run("npm", ["pack", "--json", "--pack-destination", work], { cwd: packageDir }).stdout);
-  tarball = join(work, packed[0].filename);
-  project = join(work, "project");
-  execFileSync("mkdir", [project]);
-  writeFileSync(join(project, "package.json"), JSON.stringify({ name: "a-user-project", private: true, type: "module" }));
-  // The package has no dependencies: the tarball installs without a registry.
-  run("npm", ["install", "--offline", "--no-audit", "--no-fund", tarball], { cwd: project });
+  ({ tarball, project } = installPacked(work));
 });
 
 after(() => {
   if (work) rmSync(work, { recursive: true, force: true });
 });
+
+/** Node ${NODE_18}'s binary, installed from the npm registry into target/js-cache on first use. */
+function node18() {
+  const platform = { linux: "linux", darwin: "darwin" }[process.platform];
+  if (!platform) throw new Error(`Node ${NODE_18} for ${process.platform} is not installed by this test: run it on Linux or macOS`);
+  const name = `node-${platform}-${process.arch}`;
+  const cache = join(root, "target/js-cache", `node-${NODE_18}`);
+  const binary = join(cache, "node_modules", name, "bin/node");
+  if (!existsSync(binary)) {
+    run("npm", ["install", "--prefix", cache, "--no-save", "--no-package-lock", "--no-audit", "--no-fund", `${name}@${NODE_18}`]);
+  }
+  assert.equal(run(binary, ["--version"]).stdout.trim(), `v${NODE_18}`);
+  return binary;
+}
 
 test("the tarball holds the module, both entries, their types, README, licences and the example", () => {
   const listed = run("tar", ["-tzf", tarball]).stdout.trim().split("\n").map((f) => f.replace(/^package\//, "")).sort();
@@ -139,32 +139,32 @@ function pfmSamples(bytes) {
   return new Float32Array(bytes.buffer.slice(bytes.byteOffset + end, bytes.byteOffset + bytes.length));
 }
 
-/** Runs the example (copied into the project, as a user would) and `lfdepth estimate` on
- *  `scene`; returns both runs' files and wall times. */
-function runBoth(scene, name) {
+/** Runs the example (copied into the project, as a user would) with `node` and `lfdepth
+ *  estimate` on `scene`; returns both runs' files and wall times. */
+function runBoth(scene, name, node = "node") {
   const out = join(work, name);
   execFileSync("mkdir", ["-p", out]);
   copyFileSync(join(project, "node_modules/lfdepth/examples/estimate.mjs"), join(project, "estimate.mjs"));
   let t = performance.now();
-  const node = run("node", ["estimate.mjs", scene, join(out, "node.pfm"), "--png", join(out, "node.png")], { cwd: project });
+  const example = run(node, ["estimate.mjs", scene, join(out, "node.pfm"), "--png", join(out, "node.png")], { cwd: project });
   const nodeMs = performance.now() - t;
   t = performance.now();
   run(cli, ["estimate", scene, "-o", join(out, "cli.pfm"), "--png", join(out, "cli.png"), "--quiet"]);
   const cliMs = performance.now() - t;
   // Per-stage timings on stdout, the last line the total; progress on stderr.
-  const lines = node.stdout.trim().split("\n");
+  const lines = example.stdout.trim().split("\n");
   assert.match(lines[0], /^load +\d+\.\d{3} s$/);
-  assert.ok(lines.some((l) => /^tv +\d+\.\d{3} s$/.test(l)), node.stdout);
+  assert.ok(lines.some((l) => /^tv +\d+\.\d{3} s$/.test(l)), example.stdout);
   assert.match(lines.at(-1), /^total +\d+\.\d{3} s$/);
-  assert.match(node.stderr, /^read: 81\/81$/m);
-  assert.match(node.stderr, /^tv: \d+\/\d+$/m);
+  assert.match(example.stderr, /^read: 81\/81$/m);
+  assert.match(example.stderr, /^tv: \d+\/\d+$/m);
   const files = Object.fromEntries(["node.pfm", "node.png", "cli.pfm", "cli.png"].map((f) => [f, readFileSync(join(out, f))]));
   return { files, nodeMs, cliMs };
 }
 
 /** Asserts that the example wrote the tool's files, byte for byte. */
-function compareWithCli(scene, name) {
-  const { files, nodeMs, cliMs } = runBoth(scene, name);
+function compareWithCli(scene, name, node = "node") {
+  const { files, nodeMs, cliMs } = runBoth(scene, name, node);
   for (const ext of ["pfm", "png"]) {
     const a = files[`node.${ext}`], b = files[`cli.${ext}`];
     assert.ok(a.equals(b), `${name}: the example's ${ext.toUpperCase()} differs from lfdepth estimate's (${a.length} vs ${b.length} bytes)`);
@@ -182,6 +182,16 @@ for (const [name, flags] of [
     compareWithCli(scene, name);
   });
 }
+
+test(`under Node ${NODE_18} the package imports and its example's files equal lfdepth estimate's`, () => {
+  const node = node18();
+  writeFileSync(join(project, "cjs.cjs"), `import("lfdepth").then((lf) => console.log(lf.version()));`);
+  const version = JSON.parse(readFileSync(join(project, "node_modules/lfdepth/package.json"), "utf8")).version;
+  assert.equal(run(node, ["cjs.cjs"], { cwd: project }).stdout.trim(), version);
+  const scene = join(work, "scene-node18");
+  run(cli, ["synth", "--scene", "mixed", "--size", "96", "--out", scene]);
+  compareWithCli(scene, "node18", node);
+});
 
 test("on views that need alignment the example's map is as the tool's, to 8-bit rounding of the warped views", () => {
   // The wasm estimator keeps the warped views as 8-bit samples, the tool as f32, so the
