@@ -240,7 +240,8 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
     if (shared) {
       let source = views;
       if (packed) {
-        source = new Uint8Array(new SharedArrayBuffer(packed.length));
+        // The aligner's views are `f32`: the copy keeps their type.
+        source = new packed.constructor(new SharedArrayBuffer(packed.byteLength));
         source.set(packed);
       }
       return Array.from({ length: count }, () => [{ op: "load", views: source, indices: packed ? null : read, shape, params }, []]);
@@ -300,7 +301,9 @@ async function handOver(pool, lightField, params, loaded, { onProgress, race, ch
   check();
   const computing = timings.reduce((sum, t) => sum + t.ms, 0);
   timings.push({ stage: "load", ms: Math.max(0, performance.now() - start - computing) });
-  const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen, reused: false, prepared: false };
+  // Rectified views travel as `f32`.
+  const sampleBytes = align && !align.skipped ? 4 : 1;
+  const transport = { shared, views: read.length, of: shape.rows * shape.cols, bytesPerWorker: read.length * viewLen * sampleBytes, reused: false, prepared: false };
   pool.held = { views, mode, read: read.join(), align, transport, prepared };
   // Workers holding warped views compare them as the aligned pipeline does.
   const workerParams = align && !align.skipped ? { ...loaded, resampled: true } : loaded;

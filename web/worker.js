@@ -8,9 +8,10 @@ import { initSync, Estimator, readViews, renderView, renderGroundTruth } from ".
 
 let estimator = null;
 
-/** One `Uint8Array` per view `fromReadViews` takes: the views at grid `indices` of a
- * whole light field (a `SharedArrayBuffer` the page shares), or, without `indices`, the
- * views packed one after the other. */
+/** One typed array per view `fromReadViews` takes (`Uint8Array`, or `Float32Array` for
+ * the aligner's rectified views): the views at grid `indices` of a whole light field (a
+ * `SharedArrayBuffer` the page shares), or, without `indices`, the views packed one
+ * after the other. */
 function viewList(views, indices, shape) {
   const len = shape.width * shape.height * shape.channels;
   const at = indices ?? Array.from({ length: Math.floor(views.length / len) }, (_, i) => i);
@@ -76,7 +77,8 @@ const handlers = {
     return {};
   },
   /** Aligns the whole light field; replies with the rectified views the stages read
-   * (packed; none when the alignment left the views as they were). With `keep` this
+   * (packed, `f32` as the tool keeps them; none when the alignment left the views as
+   * they were). With `keep` this
    * worker then estimates with the aligned estimator (it needs no `load`). */
   align({ id, views, shape, params, keep }) {
     // Free the estimator this one replaces first: its memory is then reused (faster

@@ -47,8 +47,11 @@ test("align() hands the rectified views to the parts of the schedule, which then
   const report = aligner.align();
   assert.equal(report.skipped, false);
   assert.equal(aligner.align().rms, report.rms, "align() runs once");
+  // Warped views stay f32, as the CLI keeps them (never rounded to 8 bits).
   const rectified = aligner.views;
+  assert.ok(rectified instanceof Float32Array, rectified.constructor.name);
   assert.equal(rectified.length, bent.views.length);
+  assert.ok(rectified.some((v) => v !== Math.round(v * 255) / 255), "the warped views are 8-bit levels");
   const serial = new lf.Estimator(bent.views, shape, params).estimate().disparity;
   const worker = new lf.Estimator(rectified, shape, { stage: "epi", align: "off", resampled: true });
   const run = new lf.Run(shape, { stage: "epi", resampled: true }, 1);
@@ -61,6 +64,26 @@ test("align() hands the rectified views to the parts of the schedule, which then
   assert.ok(disparity.every((d, i) => Object.is(d, serial[i])));
   run.free();
   worker.free();
+});
+
+test("fromReadViews takes the aligner's f32 read views and gives estimate()'s map; views of two types are an Error", () => {
+  const params = { align: "on" };
+  const aligner = new lf.Estimator(bent.views, shape, params);
+  aligner.align();
+  const packed = aligner.readViews;
+  assert.ok(packed instanceof Float32Array, packed.constructor.name);
+  const len = SIZE * SIZE * 3;
+  const read = lf.readViews(shape, { align: "off" });
+  assert.equal(packed.length, read.length * len);
+  const views = Array.from(read, (_, i) => packed.subarray(i * len, (i + 1) * len));
+  const worker = lf.Estimator.fromReadViews(views, shape, { align: "off", resampled: true });
+  const serial = new lf.Estimator(bent.views, shape, params).estimate().disparity;
+  const disparity = worker.estimate().disparity;
+  assert.ok(disparity.every((d, i) => Object.is(d, serial[i])));
+  worker.free();
+  const mixed = [...views.slice(0, -1), new Uint8Array(len)];
+  assert.throws(() => lf.Estimator.fromReadViews(mixed, shape, { align: "off" }), new RegExp(`views\\[${read.length - 1}\\] .* not another type \\(the first view is a Float32Array\\)`));
+  aligner.free();
 });
 
 test("bad align values and textureless views are Errors that say what to change", () => {

@@ -10,7 +10,7 @@ const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b
 
 /** `read`'s views of `views`, packed. */
 function pack(views, read, len) {
-  const out = new Uint8Array(read.length * len);
+  const out = new views.constructor(read.length * len);
   read.forEach((v, i) => out.set(views.subarray(v * len, (v + 1) * len), i * len));
   return out;
 }

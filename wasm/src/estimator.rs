@@ -7,11 +7,12 @@ use lfdepth::epi;
 use lfdepth::pipeline::{self, AlignBuffers, Progress, Stages};
 use lfdepth::schedule::Schedule;
 use lfdepth::tv;
-use lfdepth::{median, refine, Homography, Layout, LightField, Plan};
+use lfdepth::{median, refine, Homography, Layout, Plan};
 use wasm_bindgen::prelude::*;
 
 use crate::js::{self, error, message};
 use crate::params;
+use crate::samples::{with_light_field, Samples};
 
 /// The progress stage names of the core pipeline, in the order they run.
 #[wasm_bindgen(js_name = stageNames)]
@@ -162,7 +163,8 @@ pub(crate) struct WorkerRun {
 /// Disparity of the centre view of a light field held in wasm memory.
 #[wasm_bindgen]
 pub struct Estimator {
-    pub(crate) views: Vec<u8>,
+    /// The views, packed; `f32` once the alignment warped them.
+    pub(crate) views: Samples,
     pub(crate) layout: Layout,
     pub(crate) plan: Plan,
     stages: Stages,
@@ -178,7 +180,8 @@ pub struct Estimator {
 
 impl Estimator {
     /// The alignment prelude (once): estimates the homographies and, unless skipped,
-    /// replaces the views the stages read by their rectified versions.
+    /// replaces the views by the rectified views the stages read, in `f32` (the others
+    /// zero), as the `lfdepth` tool warps them.
     fn align_views(
         &mut self,
         report: &mut dyn FnMut(Progress) -> ControlFlow<()>,
@@ -187,29 +190,23 @@ impl Estimator {
             return Ok(());
         }
         let mut homographies = vec![Homography::IDENTITY; self.layout.grid.len()];
-        let outcome = {
-            let lf = LightField::new(&self.views, self.layout)?;
-            let mut scratch = vec![0.0f32; pipeline::align_scratch_len(&self.plan)?];
-            // Views no stage reads keep their original samples.
-            let mut rectified = self.views.clone();
-            let outcome = pipeline::align_views(
-                &self.plan,
-                &lf,
-                self.stages,
-                &mut AlignBuffers {
-                    homographies: &mut homographies,
-                    scratch: &mut scratch,
-                    aligned: &mut rectified,
-                },
-                report,
-            )?;
-            if !outcome.skipped {
-                self.views = rectified;
-                // The stages compare warped views from now on (`replan` keeps this).
-                self.plan = pipeline::resampled_plan(&self.plan)?;
-            }
-            outcome
+        let mut scratch = vec![0.0f32; pipeline::align_scratch_len(&self.plan)?];
+        // Zeroed pages never written (views no stage reads) cost no memory.
+        let mut rectified = vec![0.0f32; pipeline::aligned_len(&self.plan)?];
+        let mut buffers = AlignBuffers {
+            homographies: &mut homographies,
+            scratch: &mut scratch,
+            aligned: &mut rectified,
         };
+        let outcome = with_light_field!(&self.views, self.layout, |lf| {
+            pipeline::align_views(&self.plan, &lf?, self.stages, &mut buffers, report)?
+        });
+        drop(scratch);
+        if !outcome.skipped {
+            self.views = Samples::F32(rectified);
+            // The stages compare warped views from now on (`replan` keeps this).
+            self.plan = pipeline::resampled_plan(&self.plan)?;
+        }
         self.aligned = Some(AlignResult {
             report: outcome,
             homographies,
@@ -223,7 +220,7 @@ impl Estimator {
     /// An estimator over `views` (validated against `layout` by the caller); `partial`:
     /// only the views `stages` read are filled.
     pub(crate) fn with_views(
-        views: Vec<u8>,
+        views: Samples,
         layout: Layout,
         plan: Plan,
         stages: Stages,
@@ -264,7 +261,7 @@ impl Estimator {
     }
 
     /// The views the stages read from (rectified once aligned), packed.
-    pub(crate) fn views_bytes(&self) -> &[u8] {
+    pub(crate) fn samples(&self) -> &Samples {
         &self.views
     }
 
@@ -277,16 +274,19 @@ impl Estimator {
 #[wasm_bindgen]
 impl Estimator {
     /// Copies `views` (packed, row-major grid order, `rows · cols · height · width ·
-    /// channels` bytes) and validates `shape` and `params` against the core's limits.
+    /// channels` samples: bytes, or `f32` intensities in nominal [0, 1] as `views` of
+    /// an aligned estimator holds them) and validates `shape` and `params` against the
+    /// core's limits.
     #[wasm_bindgen(constructor)]
     pub fn new(
-        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray")] views: JsValue,
+        #[wasm_bindgen(unchecked_param_type = "Uint8Array | Uint8ClampedArray | Float32Array")]
+        views: JsValue,
         #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,
         #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
     ) -> Result<Estimator, JsError> {
         let (layout, plan, stages) = params::plan(&shape, params)?;
-        let views = js::bytes(&views, "views")?;
-        LightField::new(&views, layout).map_err(error)?;
+        let views = Samples::from_js(&views, "views")?;
+        with_light_field!(&views, layout, |lf| lf.map(|_| ())).map_err(error)?;
         Ok(Estimator::with_views(views, layout, plan, stages, false))
     }
 
@@ -324,19 +324,20 @@ impl Estimator {
         };
         let timings = with_progress(on_progress, |report| {
             self.align_views(report)?;
-            let lf = LightField::new(&self.views, self.layout)?;
             let mut scratch = vec![0.0f32; pipeline::stage_scratch_len(&self.plan, self.stages)];
-            pipeline::run(
-                &self.plan,
-                &lf,
-                self.stages,
-                &mut disparity,
-                &mut confidence,
-                &mut scratch,
-                &mut maps,
-                &mut history,
-                report,
-            )
+            with_light_field!(&self.views, self.layout, |lf| {
+                pipeline::run(
+                    &self.plan,
+                    &lf?,
+                    self.stages,
+                    &mut disparity,
+                    &mut confidence,
+                    &mut scratch,
+                    &mut maps,
+                    &mut history,
+                    report,
+                )
+            })
         })?;
         Ok(EstimateResult {
             width: self.layout.width,
@@ -380,11 +381,13 @@ impl Estimator {
         })
     }
 
-    /// The views the stages read (a copy, packed as given): the rectified ones once
-    /// `align()` aligned them.
-    #[wasm_bindgen(getter)]
-    pub fn views(&self) -> js_sys::Uint8Array {
-        js_sys::Uint8Array::from(&self.views[..])
+    /// The views the stages read from (a copy, packed as given): once `align()`
+    /// aligned them, a `Float32Array` of the rectified views the stages read (intensity
+    /// in [0, 1], not rounded to 8 bits; the views no stage reads are zero), which
+    /// `new Estimator` takes as it is.
+    #[wasm_bindgen(getter, unchecked_return_type = "Uint8Array | Float32Array")]
+    pub fn views(&self) -> JsValue {
+        self.views.to_js()
     }
 }
 

@@ -130,13 +130,6 @@ pub fn now_ms() -> f64 {
         .unwrap_or(0.0)
 }
 
-/// The bytes of a `Uint8Array` or `Uint8ClampedArray`.
-pub fn bytes(value: &JsValue, what: &str) -> Result<Vec<u8>, JsError> {
-    u8_array(value)
-        .map(|a| a.to_vec())
-        .ok_or_else(|| message(&format!("{what} must be a Uint8Array or Uint8ClampedArray")))
-}
-
 /// `value` as a `Uint8Array`: itself, or a `Uint8ClampedArray` viewed over the same
 /// bytes (no copy); `None` for anything else.
 pub fn u8_array(value: &JsValue) -> Option<js_sys::Uint8Array> {

@@ -24,6 +24,7 @@ mod params;
 #[cfg(feature = "png")]
 mod png;
 mod run;
+mod samples;
 mod synth;
 mod views;
 

@@ -9,12 +9,13 @@
 use lfdepth::epi::Direction;
 use lfdepth::pipeline::Stages;
 use lfdepth::schedule::{Cursor, PartOutput, PartScratch, Schedule, State, StateMaps, Step};
-use lfdepth::{LightField, Plan};
+use lfdepth::Plan;
 use wasm_bindgen::prelude::*;
 
 use crate::estimator::{iterations_run, Estimator, WorkerRun};
 use crate::js::{error, message};
 use crate::params;
+use crate::samples::with_light_field;
 
 /// The state of one run on the page's thread: the maps between the steps.
 #[wasm_bindgen]
@@ -320,7 +321,6 @@ impl Estimator {
         index: usize,
     ) -> Result<js_sys::Float32Array, JsError> {
         self.worker_run(workers)?;
-        let lf = LightField::new(&self.views, self.layout).map_err(error)?;
         let Some(run) = self.run.as_mut() else {
             return Err(message("no run: call setInputs first"));
         };
@@ -337,20 +337,16 @@ impl Estimator {
             .set(&plan, StateMaps::default(), run.range)
             .map_err(error)?;
         let mut out = PartOutput::split(&mut output, len).map_err(error)?;
-        run.schedule
-            .run_part(
-                step,
-                index,
-                &lf,
-                &state,
-                &mut out,
-                PartScratch {
-                    kernel: &mut kernel,
-                    maps: &mut maps,
-                    flags: &mut flags,
-                },
-            )
-            .map_err(error)?;
+        let scratch = PartScratch {
+            kernel: &mut kernel,
+            maps: &mut maps,
+            flags: &mut flags,
+        };
+        with_light_field!(&self.views, self.layout, |lf| {
+            run.schedule
+                .run_part(step, index, &lf?, &state, &mut out, scratch)
+        })
+        .map_err(error)?;
         Ok(js_sys::Float32Array::from(&output[..]))
     }
 

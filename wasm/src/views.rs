@@ -6,12 +6,13 @@
 
 use lfdepth::align::AlignMode;
 use lfdepth::pipeline::{self, Stages};
-use lfdepth::{Layout, LightField, Plan};
+use lfdepth::{Layout, Plan};
 use wasm_bindgen::prelude::*;
 
 use crate::estimator::Estimator;
-use crate::js::{self, error, message};
+use crate::js::{error, message};
 use crate::params;
+use crate::samples::{with_light_field, Samples};
 
 /// The grid indices (row-major) of the views `plan`'s `stages` read, ascending.
 fn read_indices(plan: &Plan, stages: Stages) -> Vec<usize> {
@@ -20,7 +21,7 @@ fn read_indices(plan: &Plan, stages: Stages) -> Vec<usize> {
         .collect()
 }
 
-/// Bytes of one packed view of `layout`.
+/// Samples of one packed view of `layout`.
 fn view_len(layout: &Layout) -> usize {
     layout.view_stride
 }
@@ -47,13 +48,16 @@ impl Estimator {
     /// `Uint8Array` (or `Uint8ClampedArray`) of `height · width · channels` bytes per
     /// index of `readViews(shape, params)`, in that order (e.g. `subarray`s of one
     /// packed buffer, or of a `SharedArrayBuffer` with the whole light field: each is
-    /// copied once, into wasm memory). Gives the same bits as `new Estimator` with every
-    /// view for the estimate and every part (`runPart`). `params.align` must be "off": the alignment reads
-    /// views outside this set (align with `new Estimator(...).align()` first, then send
-    /// its `readViews`).
+    /// copied once, into wasm memory), or one `Float32Array` of as many samples per index
+    /// (the rectified views of an aligned estimator's `readViews`). Gives the same bits as
+    /// `new Estimator` with every view for the estimate and every part (`runPart`).
+    /// `params.align` must be "off": the alignment reads views outside this set (align
+    /// with `new Estimator(...).align()` first, then send its `readViews`).
     #[wasm_bindgen(js_name = fromReadViews)]
     pub fn from_read_views(
-        #[wasm_bindgen(unchecked_param_type = "Array<Uint8Array | Uint8ClampedArray>")]
+        #[wasm_bindgen(
+            unchecked_param_type = "Array<Uint8Array | Uint8ClampedArray> | Array<Float32Array>"
+        )]
         views: js_sys::Array,
         #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,
         #[wasm_bindgen(unchecked_param_type = "EstimateParams")] params: Option<JsValue>,
@@ -76,22 +80,23 @@ impl Estimator {
         }
         // The other views stay zero. The allocator writes every byte of this buffer (on a
         // fresh worker that is most of this call's time: the page keeps its workers'
-        // estimators between estimates).
-        let mut all = vec![0u8; layout.validate().map_err(error)?];
+        // estimators between estimates). The first view says the sample type.
+        let mut all = Samples::zeros_like(&views.get(0), layout.validate().map_err(error)?);
         let len = view_len(&layout);
         for (i, (value, &index)) in views.iter().zip(&indices).enumerate() {
-            let out = index
+            let range = index
                 .checked_mul(len)
-                .and_then(|start| all.get_mut(start..start.checked_add(len)?))
+                .and_then(|start| Some(start..start.checked_add(len)?))
                 .ok_or_else(|| message("the light field is too large"))?;
-            copy_view(&value, out).map_err(|got| {
+            all.copy_in(&value, range).map_err(|got| {
                 message(&format!(
                     "views[{i}] (grid view {index}) must be a Uint8Array of {len} bytes \
-                     (height · width · channels), not {got}"
+                     (height · width · channels), or a Float32Array of as many samples \
+                     when every view is, not {got}"
                 ))
             })?;
         }
-        LightField::new(&all, layout).map_err(error)?;
+        with_light_field!(&all, layout, |lf| lf.map(|_| ())).map_err(error)?;
         Ok(Estimator::with_views(all, layout, plan, stages, true))
     }
 
@@ -135,30 +140,16 @@ impl Estimator {
 
     /// The views the stages read (`readViews(shape, params)` of this estimator's
     /// parameters with `align: "off"`), packed one after the other: a copy, after
-    /// `align()` the rectified ones. What `fromReadViews` takes, cut per view.
-    #[wasm_bindgen(getter, js_name = readViews)]
-    pub fn read_views_packed(&self) -> js_sys::Uint8Array {
+    /// `align()` the rectified ones (a `Float32Array`). What `fromReadViews` takes, cut
+    /// per view.
+    #[wasm_bindgen(
+        getter,
+        js_name = readViews,
+        unchecked_return_type = "Uint8Array | Float32Array"
+    )]
+    pub fn read_views_packed(&self) -> JsValue {
         let layout = *self.plan.layout();
-        let len = view_len(&layout);
         let indices = read_indices(&self.plan, self.stages());
-        let out = js_sys::Uint8Array::new_with_length((indices.len() * len) as u32);
-        for (i, &index) in indices.iter().enumerate() {
-            if let Some(view) = self.views_bytes().get(index * len..(index + 1) * len) {
-                out.subarray((i * len) as u32, ((i + 1) * len) as u32)
-                    .copy_from(view);
-            }
-        }
-        out
+        self.samples().packed_js(&indices, view_len(&layout))
     }
-}
-
-/// Copies a `Uint8Array` or `Uint8ClampedArray` of exactly `out.len()` bytes into `out`;
-/// else says what `value` is.
-fn copy_view(value: &JsValue, out: &mut [u8]) -> Result<(), String> {
-    let a = js::u8_array(value).ok_or_else(|| "another type".to_string())?;
-    if a.length() as usize != out.len() {
-        return Err(format!("{} bytes", a.length()));
-    }
-    a.copy_to(out);
-    Ok(())
 }

@@ -79,7 +79,7 @@ fn core_errors_cross_as_js_errors_with_the_core_message() {
     let e = Estimator::new(JsValue::from_str("views"), shape(32), None)
         .err()
         .unwrap();
-    assert!(message(e).contains("Uint8Array or Uint8ClampedArray"));
+    assert!(message(e).contains("Uint8Array, Uint8ClampedArray or Float32Array"));
     let e = Estimator::new(
         Uint8Array::new_with_length(10).into(),
         shape(32),
