@@ -1,8 +1,9 @@
 //! PNG in and out through the `png` crate, as the `lfdepth` tool does: views decoded into
 //! the samples `Estimator` takes, and the tool's colour-mapped `--png` picture.
 
-use ::png::{BitDepth, ColorType, Decoder, Encoder, Limits, Transformations};
+use ::png::{BitDepth, ColorType, Encoder};
 use lfdepth_picture::colormap;
+use lfdepth_picture::decode::{self, DecodeError, Header, Samples};
 use wasm_bindgen::prelude::*;
 
 use crate::js::message;
@@ -10,13 +11,6 @@ use crate::js::message;
 /// The most pixels one view may have unless `maxPixels` says otherwise: 64Mi (8192×8192),
 /// as the tool's `--max-view-pixels`.
 pub const DEFAULT_MAX_VIEW_PIXELS: f64 = (1u64 << 26) as f64;
-
-/// Deflate cannot compress better than about 1032:1; a header promising more pixel data
-/// than that is corrupt, and refusing it avoids allocating for it.
-const MAX_DEFLATE_RATIO: u64 = 1100;
-
-/// Most bytes the decoder may allocate besides the image (row buffers, metadata chunks).
-const METADATA_LIMIT: usize = 64 << 20;
 
 /// A decoded PNG view: 8-bit samples, interleaved per pixel, top row first.
 #[wasm_bindgen]
@@ -64,61 +58,35 @@ pub fn decode_png(bytes: &[u8], max_pixels: Option<f64>) -> Result<PngImage, JsE
             "maxPixels must be at least 1, not {max_pixels}"
         )));
     }
-    let fail = |e: ::png::DecodingError| message(&format!("not a readable PNG image: {e}"));
-    let mut decoder = Decoder::new(bytes);
-    decoder.set_transformations(Transformations::EXPAND);
-    decoder.set_limits(Limits {
-        bytes: METADATA_LIMIT,
-    });
-    let mut reader = decoder.read_info().map_err(fail)?;
-    let info = reader.info();
-    let (width, height) = (info.width as usize, info.height as usize);
-    let pixels = u64::from(info.width) * u64::from(info.height);
-    if pixels == 0 {
-        return Err(message(&format!(
-            "the PNG image is {width}x{height} pixels: an empty image cannot be used"
-        )));
-    }
-    if pixels as f64 > max_pixels {
-        return Err(message(&format!(
-            "the PNG header declares {width}x{height} pixels, more than the {max_pixels} a view may have: pass a larger maxPixels"
-        )));
-    }
-    if info.raw_bytes() as u64 > (bytes.len() as u64).saturating_mul(MAX_DEFLATE_RATIO) {
-        return Err(message(&format!(
-            "the PNG header declares {width}x{height} pixels, far more than its {} bytes can hold: the file is corrupt or truncated",
-            bytes.len()
-        )));
-    }
-    let (color, depth) = reader.output_color_type();
-    let channels = match color {
-        ColorType::Grayscale => 1,
-        ColorType::GrayscaleAlpha => 2,
-        ColorType::Rgb => 3,
-        ColorType::Rgba => 4,
-        ColorType::Indexed => {
-            return Err(message(
-                "the PNG palette could not be expanded: re-save the image as RGB",
+    let (reader, header) = decode::start(bytes, bytes.len() as u64, |width, height| {
+        if (width as f64) * (height as f64) > max_pixels {
+            Err(format!(
+                "{width}x{height} pixels, more than the {max_pixels} a view may have: pass a larger maxPixels"
             ))
+        } else {
+            Ok(())
         }
-    };
-    match depth {
-        BitDepth::Eight => {}
-        BitDepth::Sixteen => {
+    })
+    .map_err(|e| match e {
+        DecodeError::BitDepth(bits) => message(&format!(
+            "PNG samples of {bits} bits could not be expanded to 8: re-save the image with 8 bits"
+        )),
+        other => message(&other.to_string()),
+    })?;
+    let Header {
+        width,
+        height,
+        channels,
+        ..
+    } = header;
+    let buf = match decode::finish(reader, header).map_err(|e| message(&e.to_string()))? {
+        Samples::Eight(samples) => samples,
+        Samples::Sixteen(_) => {
             return Err(message(
                 "the PNG image has 16-bit samples: the package takes 8-bit views (the lfdepth tool reads 16-bit ones)",
             ))
         }
-        other => {
-            return Err(message(&format!(
-                "PNG samples of {} bits could not be expanded to 8: re-save the image with 8 bits",
-                other as u8
-            )))
-        }
-    }
-    let mut buf = vec![0u8; reader.output_buffer_size()];
-    let frame = reader.next_frame(&mut buf).map_err(fail)?;
-    buf.truncate(frame.buffer_size());
+    };
     if buf.len() != width * height * channels {
         return Err(message(&format!(
             "the PNG image decoded to {} samples, not the {width}x{height}x{channels} its header declares",

@@ -1,5 +1,7 @@
 //! PNG reading (8- and 16-bit; gray, gray+alpha, RGB, RGBA, palette) and writing, on top
-//! of the `png` crate. Palette and sub-byte images are expanded to 8 bits per sample.
+//! of the `png` crate. Views are decoded by `lfdepth_picture::decode`, as the wasm
+//! package's `decodePng` decodes them: palette and sub-byte images are expanded to 8 bits
+//! per sample.
 //!
 //! Disparity maps are written as 16-bit gray with the linear mapping
 //! `value = round((d − min) / (max − min) · 65535)`, i.e. `d = min + value / 65535 ·
@@ -10,18 +12,12 @@ use std::fs::File;
 use std::io::{BufReader, Cursor, Read};
 use std::path::Path;
 
-use ::png::{BitDepth, ColorType, Decoder, Encoder, Limits, Transformations};
+use ::png::{BitDepth, ColorType, Encoder};
+use lfdepth_picture::decode;
 
 use super::{write_bytes, IoError};
 
-/// Samples of a decoded image, interleaved per pixel, top row first.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Samples {
-    /// 8 bits per sample.
-    Eight(Vec<u8>),
-    /// 16 bits per sample.
-    Sixteen(Vec<u16>),
-}
+pub use lfdepth_picture::decode::{Header, Samples};
 
 /// A decoded image.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,98 +70,6 @@ impl Image {
     }
 }
 
-/// Deflate cannot compress better than about 1032:1; a header promising more pixel data
-/// than that is corrupt, and refusing it avoids allocating for it.
-const MAX_DEFLATE_RATIO: u64 = 1100;
-
-/// Most bytes the `png` crate may allocate besides the image (its row buffers and
-/// metadata chunks such as text and ICC profiles): its own default, far more than the
-/// rows of any image within the pixel caps or any real file's metadata need.
-const METADATA_LIMIT: usize = 64 << 20;
-
-fn describe(e: ::png::DecodingError) -> IoError {
-    IoError::format(format!("not a readable PNG image: {}", explain(&e)))
-}
-
-/// The `png` crate's message in words a user can act on: chunk types by their four
-/// letters (the crate prints its `ChunkType` structure), checksum and deflate failures
-/// as a damaged file, an early end as a truncated one.
-fn explain(e: &::png::DecodingError) -> String {
-    use ::png::DecodingError;
-    let damaged = "the file is damaged: export or copy it again";
-    match e {
-        DecodingError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
-            format!("the file ends early (truncated): {damaged}")
-        }
-        DecodingError::IoError(io) => format!("reading it failed: {io}"),
-        DecodingError::LimitsExceeded => format!(
-            "its metadata chunks need more than {} MiB: the file is corrupt or not a light-field view",
-            METADATA_LIMIT >> 20
-        ),
-        other => {
-            let text = chunk_names(&other.to_string());
-            if text.starts_with("CRC error") {
-                let chunk = text
-                    .rsplit_once("while decoding ")
-                    .map(|(_, rest)| rest.trim_end_matches(" chunk."))
-                    .filter(|name| name.len() == 4)
-                    .map_or_else(|| "a chunk".to_string(), |name| format!("its {name} chunk"));
-                format!("the checksum (CRC) of {chunk} does not match: {damaged}")
-            } else if text.starts_with("Corrupt deflate stream") {
-                format!("its compressed pixel data is corrupt: {damaged}")
-            } else {
-                format!("{}: {damaged}", text.trim_end_matches('.'))
-            }
-        }
-    }
-}
-
-/// `text` with every `ChunkType { type: IHDR, critical: … }` replaced by `IHDR` (by
-/// `an invalid` when the type is not four ASCII letters).
-fn chunk_names(text: &str) -> String {
-    const OPEN: &str = "ChunkType { type: ";
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    while let Some(start) = rest.find(OPEN) {
-        out.push_str(&rest[..start]);
-        let after = &rest[start + OPEN.len()..];
-        // The type's characters come from the file and may be anything, braces included:
-        // the structure ends at the first ` }` after its `critical` field.
-        let end = after.find(", critical: ").and_then(|critical| {
-            after[critical..]
-                .find(" }")
-                .map(|close| (critical, critical + close))
-        });
-        let Some((critical, close)) = end else {
-            out.push_str("an invalid");
-            return out;
-        };
-        let name = &after[..critical];
-        if name.len() == 4 && name.bytes().all(|b| b.is_ascii_alphabetic()) {
-            out.push_str(name);
-        } else {
-            out.push_str("an invalid");
-        }
-        rest = &after[close + 2..];
-    }
-    out.push_str(rest);
-    out
-}
-
-/// What a PNG header promises, as [`decode`] would return it (palette and sub-byte
-/// images expanded to 8 bits per sample).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Header {
-    /// Columns.
-    pub width: usize,
-    /// Rows.
-    pub height: usize,
-    /// Samples per pixel: 1 gray, 2 gray+alpha, 3 RGB, 4 RGBA.
-    pub channels: usize,
-    /// Bits per sample: 8 or 16.
-    pub bit_depth: u8,
-}
-
 /// Reads the header chunks of a PNG stream (not its pixels) and checks them against
 /// `max_pixels` and the stream length `len` in bytes.
 fn start<R: Read>(
@@ -173,76 +77,19 @@ fn start<R: Read>(
     len: u64,
     max_pixels: u64,
 ) -> Result<(::png::Reader<R>, Header), IoError> {
-    let mut decoder = Decoder::new(source);
-    decoder.set_transformations(Transformations::EXPAND);
-    decoder.set_limits(Limits {
-        bytes: METADATA_LIMIT,
-    });
-    let reader = decoder.read_info().map_err(describe)?;
-    let info = reader.info();
-    let (width, height) = (info.width as usize, info.height as usize);
-    if width == 0 || height == 0 {
-        return Err(IoError::format(format!(
-            "the PNG image is {width}x{height} pixels: an empty image cannot be used"
-        )));
-    }
     let limits = super::limits::Limits {
         max_view_pixels: max_pixels,
         ..super::limits::Limits::default()
     };
-    limits
-        .check_view(width, height)
-        .map_err(|e| IoError::format(format!("the PNG header declares {e}")))?;
-    if info.raw_bytes() as u64 > len.saturating_mul(MAX_DEFLATE_RATIO) {
-        return Err(IoError::format(format!(
-            "the PNG header declares {width}x{height} pixels, far more than its {len} bytes can hold: the file is corrupt or truncated"
-        )));
-    }
-    let (color, depth) = reader.output_color_type();
-    let channels = match color {
-        ColorType::Grayscale => 1,
-        ColorType::GrayscaleAlpha => 2,
-        ColorType::Rgb => 3,
-        ColorType::Rgba => 4,
-        ColorType::Indexed => {
-            return Err(IoError::format(
-                "the PNG palette could not be expanded: re-save the image as RGB",
-            ))
-        }
-    };
-    let bit_depth = match depth {
-        BitDepth::Sixteen => 16,
-        BitDepth::Eight => 8,
-        other => {
-            return Err(IoError::format(format!(
-                "PNG samples of {} bits could not be expanded to 8: re-save the image with 8 or 16 bits",
-                other as u8
-            )))
-        }
-    };
-    let header = Header {
-        width,
-        height,
-        channels,
-        bit_depth,
-    };
-    Ok((reader, header))
+    decode::start(source, len, |width, height| {
+        limits.check_view(width, height).map_err(|e| e.to_string())
+    })
+    .map_err(|e| IoError::format(e.to_string()))
 }
 
 /// Decodes the pixels of a started stream.
-fn finish<R: Read>(mut reader: ::png::Reader<R>, header: Header) -> Result<Image, IoError> {
-    let mut buf = vec![0u8; reader.output_buffer_size()];
-    let frame = reader.next_frame(&mut buf).map_err(describe)?;
-    buf.truncate(frame.buffer_size());
-    let samples = if header.bit_depth == 16 {
-        Samples::Sixteen(
-            buf.chunks_exact(2)
-                .map(|b| u16::from_be_bytes([b[0], b[1]]))
-                .collect(),
-        )
-    } else {
-        Samples::Eight(buf)
-    };
+fn finish<R: Read>(reader: ::png::Reader<R>, header: Header) -> Result<Image, IoError> {
+    let samples = decode::finish(reader, header).map_err(|e| IoError::format(e.to_string()))?;
     let image = Image {
         width: header.width,
         height: header.height,
@@ -429,24 +276,6 @@ mod tests {
     fn disparity_mapping_hits_both_ends() {
         let img = disparity_to_gray16(4, 1, &[-1.0, 1.0, 0.0, f32::NAN], -1.0, 1.0);
         assert_eq!(img.samples, Samples::Sixteen(vec![0, 65535, 32768, 0]));
-    }
-
-    #[test]
-    fn chunk_types_are_named_by_their_letters() {
-        assert_eq!(
-            chunk_names("while decoding ChunkType { type: IHDR, critical: true, private: false, reserved: false, safecopy: false } chunk."),
-            "while decoding IHDR chunk."
-        );
-        assert_eq!(chunk_names("no chunk here"), "no chunk here");
-        assert_eq!(
-            chunk_names("ChunkType { type: e { , critical: false } chunk appeared before IHDR"),
-            "an invalid chunk appeared before IHDR"
-        );
-        assert_eq!(chunk_names("cut ChunkType { type: IDAT"), "cut an invalid");
-        assert_eq!(
-            chunk_names("ChunkType { type: a }b, critical: false, safecopy: true } chunk"),
-            "an invalid chunk"
-        );
     }
 
     #[test]
