@@ -6,7 +6,7 @@ use crate::scalar::Scalar;
 
 use super::gather::{Chunk, Gathered};
 use super::sampling::{lanes, unpack};
-use super::statistics::{energies, used, Interval, LaneSlack};
+use super::statistics::{energies, used, Interval, LaneSlack, PixelProbe};
 use super::{Views, CHUNK, STATS};
 
 impl<T: Scalar> Views<T> {
@@ -53,6 +53,13 @@ impl<T: Scalar> Views<T> {
         let (slack, regular_slack) = self.slacks::<S, CH, N, L, SLACK>(data, (x, y), &centre);
         // The common case first: every regular tap sees the pixel, and none needs the
         // border's clamped samples.
+        let centre_used = used::<T, L, N>(&centre);
+        let probe = PixelProbe {
+            centre: &centre_used,
+            d,
+            half: self.half,
+            robust: (robust, scaled),
+        };
         let mut cursor = 0;
         if self.regular {
             let (mut cells, mut fractions) = ([0i32; CHUNK], [T::ZERO; CHUNK]);
@@ -61,9 +68,7 @@ impl<T: Scalar> Views<T> {
                     data,
                     (x, y),
                     (&cells, &fractions),
-                    &used::<T, L, N>(&centre),
-                    d,
-                    (robust, scaled),
+                    &probe,
                     regular_slack.as_ref(),
                     out,
                 )
@@ -75,7 +80,6 @@ impl<T: Scalar> Views<T> {
         // a chunk (zeroed: not needed when the regular taps are done).
         if cursor < self.axis_len {
             let mut chunk = Chunk::<T, S, N>::new();
-            let centre_used = used::<T, L, N>(&centre);
             let gathered = if self.regular {
                 self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk)
             } else {
@@ -88,10 +92,7 @@ impl<T: Scalar> Views<T> {
                 Gathered::Every => chunk.statistics(
                     CHUNK,
                     &self.levels,
-                    &centre_used,
-                    d,
-                    self.half,
-                    (robust, scaled),
+                    &probe,
                     Some((groups, None)),
                     regular_slack.as_ref(),
                     out,
@@ -99,10 +100,7 @@ impl<T: Scalar> Views<T> {
                 Gathered::Masked(seen) => chunk.statistics(
                     CHUNK,
                     &self.levels,
-                    &centre_used,
-                    d,
-                    self.half,
-                    (robust, scaled),
+                    &probe,
                     Some((groups, Some(&seen))),
                     regular_slack.as_ref(),
                     out,
@@ -119,17 +117,7 @@ impl<T: Scalar> Views<T> {
                     break;
                 }
                 let lane_slack = slack.as_ref().map(|s| chunk.slack(s));
-                chunk.statistics(
-                    n,
-                    &self.levels,
-                    &centre_used,
-                    d,
-                    self.half,
-                    (robust, scaled),
-                    None,
-                    lane_slack.as_ref(),
-                    out,
-                );
+                chunk.statistics(n, &self.levels, &probe, None, lane_slack.as_ref(), out);
             }
         }
         for tap in self.oblique_taps() {
