@@ -53,13 +53,6 @@ impl<T: Scalar> Views<T> {
         let (slack, regular_slack) = self.slacks::<S, CH, N, L, SLACK>(data, (x, y), &centre);
         // The common case first: every regular tap sees the pixel, and none needs the
         // border's clamped samples.
-        let centre_used = used::<T, L, N>(&centre);
-        let probe = PixelProbe {
-            centre: &centre_used,
-            d,
-            half: self.half,
-            robust: (robust, scaled),
-        };
         let mut cursor = 0;
         if self.regular {
             let (mut cells, mut fractions) = ([0i32; CHUNK], [T::ZERO; CHUNK]);
@@ -68,7 +61,12 @@ impl<T: Scalar> Views<T> {
                     data,
                     (x, y),
                     (&cells, &fractions),
-                    &probe,
+                    &PixelProbe {
+                        centre: &used::<T, L, N>(&centre),
+                        d,
+                        half: self.half,
+                        robust: (robust, scaled),
+                    },
                     regular_slack.as_ref(),
                     out,
                 )
@@ -80,6 +78,13 @@ impl<T: Scalar> Views<T> {
         // a chunk (zeroed: not needed when the regular taps are done).
         if cursor < self.axis_len {
             let mut chunk = Chunk::<T, S, N>::new();
+            let centre_used = used::<T, L, N>(&centre);
+            let probe = PixelProbe {
+                centre: &centre_used,
+                d,
+                half: self.half,
+                robust: (robust, scaled),
+            };
             let gathered = if self.regular {
                 self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk)
             } else {
