@@ -88,10 +88,14 @@ fn bench(c: &mut Criterion) {
             lfdepth::pipeline::estimate(
                 &plan,
                 &lf,
-                &mut d,
-                &mut conf,
-                &mut scratch,
-                &mut maps,
+                lfdepth::setup::DisparityOut {
+                    disparity: &mut d,
+                    confidence: &mut conf,
+                },
+                lfdepth::pipeline::RunScratch {
+                    kernel: &mut scratch,
+                    maps: &mut maps,
+                },
                 &mut |_| ControlFlow::Continue(()),
             )
             .unwrap()

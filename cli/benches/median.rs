@@ -91,9 +91,11 @@ fn engine_passes(
     let [a, b, next] = maps;
     median::filter_pass(
         plan.median(),
-        &guide,
-        input,
-        None,
+        median::PassInput {
+            guide: &guide,
+            input,
+            previous: None,
+        },
         0..height,
         b,
         settled,
@@ -104,9 +106,11 @@ fn engine_passes(
     for _ in 1..plan.params().median.passes {
         median::filter_pass(
             plan.median(),
-            &guide,
-            b,
-            Some(a),
+            median::PassInput {
+                guide: &guide,
+                input: b,
+                previous: Some(a),
+            },
             0..height,
             next,
             settled,

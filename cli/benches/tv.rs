@@ -72,8 +72,10 @@ fn run<S: Scalar>(inputs: &Inputs, params: TvParams, scratch: &mut [S]) -> tv::R
         &guide,
         &mut out,
         &mut history,
-        scratch,
-        &mut vec![0.0; tv::dual_len(plan.tv())],
+        tv::TvScratch {
+            kernel: scratch,
+            duals: &mut vec![0.0; tv::dual_len(plan.tv())],
+        },
     )
     .unwrap()
 }

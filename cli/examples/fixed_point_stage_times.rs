@@ -111,8 +111,10 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
             &guide,
             &mut od,
             &mut [],
-            &mut work,
-            &mut duals,
+            tv::TvScratch {
+                kernel: &mut work,
+                duals: &mut duals,
+            },
         )
         .unwrap();
     });
@@ -121,11 +123,15 @@ fn stage_cpu<T: Scalar>(lf: &LightField<'_, u8>, repeats: usize) -> [f64; 4] {
             &plan,
             lf,
             Stages::Full,
-            &mut od,
-            &mut oc,
-            &mut work,
-            &mut mid,
-            &mut [],
+            pipeline::RunOutput {
+                disparity: &mut od,
+                confidence: &mut oc,
+                history: &mut [],
+            },
+            pipeline::RunScratch {
+                kernel: &mut work,
+                maps: &mut mid,
+            },
             &mut |_| ControlFlow::Continue(()),
         )
         .unwrap();

@@ -263,9 +263,11 @@ fn refine_through_homographies() {
                     ),
                     Some((maps, how)) => refine::refine_band_mapped(
                         plan.refine(),
-                        &lf,
-                        maps,
-                        how,
+                        refine::MappedViews {
+                            lf: &lf,
+                            homographies: maps,
+                            interpolation: how,
+                        },
                         init.1,
                         &init.0,
                         rows,

@@ -7,13 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{assert_fails, lfdepth};
+use common::{arg, assert_fails, lfdepth};
 use lfdepth::options::{Flag, Kind, TUNABLES};
 use lfdepth_cli::io::pfm::{self, Pfm};
-
-fn s(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
@@ -28,14 +24,14 @@ fn synth(dir: &Path, size: usize) {
         "--size",
         &size.to_string(),
         "--out",
-        s(dir),
+        arg(dir),
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
 }
 
 fn estimate(scene: &Path, extra: &[&str]) -> Output {
     let out = scene.parent().unwrap().join("out.pfm");
-    let mut args = vec!["estimate", s(scene), "-o", s(&out)];
+    let mut args = vec!["estimate", arg(scene), "-o", arg(&out)];
     args.extend_from_slice(extra);
     lfdepth(&args)
 }
@@ -107,9 +103,9 @@ fn unreadable_views_are_named_for_what_they_are_not_missing() {
         let out = lfdepth_within(
             &[
                 "estimate",
-                s(dir.path()),
+                arg(dir.path()),
                 "-o",
-                s(&dir.path().join("o.pfm")),
+                arg(&dir.path().join("o.pfm")),
             ],
             Duration::from_secs(60),
         );
@@ -131,7 +127,7 @@ fn a_nonexistent_input_is_not_called_not_a_folder() {
         &["file.txt", "is a file, not a folder"],
     );
     assert_fails(
-        &lfdepth(&["eval", "--dataset", s(&nowhere)]),
+        &lfdepth(&["eval", "--dataset", arg(&nowhere)]),
         &["nowhere", "does not exist", "scenes"],
     );
 }
@@ -150,9 +146,9 @@ fn a_folder_that_cannot_be_made_is_named_in_plain_words() {
             "--size",
             "16",
             "--out",
-            s(&inside),
+            arg(&inside),
         ],
-        vec!["demo", "--size", "32", "--out", s(&inside)],
+        vec!["demo", "--size", "32", "--out", arg(&inside)],
     ] {
         let line = assert_fails(&lfdepth(&args), &["scene: cannot create it:"]);
         assert!(!line.contains("the folder it"), "{line}");
@@ -181,7 +177,7 @@ fn eval_dataset_follows_links_and_reports_a_broken_scene_after_the_others() {
     let args = [
         "eval",
         "--dataset",
-        s(root.path()),
+        arg(root.path()),
         "--stage",
         "epi",
         "--align",
@@ -266,7 +262,7 @@ fn a_cfg_resolution_unlike_the_views_warns_and_blocks_metric_depth() {
     cfg_with_resolution(&scene, 32, 32);
     let depth = dir.path().join("depth.pfm");
     let epi = ["--stage", "epi", "--align", "off"];
-    let ok = estimate(&scene, &[&epi[..], &["--depth", s(&depth)]].concat());
+    let ok = estimate(&scene, &[&epi[..], &["--depth", arg(&depth)]].concat());
     assert!(ok.status.success(), "{}", stderr(&ok));
     assert!(!stderr(&ok).contains("warning: "), "{}", stderr(&ok));
     std::fs::write(
@@ -286,7 +282,7 @@ fn a_cfg_resolution_unlike_the_views_warns_and_blocks_metric_depth() {
     );
     std::fs::remove_file(&depth).unwrap();
     assert_fails(
-        &estimate(&scene, &[&epi[..], &["--depth", s(&depth)]].concat()),
+        &estimate(&scene, &[&epi[..], &["--depth", arg(&depth)]].concat()),
         &["parameters.cfg", "40x40", "32x32", "--depth", "25.0 %"],
     );
     assert!(!depth.exists());
@@ -391,30 +387,38 @@ fn views_too_small_to_score_are_refused_up_front_with_the_minimum() {
     synth(&scene, 16);
     // Estimating small views works…
     let est = dir.path().join("est.pfm");
-    let out = lfdepth(&["estimate", s(&scene), "-o", s(&est), "--stage", "epi"]);
+    let out = lfdepth(&["estimate", arg(&scene), "-o", arg(&est), "--stage", "epi"]);
     assert!(out.status.success(), "{}", stderr(&out));
     // …scoring them cannot: the benchmark ignores a 15-pixel border.
     let line = assert_fails(
         &lfdepth(&[
             "eval",
-            s(&est),
+            arg(&est),
             "--gt",
-            s(&scene.join("gt_disp_lowres.pfm")),
+            arg(&scene.join("gt_disp_lowres.pfm")),
         ]),
         &["gt_disp_lowres.pfm", "16x16", "at least 31x31"],
     );
     assert!(!line.contains("border` leaves"), "{line}");
     let demo = dir.path().join("demo");
     let line = assert_fails(
-        &lfdepth(&["demo", "--size", "16", "--out", s(&demo)]),
+        &lfdepth(&["demo", "--size", "16", "--out", arg(&demo)]),
         &["--size 16", "31"],
     );
     assert!(!line.contains("parameter"), "{line}");
     assert!(!demo.exists(), "the demo computed before refusing");
-    let out = lfdepth(&["demo", "--size", "31", "--out", s(&demo), "--stage", "epi"]);
+    let out = lfdepth(&[
+        "demo",
+        "--size",
+        "31",
+        "--out",
+        arg(&demo),
+        "--stage",
+        "epi",
+    ]);
     assert!(out.status.success(), "{}", stderr(&out));
     // In a dataset, the small scene is reported and not estimated.
-    let out = lfdepth(&["eval", "--dataset", s(dir.path()), "--stage", "epi"]);
+    let out = lfdepth(&["eval", "--dataset", arg(dir.path()), "--stage", "epi"]);
     assert_fails(&out, &["1 of the 1 scenes"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("at least 31x31"));
 }
@@ -437,7 +441,7 @@ fn an_estimate_with_nan_pixels_keeps_the_protocol_but_warns() {
         *v = f32::NAN;
     }
     let est = write_pfm(&dir.path().join("est.pfm"), &Pfm::new(w, h, data).unwrap());
-    let out = lfdepth(&["eval", s(&est), "--gt", s(&gt), "--json"]);
+    let out = lfdepth(&["eval", arg(&est), "--gt", arg(&gt), "--json"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     // The protocol: a NaN pixel is not a bad pixel.
@@ -448,11 +452,11 @@ fn an_estimate_with_nan_pixels_keeps_the_protocol_but_warns() {
         "{v}"
     );
     assert!(stderr(&out).contains("warning: "), "{}", stderr(&out));
-    let out = lfdepth(&["eval", s(&est), "--gt", s(&gt)]);
+    let out = lfdepth(&["eval", arg(&est), "--gt", arg(&gt)]);
     assert!(out.status.success());
     assert!(stderr(&out).contains("NaN or infinite"), "{}", stderr(&out));
     // A complete estimate: no warning.
-    let out = lfdepth(&["eval", s(&gt), "--gt", s(&gt), "--json"]);
+    let out = lfdepth(&["eval", arg(&gt), "--gt", arg(&gt), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v.get("warning").is_none(), "{v}");
     assert!(!stderr(&out).contains("warning"), "{}", stderr(&out));
@@ -476,7 +480,7 @@ fn colour_pfm_and_trailing_bytes_are_refused_with_the_reason() {
     }
     std::fs::write(&colour, &bytes).unwrap();
     assert_fails(
-        &lfdepth(&["eval", s(&colour), "--gt", s(&gt)]),
+        &lfdepth(&["eval", arg(&colour), "--gt", arg(&gt)]),
         &["colour.pfm", "PF", "channels differ", "`Pf`"],
     );
     // Trailing bytes after the map.
@@ -485,7 +489,7 @@ fn colour_pfm_and_trailing_bytes_are_refused_with_the_reason() {
     bytes.extend_from_slice(&[0; 8]);
     std::fs::write(&trailing, &bytes).unwrap();
     assert_fails(
-        &lfdepth(&["eval", s(&trailing), "--gt", s(&gt)]),
+        &lfdepth(&["eval", arg(&trailing), "--gt", arg(&gt)]),
         &["trailing.pfm", "8 byte(s) more than the 32x32 map"],
     );
 }

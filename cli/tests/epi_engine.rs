@@ -44,10 +44,14 @@ fn any_thread_count_gives_the_serial_core_result_bit_for_bit() {
     lfdepth::pipeline::estimate(
         &plan,
         &lf,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
+        lfdepth::setup::DisparityOut {
+            disparity: &mut d,
+            confidence: &mut c,
+        },
+        lfdepth::pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();

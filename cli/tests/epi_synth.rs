@@ -181,12 +181,36 @@ fn fixed_point_is_within_a_hundredth_of_f32_on_99_percent() {
                 ];
             if fixed {
                 let mut s = vec![Q16::ZERO; lfdepth::pipeline::scratch_len(&plan)];
-                lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut s, &mut maps, &mut go)
-                    .unwrap();
+                lfdepth::pipeline::estimate(
+                    &plan,
+                    &lf,
+                    lfdepth::setup::DisparityOut {
+                        disparity: &mut d,
+                        confidence: &mut c,
+                    },
+                    lfdepth::pipeline::RunScratch {
+                        kernel: &mut s,
+                        maps: &mut maps,
+                    },
+                    &mut go,
+                )
+                .unwrap();
             } else {
                 let mut s = vec![0.0f32; lfdepth::pipeline::scratch_len(&plan)];
-                lfdepth::pipeline::estimate(&plan, &lf, &mut d, &mut c, &mut s, &mut maps, &mut go)
-                    .unwrap();
+                lfdepth::pipeline::estimate(
+                    &plan,
+                    &lf,
+                    lfdepth::setup::DisparityOut {
+                        disparity: &mut d,
+                        confidence: &mut c,
+                    },
+                    lfdepth::pipeline::RunScratch {
+                        kernel: &mut s,
+                        maps: &mut maps,
+                    },
+                    &mut go,
+                )
+                .unwrap();
             }
             d
         };

@@ -9,11 +9,7 @@ use std::path::Path;
 use std::process::Output;
 use std::time::{Duration, Instant};
 
-use common::{assert_fails, lfdepth};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use common::{arg, assert_fails, lfdepth};
 
 /// A valid PNG signature and `IHDR` declaring `width`×`height` gray pixels of `bits`
 /// bits, then a `paDd` ancillary chunk of `padding` zero bytes (which decoders skip)
@@ -39,7 +35,7 @@ fn png_header_only(width: u32, height: u32, bits: u8, padding: usize) -> Vec<u8>
 
 fn estimate(dir: &Path, extra: &[&str]) -> Output {
     let out = dir.parent().unwrap().join("out.pfm");
-    let mut args = vec!["estimate", s(dir), "-o", s(&out), "--quiet"];
+    let mut args = vec!["estimate", arg(dir), "-o", arg(&out), "--quiet"];
     args.extend_from_slice(extra);
     lfdepth(&args)
 }
@@ -90,7 +86,7 @@ fn a_huge_png_header_is_refused_before_decoding() {
     .unwrap();
     let mask = views.join("input_Cam000.png");
     assert_fails(
-        &lfdepth(&["eval", s(&gt), "--gt", s(&gt), "--mask", s(&mask)]),
+        &lfdepth(&["eval", arg(&gt), "--gt", arg(&gt), "--mask", arg(&mask)]),
         &["input_Cam000.png", "--max-view-pixels"],
     );
 }
@@ -163,7 +159,7 @@ fn the_odd_view_is_named_not_the_good_one() {
         &["input_Cam000.png", "20x16", "16x16"],
     );
     assert!(
-        msg.starts_with(&format!("error: {}", s(&views.join("input_Cam000.png")))),
+        msg.starts_with(&format!("error: {}", arg(&views.join("input_Cam000.png")))),
         "{msg}"
     );
     // A view with another sample format is named the same way.
@@ -172,7 +168,7 @@ fn the_odd_view_is_named_not_the_good_one() {
         .unwrap();
     let msg = assert_fails(&estimate(&views, &[]), &["input_Cam000.png", "3 channel"]);
     assert!(
-        msg.starts_with(&format!("error: {}", s(&views.join("input_Cam000.png")))),
+        msg.starts_with(&format!("error: {}", arg(&views.join("input_Cam000.png")))),
         "{msg}"
     );
 }
@@ -189,7 +185,7 @@ fn typed_sizes_are_checked_before_allocating() {
             "--size",
             "100000",
             "--out",
-            s(&out),
+            arg(&out),
         ],
         vec![
             "synth",
@@ -198,9 +194,9 @@ fn typed_sizes_are_checked_before_allocating() {
             "--size",
             "100000x1000",
             "--out",
-            s(&out),
+            arg(&out),
         ],
-        vec!["demo", "--size", "100000", "--out", s(&out)],
+        vec!["demo", "--size", "100000", "--out", arg(&out)],
     ] {
         let start = Instant::now();
         assert_fails(&lfdepth(&args), &["--size", "100000", "--max-view-pixels"]);
@@ -209,7 +205,7 @@ fn typed_sizes_are_checked_before_allocating() {
     }
     // Within the per-view cap but not the light-field cap.
     assert_fails(
-        &lfdepth(&["demo", "--size", "4096", "--out", s(&out)]),
+        &lfdepth(&["demo", "--size", "4096", "--out", arg(&out)]),
         &["--size", "81 views of 4096x4096", "--max-pixels"],
     );
     assert_fails(
@@ -222,7 +218,7 @@ fn typed_sizes_are_checked_before_allocating() {
             "--size",
             "2048",
             "--out",
-            s(&out),
+            arg(&out),
         ]),
         &["289 views", "--max-pixels"],
     );
@@ -236,7 +232,7 @@ fn typed_sizes_are_checked_before_allocating() {
                 "--grid",
                 grid,
                 "--out",
-                s(&out),
+                arg(&out),
             ]),
             &["view grid", "17x17"],
         );
@@ -263,7 +259,7 @@ fn thread_counts_are_capped_and_negative_numbers_reach_the_range_checks() {
         &["--threads", "1 to 256"],
     );
     assert_usage_error(
-        &lfdepth(&["eval", "--dataset", s(dir.path()), "--threads", "-1"]),
+        &lfdepth(&["eval", "--dataset", arg(dir.path()), "--threads", "-1"]),
         &["--threads", "1 to 256"],
     );
     let ok = estimate(&views, &["--threads", "256", "--stage", "epi"]);

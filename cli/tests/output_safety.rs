@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use common::{assert_fails, lfdepth};
+use common::{arg, assert_fails, lfdepth};
 
 /// A 3x3 synthetic scene of 32x32 views (views, ground truth, parameters.cfg).
 fn scene(dir: &Path) -> PathBuf {
@@ -53,10 +53,6 @@ fn names(dir: &Path) -> Vec<String> {
     snapshot(dir).into_iter().map(|(n, _)| n).collect()
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 #[test]
 fn outputs_onto_the_inputs_are_refused_and_the_scene_is_untouched() {
     let dir = common::temp();
@@ -71,40 +67,40 @@ fn outputs_onto_the_inputs_are_refused_and_the_scene_is_untouched() {
     let respelled = scene.join("../scene/./input_Cam004.png");
     let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
         (
-            vec!["-o", s(&view)],
+            vec!["-o", arg(&view)],
             vec!["-o", "input_Cam004.png", "a view of"],
         ),
         (
-            vec!["-o", s(&gt)],
+            vec!["-o", arg(&gt)],
             vec!["-o", "gt_disp_lowres.pfm", "ground truth"],
         ),
         (
-            vec!["-o", s(&cfg)],
+            vec!["-o", arg(&cfg)],
             vec!["-o", "parameters.cfg", "camera parameters"],
         ),
         (
-            vec!["-o", s(&elsewhere), "--png", s(&view0)],
+            vec!["-o", arg(&elsewhere), "--png", arg(&view0)],
             vec!["--png", "input_Cam000.png", "a view of"],
         ),
         (
-            vec!["-o", s(&elsewhere), "--png16", s(&view)],
+            vec!["-o", arg(&elsewhere), "--png16", arg(&view)],
             vec!["--png16", "input_Cam004.png"],
         ),
         (
-            vec!["-o", s(&elsewhere), "--confidence", s(&cfg)],
+            vec!["-o", arg(&elsewhere), "--confidence", arg(&cfg)],
             vec!["--confidence", "parameters.cfg"],
         ),
         // The folder itself, and a name that would be read as a tenth view.
-        (vec!["-o", s(&scene)], vec!["-o", "input folder"]),
+        (vec!["-o", arg(&scene)], vec!["-o", "input folder"]),
         (
-            vec!["-o", s(&tenth)],
+            vec!["-o", arg(&tenth)],
             vec!["input_Cam009.png", "named like a view"],
         ),
         // The same view by another spelling of its path.
-        (vec!["-o", s(&respelled)], vec!["-o", "a view of"]),
+        (vec!["-o", arg(&respelled)], vec!["-o", "a view of"]),
     ];
     for (extra, needles) in cases {
-        let mut args = vec!["estimate", s(&scene)];
+        let mut args = vec!["estimate", arg(&scene)];
         args.extend(extra.iter().copied());
         args.push("--quiet");
         assert_fails(&lfdepth(&args), &needles);
@@ -125,7 +121,7 @@ fn links_to_inputs_are_inputs() {
     std::fs::hard_link(scene.join("gt_disp_lowres.pfm"), &hard).unwrap();
     for out in [&link, &hard] {
         assert_fails(
-            &lfdepth(&["estimate", s(&scene), "-o", s(out), "--quiet"]),
+            &lfdepth(&["estimate", arg(&scene), "-o", arg(out), "--quiet"]),
             &["-o", "would overwrite"],
         );
     }
@@ -141,9 +137,9 @@ fn the_benchmarks_other_ground_truths_are_kept_and_devices_take_any_output() {
     assert_fails(
         &lfdepth(&[
             "estimate",
-            s(&scene),
+            arg(&scene),
             "-o",
-            s(&scene.join("gt_depth_lowres.pfm")),
+            arg(&scene.join("gt_depth_lowres.pfm")),
             "--quiet",
         ]),
         &["-o", "gt_depth_lowres.pfm", "ground truth"],
@@ -154,9 +150,9 @@ fn the_benchmarks_other_ground_truths_are_kept_and_devices_take_any_output() {
     for _ in 0..2 {
         let out = lfdepth(&[
             "estimate",
-            s(&scene),
+            arg(&scene),
             "-o",
-            s(&est),
+            arg(&est),
             "--stage",
             "epi",
             "--quiet",
@@ -172,7 +168,7 @@ fn the_benchmarks_other_ground_truths_are_kept_and_devices_take_any_output() {
         use std::os::unix::fs::FileTypeExt;
         let out = lfdepth(&[
             "estimate",
-            s(&scene),
+            arg(&scene),
             "-o",
             "/dev/null",
             "--png",
@@ -201,13 +197,13 @@ fn several_outputs_on_one_file_are_refused() {
     let msg = assert_fails(
         &lfdepth(&[
             "estimate",
-            s(&scene),
+            arg(&scene),
             "-o",
-            s(&x),
+            arg(&x),
             "--confidence",
-            s(&x),
+            arg(&x),
             "--png16",
-            s(&x),
+            arg(&x),
             "--quiet",
         ]),
         &["-o", "--confidence", "--png16", "same file"],
@@ -219,11 +215,11 @@ fn several_outputs_on_one_file_are_refused() {
     assert_fails(
         &lfdepth(&[
             "estimate",
-            s(&scene),
+            arg(&scene),
             "-o",
-            s(&x),
+            arg(&x),
             "--png",
-            s(&other),
+            arg(&other),
             "--quiet",
         ]),
         &["-o", "--png", "same file"],
@@ -239,11 +235,11 @@ fn a_missing_output_folder_is_refused_before_the_views_are_read() {
     for flag in ["-o", "--png", "--png16", "--confidence", "--depth"] {
         let missing = dir.path().join("no/such/folder/out.file");
         let ok_out = dir.path().join("est.pfm");
-        let mut args = vec!["estimate", s(&scene)];
+        let mut args = vec!["estimate", arg(&scene)];
         if flag == "-o" {
-            args.extend(["-o", s(&missing)]);
+            args.extend(["-o", arg(&missing)]);
         } else {
-            args.extend(["-o", s(&ok_out), flag, s(&missing)]);
+            args.extend(["-o", arg(&ok_out), flag, arg(&missing)]);
         }
         args.push("--quiet");
         let start = Instant::now();
@@ -254,7 +250,7 @@ fn a_missing_output_folder_is_refused_before_the_views_are_read() {
     }
     // An output path that is a folder is refused the same way.
     assert_fails(
-        &lfdepth(&["estimate", s(&scene), "-o", s(dir.path()), "--quiet"]),
+        &lfdepth(&["estimate", arg(&scene), "-o", arg(dir.path()), "--quiet"]),
         &["-o", "is a folder"],
     );
 }
@@ -271,11 +267,11 @@ fn outputs_replace_old_files_whole_and_refused_runs_keep_them() {
     let earlier = std::fs::File::open(&est).unwrap();
     let out = lfdepth(&[
         "estimate",
-        s(&scene),
+        arg(&scene),
         "-o",
-        s(&est),
+        arg(&est),
         "--png",
-        s(&png),
+        arg(&png),
         "--stage",
         "epi",
         "--quiet",
@@ -304,11 +300,11 @@ fn outputs_replace_old_files_whole_and_refused_runs_keep_them() {
     assert_fails(
         &lfdepth(&[
             "estimate",
-            s(&scene),
+            arg(&scene),
             "-o",
-            s(&est),
+            arg(&est),
             "--png",
-            s(&scene.join("parameters.cfg")),
+            arg(&scene.join("parameters.cfg")),
             "--quiet",
         ]),
         &["--png", "parameters.cfg"],
@@ -331,7 +327,7 @@ fn synth_refuses_a_used_folder_and_force_removes_only_its_own_files() {
             "--size",
             "24",
             "--out",
-            s(&out),
+            arg(&out),
         ];
         args.extend_from_slice(extra);
         lfdepth(&args)
@@ -379,7 +375,7 @@ fn synth_refuses_a_used_folder_and_force_removes_only_its_own_files() {
     let file = dir.path().join("plain-file");
     std::fs::write(&file, b"x").unwrap();
     assert_fails(
-        &lfdepth(&["synth", "--scene", "planes", "--out", s(&file)]),
+        &lfdepth(&["synth", "--scene", "planes", "--out", arg(&file)]),
         &["--out", "not a folder"],
     );
     assert_eq!(std::fs::read(&file).unwrap(), b"x");
@@ -398,7 +394,7 @@ fn demo_never_writes_into_a_folder_of_other_files_unless_forced() {
             "epi",
             "--quiet",
             "--out",
-            s(&out),
+            arg(&out),
         ];
         args.extend_from_slice(extra);
         lfdepth(&args)

@@ -8,11 +8,7 @@ mod common;
 use std::path::Path;
 use std::process::Output;
 
-use common::{assert_fails, lfdepth};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use common::{arg, assert_fails, lfdepth};
 
 /// A synthetic 9×9 scene of `size`² in `dir/name` (views `input_CamNNN.png`).
 fn synth(dir: &Path, name: &str, size: usize, extra: &[&str]) -> std::path::PathBuf {
@@ -25,7 +21,7 @@ fn synth(dir: &Path, name: &str, size: usize, extra: &[&str]) -> std::path::Path
         "--size",
         &size,
         "--out",
-        s(&out),
+        arg(&out),
     ];
     args.extend_from_slice(extra);
     let run = lfdepth(&args);
@@ -58,7 +54,15 @@ fn keep_views(scene: &Path, to: &Path, keep: impl Fn(usize, usize) -> bool) {
 type Keep = fn(usize, usize) -> bool;
 
 fn estimate(input: &Path, out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec!["estimate", s(input), "-o", s(out), "-q", "--threads", "2"];
+    let mut args = vec![
+        "estimate",
+        arg(input),
+        "-o",
+        arg(out),
+        "-q",
+        "--threads",
+        "2",
+    ];
     args.extend_from_slice(extra);
     lfdepth(&args)
 }

@@ -85,11 +85,15 @@ fn q16_engine_is_bit_identical_for_any_thread_count_and_matches_the_core_pipelin
         &plan,
         &lf,
         Stages::Full,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut [],
+        pipeline::RunOutput {
+            disparity: &mut d,
+            confidence: &mut c,
+            history: &mut [],
+        },
+        pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();
@@ -264,8 +268,10 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
         &guide,
         &mut tf,
         &mut [],
-        &mut s,
-        &mut duals,
+        tv::TvScratch {
+            kernel: &mut s,
+            duals: &mut duals,
+        },
     )
     .unwrap();
     let mut s = vec![Q16::ZERO; tv::scratch_len(plan.tv())];
@@ -275,8 +281,10 @@ fn hci_scene(dir: &Path) -> [f64; 5] {
         &guide,
         &mut tq,
         &mut [],
-        &mut s,
-        &mut duals,
+        tv::TvScratch {
+            kernel: &mut s,
+            duals: &mut duals,
+        },
     )
     .unwrap();
     let regularised = agreement(&tf, &tq, 0.02);

@@ -134,11 +134,15 @@ fn check_engine_against_core(s: &Scene, params: Params) -> Vec<f32> {
         &plan,
         &lf,
         Stages::Full,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut history,
+        pipeline::RunOutput {
+            disparity: &mut d,
+            confidence: &mut c,
+            history: &mut history,
+        },
+        pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();

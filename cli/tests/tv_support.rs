@@ -214,8 +214,10 @@ pub fn refine_guided<S: lfdepth::Scalar>(
         &guide,
         &mut out,
         &mut history,
-        &mut scratch,
-        &mut vec![0.0; tv::dual_len(plan.tv())],
+        tv::TvScratch {
+            kernel: &mut scratch,
+            duals: &mut vec![0.0; tv::dual_len(plan.tv())],
+        },
     )
     .unwrap();
     let secs = t.elapsed().as_secs_f64();

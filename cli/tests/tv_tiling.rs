@@ -87,8 +87,10 @@ fn refine_serial<S: Scalar>(s: &Scene, tv_params: TvParams) -> (Vec<f32>, Vec<f3
         &guide,
         &mut out,
         &mut history,
-        &mut scratch,
-        &mut vec![0.0; tv::dual_len(plan.tv())],
+        tv::TvScratch {
+            kernel: &mut scratch,
+            duals: &mut vec![0.0; tv::dual_len(plan.tv())],
+        },
     )
     .unwrap();
     (out, history)

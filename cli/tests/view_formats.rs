@@ -8,15 +8,11 @@ mod common;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
-use common::{assert_fails, lfdepth};
+use common::{arg, assert_fails, lfdepth};
 use lfdepth_cli::io::pfm;
 use lfdepth_cli::io::png::{self, Image, Samples};
 use lfdepth_cli::io::scene::{self, LoadOptions, Views};
 use tiff::encoder::{colortype, TiffEncoder};
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
 
 fn synth(dir: &Path) -> PathBuf {
     let out = dir.join("png");
@@ -27,7 +23,7 @@ fn synth(dir: &Path) -> PathBuf {
         "--size",
         "48",
         "--out",
-        s(&out),
+        arg(&out),
     ]);
     assert!(
         run.status.success(),
@@ -99,7 +95,15 @@ fn convert(from: &Path, to: &Path, ext: &str, encode: impl Fn(&Image) -> Vec<u8>
 }
 
 fn estimate(input: &Path, out: &Path, extra: &[&str]) -> Vec<f32> {
-    let mut args = vec!["estimate", s(input), "-o", s(out), "-q", "--align", "off"];
+    let mut args = vec![
+        "estimate",
+        arg(input),
+        "-o",
+        arg(out),
+        "-q",
+        "--align",
+        "off",
+    ];
     args.extend_from_slice(extra);
     let run = lfdepth(&args);
     assert!(
@@ -187,9 +191,9 @@ fn decode_caps_hold_for_tiff_and_jpeg() {
         let out = dir.path().join("capped.pfm");
         let run = lfdepth(&[
             "estimate",
-            s(&folder),
+            arg(&folder),
             "-o",
-            s(&out),
+            arg(&out),
             "--max-view-pixels",
             "1000",
         ]);
@@ -199,7 +203,12 @@ fn decode_caps_hold_for_tiff_and_jpeg() {
     // Not an image at all: said so, naming the file.
     let folder = dir.path().join("jpg");
     std::fs::write(folder.join("input_Cam040.jpg"), b"GIF89a not a jpeg").unwrap();
-    let run = lfdepth(&["estimate", s(&folder), "-o", s(&dir.path().join("x.pfm"))]);
+    let run = lfdepth(&[
+        "estimate",
+        arg(&folder),
+        "-o",
+        arg(&dir.path().join("x.pfm")),
+    ]);
     assert_fails(&run, &["input_Cam040.jpg", "not a PNG, JPEG or TIFF"]);
 }
 
@@ -211,7 +220,7 @@ fn maps_as_float_tiff() {
     let tif_out = dir.path().join("d.tif");
     let conf_out = dir.path().join("c.TIFF");
     let reference = estimate(&png_scene, &pfm_out, &[]);
-    estimate(&png_scene, &tif_out, &["--confidence", s(&conf_out)]);
+    estimate(&png_scene, &tif_out, &["--confidence", arg(&conf_out)]);
     let read = |path: &Path| {
         let file = std::fs::File::open(path).unwrap();
         let mut decoder = tiff::decoder::Decoder::new(std::io::BufReader::new(file)).unwrap();

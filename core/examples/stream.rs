@@ -217,11 +217,15 @@ fn whole_frame(spec: &SynthSpec, params: Params) -> (Vec<f32>, f64) {
         &plan,
         &lf,
         Stages::Full,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut [],
+        pipeline::RunOutput {
+            disparity: &mut d,
+            confidence: &mut c,
+            history: &mut [],
+        },
+        pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| core::ops::ControlFlow::Continue(()),
     )
     .unwrap();

@@ -15,6 +15,7 @@ pub use crate::progress::Progress;
 use crate::scalar::Scalar;
 pub use crate::schedule::Stages;
 use crate::schedule::{PartOutput, PartScratch, Schedule, State};
+use crate::setup::DisparityOut;
 
 /// The serial schedule of `stages` (one part at a time).
 fn serial(plan: &Plan, stages: Stages) -> Result<Schedule> {
@@ -52,24 +53,59 @@ pub fn stage_map_scratch_len(plan: &Plan, stages: Stages) -> usize {
         .saturating_add(schedule.max_scratch_len().maps)
 }
 
-/// Runs `stages`: the disparity (`f32`, row-major, `plan.pixels()`) and its confidence in
-/// `[0, 1]` for the centre view of `lf`, every stage computing in `T` (the maps between
-/// the stages are `f32`). `scratch` needs [`stage_scratch_len`] elements, `maps`
-/// [`stage_map_scratch_len`]; `history` receives the TV residual norm per iteration (pass
-/// an empty slice to skip it). `progress` is called as work completes; returning
-/// `ControlFlow::Break(())` stops with [`crate::Error::Cancelled`].
-#[allow(clippy::too_many_arguments)]
+/// Where [`run`] writes its results.
+#[derive(Debug)]
+pub struct RunOutput<'a> {
+    /// The disparity (`f32`, row-major, `plan.pixels()`) of the centre view.
+    pub disparity: &'a mut [f32],
+    /// Its confidence in `[0, 1]` (`plan.pixels()`).
+    pub confidence: &'a mut [f32],
+    /// The TV residual norm per iteration (an empty slice skips it).
+    pub history: &'a mut [f32],
+}
+
+impl<'a> From<DisparityOut<'a>> for RunOutput<'a> {
+    /// The disparity and confidence alone, without the TV history.
+    fn from(out: DisparityOut<'a>) -> Self {
+        RunOutput {
+            disparity: out.disparity,
+            confidence: out.confidence,
+            history: &mut [],
+        }
+    }
+}
+
+/// The caller-owned scratch [`run`] works in.
+#[derive(Debug)]
+pub struct RunScratch<'a, T> {
+    /// Kernel scalars: [`stage_scratch_len`] elements.
+    pub kernel: &'a mut [T],
+    /// `f32` maps (the run's state, one part's outputs and its map scratch):
+    /// [`stage_map_scratch_len`] elements.
+    pub maps: &'a mut [f32],
+}
+
+/// Runs `stages`: the disparity and its confidence for the centre view of `lf` into
+/// `out`, every stage computing in `T` (the maps between the stages are `f32`).
+/// `progress` is called as work completes; returning `ControlFlow::Break(())` stops with
+/// [`crate::Error::Cancelled`].
 pub fn run<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
-    scratch: &mut [T],
-    maps: &mut [f32],
-    history: &mut [f32],
+    out: RunOutput<'_>,
+    scratch: RunScratch<'_, T>,
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
+    let RunOutput {
+        disparity,
+        confidence,
+        history,
+    } = out;
+    let RunScratch {
+        kernel: scratch,
+        maps,
+    } = scratch;
     let pixels = plan.pixels();
     check_map_lengths(
         pixels,
@@ -130,29 +166,16 @@ pub fn run<T: Scalar, S: Sample>(
 }
 
 /// The EPI stage alone (`run` with [`Stages::Epi`]): disparity and confidence of the
-/// centre view. `scratch` needs [`stage_scratch_len`] elements, `maps`
-/// [`stage_map_scratch_len`] of [`Stages::Epi`].
-#[allow(clippy::too_many_arguments)]
+/// centre view. `scratch` needs [`stage_scratch_len`] and [`stage_map_scratch_len`] of
+/// [`Stages::Epi`].
 pub fn estimate<T: Scalar, S: Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
-    scratch: &mut [T],
-    maps: &mut [f32],
+    out: DisparityOut<'_>,
+    scratch: RunScratch<'_, T>,
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<()> {
-    run(
-        plan,
-        lf,
-        Stages::Epi,
-        disparity,
-        confidence,
-        scratch,
-        maps,
-        &mut [],
-        progress,
-    )
+    run(plan, lf, Stages::Epi, out.into(), scratch, progress)
 }
 
 /// Name of the alignment estimate in progress reports.
@@ -403,64 +426,52 @@ pub fn warp_views<S: Sample, A: WarpSample + Sample>(
 /// views in `buffers.aligned` with the [`resampled_plan`] when the array was aligned,
 /// `lf` itself with `plan` when alignment was skipped (so mode off, and auto on a
 /// rectified array, give exactly `run`'s output).
-#[allow(clippy::too_many_arguments)]
 pub fn run_aligned<T: Scalar, S: Sample, A: WarpSample + Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
     buffers: &mut AlignBuffers<'_, A>,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
-    scratch: &mut [T],
-    maps: &mut [f32],
-    history: &mut [f32],
+    out: RunOutput<'_>,
+    scratch: RunScratch<'_, T>,
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<AlignReport> {
     let mut report = AlignReport::default();
-    run_aligned_into(
-        plan,
-        lf,
-        stages,
+    let prelude = Prelude {
         buffers,
-        disparity,
-        confidence,
-        scratch,
-        maps,
-        history,
-        progress,
-        &mut report,
-    )?;
+        report: &mut report,
+    };
+    run_aligned_into(plan, lf, stages, prelude, out, scratch, progress)?;
     Ok(report)
 }
 
-/// [`run_aligned`] with the alignment's report written to `report` instead of returned:
-/// a firmware keeps it in static memory, off its stack (it holds a `ViewReport` per view
-/// of the largest grid, ≈ 2.4 KB on 32-bit targets).
-#[allow(clippy::too_many_arguments)]
+/// Where [`run_aligned_into`]'s alignment prelude works and reports.
+pub struct Prelude<'a, 'b, A> {
+    /// The alignment's buffers.
+    pub buffers: &'a mut AlignBuffers<'b, A>,
+    /// Receives the alignment's report.
+    pub report: &'a mut AlignReport,
+}
+
+/// [`run_aligned`] with the alignment's report written to `prelude.report` instead of
+/// returned: a firmware keeps it in static memory, off its stack (it holds a
+/// `ViewReport` per view of the largest grid, ≈ 2.4 KB on 32-bit targets).
 pub fn run_aligned_into<T: Scalar, S: Sample, A: WarpSample + Sample>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
-    buffers: &mut AlignBuffers<'_, A>,
-    disparity: &mut [f32],
-    confidence: &mut [f32],
-    scratch: &mut [T],
-    maps: &mut [f32],
-    history: &mut [f32],
+    prelude: Prelude<'_, '_, A>,
+    out: RunOutput<'_>,
+    scratch: RunScratch<'_, T>,
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
-    report: &mut AlignReport,
 ) -> Result<()> {
+    let Prelude { buffers, report } = prelude;
     align_alone(plan, lf, stages, buffers, progress, report)?;
     if report.skipped {
-        run(
-            plan, lf, stages, disparity, confidence, scratch, maps, history, progress,
-        )?;
+        run(plan, lf, stages, out, scratch, progress)?;
     } else {
         let aligned = LightField::new(&*buffers.aligned, *plan.layout())?;
         let plan = &resampled_plan(plan)?;
-        run(
-            plan, &aligned, stages, disparity, confidence, scratch, maps, history, progress,
-        )?;
+        run(plan, &aligned, stages, out, scratch, progress)?;
     }
     Ok(())
 }
@@ -515,11 +526,15 @@ mod tests {
             &plan,
             &lf,
             Stages::Full,
-            &mut d,
-            &mut c,
-            &mut scratch,
-            &mut maps,
-            &mut history,
+            RunOutput {
+                disparity: &mut d,
+                confidence: &mut c,
+                history: &mut history,
+            },
+            RunScratch {
+                kernel: &mut scratch,
+                maps: &mut maps,
+            },
             &mut |p| {
                 if stages.last() != Some(&p.stage) {
                     stages.push(p.stage);
@@ -544,11 +559,15 @@ mod tests {
                 &plan,
                 &lf,
                 Stages::Full,
-                &mut d,
-                &mut c,
-                &mut scratch,
-                &mut maps[..short],
-                &mut history,
+                RunOutput {
+                    disparity: &mut d,
+                    confidence: &mut c,
+                    history: &mut history
+                },
+                RunScratch {
+                    kernel: &mut scratch,
+                    maps: &mut maps[..short]
+                },
                 &mut cancel
             ),
             Err(Error::ScratchTooSmall { .. })
@@ -558,11 +577,15 @@ mod tests {
                 &plan,
                 &lf,
                 Stages::Full,
-                &mut d,
-                &mut c,
-                &mut scratch,
-                &mut maps,
-                &mut history,
+                RunOutput {
+                    disparity: &mut d,
+                    confidence: &mut c,
+                    history: &mut history
+                },
+                RunScratch {
+                    kernel: &mut scratch,
+                    maps: &mut maps
+                },
                 &mut cancel
             ),
             Err(Error::Cancelled)
@@ -601,11 +624,15 @@ mod tests {
             &lf,
             Stages::Epi,
             &mut buffers,
-            &mut d,
-            &mut c,
-            &mut scratch,
-            &mut maps,
-            &mut [],
+            RunOutput {
+                disparity: &mut d,
+                confidence: &mut c,
+                history: &mut [],
+            },
+            RunScratch {
+                kernel: &mut scratch,
+                maps: &mut maps,
+            },
             &mut |_| ControlFlow::Continue(()),
         );
         (r, d)
@@ -621,10 +648,14 @@ mod tests {
         estimate(
             &plan,
             &lf,
-            &mut d,
-            &mut c,
-            &mut scratch,
-            &mut maps,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c,
+            },
+            RunScratch {
+                kernel: &mut scratch,
+                maps: &mut maps,
+            },
             &mut |_| ControlFlow::Continue(()),
         )
         .unwrap();

@@ -25,7 +25,7 @@
 use core::ops::Range;
 
 use crate::align::AlignMode;
-use crate::epi::{fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator};
+use crate::epi::{fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator, LineSpan};
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::float::clamp_f32;
 use crate::lightfield::{Grid, Layout, Sample, View};
@@ -412,6 +412,11 @@ impl StreamPlan {
         // Columns past a region's width are never used, but the maps must be finite.
         map_d.fill(0.0);
         map_c.fill(0.0);
+        let mut local = RegionMaps {
+            disparity: map_d,
+            confidence: map_c,
+            stride,
+        };
         let (r0, c0) = layout.grid.center();
         let centre = CrossBand::<S>::slot(layout.grid, r0, c0).unwrap_or(0);
         let mut report = tv::RefineReport::default();
@@ -419,13 +424,13 @@ impl StreamPlan {
         for tx in 0..cols {
             let (core, region) = tv::tile_rects(self.plan.tv(), band * cols + tx)?;
             let shared = match previous {
-                Some(p) => shift_left(p, region, stride, map_d, map_c),
+                Some(p) => shift_left(p, region, &mut local),
                 None => 0,
             };
             previous = Some(region);
             let fresh = shared..region.width;
-            self.epi_rows(input, region, fresh.clone(), stride, map_d, map_c, scratch)?;
-            self.epi_columns(input, region, fresh, stride, map_d, map_c, scratch)?;
+            self.epi_rows(input, region, fresh.clone(), &mut local, scratch)?;
+            self.epi_columns(input, region, fresh, &mut local, scratch)?;
 
             let start = input.offset(centre, region.x, region.y);
             let guide_data = input.data.get(start..).unwrap_or(&[]);
@@ -437,7 +442,9 @@ impl StreamPlan {
                 input.row_stride,
             )?);
             let used = stride * region.height;
-            let (Some(used_d), Some(used_c)) = (map_d.get(..used), map_c.get(..used)) else {
+            let (Some(used_d), Some(used_c)) =
+                (local.disparity.get(..used), local.confidence.get(..used))
+            else {
                 return Err(short);
             };
             let tv_maps = Maps::new(stride, region.height, used_d, used_c)?;
@@ -471,7 +478,7 @@ impl StreamPlan {
             for y in 0..core.height {
                 let from = (local_core.y + y) * stride + local_core.x;
                 let to = out_start + y * width;
-                let src = map_c.get(from..from + core.width);
+                let src = local.confidence.get(from..from + core.width);
                 let dst = confidence.get_mut(to..to + core.width);
                 if let (Some(src), Some(dst)) = (src, dst) {
                     dst.copy_from_slice(src);
@@ -484,22 +491,20 @@ impl StreamPlan {
     /// Horizontal lines: image rows of the region, cropped to its columns ± margin.
     /// Not inlined, like [`StreamPlan::epi_columns`], so that only one line estimator
     /// (a few KiB) is on the stack at a time.
-    /// Writes the local columns `fresh` of every region row (`stride` apart in the maps).
-    #[allow(clippy::too_many_arguments)]
+    /// Writes the local columns `fresh` of every region row into `out`.
     #[inline(never)]
     fn epi_rows<T: Scalar, S: Sample>(
         &self,
         input: &CrossBand<'_, S>,
         region: Rect,
         fresh: Range<usize>,
-        stride: usize,
-        map_d: &mut [f32],
-        map_c: &mut [f32],
+        out: &mut RegionMaps<'_>,
         scratch: &mut [T],
     ) -> Result<()> {
         if fresh.is_empty() {
             return Ok(());
         }
+        let (map_d, map_c, stride) = (&mut *out.disparity, &mut *out.confidence, out.stride);
         let layout = self.plan.layout();
         let params = &self.plan.params().epi;
         let grid = layout.grid;
@@ -518,7 +523,18 @@ impl StreamPlan {
             let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, r0, k).unwrap_or(0);
                 let start = input.offset(slot, x0, y);
-                load_line(input.data, BAND_BUFFER, start, ch_n, ch_n, n, color, out)
+                load_line(
+                    input.data,
+                    BAND_BUFFER,
+                    LineSpan {
+                        start,
+                        step: ch_n,
+                        channels: ch_n,
+                        n,
+                    },
+                    color,
+                    out,
+                )
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.x + fresh.start - x0;
@@ -542,21 +558,19 @@ impl StreamPlan {
 
     /// Vertical lines: image columns of the region, cropped to its rows ± margin,
     /// fused into the horizontal estimate.
-    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn epi_columns<T: Scalar, S: Sample>(
         &self,
         input: &CrossBand<'_, S>,
         region: Rect,
         fresh: Range<usize>,
-        stride: usize,
-        map_d: &mut [f32],
-        map_c: &mut [f32],
+        out: &mut RegionMaps<'_>,
         scratch: &mut [T],
     ) -> Result<()> {
         if fresh.is_empty() {
             return Ok(());
         }
+        let (map_d, map_c, stride) = (&mut *out.disparity, &mut *out.confidence, out.stride);
         let layout = self.plan.layout();
         let params = &self.plan.params().epi;
         let grid = layout.grid;
@@ -577,7 +591,18 @@ impl StreamPlan {
             let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
                 let start = input.offset(slot, x, y0);
-                load_line(input.data, BAND_BUFFER, start, step, ch_n, n, color, out)
+                load_line(
+                    input.data,
+                    BAND_BUFFER,
+                    LineSpan {
+                        start,
+                        step,
+                        channels: ch_n,
+                        n,
+                    },
+                    color,
+                    out,
+                )
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.y - y0;
@@ -597,15 +622,18 @@ impl StreamPlan {
     }
 }
 
-/// Moves the columns that `region` shares with `previous` (the tile to its left in the
-/// same band) to the left edge of the maps (`stride` apart); returns how many there are.
-fn shift_left(
-    previous: Rect,
-    region: Rect,
+/// The EPI maps of a tile's region: row `y` of the region starts at `y · stride`.
+struct RegionMaps<'a> {
+    disparity: &'a mut [f32],
+    confidence: &'a mut [f32],
+    /// The row stride (the widest region's width).
     stride: usize,
-    map_d: &mut [f32],
-    map_c: &mut [f32],
-) -> usize {
+}
+
+/// Moves the columns that `region` shares with `previous` (the tile to its left in the
+/// same band) to the left edge of the maps; returns how many there are.
+fn shift_left(previous: Rect, region: Rect, maps: &mut RegionMaps<'_>) -> usize {
+    let (map_d, map_c, stride) = (&mut *maps.disparity, &mut *maps.confidence, maps.stride);
     if region.y != previous.y || region.height != previous.height || region.x < previous.x {
         return 0;
     }

@@ -100,17 +100,23 @@ pub fn run(
         &plan,
         &lf,
         Stages::Full,
-        &mut buffers,
-        &mut memory.disparity,
-        &mut memory.confidence,
-        scratch,
-        maps,
-        &mut memory.history,
+        pipeline::Prelude {
+            buffers: &mut buffers,
+            report,
+        },
+        pipeline::RunOutput {
+            disparity: &mut memory.disparity,
+            confidence: &mut memory.confidence,
+            history: &mut memory.history,
+        },
+        pipeline::RunScratch {
+            kernel: scratch,
+            maps,
+        },
         &mut |progress| {
             mark(progress.stage);
             ControlFlow::Continue(())
         },
-        report,
     )?;
     mark("checksum");
     let mut checksum = 0u32;

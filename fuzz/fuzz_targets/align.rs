@@ -81,11 +81,15 @@ fuzz_target!(|input: Input| {
             &lf,
             stages,
             &mut buffers,
-            &mut d,
-            &mut c,
-            &mut k,
-            &mut maps,
-            &mut [],
+            pipeline::RunOutput {
+                disparity: &mut d,
+                confidence: &mut c,
+                history: &mut [],
+            },
+            pipeline::RunScratch {
+                kernel: &mut k,
+                maps: &mut maps,
+            },
             &mut |_| ControlFlow::Continue(()),
         );
     } else if align::estimate(&lf, &plan.params().align, &mut homographies, &mut scratch).is_ok() {

@@ -95,11 +95,15 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
                 plan,
                 lf,
                 stages,
-                &mut disparity,
-                &mut confidence,
-                &mut scratch,
-                &mut maps,
-                &mut history,
+                pipeline::RunOutput {
+                    disparity: &mut disparity,
+                    confidence: &mut confidence,
+                    history: &mut history,
+                },
+                pipeline::RunScratch {
+                    kernel: &mut scratch,
+                    maps: &mut maps,
+                },
                 &mut progress,
             )
             .is_ok()
@@ -111,7 +115,13 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
             let Some(mut scratch) = buffer::<T>(epi::scratch_len(plan.epi())) else {
                 return;
             };
-            if let Ok(h) = epi::estimate(plan.epi(), lf, &mut disparity, &mut confidence, &mut scratch) {
+            if let Ok(h) = epi::estimate(
+                plan.epi(),
+                lf,
+                &mut disparity,
+                &mut confidence,
+                &mut scratch,
+            ) {
                 assert!(!(h.min() > h.max()), "hypotheses {} > {}", h.min(), h.max());
                 confidence_ok(&confidence);
             }
@@ -140,13 +150,25 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
             let Some(mut scratch) = buffer::<f32>(median::scratch_len(plan.median())) else {
                 return;
             };
-            let _ = median::filter(plan.median(), &lf.center_view(), &map, &mut disparity, &mut scratch);
+            let _ = median::filter(
+                plan.median(),
+                &lf.center_view(),
+                &map,
+                &mut disparity,
+                &mut scratch,
+            );
         }
         Entry::Geofill => {
             let Some(mut scratch) = buffer::<f32>(geofill::scratch_len(plan.geofill())) else {
                 return;
             };
-            let _ = geofill::fill(plan.geofill(), &lf.center_view(), &map, &mut disparity, &mut scratch);
+            let _ = geofill::fill(
+                plan.geofill(),
+                &lf.center_view(),
+                &map,
+                &mut disparity,
+                &mut scratch,
+            );
         }
         Entry::Tv => {
             let (Some(mut scratch), Some(mut duals)) = (
@@ -166,8 +188,10 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
                 &Guide::View(lf.center_view()),
                 &mut disparity,
                 &mut history,
-                &mut scratch,
-                &mut duals,
+                tv::TvScratch {
+                    kernel: &mut scratch,
+                    duals: &mut duals,
+                },
             );
         }
     }

@@ -60,11 +60,15 @@ fn main() -> Result<(), String> {
             &plan,
             &lf,
             stages,
-            &mut d,
-            &mut c,
-            &mut scratch,
-            &mut maps,
-            &mut history,
+            pipeline::RunOutput {
+                disparity: &mut d,
+                confidence: &mut c,
+                history: &mut history,
+            },
+            pipeline::RunScratch {
+                kernel: &mut scratch,
+                maps: &mut maps,
+            },
             &mut |_| ControlFlow::Continue(()),
         )
         .map_err(|e| e.to_string())?;

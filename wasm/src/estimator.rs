@@ -330,11 +330,15 @@ impl Estimator {
                     &self.plan,
                     &lf?,
                     self.stages,
-                    &mut disparity,
-                    &mut confidence,
-                    &mut scratch,
-                    &mut maps,
-                    &mut history,
+                    pipeline::RunOutput {
+                        disparity: &mut disparity,
+                        confidence: &mut confidence,
+                        history: &mut history,
+                    },
+                    pipeline::RunScratch {
+                        kernel: &mut scratch,
+                        maps: &mut maps,
+                    },
                     report,
                 )
             })

@@ -21,6 +21,11 @@ pub fn shared_data(test: &str) -> Option<PathBuf> {
     }
 }
 
+/// `path` as a command-line argument (the tests' paths are UTF-8).
+pub fn arg(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
 /// Runs the `lfdepth` binary.
 pub fn lfdepth(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lfdepth"))

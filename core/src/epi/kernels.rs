@@ -415,30 +415,46 @@ pub(crate) fn apply_pair<T: Scalar>(
     ) else {
         return;
     };
+    let taps = HalfTaps {
+        centre,
+        odd: odd_taps,
+        even: even_taps,
+    };
     // The default prefilters (inner σ 0.5) have radius 2: a fixed radius unrolls the
     // taps and keeps both blocks of sums in registers.
     match r {
-        1 => pair_interior::<T, 1>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
-        2 => pair_interior::<T, 2>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
-        3 => pair_interior::<T, 3>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
-        _ => pair_interior::<T, 0>(centre, odd_taps, even_taps, input, out_odd, out_even, n),
+        1 => pair_interior::<T, 1>(taps, input, out_odd, out_even, n),
+        2 => pair_interior::<T, 2>(taps, input, out_odd, out_even, n),
+        3 => pair_interior::<T, 3>(taps, input, out_odd, out_even, n),
+        _ => pair_interior::<T, 0>(taps, input, out_odd, out_even, n),
     }
+}
+
+/// The taps of [`apply_pair`]'s two kernels past their centre (`odd`, `even`: taps
+/// `r + 1..=2r`), and the even kernel's centre tap (the odd kernel's is zero).
+#[derive(Clone, Copy)]
+struct HalfTaps<'a, T> {
+    centre: T,
+    odd: &'a [T],
+    even: &'a [T],
 }
 
 /// The interior outputs `r..n − r` of [`apply_pair`] (`r` the taps' count, `n > 2·r +
 /// PAIR_BLOCK`) in blocks of `PAIR_BLOCK`, the last one overlapping: `R` the radius when
 /// it is fixed at compile time (`R = r`), 0 for any.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn pair_interior<T: Scalar, const R: usize>(
-    centre: T,
-    odd_taps: &[T],
-    even_taps: &[T],
+    taps: HalfTaps<'_, T>,
     input: &[T],
     out_odd: &mut [T],
     out_even: &mut [T],
     n: usize,
 ) {
+    let HalfTaps {
+        centre,
+        odd: odd_taps,
+        even: even_taps,
+    } = taps;
     let r = if R > 0 { R } else { odd_taps.len() };
     let (Some(odd_taps), Some(even_taps)) = (odd_taps.get(..r), even_taps.get(..r)) else {
         return;

@@ -382,15 +382,7 @@ impl<T: Scalar> LineEstimator<T> {
             prev_r,
             prev_c,
         };
-        self.sweep(
-            &self.hypotheses,
-            0..c_n,
-            &planes,
-            bank,
-            &mut tensor,
-            &mut state,
-            guide,
-        );
+        self.sweep(&planes, bank, &mut tensor, &mut state, guide);
         let h = &self.hypotheses;
         let (lo, hi) = (T::from_f32(h.min()), T::from_f32(h.max()));
         for d in disparity.iter_mut().take(n) {

@@ -469,20 +469,24 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
                 Some(levels) if ch_n >= 3 => load_levels(
                     data,
                     "the light-field buffer",
-                    start,
-                    step,
-                    ch_n,
-                    n,
+                    LineSpan {
+                        start,
+                        step,
+                        channels: ch_n,
+                        n,
+                    },
                     levels,
                     out,
                 ),
                 _ => load_line(
                     data,
                     "the light-field buffer",
-                    start,
-                    step,
-                    ch_n,
-                    n,
+                    LineSpan {
+                        start,
+                        step,
+                        channels: ch_n,
+                        n,
+                    },
                     color,
                     out,
                 ),
@@ -492,26 +496,57 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
     }
 }
 
-/// Loads one EPI line of `n` pixels as the line estimator reads it: pixel `t` starts at
-/// `data[start + t·step]` and holds `channels` samples. [`ColorMode::Tensor`] writes the
-/// first (at most 3) channels as planes of `n` one after the other, [`ColorMode::Gray`]
-/// their mean as one plane; intensities scaled by [`INTENSITY_SCALE`]. Shared by the
-/// band estimator and the firmware stream, whose results must agree bit for bit.
-/// `what` names `data` in the error when the line runs past its end.
-#[allow(clippy::too_many_arguments)]
+/// Where one EPI line lies in a buffer of samples: pixel `t` of `n` starts at
+/// `start + t·step` and holds `channels` samples.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LineSpan {
+    pub(crate) start: usize,
+    pub(crate) step: usize,
+    pub(crate) channels: usize,
+    pub(crate) n: usize,
+}
+
+impl LineSpan {
+    /// The elements of `data` that the line's pixels occupy; `BufferTooSmall` naming
+    /// `what` when `data` ends before them.
+    fn elements<'d, S>(self, data: &'d [S], what: &'static str) -> Result<&'d [S]> {
+        let LineSpan {
+            start,
+            step,
+            channels,
+            n,
+        } = self;
+        let end = n
+            .saturating_sub(1)
+            .checked_mul(step)
+            .and_then(|span| span.checked_add(start))
+            .and_then(|last| last.checked_add(channels))
+            .unwrap_or(usize::MAX);
+        data.get(start..end).ok_or(Error::BufferTooSmall {
+            what,
+            needed: end,
+            got: data.len(),
+        })
+    }
+}
+
+/// Loads one EPI line (`line` of `data`) as the line estimator reads it.
+/// [`ColorMode::Tensor`] writes the first (at most 3) channels as planes of `n` one
+/// after the other, [`ColorMode::Gray`] their mean as one plane; intensities scaled by
+/// [`INTENSITY_SCALE`]. Shared by the band estimator and the firmware stream, whose
+/// results must agree bit for bit. `what` names `data` in the error when the line runs
+/// past its end.
 pub(crate) fn load_line<T: Scalar, S: Sample>(
     data: &[S],
     what: &'static str,
-    start: usize,
-    step: usize,
-    channels: usize,
-    n: usize,
+    line: LineSpan,
     color: ColorMode,
     out: &mut [T],
 ) -> Result<()> {
     // Every pixel starts `step ≥ channels ≥ 1` elements after the previous one.
-    let step = step.max(1);
-    let src = line_span(data, what, start, step, channels, n)?;
+    let step = line.step.max(1);
+    let (channels, n) = (line.channels, line.n);
+    let src = LineSpan { step, ..line }.elements(data, what)?;
     let pixels = src.chunks(step).take(n);
     let used = channels.min(3);
     match color {
@@ -556,45 +591,19 @@ pub(crate) fn load_line<T: Scalar, S: Sample>(
     Ok(())
 }
 
-/// The elements of `data` that `n` pixels of `channels` samples, `step` apart from
-/// `start` on, occupy; `BufferTooSmall` naming `what` when `data` ends before them.
-fn line_span<'d, S>(
-    data: &'d [S],
-    what: &'static str,
-    start: usize,
-    step: usize,
-    channels: usize,
-    n: usize,
-) -> Result<&'d [S]> {
-    let end = n
-        .saturating_sub(1)
-        .checked_mul(step)
-        .and_then(|span| span.checked_add(start))
-        .and_then(|last| last.checked_add(channels))
-        .unwrap_or(usize::MAX);
-    data.get(start..end).ok_or(Error::BufferTooSmall {
-        what,
-        needed: end,
-        got: data.len(),
-    })
-}
-
 /// [`load_line`] of the first three channels in [`ColorMode::Tensor`] (`channels ≥ 3`)
 /// through the level table of `u8` samples: the same values. Horizontal lines (`step ==
 /// channels`) read their pixels as contiguous chunks.
-#[allow(clippy::too_many_arguments)]
 fn load_levels<T: Scalar, S: Sample>(
     data: &[S],
     what: &'static str,
-    start: usize,
-    step: usize,
-    channels: usize,
-    n: usize,
+    line: LineSpan,
     levels: &Levels<T>,
     out: &mut [T],
 ) -> Result<()> {
-    let step = step.max(channels).max(1);
-    let src = line_span(data, what, start, step, channels, n)?;
+    let (channels, n) = (line.channels, line.n);
+    let step = line.step.max(channels).max(1);
+    let src = LineSpan { step, ..line }.elements(data, what)?;
     let (first, rest) = out.split_at_mut(n.min(out.len()));
     let (second, third) = rest.split_at_mut(n.min(rest.len()));
     let table = &levels.0;

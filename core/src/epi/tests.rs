@@ -432,15 +432,29 @@ fn levels_match_the_conversion<T: Scalar>() {
             load_line(
                 &data,
                 "test",
-                start,
-                step,
-                channels,
-                n,
+                LineSpan {
+                    start,
+                    step,
+                    channels,
+                    n,
+                },
                 ColorMode::Tensor,
                 &mut want,
             )
             .unwrap();
-            load_levels(&data, "test", start, step, channels, n, &levels, &mut got).unwrap();
+            load_levels(
+                &data,
+                "test",
+                LineSpan {
+                    start,
+                    step,
+                    channels,
+                    n,
+                },
+                &levels,
+                &mut got,
+            )
+            .unwrap();
             assert_eq!(got, want, "channels {channels}, step {step}");
         }
         // A line past the buffer's end is an error, as for `load_line`.
@@ -448,10 +462,12 @@ fn levels_match_the_conversion<T: Scalar>() {
         assert!(load_levels(
             &data,
             "t",
-            4 * channels,
-            row_stride,
-            channels,
-            height + 1,
+            LineSpan {
+                start: 4 * channels,
+                step: row_stride,
+                channels,
+                n: height + 1
+            },
             &levels,
             &mut out
         )

@@ -188,7 +188,12 @@ pub fn filter_rows<S: Sample>(
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    run(setup, guide, input, None, rows, out, None, scratch)
+    let reads = PassInput {
+        guide,
+        input,
+        previous: None,
+    };
+    run(setup, reads, rows, out, None, scratch)
 }
 
 /// [`filter_rows`] for a pass after the first, `previous` being the previous pass's
@@ -206,22 +211,30 @@ pub fn filter_rows_again<S: Sample>(
     out: &mut [f32],
     scratch: &mut [f32],
 ) -> Result<()> {
-    run(
-        setup,
+    let reads = PassInput {
         guide,
         input,
-        Some(previous),
-        rows,
-        out,
-        None,
-        scratch,
-    )
+        previous: Some(previous),
+    };
+    run(setup, reads, rows, out, None, scratch)
 }
 
-/// One pass of [`filter_rows`] (`previous: None`, the first pass) or
-/// [`filter_rows_again`] (`previous`: the previous pass's input) that also remembers,
-/// per pixel, whether the first phase of its decision settled it: the rows of its
-/// window at a distance from its own divisible by 4 kept its value (`pixel.rs`). The
+/// What one pass of the median reads.
+#[derive(Clone, Copy, Debug)]
+pub struct PassInput<'a, 'g, S: Sample> {
+    /// The colour guide (the centre view).
+    pub guide: &'a View<'g, S>,
+    /// The map the pass filters (row-major, `setup.pixels()`).
+    pub input: &'a [f32],
+    /// The previous pass's input (so that `input` is its output), or `None` in the first
+    /// pass.
+    pub previous: Option<&'a [f32]>,
+}
+
+/// One pass of [`filter_rows`] (`reads.previous: None`, the first pass) or
+/// [`filter_rows_again`] (`reads.previous`: the previous pass's input) that also
+/// remembers, per pixel, whether the first phase of its decision settled it: the rows of
+/// its window at a distance from its own divisible by 4 kept its value (`pixel.rs`). The
 /// same output, faster again in later passes: a pixel so settled in the previous pass
 /// keeps its value when the rows that first phase reads (those rows and the rows next
 /// to them, whose values enter their slopes, over the window's columns and one more on
@@ -232,12 +245,9 @@ pub fn filter_rows_again<S: Sample>(
 /// pass writes it, and with `previous` it first reads what the previous pass's call
 /// for the same pixels wrote there (any banding; each pixel's byte is its own). Bytes
 /// not written by the previous pass make the output wrong, not an error.
-#[allow(clippy::too_many_arguments)] // the arguments of `filter_rows_again`, and one more
 pub fn filter_pass<S: Sample>(
     setup: Setup<'_, MedianParams>,
-    guide: &View<'_, S>,
-    input: &[f32],
-    previous: Option<&[f32]>,
+    reads: PassInput<'_, '_, S>,
     rows: Range<usize>,
     out: &mut [f32],
     settled: &mut [u8],
@@ -250,29 +260,22 @@ pub fn filter_pass<S: Sample>(
             got: settled.len(),
         });
     }
-    run(
-        setup,
-        guide,
-        input,
-        previous,
-        rows,
-        out,
-        Some(settled),
-        scratch,
-    )
+    run(setup, reads, rows, out, Some(settled), scratch)
 }
 
-#[allow(clippy::too_many_arguments)] // every entry point's arguments
 fn run<S: Sample>(
     setup: Setup<'_, MedianParams>,
-    guide: &View<'_, S>,
-    input: &[f32],
-    previous: Option<&[f32]>,
+    reads: PassInput<'_, '_, S>,
     rows: Range<usize>,
     out: &mut [f32],
     mut settled: Option<&mut [u8]>,
     scratch: &mut [f32],
 ) -> Result<()> {
+    let PassInput {
+        guide,
+        input,
+        previous,
+    } = reads;
     if let Some(previous) = previous {
         if previous.len() != input.len() {
             return Err(Error::OutputSize {

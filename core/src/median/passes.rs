@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::lightfield::{Sample, View};
 use crate::setup::Setup;
 
-use super::MedianParams;
+use super::{MedianParams, PassInput};
 
 /// Map scratch (`f32` elements) of [`filter_band`]: three maps (the pass's input, the
 /// previous pass's input and the output) and the filter's own [`super::scratch_len`].
@@ -96,9 +96,12 @@ pub fn filter_band<S: Sample>(
             None
         };
         let out = next.get_mut(span).ok_or(too_small)?;
-        super::run(
-            setup, guide, current, previous, pass_rows, out, flags, scratch,
-        )?;
+        let reads = PassInput {
+            guide,
+            input: current,
+            previous,
+        };
+        super::run(setup, reads, pass_rows, out, flags, scratch)?;
         // next → current → before; the oldest map receives the next pass.
         core::mem::swap(&mut before, &mut current);
         core::mem::swap(&mut current, &mut next);

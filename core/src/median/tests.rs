@@ -716,9 +716,11 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
                 scratch.fill(f32::NAN);
                 filter_pass(
                     stage.setup(),
-                    &guide,
-                    &input,
-                    previous.as_deref(),
+                    PassInput {
+                        guide: &guide,
+                        input: &input,
+                        previous: previous.as_deref(),
+                    },
                     start..end,
                     &mut got[start * w..end * w],
                     &mut settled[start * w..end * w],
@@ -759,9 +761,11 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
     assert!(matches!(
         filter_pass(
             stage.setup(),
-            &guide,
-            &map,
-            None,
+            PassInput {
+                guide: &guide,
+                input: &map,
+                previous: None
+            },
             0..16,
             &mut out,
             &mut [0; 255],
@@ -772,9 +776,11 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
     assert!(matches!(
         filter_pass(
             stage.setup(),
-            &guide,
-            &map,
-            Some(&[0.0; 255]),
+            PassInput {
+                guide: &guide,
+                input: &map,
+                previous: Some(&[0.0; 255])
+            },
             0..16,
             &mut out,
             &mut [0; 256],

@@ -45,11 +45,15 @@ fn full<T: Scalar>(scene: &Rendered, params: Params) -> Vec<f32> {
         &plan,
         &lf,
         Stages::Full,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut [],
+        pipeline::RunOutput {
+            disparity: &mut d,
+            confidence: &mut c,
+            history: &mut [],
+        },
+        pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();

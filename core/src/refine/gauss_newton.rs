@@ -39,22 +39,28 @@ const WIDE_LIMIT_SHIFT: i32 = 5;
 /// See [`WIDE_LIMIT_SHIFT`]: `2^8` covers the terms of any window on a 9×9 grid.
 const WIDE_SHIFT: i32 = 8;
 
-/// The window sum of the statistics of the pixels within `gate` of `d`, over
-/// `ys × xs` of the region (`width` wide), in a fixed order so that every band sums
-/// alike. Each term is multiplied by `scale` when one is given. (A row's interior
-/// pixels at radius 1 take [`update_row`]'s [`window_rows`] instead.)
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn window_sum<T: Scalar>(
-    stats: &[T],
-    previous: &[T],
+/// The region's disparities at which the statistics were last measured, and those
+/// statistics ([`STATS`] per pixel), row-major, `width` pixels a row.
+struct Evaluated<'a, T> {
+    disparity: &'a [T],
+    stats: &'a [T],
     width: usize,
+}
+
+/// The window sum of the statistics of the pixels within `gate` of `d`, over
+/// `ys × xs` of the region, in a fixed order so that every band sums alike. Each term is
+/// multiplied by `scale` when one is given. (A row's interior pixels at radius 1 take
+/// [`update_row`]'s [`window_rows`] instead.)
+#[inline]
+fn window_sum<T: Scalar>(
+    evaluated: &Evaluated<'_, T>,
     ys: Range<usize>,
     xs: Range<usize>,
     d: T,
     gate: T,
     scale: Option<T>,
 ) -> [T; STATS] {
+    let (stats, previous, width) = (evaluated.stats, evaluated.disparity, evaluated.width);
     let mut sum = [T::ZERO; STATS];
     if xs.len() == 3 {
         // Radius 1 away from the image's sides (fewer than three rows at the region's
@@ -70,7 +76,7 @@ fn window_sum<T: Scalar>(
                     .get(at * STATS..)
                     .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
             ) else {
-                return window_sum_each(stats, previous, width, ys, xs, d, gate, scale);
+                return window_sum_each(evaluated, ys, xs, d, gate, scale);
             };
             for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
                 let outside = (p - d).abs() > gate;
@@ -85,7 +91,7 @@ fn window_sum<T: Scalar>(
         }
         return sum;
     }
-    window_sum_each(stats, previous, width, ys, xs, d, gate, scale)
+    window_sum_each(evaluated, ys, xs, d, gate, scale)
 }
 
 /// The total curvature `A` of a window sum (all groups).
@@ -354,17 +360,15 @@ fn update_row<T: Scalar>(
 
 /// [`window_sum`] pixel by pixel.
 #[inline]
-#[allow(clippy::too_many_arguments)]
 fn window_sum_each<T: Scalar>(
-    stats: &[T],
-    previous: &[T],
-    width: usize,
+    evaluated: &Evaluated<'_, T>,
     ys: Range<usize>,
     xs: Range<usize>,
     d: T,
     gate: T,
     scale: Option<T>,
 ) -> [T; STATS] {
+    let (stats, previous, width) = (evaluated.stats, evaluated.disparity, evaluated.width);
     let mut sum = [T::ZERO; STATS];
     for yy in ys {
         for xx in xs.clone() {
@@ -543,18 +547,14 @@ pub(super) fn iterate<T: Scalar, P: Photometric<T>>(
                         continue;
                     }
                 }
-                let sum = window_sum(
+                let evaluated = Evaluated {
+                    disparity: previous,
                     stats,
-                    previous,
                     width,
-                    ys.clone(),
-                    xs.clone(),
-                    d,
-                    k.gate,
-                    None,
-                );
+                };
+                let sum = window_sum(&evaluated, ys.clone(), xs.clone(), d, k.gate, None);
                 let (next, e, damped) = step.update(d, sum, |f| {
-                    window_sum(stats, previous, width, ys, xs, d, k.gate, Some(f))
+                    window_sum(&evaluated, ys, xs, d, k.gate, Some(f))
                 });
                 if let Some(current) = current.get_mut(j) {
                     *current = next;

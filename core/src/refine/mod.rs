@@ -353,29 +353,42 @@ pub fn refine_band<T: Scalar, S: Sample>(
     band(setup, &photo, range, disparity, rows, out, scratch)
 }
 
-/// [`refine_band`] on an aligned array: `lf` holds the INPUT views and `homographies`
-/// (one per view, rectified → view pixels, as [`crate::align::warp_rows`] takes them)
-/// rectify them; every compared view (the centre one too) is sampled through its
-/// homography at the disparity-shifted position, one interpolation of the input instead
-/// of a second one of a warped copy (which spreads occlusion edges by a different
-/// amount in every view: docs/stages/align.md), with `interpolation`
-/// (Catmull–Rom keeps the texture's contrast at every sub-pixel phase, which the
-/// Gauss–Newton steps need: it loses much less to the misalignment than bilinear).
-/// Slower than the rectified path (three samples and three projections per view and
-/// pixel). Not yet used by the pipelines: the EPI stage and the others still read the
-/// warped copy.
-#[allow(clippy::too_many_arguments)] // `refine_band`'s and the views' homographies
+/// An array that is not rectified: its input views, one homography per view
+/// (rectified → view pixels, as [`crate::align::warp_rows`] takes them) that rectifies
+/// them, and the interpolation its views are sampled with.
+#[derive(Clone, Copy, Debug)]
+pub struct MappedViews<'a, 'l, S: Sample> {
+    /// The input views.
+    pub lf: &'a LightField<'l, S>,
+    /// One homography per view (row-major grid order).
+    pub homographies: &'a [Homography],
+    /// How the views are sampled.
+    pub interpolation: Interpolation,
+}
+
+/// [`refine_band`] on an aligned array: every compared view (the centre one too) is
+/// sampled through its homography at the disparity-shifted position, one interpolation
+/// of the input instead of a second one of a warped copy (which spreads occlusion edges
+/// by a different amount in every view: docs/stages/align.md), with the views'
+/// interpolation (Catmull–Rom keeps the texture's contrast at every sub-pixel phase,
+/// which the Gauss–Newton steps need: it loses much less to the misalignment than
+/// bilinear). Slower than the rectified path (three samples and three projections per
+/// view and pixel). Not yet used by the pipelines: the EPI stage and the others still
+/// read the warped copy.
 pub fn refine_band_mapped<T: Scalar, S: Sample>(
     setup: Setup<'_, RefineParams>,
-    lf: &LightField<'_, S>,
-    homographies: &[Homography],
-    interpolation: Interpolation,
+    views: MappedViews<'_, '_, S>,
     range: (f32, f32),
     disparity: &[f32],
     rows: Range<usize>,
     out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
+    let MappedViews {
+        lf,
+        homographies,
+        interpolation,
+    } = views;
     check_inputs(setup, lf, range, disparity)?;
     check_homographies(setup, homographies)?;
     let photo = Mapped {

@@ -297,9 +297,11 @@ fn run_mapped<T: Scalar>(
         let span = rows.start * w..rows.end * w;
         refine_band_mapped(
             stage.setup(),
-            &lf,
-            maps,
-            how,
+            MappedViews {
+                lf: &lf,
+                homographies: maps,
+                interpolation: how,
+            },
             (-4.0, 4.0),
             input,
             rows,

@@ -77,11 +77,15 @@ fn serial<T: Scalar>(
         plan,
         lf,
         stages,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut history,
+        pipeline::RunOutput {
+            disparity: &mut d,
+            confidence: &mut c,
+            history: &mut history,
+        },
+        pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();

@@ -104,11 +104,15 @@ fn whole_frame<T: Scalar>(plan: &Plan, views: &[u8]) -> (Vec<f32>, Vec<f32>) {
         plan,
         &lf,
         Stages::Full,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut [],
+        pipeline::RunOutput {
+            disparity: &mut d,
+            confidence: &mut c,
+            history: &mut [],
+        },
+        pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| core::ops::ControlFlow::Continue(()),
     )
     .unwrap();

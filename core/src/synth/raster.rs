@@ -155,9 +155,18 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
         waves: [(1.0, 0.0); WAVES],
     }; MAX_SURFACES];
     let lighting = scene.lighting.as_ref();
+    let view = ViewScene {
+        camera: &camera,
+        u,
+        v,
+        surfaces,
+        prepared,
+        lighting,
+        offsets,
+    };
     for (index, pixel) in out.chunks_exact_mut(channels).enumerate() {
         let (i, j) = ((index % width) as f64, (index / width) as f64);
-        let footprint = pixel_radiance(&camera, surfaces, prepared, offsets, lighting, i, j, u, v);
+        let footprint = pixel_radiance(&view, i, j);
         let radiance = match footprint {
             Footprint::Mixed(value) => value,
             Footprint::Plane(k) => {
@@ -202,19 +211,30 @@ pub(crate) fn render_view(spec: &SynthSpec, scene: &Scene, row: usize, col: usiz
     }
 }
 
-/// Linear radiance of stored pixel `(i, j)`, box-filtered over the pixel.
-#[allow(clippy::too_many_arguments)]
-fn pixel_radiance(
-    camera: &ViewCamera,
-    surfaces: &[super::surface::Surface],
-    prepared: &[Prepared],
-    offsets: &[f64],
-    lighting: Option<&Lighting>,
-    i: f64,
-    j: f64,
+/// The scene as one view sees it: its camera, its position `(u, v)` in the grid
+/// relative to the centre view, the surfaces and their preparation for the view, the
+/// lighting, and the supersampling offsets within a pixel.
+struct ViewScene<'a> {
+    camera: &'a ViewCamera,
     u: f64,
     v: f64,
-) -> Footprint {
+    surfaces: &'a [super::surface::Surface],
+    prepared: &'a [Prepared],
+    lighting: Option<&'a Lighting>,
+    offsets: &'a [f64],
+}
+
+/// Linear radiance of stored pixel `(i, j)` of `view`, box-filtered over the pixel.
+fn pixel_radiance(view: &ViewScene<'_>, i: f64, j: f64) -> Footprint {
+    let ViewScene {
+        camera,
+        u,
+        v,
+        surfaces,
+        prepared,
+        lighting,
+        offsets,
+    } = *view;
     // Footprint of the pixel in ideal coordinates.
     let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
     let quad: Quad = corners.map(|(dx, dy)| camera.ideal_point(i + dx, j + dy));
@@ -266,7 +286,7 @@ fn pixel_radiance(
             if s.is_plane() {
                 return Footprint::Plane(k as usize);
             }
-            if let Some(value) = curved_analytic(camera, s, &p.geometry, lighting, i, j, u, v) {
+            if let Some(value) = curved_analytic(view, s, &p.geometry, i, j) {
                 return Footprint::Mixed(value);
             }
             break;
@@ -311,7 +331,7 @@ fn pixel_radiance(
             if s.is_plane() {
                 return Footprint::Plane(k as usize);
             }
-            if let Some(value) = curved_analytic(camera, s, &p.geometry, lighting, i, j, u, v) {
+            if let Some(value) = curved_analytic(view, s, &p.geometry, i, j) {
                 return Footprint::Mixed(value);
             }
         }
@@ -355,21 +375,25 @@ const MAX_CURVED_SHEAR: f64 = 0.5;
 /// Largest second-order term (surface pixels) of the linearisation over a pixel.
 const MAX_CURVED_ERROR: f64 = 1e-3;
 
-/// Box-filtered radiance of a curved surface (a cap) seen over the whole pixel `(i, j)`,
-/// through the local affine approximation of the view → surface map at the pixel centre.
-/// `None` (supersample instead) where the neglected second-order term, measured by
-/// second differences, could exceed [`MAX_CURVED_ERROR`] over the pixel, or near the rim.
-#[allow(clippy::too_many_arguments)]
+/// Box-filtered radiance of a curved surface (a cap) seen over the whole pixel `(i, j)`
+/// of `view`, through the local affine approximation of the view → surface map at the
+/// pixel centre. `None` (supersample instead) where the neglected second-order term,
+/// measured by second differences, could exceed [`MAX_CURVED_ERROR`] over the pixel, or
+/// near the rim.
 fn curved_analytic(
-    camera: &ViewCamera,
+    view: &ViewScene<'_>,
     surface: &super::surface::Surface,
     geometry: &ViewSurface,
-    lighting: Option<&Lighting>,
     i: f64,
     j: f64,
-    u: f64,
-    v: f64,
 ) -> Option<[f64; 3]> {
+    let ViewScene {
+        camera,
+        u,
+        v,
+        lighting,
+        ..
+    } = *view;
     const STEP: f64 = 0.25;
     let (x, y) = camera.ideal_point(i, j);
     let hit = |dx: f64, dy: f64| surface.hit(geometry, x + dx, y + dy, u, v);

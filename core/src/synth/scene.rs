@@ -231,18 +231,14 @@ impl Builder {
         )
     }
 
-    /// A rectangle: centre, orientation, half extents, centre disparity, slant (0 = fronto).
-    #[allow(clippy::too_many_arguments)]
-    fn rect(
-        &mut self,
-        (cx, cy): (f64, f64),
-        angle: f64,
-        half_length: f64,
-        half_width: f64,
-        dc: f64,
-        steepness: f64,
-        contrast: f64,
-    ) {
+    /// A rectangle of `outline`: centre disparity `dc`, slant `steepness` (0 = fronto).
+    fn rect(&mut self, outline: Outline, dc: f64, steepness: f64, contrast: f64) {
+        let Outline {
+            centre: (cx, cy),
+            angle,
+            half_length,
+            half_width,
+        } = outline;
         let (cos, sin) = (libm::cos(angle), libm::sin(angle));
         let ext_x = libm::fabs(cos) * half_length + libm::fabs(sin) * half_width;
         let ext_y = libm::fabs(sin) * half_length + libm::fabs(cos) * half_width;
@@ -276,10 +272,12 @@ impl Builder {
         let half_length = self.size * self.rng.range(lo, hi);
         let half_width = self.size * self.rng.range(lo, hi);
         self.rect(
-            centre,
-            angle,
-            half_length,
-            half_width,
+            Outline {
+                centre,
+                angle,
+                half_length,
+                half_width,
+            },
             dc,
             steepness,
             contrast,
@@ -304,10 +302,12 @@ impl Builder {
         let centre = self.position(0.2);
         let half_length = self.size * self.rng.range(0.15, 0.4);
         self.rect(
-            centre,
-            angle,
-            half_length,
-            width / 2.0,
+            Outline {
+                centre,
+                angle,
+                half_length,
+                half_width: width / 2.0,
+            },
             d,
             steepness,
             CONTRAST,
@@ -362,7 +362,17 @@ impl Builder {
             let angle = self.rng.symmetric(0.8);
             let half_length = self.size * scale * self.rng.range(0.7, 1.0);
             let half_width = self.size * scale * self.rng.range(0.4, 0.8);
-            self.rect((cx, cy), angle, half_length, half_width, d, 0.0, CONTRAST);
+            self.rect(
+                Outline {
+                    centre: (cx, cy),
+                    angle,
+                    half_length,
+                    half_width,
+                },
+                d,
+                0.0,
+                CONTRAST,
+            );
         }
         let centre = self.position(0.3);
         let base = self.level(0.85);
@@ -374,10 +384,12 @@ impl Builder {
         let (centre, angle) = (self.position(0.35), self.rng.symmetric(0.3));
         let mid = self.level(0.35);
         self.rect(
-            centre,
-            angle,
-            self.size * 0.3,
-            self.size * 0.2,
+            Outline {
+                centre,
+                angle,
+                half_length: self.size * 0.3,
+                half_width: self.size * 0.2,
+            },
             mid,
             0.0,
             CONTRAST,
@@ -419,4 +431,14 @@ impl Builder {
         let angle = self.rng.symmetric(1.5);
         self.bar(2.0, angle, self.d_max, 0.0);
     }
+}
+
+/// A rectangle's outline: its centre (pixels), orientation (radians) and half extents
+/// (pixels).
+#[derive(Clone, Copy)]
+struct Outline {
+    centre: (f64, f64),
+    angle: f64,
+    half_length: f64,
+    half_width: f64,
 }

@@ -69,5 +69,5 @@ pub use params::{TvNorm, TvParams};
 pub use solver::{scratch_len_for, solve, Guide, Maps, Rect, SolveOutput, SolveReport};
 pub use tiles::{
     dual_len, normalise_history, refine, refine_tile, refine_with_progress, scratch_len,
-    tile_count, tile_rects, RefineReport,
+    tile_count, tile_rects, RefineReport, TvScratch,
 };

@@ -148,44 +148,46 @@ pub fn dual_len(setup: Setup<'_, TvParams>) -> usize {
     }
 }
 
+/// The caller-owned memory of [`refine`].
+#[derive(Debug)]
+pub struct TvScratch<'a, S> {
+    /// Kernel scalars: [`scratch_len`] elements.
+    pub kernel: &'a mut [S],
+    /// [`dual_len`] floats: carries the dual from one outer sweep to the next.
+    pub duals: &'a mut [f32],
+}
+
 /// Refines the whole map, tile after tile: `out` (`width × height`) gets the refined
 /// disparity, `history[n]` the RMS dual update at iteration `n` of the first pass (see
-/// [`normalise_history`]; pass an empty slice to skip it). `duals` ([`dual_len`] floats)
-/// carries the dual from one outer sweep to the next.
+/// [`normalise_history`]; pass an empty slice to skip it).
 pub fn refine<S: Scalar, P: Sample>(
     setup: Setup<'_, TvParams>,
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
     out: &mut [f32],
     history: &mut [f32],
-    scratch: &mut [S],
-    duals: &mut [f32],
+    scratch: TvScratch<'_, S>,
 ) -> Result<RefineReport> {
-    refine_with_progress(
-        setup,
-        maps,
-        guide,
-        out,
-        history,
-        scratch,
-        duals,
-        &mut |_| ControlFlow::Continue(()),
-    )
+    refine_with_progress(setup, maps, guide, out, history, scratch, &mut |_| {
+        ControlFlow::Continue(())
+    })
 }
 
 /// [`refine`], reporting each tile solve to `progress` (stage [`super::STAGE`]; done out
 /// of tiles × passes); `ControlFlow::Break(())` stops with [`Error::Cancelled`].
-#[allow(clippy::too_many_arguments)]
 pub fn refine_with_progress<S: Scalar, P: Sample>(
     setup: Setup<'_, TvParams>,
     maps: &Maps<'_>,
     guide: &Guide<'_, P>,
     out: &mut [f32],
     history: &mut [f32],
-    scratch: &mut [S],
-    duals: &mut [f32],
+    scratch: TvScratch<'_, S>,
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<RefineReport> {
+    let TvScratch {
+        kernel: scratch,
+        duals,
+    } = scratch;
     check_maps(setup, maps)?;
     if out.len() != setup.pixels() {
         return Err(Error::OutputSize {

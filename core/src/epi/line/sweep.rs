@@ -5,10 +5,8 @@ use super::estimator::LineEstimator;
 use super::guide::Guide;
 use super::scoring::{State, DEGENERATE};
 use super::tensor::Tensor;
-use crate::epi::hypotheses::Hypotheses;
 use crate::epi::planes::{Planes, BLOCK};
 use crate::scalar::Scalar;
-use core::ops::Range;
 
 /// A sample the coarse pass brackets between two fine shears is not tested at the upper
 /// one when its fine residual slope at the lower one puts it less than this many shear
@@ -20,21 +18,20 @@ use core::ops::Range;
 const FINE_NEAR: f32 = 0.5;
 
 impl<T: Scalar> LineEstimator<T> {
-    /// Tests the hypotheses `hyps` on the channel planes `slots`, keeping each sample's
+    /// Tests the estimator's hypotheses on every channel plane, keeping each sample's
     /// best candidate in `state`. With a `guide`, a sample is only tested at the
     /// hypotheses it needs (see [`Guide::needs_mask`]); the tensor is then computed only
     /// within the outer smoothing's reach of those samples.
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn sweep(
         &self,
-        hyps: &Hypotheses,
-        slots: Range<usize>,
         planes: &Planes,
         bank: &mut [T],
         tensor: &mut Tensor<'_, T>,
         state: &mut State<'_, T>,
         mut guide: Option<Guide<'_, T>>,
     ) {
+        let hyps = &self.hypotheses;
+        let slots = 0..self.channels;
         let n = planes.n;
         let settle_below = T::from_f32(FINE_NEAR * hyps.step());
         let degenerate = T::from_f32(DEGENERATE);

@@ -5,7 +5,7 @@ use crate::lightfield::Sample;
 use crate::scalar::Scalar;
 
 use super::sampling::{convert, split, unpack};
-use super::statistics::{energies, statistics, Interval, LaneSlack, Lanes};
+use super::statistics::{energies, statistics, Interval, LaneSlack, Lanes, PixelProbe};
 use super::taps::AxisTap;
 use super::{Views, CHUNK, GROUPS, STATS};
 
@@ -61,17 +61,14 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
     }
 
     /// Adds the Gauss–Newton statistics of the first `n` taps (gathered with `J` = 3)
-    /// at `d` to their groups in `out`: [`statistics`] of the chunk's scaled texels.
+    /// at `probe.d` to their groups in `out`: [`statistics`] of the chunk's scaled
+    /// texels.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn statistics(
         &self,
         n: usize,
         levels: &[T; 256],
-        centre: &[T; N],
-        d: T,
-        half: T,
-        robust: (T, T),
+        probe: &PixelProbe<'_, T, N>,
         regular: Option<(&[usize; GROUPS], Option<&[bool; CHUNK]>)>,
         slack: Option<&LaneSlack<T, N>>,
         out: &mut [T; STATS],
@@ -88,7 +85,7 @@ impl<T: Scalar, S: Sample, const N: usize> Chunk<T, S, N> {
             offset: &self.offset,
             group: &self.group,
         };
-        statistics(&lanes, n, centre, d, half, robust, regular, slack, out);
+        statistics(&lanes, n, probe, regular, slack, out);
     }
 
     /// The weighted energies `scaled / (robust + e) · e` of the taps (gathered with
@@ -124,15 +121,12 @@ impl<T: Scalar> Views<T> {
     /// by byte gather was a third of a call). `false` (and `out` unchanged) for other
     /// sample types and when a texel's four bytes reach past the end of the data.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     pub(super) fn regular_statistics<S: Sample, const CH: usize, const N: usize>(
         &self,
         data: &[S],
         (x, y): (usize, usize),
         (cells, fractions): (&[i32; CHUNK], &[T; CHUNK]),
-        centre: &[T; N],
-        d: T,
-        robust: (T, T),
+        probe: &PixelProbe<'_, T, N>,
         slack: Option<&LaneSlack<T, N>>,
         out: &mut [T; STATS],
     ) -> bool {
@@ -152,9 +146,7 @@ impl<T: Scalar> Views<T> {
             group: &[0; CHUNK],
         };
         let regular = Some((&self.regular_groups, None));
-        statistics(
-            &lanes, CHUNK, centre, d, self.half, robust, regular, slack, out,
-        );
+        statistics(&lanes, CHUNK, probe, regular, slack, out);
         true
     }
 

@@ -6,7 +6,7 @@ use crate::scalar::Scalar;
 
 use super::gather::{Chunk, Gathered};
 use super::sampling::{lanes, unpack};
-use super::statistics::{energies, used, Interval, LaneSlack};
+use super::statistics::{energies, used, Interval, LaneSlack, PixelProbe};
 use super::{Views, CHUNK, STATS};
 
 impl<T: Scalar> Views<T> {
@@ -61,9 +61,12 @@ impl<T: Scalar> Views<T> {
                     data,
                     (x, y),
                     (&cells, &fractions),
-                    &used::<T, L, N>(&centre),
-                    d,
-                    (robust, scaled),
+                    &PixelProbe {
+                        centre: &used::<T, L, N>(&centre),
+                        d,
+                        half: self.half,
+                        robust: (robust, scaled),
+                    },
                     regular_slack.as_ref(),
                     out,
                 )
@@ -76,6 +79,12 @@ impl<T: Scalar> Views<T> {
         if cursor < self.axis_len {
             let mut chunk = Chunk::<T, S, N>::new();
             let centre_used = used::<T, L, N>(&centre);
+            let probe = PixelProbe {
+                centre: &centre_used,
+                d,
+                half: self.half,
+                robust: (robust, scaled),
+            };
             let gathered = if self.regular {
                 self.fill_regular::<S, CH, N, 3>(data, (x, y), (xf, yf), d, &mut chunk)
             } else {
@@ -88,10 +97,7 @@ impl<T: Scalar> Views<T> {
                 Gathered::Every => chunk.statistics(
                     CHUNK,
                     &self.levels,
-                    &centre_used,
-                    d,
-                    self.half,
-                    (robust, scaled),
+                    &probe,
                     Some((groups, None)),
                     regular_slack.as_ref(),
                     out,
@@ -99,10 +105,7 @@ impl<T: Scalar> Views<T> {
                 Gathered::Masked(seen) => chunk.statistics(
                     CHUNK,
                     &self.levels,
-                    &centre_used,
-                    d,
-                    self.half,
-                    (robust, scaled),
+                    &probe,
                     Some((groups, Some(&seen))),
                     regular_slack.as_ref(),
                     out,
@@ -119,17 +122,7 @@ impl<T: Scalar> Views<T> {
                     break;
                 }
                 let lane_slack = slack.as_ref().map(|s| chunk.slack(s));
-                chunk.statistics(
-                    n,
-                    &self.levels,
-                    &centre_used,
-                    d,
-                    self.half,
-                    (robust, scaled),
-                    None,
-                    lane_slack.as_ref(),
-                    out,
-                );
+                chunk.statistics(n, &self.levels, &probe, None, lane_slack.as_ref(), out);
             }
         }
         for tap in self.oblique_taps() {

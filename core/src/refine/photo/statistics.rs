@@ -60,24 +60,36 @@ pub(super) struct Lanes<'a, T, F> {
     pub(super) group: &'a [u8; CHUNK],
 }
 
-/// Adds the Gauss–Newton statistics of the first `n` taps of `lanes` at `d` to their
+/// The pixel whose statistics are gathered: the centre view's values there, the
+/// disparity `d` tested, `½` (in `T`), and the robust weight's `(robust, scaled)`.
+#[derive(Clone, Copy)]
+pub(super) struct PixelProbe<'a, T, const N: usize> {
+    pub(super) centre: &'a [T; N],
+    pub(super) d: T,
+    pub(super) half: T,
+    pub(super) robust: (T, T),
+}
+
+/// Adds the Gauss–Newton statistics of the first `n` taps of `lanes` at `probe.d` to their
 /// groups in `out` (see [`Views::pixel`](super::Views::pixel)). Every lane is computed
 /// (the loop has a fixed length); lanes from `n` on are not added. `regular`: all
 /// [`CHUNK`] lanes are taken and lane `v` belongs to group `regular[v % GROUPS]`;
 /// with a mask, the lanes it leaves out add zero (see [`Gathered::Masked`](super::gather::Gathered::Masked)).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub(super) fn statistics<T: Scalar, F: Fn(usize, usize, usize) -> T, const N: usize>(
     lanes: &Lanes<'_, T, F>,
     n: usize,
-    centre: &[T; N],
-    d: T,
-    half: T,
-    (robust, scaled): (T, T),
+    probe: &PixelProbe<'_, T, N>,
     regular: Option<(&[usize; GROUPS], Option<&[bool; CHUNK]>)>,
     slack: Option<&LaneSlack<T, N>>,
     out: &mut [T; STATS],
 ) {
+    let PixelProbe {
+        centre,
+        d,
+        half,
+        robust: (robust, scaled),
+    } = *probe;
     // With a slack, the weight and the energy come from the residual outside the
     // centre's interval (`RefineParams::sampling_slack`) and the step from the residual
     // itself (from the part outside, the interval would be a dead zone of ±slack px of

@@ -18,6 +18,13 @@ const FAINT: f64 = 0.025;
 /// basic scenes' strong texture.
 const MATTE: f64 = 0.08;
 
+/// How a surface looks: its texture's contrast and its albedo (the texture's scale).
+#[derive(Clone, Copy, Debug)]
+struct Material {
+    contrast: f64,
+    albedo: f64,
+}
+
 /// A plane receding from the camera: disparity `d0` at row `y0`, growing by `slope`
 /// per row below it.
 #[derive(Clone, Copy, Debug)]
@@ -108,15 +115,12 @@ impl Builder {
 
     /// An upright fronto-parallel rectangle standing on `floor`: bottom centre at
     /// fractions `(fx, fy)` of the frame, half extents as fractions of the scene size.
-    #[allow(clippy::too_many_arguments)]
     fn standing(
         &mut self,
         floor: Floor,
         (fx, fy): (f64, f64),
-        half_width: f64,
-        half_height: f64,
-        contrast: f64,
-        albedo: f64,
+        (half_width, half_height): (f64, f64),
+        material: Material,
         region: u8,
     ) {
         let bottom = fy * (self.height - 1.0);
@@ -134,7 +138,7 @@ impl Builder {
                 half_width: hh,
             },
         };
-        self.push_material(shape, contrast, albedo, region);
+        self.push_material(shape, material.contrast, material.albedo, region);
     }
 
     /// A vertical pole `width` pixels wide standing on `floor` at column fraction `fx`,
@@ -179,15 +183,13 @@ impl Builder {
     /// A round object (a cap bulging `height` towards the camera) of radius `radius`
     /// (fraction of the size) resting on `floor` at bottom fractions `(fx, fy)`.
     /// Returns its centre, radius, base and height.
-    #[allow(clippy::too_many_arguments)]
     fn ball(
         &mut self,
         floor: Floor,
         (fx, fy): (f64, f64),
         radius: f64,
         height: f64,
-        contrast: f64,
-        albedo: f64,
+        material: Material,
     ) -> (f64, f64, f64, f64, f64) {
         let bottom = fy * (self.height - 1.0);
         let r = radius * self.size;
@@ -201,7 +203,7 @@ impl Builder {
             base,
             height,
         };
-        self.push_material(shape, contrast, albedo, region::OBJECT);
+        self.push_material(shape, material.contrast, material.albedo, region::OBJECT);
         (cx, cy, r, base, height)
     }
 
@@ -270,7 +272,16 @@ impl Builder {
         self.back_wall(FAINT, 0.45);
         let floor = self.floor(0.48, self.d_max, MATTE, 0.8);
         let range = self.d_max - self.d_min;
-        let statue = self.ball(floor, (0.6, 0.86), 0.17, range * 0.2, FAINT, 0.95);
+        let statue = self.ball(
+            floor,
+            (0.6, 0.86),
+            0.17,
+            range * 0.2,
+            Material {
+                contrast: FAINT,
+                albedo: 0.95,
+            },
+        );
         let (cx, cy, r, base, height) = statue;
         self.bumps(
             12,
@@ -283,10 +294,11 @@ impl Builder {
         self.standing(
             floor,
             (0.2, 0.74),
-            0.09,
-            0.12,
-            CONTRAST,
-            0.6,
+            (0.09, 0.12),
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.6,
+            },
             region::OBJECT,
         );
         self.pole(floor, 0.86, 0.08, 0.95, 2.0);
@@ -304,23 +316,34 @@ impl Builder {
         self.standing(
             floor,
             (0.3, 0.82),
-            0.07,
-            0.09,
-            CONTRAST,
-            0.6,
+            (0.07, 0.09),
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.6,
+            },
             region::OBJECT,
         );
         self.standing(
             floor,
             (0.56, 0.62),
-            0.04,
-            0.05,
-            CONTRAST,
-            0.6,
+            (0.04, 0.05),
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.6,
+            },
             region::OBJECT,
         );
         let range = self.d_max - self.d_min;
-        self.ball(floor, (0.45, 0.72), 0.05, range * 0.05, CONTRAST, 0.8);
+        self.ball(
+            floor,
+            (0.45, 0.72),
+            0.05,
+            range * 0.05,
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.8,
+            },
+        );
         self.pole(floor, 0.7, 0.35, 0.92, 3.0);
         self.light((0.5, 0.45), 0.3, 0.3);
     }
@@ -328,20 +351,57 @@ impl Builder {
     pub(super) fn tabletop(&mut self) {
         self.back_wall(MATTE, 0.55);
         let floor = self.floor(0.4, self.level(0.95), MATTE, 0.8);
-        self.standing(floor, (0.2, 0.55), 0.08, 0.1, CONTRAST, 0.7, region::OBJECT);
+        self.standing(
+            floor,
+            (0.2, 0.55),
+            (0.08, 0.1),
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.7,
+            },
+            region::OBJECT,
+        );
         self.standing(
             floor,
             (0.5, 0.62),
-            0.1,
-            0.08,
-            LOW_CONTRAST,
-            0.8,
+            (0.1, 0.08),
+            Material {
+                contrast: LOW_CONTRAST,
+                albedo: 0.8,
+            },
             region::OBJECT | region::LOW_TEXTURE,
         );
-        self.standing(floor, (0.8, 0.8), 0.07, 0.14, CONTRAST, 0.6, region::OBJECT);
+        self.standing(
+            floor,
+            (0.8, 0.8),
+            (0.07, 0.14),
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.6,
+            },
+            region::OBJECT,
+        );
         let range = self.d_max - self.d_min;
-        self.ball(floor, (0.35, 0.85), 0.07, range * 0.08, CONTRAST, 0.8);
-        self.ball(floor, (0.65, 0.93), 0.05, range * 0.06, CONTRAST, 0.8);
+        self.ball(
+            floor,
+            (0.35, 0.85),
+            0.07,
+            range * 0.08,
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.8,
+            },
+        );
+        self.ball(
+            floor,
+            (0.65, 0.93),
+            0.05,
+            range * 0.06,
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.8,
+            },
+        );
         // Pencils lying on the table, a little above it.
         for (centre, angle, width) in [((0.3, 0.7), 0.3, 2.0), ((0.6, 0.78), -0.5, 3.0)] {
             let (cx, cy) = (
@@ -387,9 +447,27 @@ impl Builder {
         self.push_material(shape, LOW_CONTRAST, 0.6, region::WALL | region::LOW_TEXTURE);
         let floor = self.floor(0.5, self.level(0.9), MATTE, 0.7);
         self.side_wall(0.25, true, self.level(0.85), MATTE, 0.6);
-        self.standing(floor, (0.5, 0.8), 0.1, 0.12, CONTRAST, 0.6, region::OBJECT);
+        self.standing(
+            floor,
+            (0.5, 0.8),
+            (0.1, 0.12),
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.6,
+            },
+            region::OBJECT,
+        );
         let range = self.d_max - self.d_min;
-        self.ball(floor, (0.78, 0.9), 0.1, range * 0.1, CONTRAST, 0.7);
+        self.ball(
+            floor,
+            (0.78, 0.9),
+            0.1,
+            range * 0.1,
+            Material {
+                contrast: CONTRAST,
+                albedo: 0.7,
+            },
+        );
         self.light((1.15, 0.15), 0.5, 0.1);
     }
 

@@ -47,29 +47,34 @@ pub(super) fn combine<S: Scalar, const RECORD: bool, const CHECK: bool>(
     combine_component::<S, RECORD, CHECK, false>(c, [y1v, y2v, y3v], v, dv, sums);
 }
 
-/// [`combine`] with the proximity results of the two quadratic parts formed node by
-/// node as [`prox_row`](super::quadratic::prox_row) forms them, `p_own = own + w s` and
-/// `p_other = other − w s_far`, instead of read from rows of them (two passes and four
-/// streams less). `weights` =
-/// `[w_h, w_v]` of the row; `residuals` = `[s, s_right, s_below]`: the row's residuals,
-/// the same shifted by one node (the far ends of the horizontal edges; zero after the
-/// last node, whose edge is cut, so that `p_other = other − w·0 = other` there), and the
-/// next row's (the far ends of the vertical edges; not the last row).
+/// The rows the proximity results of the two quadratic parts are formed from, node by
+/// node as [`prox_row`](super::quadratic::prox_row) forms them: `p_own = own + w s` and
+/// `p_other = other − w s_far`.
+pub(super) struct QuadraticRows<'a, S> {
+    /// `[w_h, w_v]` of the row.
+    pub(super) weights: [&'a [S]; 2],
+    /// `[s, s_right, s_below]`: the row's residuals, the same shifted by one node (the
+    /// far ends of the horizontal edges; zero after the last node, whose edge is cut, so
+    /// that `p_other = other − w·0 = other` there), and the next row's (the far ends of
+    /// the vertical edges; not the last row).
+    pub(super) residuals: [&'a [S]; 3],
+}
+
+/// [`combine`] with the proximity results of the two quadratic parts formed from
+/// `quadratic` instead of read from rows of them (two passes and four streams less).
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
 pub(super) fn combine_with_prox<S: Scalar, const RECORD: bool, const CHECK: bool>(
     c: &Constants<S>,
     state: [&mut [S]; 6],
-    weights: [&[S]; 2],
-    residuals: [&[S]; 3],
+    quadratic: QuadraticRows<'_, S>,
     bound: &[S],
     p1: [&mut [S]; 2],
     delta: [&mut [S]; 2],
     sums: &mut Sums,
 ) {
     let [y1h, y1v, y2h, y2v, y3h, y3v] = state;
-    let [wh, wv] = weights;
-    let [s, s_right, s_below] = residuals;
+    let [wh, wv] = quadratic.weights;
+    let [s, s_right, s_below] = quadratic.residuals;
     let [p1h, p1v] = p1;
     let [dh, dv] = delta;
     project_row(c, [&mut *p1h, &mut *p1v], [y1h, y1v], bound);

@@ -4,7 +4,7 @@
 use crate::scalar::Scalar;
 
 use super::super::params::TvParams;
-use super::combine::{average, combine, combine_with_prox, Constants, Sums, LANES};
+use super::combine::{average, combine, combine_with_prox, Constants, QuadraticRows, Sums, LANES};
 use super::graph::{Graph, DUAL_SCALE};
 use super::output::SolveReport;
 use super::quadratic::{prox_row, residual_row};
@@ -131,8 +131,10 @@ impl<S: Scalar> Graph<'_, S> {
                 combine_with_prox::<S, RECORD, CHECK>(
                     c,
                     state,
-                    weights,
-                    [s, part(s_ext, 1..w + 1), part(s_below_ext, 0..w)],
+                    QuadraticRows {
+                        weights,
+                        residuals: [s, part(s_ext, 1..w + 1), part(s_below_ext, 0..w)],
+                    },
                     part(self.bound, r.clone()),
                     [&mut *p1h, &mut *p1v],
                     [&mut *dh, &mut *dv],

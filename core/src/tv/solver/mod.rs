@@ -74,7 +74,7 @@ pub fn solve<S: Scalar, P: Sample>(
     params: &TvParams,
     region: Rect,
     core: Rect,
-    out: SolveOutput<'_>,
+    mut out: SolveOutput<'_>,
     scratch: &mut [S],
 ) -> Result<SolveReport> {
     params.validate()?;
@@ -133,7 +133,7 @@ pub fn solve<S: Scalar, P: Sample>(
         params,
     };
     let report = graph.iterate(params, &scale, out.history);
-    graph.write_primal(maps, guide, params, region, core, out.disparity, out.stride);
+    graph.write_primal(maps, guide, params, region, core, &mut out);
     if let Some(dual) = out.dual {
         graph.write_dual(region, core, dual, out.stride);
     }

@@ -57,8 +57,8 @@ impl<S: Scalar> Graph<'_, S> {
         }
     }
 
-    /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`.
-    #[allow(clippy::too_many_arguments)]
+    /// `x = D − λ A⁻¹ WᵀF` on the core (Eq. 16), clamped to the range of `D`, into
+    /// `out.disparity`.
     pub(super) fn write_primal<P: Sample>(
         &mut self,
         maps: &Maps<'_>,
@@ -66,9 +66,9 @@ impl<S: Scalar> Graph<'_, S> {
         params: &TvParams,
         region: Rect,
         core: Rect,
-        out: &mut [f32],
-        stride: usize,
+        out: &mut SolveOutput<'_>,
     ) {
+        let (out, stride) = (&mut *out.disparity, out.stride);
         let w = self.width;
         let div = self.rows.get_mut(..w).unwrap_or_default();
         let simple = params.confidence_power == 1.0 && params.confidence_threshold == 0.0;
