@@ -25,7 +25,9 @@
 use core::ops::Range;
 
 use crate::align::AlignMode;
-use crate::epi::{fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator};
+use crate::epi::{
+    fuse, load_line, mix_chroma, ColorMode, DisparityRange, Hypotheses, LineEstimator,
+};
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::float::clamp_f32;
 use crate::lightfield::{Grid, Layout, Sample, View};
@@ -508,6 +510,7 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
+        let chroma = crate::epi::Chroma::of(params);
         let x0 = align_down((region.x + fresh.start).saturating_sub(self.margin_h));
         let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
         let n = x1 - x0;
@@ -518,7 +521,9 @@ impl StreamPlan {
             let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, r0, k).unwrap_or(0);
                 let start = input.offset(slot, x0, y);
-                load_line(input.data, BAND_BUFFER, start, ch_n, ch_n, n, color, out)
+                load_line(input.data, BAND_BUFFER, start, ch_n, ch_n, n, color, out)?;
+                mix_chroma(color, ch_n, chroma, n, out);
+                Ok(())
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.x + fresh.start - x0;
@@ -565,6 +570,7 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
+        let chroma = crate::epi::Chroma::of(params);
         let y0 = align_down(region.y.saturating_sub(self.margin_v));
         let y1 = (region.y + region.height + self.margin_v).min(layout.height);
         let n = y1 - y0;
@@ -577,7 +583,9 @@ impl StreamPlan {
             let load = |k: usize, out: &mut [T]| {
                 let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
                 let start = input.offset(slot, x, y0);
-                load_line(input.data, BAND_BUFFER, start, step, ch_n, n, color, out)
+                load_line(input.data, BAND_BUFFER, start, step, ch_n, n, color, out)?;
+                mix_chroma(color, ch_n, chroma, n, out);
+                Ok(())
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.y - y0;
