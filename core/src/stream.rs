@@ -25,7 +25,9 @@
 use core::ops::Range;
 
 use crate::align::AlignMode;
-use crate::epi::{fuse, load_line, ColorMode, DisparityRange, Hypotheses, LineEstimator, LineSpan};
+use crate::epi::{
+    fuse, load_line, mix_chroma, ColorMode, DisparityRange, Hypotheses, LineEstimator, LineSpan,
+};
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::float::clamp_f32;
 use crate::lightfield::{Grid, Layout, Sample, View};
@@ -513,6 +515,7 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
+        let chroma = crate::epi::Chroma::of(params);
         let x0 = align_down((region.x + fresh.start).saturating_sub(self.margin_h));
         let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
         let n = x1 - x0;
@@ -534,7 +537,9 @@ impl StreamPlan {
                     },
                     color,
                     out,
-                )
+                )?;
+                mix_chroma(color, ch_n, chroma, n, out);
+                Ok(())
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.x + fresh.start - x0;
@@ -579,6 +584,7 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
+        let chroma = crate::epi::Chroma::of(params);
         let y0 = align_down(region.y.saturating_sub(self.margin_v));
         let y1 = (region.y + region.height + self.margin_v).min(layout.height);
         let n = y1 - y0;
@@ -602,7 +608,9 @@ impl StreamPlan {
                     },
                     color,
                     out,
-                )
+                )?;
+                mix_chroma(color, ch_n, chroma, n, out);
+                Ok(())
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
             let first = region.y - y0;

@@ -57,6 +57,8 @@ struct EpiInput {
     interpolate: bool,
     weighted_fusion: bool,
     gray: bool,
+    chroma: Real,
+    chroma_knee: Real,
     /// `None`: the exhaustive search; `Some(margin)`: coarse-to-fine.
     coarse_margin: Option<Real>,
 }
@@ -87,6 +89,8 @@ impl EpiInput {
             } else {
                 ColorMode::Tensor
             },
+            chroma: self.chroma.get(),
+            chroma_knee: self.chroma_knee.get(),
             search: match self.coarse_margin {
                 None => Search::Exhaustive,
                 Some(margin) => Search::CoarseToFine {

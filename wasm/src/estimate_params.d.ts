@@ -52,6 +52,15 @@ export interface EstimateParams {
   /** EPI stage: tensor (one structure tensor over R, G, B) or gray (the channels' mean
    * first, a third of the tensor work) (default "tensor"). CLI: `--epi-color`. */
   color?: "tensor" | "gray";
+  /** EPI stage, tensor colour: weight of each channel's difference from the channels'
+   * mean (in pixels paler than --epi-chroma-knee when that is set; 1: the plain R, G, B
+   * tensor; 0: the channels' mean only, the least noise) (0…1; default 1). CLI:
+   * `--epi-chroma`. */
+  epiChroma?: number;
+  /** EPI stage, tensor colour: saturation (colour relative to brightness) above which a
+   * pixel keeps its channels' differences whole; paler colour is scaled by --epi-chroma
+   * (0: every pixel scaled) (0…1; default 0). CLI: `--epi-chroma-knee`. */
+  epiChromaKnee?: number;
   /** Disparity search range in px between adjacent views: auto (estimated from the views)
    * or fixed from a minimum to a maximum (default "auto"). CLI: `--disparity-range`. */
   range?: "auto" | [number, number];

@@ -121,6 +121,19 @@ pub struct EpiParams {
     pub fusion: Fusion,
     /// Colour handling.
     pub color: ColorMode,
+    /// [`ColorMode::Tensor`]: weight of each channel's difference from the channels' mean,
+    /// 0…1. The R, G, B tensor is `3·J(mean) + Σ J(channel − mean)`; the channels enter
+    /// as `mean + chroma·(channel − mean)`, so the tensor becomes `3·J(mean) +
+    /// chroma²·Σ J(channel − mean)`: 1 the plain sum over R, G, B, smaller values keep
+    /// edges of colour alone but less of the noise of each channel ([`mix_chroma`]).
+    pub chroma: f32,
+    /// Saturation (chroma relative to the channels' mean, 0…1) above which a sample
+    /// keeps its channels' differences whole: the weight is `chroma + (1 −
+    /// chroma)·q/(q + knee²·mean²)`, `q` the sum of the squared differences, so
+    /// saturated colour (and its edges) keeps its full weight at any brightness and only
+    /// pale colour, where dim pixels' channel noise dominates it, is scaled by `chroma`.
+    /// 0: every sample is scaled by `chroma`.
+    pub chroma_knee: f32,
     /// Which hypotheses each sample is tested at.
     pub search: Search,
 }
@@ -140,6 +153,8 @@ impl Default for EpiParams {
             interpolate: true,
             fusion: Fusion::Coherence,
             color: ColorMode::Tensor,
+            chroma: 1.0,
+            chroma_knee: 0.0,
             search: Search::CoarseToFine { margin: 0.0 },
         }
     }
@@ -159,6 +174,8 @@ impl EpiParams {
             inner_sigma: 0.8,
             outer_sigma: 1.5,
             shear: false,
+            chroma: 1.0,
+            chroma_knee: 0.0,
             range: DisparityRange::Fixed {
                 min: -MAX_DISPARITY,
                 max: MAX_DISPARITY,
@@ -192,6 +209,18 @@ impl EpiParams {
             return Err(Error::InvalidParameter {
                 name: "window",
                 reason: "must be between 0.5 and 2 shear steps",
+            });
+        }
+        if !within(self.chroma, 0.0, 1.0) {
+            return Err(Error::InvalidParameter {
+                name: "chroma",
+                reason: "must be between 0 and 1",
+            });
+        }
+        if !within(self.chroma_knee, 0.0, 1.0) {
+            return Err(Error::InvalidParameter {
+                name: "chroma_knee",
+                reason: "must be between 0 and 1 (unit intensity)",
             });
         }
         if let Search::CoarseToFine { margin } = self.search {
@@ -366,6 +395,7 @@ pub(crate) struct BandEstimator<'p, 'a, T: Scalar, S: Sample> {
     direction: Direction,
     n: usize,
     color: ColorMode,
+    chroma: Chroma,
     /// The scaled intensity of every 8-bit level, when the samples are `u8` and the
     /// channels enter the tensor one by one (see [`Levels`]).
     levels: Option<Levels<T>>,
@@ -412,6 +442,7 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             direction,
             n: direction.line_len(setup.layout()),
             color: params.color,
+            chroma: Chroma::of(params),
             levels: match params.color {
                 ColorMode::Tensor => Levels::new::<S>(),
                 ColorMode::Gray => None,
@@ -445,6 +476,7 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
         let grid = layout.grid;
         let (r0, c0) = grid.center();
         let color = self.color;
+        let chroma = self.chroma;
         let direction = self.direction;
         // Start of the line in view k, and the step between its samples.
         let locate = |k: usize| -> (usize, usize) {
@@ -490,7 +522,9 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
                     color,
                     out,
                 ),
-            }
+            }?;
+            mix_chroma(color, ch_n, chroma, n, out);
+            Ok(())
         };
         self.estimator.estimate(n, load, work, d, c)
     }
@@ -589,6 +623,73 @@ pub(crate) fn load_line<T: Scalar, S: Sample>(
         }
     }
     Ok(())
+}
+
+/// How [`mix_chroma`] weighs the channels' differences from their mean
+/// ([`EpiParams::chroma`], [`EpiParams::chroma_knee`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Chroma {
+    /// The weight of weak colour.
+    pub(crate) keep: f32,
+    /// The knee, a saturation.
+    pub(crate) knee: f32,
+}
+
+impl Chroma {
+    pub(crate) fn of(params: &EpiParams) -> Self {
+        Chroma {
+            keep: params.chroma,
+            knee: params.chroma_knee,
+        }
+    }
+}
+
+/// Scales each channel's difference from the channels' mean in a line [`load_line`]
+/// wrote in [`ColorMode::Tensor`] from at least three channels (planes of `n` one after
+/// the other): `mean + w·(channel − mean)`, `w = keep + (1 − keep)·q/(q + knee²·mean²)`
+/// with `q` the sum of the squared differences (`w = keep` when the knee is 0). The mean, and
+/// so the coarse search's gray plane, stays the same; `keep` 1 leaves the line alone.
+/// Shared by the band estimator and the firmware stream.
+pub(crate) fn mix_chroma<T: Scalar>(
+    color: ColorMode,
+    channels: usize,
+    chroma: Chroma,
+    n: usize,
+    out: &mut [T],
+) {
+    if color != ColorMode::Tensor || channels < 3 || chroma.keep >= 1.0 {
+        return;
+    }
+    let third = T::from_f32(1.0 / 3.0);
+    let keep = T::from_f32(chroma.keep);
+    let rest_weight = T::from_f32(1.0 - chroma.keep);
+    let knee2 = T::from_f32(chroma.knee * chroma.knee);
+    let shrink = chroma.knee > 0.0;
+    let (first, rest) = out.split_at_mut(n.min(out.len()));
+    let (second, rest) = rest.split_at_mut(n.min(rest.len()));
+    let third_plane = rest.get_mut(..n).unwrap_or(&mut []);
+    for ((a, b), c) in first
+        .iter_mut()
+        .zip(second.iter_mut())
+        .zip(third_plane.iter_mut())
+    {
+        let mean = (*a + *b + *c) * third;
+        let (da, db, dc) = (*a - mean, *b - mean, *c - mean);
+        let w = if shrink {
+            let q = da * da + db * db + dc * dc;
+            let den = q + knee2 * (mean * mean);
+            if den > T::ZERO {
+                keep + rest_weight * (q / den)
+            } else {
+                keep
+            }
+        } else {
+            keep
+        };
+        *a = mean + w * da;
+        *b = mean + w * db;
+        *c = mean + w * dc;
+    }
 }
 
 /// [`load_line`] of the first three channels in [`ColorMode::Tensor`] (`channels ≥ 3`)

@@ -502,3 +502,126 @@ fn the_vector_square_root_is_within_two_ulps_of_the_exact_one() {
         assert_eq!(lane_sqrt(v), 0.0, "√{v}");
     }
 }
+
+/// One pixel per plane triple: (r, g, b) in the kernels' units.
+fn mixed<T: Scalar>(pixels: &[[f32; 3]], keep: f32, knee: f32, color: ColorMode) -> Vec<[f32; 3]> {
+    let n = pixels.len();
+    let mut line = vec![T::ZERO; 3 * n];
+    for (t, px) in pixels.iter().enumerate() {
+        for (c, &v) in px.iter().enumerate() {
+            line[c * n + t] = T::from_f32(v);
+        }
+    }
+    let params = EpiParams {
+        chroma: keep,
+        chroma_knee: knee,
+        ..EpiParams::default()
+    };
+    mix_chroma(color, 3, Chroma::of(&params), n, &mut line);
+    (0..n)
+        .map(|t| [0, 1, 2].map(|c| line[c * n + t].to_f32()))
+        .collect()
+}
+
+/// The chroma weight keeps each pixel's channel mean (the gray plane of the coarse
+/// search), scales the channels' differences from it by `chroma` without a knee, and
+/// with a knee keeps strong colour nearly whole while weak colour takes `chroma`.
+fn chroma_weights<T: Scalar>(tolerance: f32) {
+    let s = INTENSITY_SCALE;
+    // Weak colour (0.01 of unit intensity), strong colour (0.4), a gray pixel.
+    let pixels = [
+        [0.30 * s, 0.31 * s, 0.29 * s],
+        [0.60 * s, 0.20 * s, 0.20 * s],
+        [0.50 * s, 0.50 * s, 0.50 * s],
+    ];
+    let mean = |p: &[f32; 3]| (p[0] + p[1] + p[2]) / 3.0;
+    let close = |a: f32, b: f32| (a - b).abs() <= tolerance * s;
+    // chroma 1 and the gray mode leave the line bit for bit as loaded.
+    for (keep, color) in [(1.0, ColorMode::Tensor), (0.0, ColorMode::Gray)] {
+        let got = mixed::<T>(&pixels, keep, 0.0, color);
+        for (g, p) in got.iter().zip(&pixels) {
+            assert_eq!(g.map(T::from_f32), p.map(T::from_f32));
+        }
+    }
+    for keep in [0.0f32, 0.5] {
+        let got = mixed::<T>(&pixels, keep, 0.0, ColorMode::Tensor);
+        for (g, p) in got.iter().zip(&pixels) {
+            let m = mean(p);
+            assert!(close(mean(g), m), "mean {g:?} vs {p:?}");
+            for c in 0..3 {
+                assert!(
+                    close(g[c], m + keep * (p[c] - m)),
+                    "keep {keep}: {g:?} vs {p:?}"
+                );
+            }
+        }
+    }
+    // Knee 0.3 (saturation): the saturated colour's weight ≥ 0.9, the pale one's ≤ 0.03
+    // (keep 0); the same at a tenth of the brightness, where only the ratio counts.
+    let weight = |g: &[f32; 3], p: &[f32; 3]| (g[1] - mean(g)) / (p[1] - mean(p));
+    for dim in [1.0f32, 0.1] {
+        let pixels = pixels.map(|p| p.map(|v| v * dim));
+        let got = mixed::<T>(&pixels, 0.0, 0.3, ColorMode::Tensor);
+        assert!(weight(&got[1], &pixels[1]) >= 0.9, "{dim}: {:?}", got[1]);
+        assert!(
+            weight(&got[0], &pixels[0]).abs() <= 0.03,
+            "{dim}: {:?}",
+            got[0]
+        );
+    }
+    let got = mixed::<T>(&pixels, 0.0, 0.3, ColorMode::Tensor);
+    assert!(close(mean(&got[0]), mean(&pixels[0])));
+    assert!(close(mean(&got[1]), mean(&pixels[1])));
+    for c in 0..3 {
+        assert!(
+            close(got[2][c], pixels[2][c]),
+            "gray stays gray: {:?}",
+            got[2]
+        );
+    }
+}
+
+#[test]
+fn the_chroma_weight_keeps_the_mean_and_scales_weak_colour() {
+    chroma_weights::<f32>(1e-6);
+    chroma_weights::<Q16>(1e-3);
+}
+
+/// A dim gray texture with independent noise in each channel: all its colour is noise.
+/// Scaling weak colour out of the tensor (chroma 0, knee 0.3) estimates the plane more
+/// closely than the plain R, G, B tensor, and stays within the range.
+#[test]
+fn weak_colour_out_of_the_tensor_steadies_a_dim_noisy_plane() {
+    let mut scene = strips(Grid::new(9, 9), 48, 40, 3, 0.7, &[]);
+    let grain = noise(scene.data.len(), 7);
+    for (px, g) in scene.data.chunks_mut(3).zip(grain.chunks(3)) {
+        let gray = px[0];
+        for (v, n) in px.iter_mut().zip(g) {
+            *v = 0.1 + 0.1 * gray + 0.03 * (n - 0.5);
+        }
+    }
+    let error = |d: &[f32]| {
+        d.iter()
+            .zip(&scene.gt)
+            .map(|(a, b)| (a - b).abs())
+            .sum::<f32>()
+            / d.len() as f32
+    };
+    let plain = run::<f32>(&scene, fixed(-2.0, 2.0)).0;
+    let weighted = run::<f32>(
+        &scene,
+        EpiParams {
+            chroma: 0.0,
+            chroma_knee: 0.3,
+            ..fixed(-2.0, 2.0)
+        },
+    )
+    .0;
+    assert!(weighted.iter().all(|v| (-2.0..=2.0).contains(v)));
+    assert!(
+        error(&weighted) < 0.93 * error(&plain),
+        "mean error {} (weak colour out) vs {} (plain tensor)",
+        error(&weighted),
+        error(&plain)
+    );
+}

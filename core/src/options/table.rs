@@ -261,6 +261,30 @@ pub static TUNABLES: &[Tunable] = &[
         },
     },
     Tunable {
+        flag: Some(Flag::Value("--epi-chroma")),
+        key: Some("epiChroma"),
+        doc: "EPI stage, tensor colour: weight of each channel's difference from the channels' mean (in pixels paler than --epi-chroma-knee when that is set; 1: the plain R, G, B tensor; 0: the channels' mean only, the least noise)",
+        kind: closed(0.0, 1.0),
+        path: "chroma",
+        get: |p| Value::Float(p.epi.chroma),
+        set: |p, v| {
+            p.epi.chroma = float(v)?;
+            Some(())
+        },
+    },
+    Tunable {
+        flag: Some(Flag::Value("--epi-chroma-knee")),
+        key: Some("epiChromaKnee"),
+        doc: "EPI stage, tensor colour: saturation (colour relative to brightness) above which a pixel keeps its channels' differences whole; paler colour is scaled by --epi-chroma (0: every pixel scaled)",
+        kind: closed(0.0, 1.0),
+        path: "chroma_knee",
+        get: |p| Value::Float(p.epi.chroma_knee),
+        set: |p, v| {
+            p.epi.chroma_knee = float(v)?;
+            Some(())
+        },
+    },
+    Tunable {
         flag: Some(Flag::Value("--disparity-range")),
         key: Some("range"),
         doc: "Disparity search range in px between adjacent views: auto (estimated from the views) or fixed from a minimum to a maximum",

@@ -143,6 +143,32 @@ fn stream_equals_the_whole_frame_pipeline() {
     assert_same(&sc, &wc, spec.width, "f32 confidence");
 }
 
+/// The colour weight runs in the stream's line loads as in the whole frame's, in f32
+/// and Q16.16.
+#[test]
+fn stream_with_the_colour_weight_equals_the_whole_frame_pipeline() {
+    let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), 70, 60);
+    let views = render(&spec);
+    let mut p = params(24, 8, -1.5, 1.5);
+    p.epi.chroma = 0.0;
+    p.epi.chroma_knee = 0.3;
+    let plan = StreamPlan::new(spec.layout(), p).unwrap();
+    let (sd, sc) = stream::<f32>(&plan, &views);
+    let (wd, wc) = whole_frame::<f32>(plan.plan(), &views);
+    assert_same(&sd, &wd, spec.width, "f32 disparity");
+    assert_same(&sc, &wc, spec.width, "f32 confidence");
+    let (plain, _) = whole_frame::<f32>(
+        StreamPlan::new(spec.layout(), params(24, 8, -1.5, 1.5))
+            .unwrap()
+            .plan(),
+        &views,
+    );
+    assert_ne!(wd, plain, "the weight changes the map");
+    let (sd, _) = stream::<Q16>(&plan, &views);
+    let (wd, _) = whole_frame::<Q16>(plan.plan(), &views);
+    assert_same(&sd, &wd, spec.width, "Q16 disparity");
+}
+
 #[test]
 fn q16_gray_stream_on_a_non_square_grid_equals_the_pipeline() {
     let mut spec = SynthSpec::new(SceneKind::Occlusion, Grid::new(5, 7), 60, 52);
