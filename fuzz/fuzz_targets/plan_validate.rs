@@ -59,6 +59,7 @@ struct EpiInput {
     gray: bool,
     /// `None`: the exhaustive search; `Some(margin)`: coarse-to-fine.
     coarse_margin: Option<Real>,
+    half_resolution: bool,
 }
 
 impl EpiInput {
@@ -93,6 +94,7 @@ impl EpiInput {
                     margin: margin.get(),
                 },
             },
+            half_resolution: self.half_resolution,
         }
     }
 }
