@@ -58,42 +58,65 @@ pub(super) fn load_half_line<T: Scalar, S: Sample>(
 ) -> Result<()> {
     let step = step.max(1);
     let pair = step.saturating_mul(2);
-    let end = n
-        .saturating_sub(1)
-        .checked_mul(pair)
-        .and_then(|span| span.checked_add(start))
-        .and_then(|last| last.checked_add(step))
-        .and_then(|last| last.checked_add(across))
-        .and_then(|last| last.checked_add(channels))
-        .unwrap_or(usize::MAX);
-    let src = data.get(start..end).ok_or(Error::BufferTooSmall {
-        what,
-        needed: end,
-        got: data.len(),
-    })?;
+    // The pixels `2t` of the line (and `2t + 1`, `step` further) from `start`, and the
+    // same of the next line from `start + across`: `n` chunks of `pair` elements each
+    // (the last one `step + channels`).
+    let span = |from: usize| -> Result<&[S]> {
+        let end = n
+            .saturating_sub(1)
+            .checked_mul(pair)
+            .and_then(|last| last.checked_add(from))
+            .and_then(|last| last.checked_add(step))
+            .and_then(|last| last.checked_add(channels))
+            .unwrap_or(usize::MAX);
+        data.get(from..end).ok_or(Error::BufferTooSmall {
+            what,
+            needed: end,
+            got: data.len(),
+        })
+    };
+    let first = span(start)?;
+    let second = span(start.saturating_add(across))?;
     let used = channels.min(3);
-    // The mean of one channel of the 2×2 pixels at `at` (within `src`, checked above).
-    let mean = |at: usize, c: usize| -> f32 {
-        let get = |i: usize| src.get(i + c).map_or(0.0, |s| s.to_unit());
-        (get(at) + get(at + step)) + (get(at + across) + get(at + across + step))
+    let quads = first
+        .chunks(pair)
+        .zip(second.chunks(pair))
+        .take(n)
+        .map(|(a, b)| {
+            (
+                a,
+                a.get(step..).unwrap_or(&[]),
+                b,
+                b.get(step..).unwrap_or(&[]),
+            )
+        });
+    // The sum of channel `c` of the 2×2 pixels (each slice starts at one of them).
+    let sum = |(a, a1, b, b1): (&[S], &[S], &[S], &[S]), c: usize| -> f32 {
+        let get = |px: &[S]| px.get(c).map_or(0.0, |s| s.to_unit());
+        (get(a) + get(a1)) + (get(b) + get(b1))
     };
     match color {
         ColorMode::Tensor => {
             let scale = 0.25 * INTENSITY_SCALE;
-            for c in 0..used {
-                let Some(plane) = out.get_mut(c * n..(c + 1) * n) else {
-                    break;
-                };
-                for (t, o) in plane.iter_mut().enumerate() {
-                    *o = T::from_f32(mean(t * pair, c) * scale);
+            let (p0, rest) = out.split_at_mut(n.min(out.len()));
+            let (p1, p2) = rest.split_at_mut(n.min(rest.len()));
+            if used == 3 {
+                for (((o0, o1), o2), q) in p0.iter_mut().zip(p1.iter_mut()).zip(p2).zip(quads) {
+                    *o0 = T::from_f32(sum(q, 0) * scale);
+                    *o1 = T::from_f32(sum(q, 1) * scale);
+                    *o2 = T::from_f32(sum(q, 2) * scale);
+                }
+            } else {
+                for (o0, q) in p0.iter_mut().zip(quads) {
+                    *o0 = T::from_f32(sum(q, 0) * scale);
                 }
             }
         }
         ColorMode::Gray => {
             let scale = 0.25 * INTENSITY_SCALE / used as f32;
-            for (t, o) in out.iter_mut().take(n).enumerate() {
-                let sum: f32 = (0..used).map(|c| mean(t * pair, c)).sum();
-                *o = T::from_f32(sum * scale);
+            for (o, q) in out.iter_mut().zip(quads) {
+                let total: f32 = (0..used).map(|c| sum(q, c)).sum();
+                *o = T::from_f32(total * scale);
             }
         }
     }

@@ -140,43 +140,48 @@ pub fn upsample_rows<S: Sample>(
             continue;
         };
         let jy = (y / 2).min(hh - 1);
-        let ty = TENT[y % 2];
-        for (x, (d, c)) in d_row.iter_mut().zip(c_row.iter_mut()).enumerate() {
+        // The three half-resolution rows around the pixel's: tent weight, disparity,
+        // confidence and mean colours (`None` outside the map).
+        let half_row = |ky: usize| {
+            let j = (jy + ky).checked_sub(1).filter(|&j| j < hh)?;
+            let means = j
+                .checked_sub(guide_rows.start)
+                .and_then(|r| scratch.get(r * row_len..(r + 1) * row_len))?;
+            Some((
+                TENT[y % 2][ky],
+                half_disparity.get(j * hw..(j + 1) * hw)?,
+                half_confidence.get(j * hw..(j + 1) * hw)?,
+                means,
+            ))
+        };
+        let near = [half_row(0), half_row(1), half_row(2)];
+        let pixels = d_row
+            .iter_mut()
+            .zip(c_row.iter_mut())
+            .zip(guide.chunks_exact(centre.channels().max(1)));
+        for (x, ((d, c), px)) in pixels.enumerate() {
             let ix = (x / 2).min(hw - 1);
             let tx = TENT[x % 2];
             let mut colour = [0.0f32; GUIDE_CHANNELS];
-            for (ch, v) in colour.iter_mut().enumerate().take(channels) {
-                *v = guide
-                    .get(x * centre.channels() + ch)
-                    .map_or(0.0, |s| s.to_unit());
+            for (v, s) in colour.iter_mut().zip(px.iter().take(channels)) {
+                *v = s.to_unit();
             }
             let (mut sum_w, mut sum_d, mut sum_wc, mut sum_c) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
-            for (ky, &wy) in ty.iter().enumerate() {
-                let Some(j) = (jy + ky).checked_sub(1).filter(|&j| j < hh) else {
-                    continue;
-                };
-                let Some(means) = j
-                    .checked_sub(guide_rows.start)
-                    .and_then(|r| scratch.get(r * row_len..(r + 1) * row_len))
-                else {
-                    continue;
-                };
+            for &(wy, hd_row, hc_row, means) in near.iter().flatten() {
                 for (kx, &wx) in tx.iter().enumerate() {
                     let Some(i) = (ix + kx).checked_sub(1).filter(|&i| i < hw) else {
                         continue;
                     };
-                    let (Some(mean), Some(&hd), Some(&hc)) = (
+                    let (Some(&[m0, m1, m2]), Some(&hd), Some(&hc)) = (
                         means.get(i * GUIDE_CHANNELS..(i + 1) * GUIDE_CHANNELS),
-                        half_disparity.get(j * hw + i),
-                        half_confidence.get(j * hw + i),
+                        hd_row.get(i),
+                        hc_row.get(i),
                     ) else {
                         continue;
                     };
-                    let diff2: f32 = mean
-                        .iter()
-                        .zip(colour.iter())
-                        .map(|(m, v)| (m - v) * (m - v))
-                        .sum();
+                    let diff2 = ((m0 - colour[0]) * (m0 - colour[0])
+                        + (m1 - colour[1]) * (m1 - colour[1]))
+                        + (m2 - colour[2]) * (m2 - colour[2]);
                     let range = sigma2 / (sigma2 + diff2);
                     let w = wx * wy * range * range;
                     let wc = w * (hc + CONFIDENCE_FLOOR);
