@@ -22,7 +22,6 @@ pub fn stage_names() -> Vec<String> {
         epi::STAGE_RANGE,
         epi::STAGE_HORIZONTAL,
         epi::STAGE_VERTICAL,
-        epi::STAGE_UPSAMPLE,
         refine::STAGE,
         lfdepth::geofill::STAGE,
         median::STAGE,
