@@ -492,6 +492,8 @@ fn align_alone<S: Sample, A: WarpSample + Sample>(
 
 #[cfg(test)]
 mod fixed_tests;
+#[cfg(test)]
+mod half_tests;
 
 #[cfg(test)]
 mod tests {

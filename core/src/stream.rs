@@ -184,14 +184,20 @@ fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> us
 
 impl StreamPlan {
     /// Validates `layout` and `params` for streaming: the disparity range must be fixed
-    /// (or the shear off), the refinement, the weighted median, the geodesic refill and the
-    /// alignment off.
+    /// (or the shear off), the half-resolution EPI, the refinement, the weighted median,
+    /// the geodesic refill and the alignment off.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
         if params.refine.enabled {
             return Err(Error::InvalidParameter {
                 name: "refine.enabled",
                 reason: "must be off for a stream: the photometric refinement is not streamed",
+            });
+        }
+        if params.epi.half_resolution {
+            return Err(Error::InvalidParameter {
+                name: "half_resolution",
+                reason: "must be off for a stream: the half-resolution EPI is not streamed",
             });
         }
         if params.median.enabled {

@@ -61,6 +61,7 @@ struct EpiInput {
     chroma_knee: Real,
     /// `None`: the exhaustive search; `Some(margin)`: coarse-to-fine.
     coarse_margin: Option<Real>,
+    half_resolution: bool,
 }
 
 impl EpiInput {
@@ -97,6 +98,7 @@ impl EpiInput {
                     margin: margin.get(),
                 },
             },
+            half_resolution: self.half_resolution,
         }
     }
 }

@@ -45,6 +45,10 @@ export interface EstimateParams {
    * slope (off: the single most coherent hypothesis) (default true). CLI:
    * `--epi-interpolate`. */
   interpolate?: boolean;
+  /** EPI stage: estimate on views box-filtered 2× (a quarter of the samples, half the
+   * shears), then upsample the map guided by the centre view's colour (default false).
+   * CLI: `--epi-half`. */
+  epiHalf?: boolean;
   /** EPI stage: how the horizontal and vertical estimates are combined: coherence (the
    * more confident one) or weighted (their confidence-weighted mean where they agree
    * within 0.1 px) (default "coherence"). CLI: `--epi-fusion`. */

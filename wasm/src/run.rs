@@ -40,7 +40,9 @@ fn snapshot_label(steps: &[Step], index: usize) -> Option<String> {
     }
     let label = match step {
         Step::Range | Step::Epi(Direction::Horizontal) => return None,
-        Step::Epi(Direction::Vertical) => "EPI estimate",
+        // At half resolution the fused map is a quarter of the frame until upsampled.
+        Step::Epi(Direction::Vertical) if next == Some(&Step::Upsample) => return None,
+        Step::Epi(Direction::Vertical) | Step::Upsample => "EPI estimate",
         Step::Refine => "refined",
         Step::Refill => "refilled at depth steps",
         Step::Median => "edge-snapping median",

@@ -8,14 +8,18 @@
 //! The two directions are fused per pixel with [`fuse`].
 
 mod band;
+mod half;
 mod hypotheses;
 mod kernels;
 mod line;
 mod planes;
 mod range;
+mod upsample;
 
+pub use half::{line_len, lines, map_size};
 pub use hypotheses::{Hypotheses, MAX_DISPARITY, MAX_HYPOTHESES};
 pub use range::{estimate_range, RANGE_LINE_STEP};
+pub use upsample::{upsample_rows, upsample_scratch_len, UPSAMPLE_SIGMA};
 
 use core::ops::{ControlFlow, Range};
 
@@ -136,6 +140,9 @@ pub struct EpiParams {
     pub chroma_knee: f32,
     /// Which hypotheses each sample is tested at.
     pub search: Search,
+    /// Estimate on views box-filtered 2× (a quarter of the samples, half the shears),
+    /// then upsample the map guided by the centre view's colour ([`upsample_rows`]).
+    pub half_resolution: bool,
 }
 
 impl Default for EpiParams {
@@ -156,6 +163,7 @@ impl Default for EpiParams {
             chroma: 1.0,
             chroma_knee: 0.0,
             search: Search::CoarseToFine { margin: 0.0 },
+            half_resolution: false,
         }
     }
 }
@@ -318,7 +326,7 @@ pub fn estimate_band<T: Scalar, S: Sample>(
         confidence,
     } = out;
     check_layout(setup, lf)?;
-    let total = direction.lines(setup.layout());
+    let total = half::lines(setup, direction);
     if lines.start > lines.end || lines.end > total {
         return Err(Error::OutOfRange {
             what: "band end line",
@@ -326,7 +334,7 @@ pub fn estimate_band<T: Scalar, S: Sample>(
             len: total,
         });
     }
-    let n = direction.line_len(setup.layout());
+    let n = half::line_len(setup, direction);
     let needed = lines.len() * n;
     if disparity.len() != needed || confidence.len() != needed {
         return Err(Error::OutputSize {
@@ -335,6 +343,17 @@ pub fn estimate_band<T: Scalar, S: Sample>(
             got: disparity.len().min(confidence.len()),
         });
     }
+    // At half resolution a disparity moves half as far per view, in half-size samples.
+    let half = setup.params().half_resolution;
+    let hypotheses = &if half {
+        Hypotheses::new(
+            setup.params(),
+            0.5 * hypotheses.min(),
+            0.5 * hypotheses.max(),
+        )?
+    } else {
+        *hypotheses
+    };
     let band = BandEstimator::new(setup, *hypotheses, lf, direction);
     let (d_line, c_line, work) = band.split_scratch(scratch)?;
     for (i, line) in lines.enumerate() {
@@ -350,6 +369,10 @@ pub fn estimate_band<T: Scalar, S: Sample>(
             });
         };
         write_line(hypotheses, d_line, c_line, d, c);
+        if half {
+            // Back to full-resolution px (a power of two: exact).
+            d.iter_mut().for_each(|v| *v *= 2.0);
+        }
     }
     Ok(())
 }
@@ -394,6 +417,8 @@ pub(crate) struct BandEstimator<'p, 'a, T: Scalar, S: Sample> {
     lf: &'p LightField<'a, S>,
     direction: Direction,
     n: usize,
+    /// Lines are read through a 2×2 box filter ([`EpiParams::half_resolution`]).
+    half: bool,
     color: ColorMode,
     chroma: Chroma,
     /// The scaled intensity of every 8-bit level, when the samples are `u8` and the
@@ -440,7 +465,8 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
             ),
             lf,
             direction,
-            n: direction.line_len(setup.layout()),
+            n: half::line_len(setup, direction),
+            half: params.half_resolution,
             color: params.color,
             chroma: Chroma::of(params),
             levels: match params.color {
@@ -495,7 +521,38 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
         // All channels of a view in one pass over its pixels (a vertical line strides
         // through the image: one pass instead of one per channel).
         let levels = self.levels.as_ref();
+        let half = self.half;
+        // At half resolution, line `line` is full-resolution lines `2·line` and
+        // `2·line + 1`, and a sample the mean of two pixels along each.
+        let locate_half = |k: usize| -> (usize, usize, usize) {
+            match direction {
+                Direction::Horizontal => (
+                    grid.index(r0, k) * layout.view_stride + 2 * line * layout.row_stride,
+                    ch_n,
+                    layout.row_stride,
+                ),
+                Direction::Vertical => (
+                    grid.index(k, c0) * layout.view_stride + 2 * line * ch_n,
+                    layout.row_stride,
+                    ch_n,
+                ),
+            }
+        };
         let load = |k: usize, out: &mut [T]| -> Result<()> {
+            if half {
+                let (start, step, across) = locate_half(k);
+                return half::load_half_line(
+                    data,
+                    "the light-field buffer",
+                    start,
+                    step,
+                    across,
+                    ch_n,
+                    n,
+                    color,
+                    out,
+                );
+            }
             let (start, step) = locate(k);
             match levels {
                 Some(levels) if ch_n >= 3 => load_levels(
@@ -765,6 +822,13 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
     progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
 ) -> Result<Hypotheses> {
     check_layout(setup, lf)?;
+    if setup.params().half_resolution {
+        return Err(Error::InvalidParameter {
+            name: "half_resolution",
+            reason:
+                "runs through the schedule (its upsampling is a step of its own): use pipeline::run",
+        });
+    }
     let pixels = setup.pixels();
     if disparity.len() != pixels || confidence.len() != pixels {
         return Err(Error::OutputSize {
@@ -867,6 +931,8 @@ pub const STAGE_RANGE: &str = "epi range";
 pub const STAGE_HORIZONTAL: &str = "epi horizontal";
 /// See [`STAGE_RANGE`].
 pub const STAGE_VERTICAL: &str = "epi vertical";
+/// See [`STAGE_RANGE`].
+pub const STAGE_UPSAMPLE: &str = "epi upsample";
 
 /// The serial stage: disparity and confidence of the centre view (row-major, `f32`,
 /// `setup.pixels()` each), computed in `T`. `scratch` needs [`scratch_len`] elements.

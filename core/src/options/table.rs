@@ -219,6 +219,18 @@ pub static TUNABLES: &[Tunable] = &[
         },
     },
     Tunable {
+        flag: Some(Flag::Value("--epi-half")),
+        key: Some("epiHalf"),
+        doc: "EPI stage: estimate on views box-filtered 2× (a quarter of the samples, half the shears), then upsample the map guided by the centre view's colour",
+        kind: Kind::Bool,
+        path: "half_resolution",
+        get: |p| Value::Bool(p.epi.half_resolution),
+        set: |p, v| {
+            p.epi.half_resolution = boolean(v)?;
+            Some(())
+        },
+    },
+    Tunable {
         flag: Some(Flag::Value("--epi-fusion")),
         key: Some("fusion"),
         doc: "EPI stage: how the horizontal and vertical estimates are combined: coherence (the more confident one) or weighted (their confidence-weighted mean where they agree within 0.1 px)",

@@ -55,9 +55,12 @@ pub enum Stages {
 /// enough that per-part overhead (scratch, progress) is negligible.
 pub const BAND_LINES: usize = 16;
 
-/// Most steps of a run: range, two EPI directions, refinement, refill, two medians and
-/// TV with at most [`tv::MAX_SWEEPS`] outer sweeps.
-pub const MAX_STEPS: usize = 7 + tv::MAX_SWEEPS + 1;
+/// Most steps of a run: range, two EPI directions, the upsampling, refinement, refill,
+/// two medians and TV with at most [`tv::MAX_SWEEPS`] outer sweeps.
+pub const MAX_STEPS: usize = 8 + tv::MAX_SWEEPS + 1;
+
+/// Full-resolution rows per part of the upsampling step.
+pub const UPSAMPLE_ROWS: usize = 64;
 
 /// One step of a run: a stage over independent parts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,6 +73,10 @@ pub enum Step {
     /// into the current maps, per pixel, on the placing driver's thread (a pass over
     /// the map that costs less than sending the four maps to workers).
     Epi(Direction),
+    /// The half-resolution EPI map upsampled to full resolution guided by the centre
+    /// view ([`epi::upsample_rows`], only with [`epi::EpiParams::half_resolution`]), in
+    /// bands of [`UPSAMPLE_ROWS`] rows into the other maps.
+    Upsample,
     /// Photometric refinement in the plan's refine bands.
     Refine,
     /// Geodesic refill of the band around depth steps: one whole-map part (its sweeps
@@ -91,6 +98,7 @@ impl Step {
             Step::Range => epi::STAGE_RANGE,
             Step::Epi(Direction::Horizontal) => epi::STAGE_HORIZONTAL,
             Step::Epi(Direction::Vertical) => epi::STAGE_VERTICAL,
+            Step::Upsample => epi::STAGE_UPSAMPLE,
             Step::Refine => refine::STAGE,
             Step::Refill => geofill::STAGE,
             Step::Median => median::STAGE,
@@ -138,6 +146,9 @@ impl Schedule {
         push(Step::Epi(Direction::Horizontal))?;
         push(Step::Epi(Direction::Vertical))?;
         let params = plan.params();
+        if params.epi.half_resolution {
+            push(Step::Upsample)?;
+        }
         if stages == Stages::Full {
             if params.refine.enabled {
                 push(Step::Refine)?;
@@ -205,7 +216,8 @@ impl Schedule {
         let layout = self.plan.layout();
         match step {
             Step::Range | Step::Refill => 1,
-            Step::Epi(direction) => direction.lines(self.plan.layout()).div_ceil(BAND_LINES),
+            Step::Epi(direction) => epi::lines(self.plan.epi(), direction).div_ceil(BAND_LINES),
+            Step::Upsample => layout.height.div_ceil(UPSAMPLE_ROWS),
             Step::Refine => refine::band_count(self.plan.refine()),
             Step::Median => layout
                 .height
@@ -236,7 +248,8 @@ impl Schedule {
         let height = self.plan.layout().height;
         Ok(match step {
             Step::Range => Region::Range,
-            Step::Epi(direction) => lines(BAND_LINES, direction.lines(self.plan.layout())),
+            Step::Epi(direction) => lines(BAND_LINES, epi::lines(self.plan.epi(), direction)),
+            Step::Upsample => lines(UPSAMPLE_ROWS, height),
             Step::Refine => {
                 let rows = refine::band_rows(self.plan.refine(), index)?;
                 Region::Lines(rows.start, rows.end)
@@ -256,6 +269,11 @@ impl Schedule {
                 disparity: true,
                 ..none
             },
+            Step::Upsample => Reads {
+                disparity: true,
+                confidence: true,
+                ..none
+            },
             Step::Tv { sweep } => Reads {
                 disparity: true,
                 confidence: true,
@@ -269,7 +287,7 @@ impl Schedule {
     pub fn part_len(&self, step: Step, index: usize) -> Result<PartLen> {
         let region = self.region(step, index)?;
         let line_len = match step {
-            Step::Epi(direction) => direction.line_len(self.plan.layout()),
+            Step::Epi(direction) => epi::line_len(self.plan.epi(), direction),
             _ => self.plan.layout().width,
         };
         let both = |len: usize| PartLen {
@@ -326,6 +344,10 @@ impl Schedule {
             },
             Step::Epi(direction) => ScratchLen {
                 kernel: epi::band_scratch_len(plan.epi(), direction),
+                ..none
+            },
+            Step::Upsample => ScratchLen {
+                maps: epi::upsample_scratch_len(plan.epi(), UPSAMPLE_ROWS),
                 ..none
             },
             Step::Refine => ScratchLen {
@@ -401,6 +423,20 @@ impl Schedule {
                         confidence: &mut *out.confidence,
                     },
                     scratch.kernel,
+                )
+            }),
+            Step::Upsample => alone(|| {
+                epi::upsample_rows(
+                    plan.epi(),
+                    &lf.center_view(),
+                    state.disparity(),
+                    state.confidence(),
+                    lines,
+                    DisparityOut {
+                        disparity: &mut *out.disparity,
+                        confidence: &mut *out.confidence,
+                    },
+                    scratch.maps,
                 )
             }),
             Step::Refine => alone(|| {
@@ -522,7 +558,7 @@ impl Schedule {
             (_, Region::Rect(_)) => Err(Error::SizeOverflow { what: "a part" }),
             (step, Region::Lines(start, _)) => {
                 let line_len = match step {
-                    Step::Epi(direction) => direction.line_len(self.plan.layout()),
+                    Step::Epi(direction) => epi::line_len(self.plan.epi(), direction),
                     _ => width,
                 };
                 let at = start * line_len;
@@ -547,10 +583,10 @@ impl Schedule {
             Step::Range | Step::Epi(Direction::Horizontal) => {}
             // Both directions are in: the one fusion of every driver.
             Step::Epi(Direction::Vertical) => {
-                let layout = self.plan.layout();
-                state.fuse(self.plan.params().epi.fusion, layout.width, layout.height);
+                let (width, height) = epi::map_size(self.plan.epi());
+                state.fuse(self.plan.params().epi.fusion, width, height);
             }
-            Step::Refine => {
+            Step::Upsample | Step::Refine => {
                 swap_d(state);
                 state.swap_maps(CURRENT_C, OTHER_C);
             }

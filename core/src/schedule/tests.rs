@@ -96,7 +96,7 @@ fn bits(values: &[f32]) -> Vec<u32> {
     values.iter().map(|v| v.to_bits()).collect()
 }
 
-fn variants() -> [(&'static str, Params); 5] {
+fn variants() -> [(&'static str, Params); 6] {
     let small = Params {
         refine: RefineParams {
             band_rows: 10,
@@ -134,6 +134,16 @@ fn variants() -> [(&'static str, Params); 5] {
             },
         ),
         ("the paper's pipeline", Params::paper()),
+        (
+            "half-resolution EPI",
+            Params {
+                epi: crate::epi::EpiParams {
+                    half_resolution: true,
+                    ..Params::default().epi
+                },
+                ..small
+            },
+        ),
     ]
 }
 
@@ -201,6 +211,13 @@ fn the_steps_follow_the_enabled_stages() {
     let mut swept = epi.to_vec();
     swept.extend(["refine", "geofill", "tv", "tv", "tv", "median"]);
     assert_eq!(stages_of(params, Stages::Full), swept);
+    let mut params = Params::default();
+    params.epi.half_resolution = true;
+    let mut half = epi.to_vec();
+    half.push(crate::epi::STAGE_UPSAMPLE);
+    assert_eq!(stages_of(params, Stages::Epi), half);
+    half.extend(["refine", "geofill", "median", "tv"]);
+    assert_eq!(stages_of(params, Stages::Full), half);
 }
 
 #[test]
