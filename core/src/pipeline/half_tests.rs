@@ -47,11 +47,15 @@ fn epi<T: Scalar>(scene: &Scene, half: bool) -> Vec<f32> {
         &plan,
         &lf,
         Stages::Epi,
-        &mut d,
-        &mut c,
-        &mut scratch,
-        &mut maps,
-        &mut [],
+        pipeline::RunOutput {
+            disparity: &mut d,
+            confidence: &mut c,
+            history: &mut [],
+        },
+        pipeline::RunScratch {
+            kernel: &mut scratch,
+            maps: &mut maps,
+        },
         &mut |_| ControlFlow::Continue(()),
     )
     .unwrap();
