@@ -2,37 +2,55 @@
 //! a sensor, and the disparity of each band leaves before the next arrives, from scratch
 //! whose size does not depend on the frame size.
 //!
-//! The frame is cut into the TV tiles of the plan (`params.tv.tile`, `params.tv.halo`,
-//! see [`crate::tv::tile_rects`]). A *band* is one row of tiles. For each tile the stream
-//! runs the EPI stage on the tile's region (core + halo) only, over EPI lines cropped to
-//! the region plus a margin that covers the shear and the filters, then solves TV on the
-//! region and writes the core; the columns a region shares with the previous tile of the
-//! band are moved rather than estimated again. The crop margin makes every region sample
-//! bit-identical to the whole-frame EPI stage, and the TV regions are the pipeline's own,
-//! so a stream gives exactly what [`crate::pipeline::run`] gives with the same parameters
-//! (refinement off): the test `stream_equals_the_whole_frame_pipeline` checks it.
+//! The stream is one more executor of the plan's [`Schedule`]: [`StreamPlan::new`] walks
+//! its steps and runs each on regions of the frame, refusing the steps it cannot run
+//! band by band (see there). The frame is cut into the TV tiles of the plan
+//! (`params.tv.tile`, `params.tv.halo`, see [`crate::tv::tile_rects`]); a *band* is one
+//! row of tiles. For each tile the stream computes on the tile's TV region (core + TV
+//! halo) grown by the weighted median's halo ([`crate::median::halo`], `passes ·
+//! (radius + 1)`, when the plan runs the median before TV):
+//!
+//! 1. the EPI stage on the region, over EPI lines cropped to the region plus a margin that
+//!    covers the shear and the filters (the columns a region shares with the previous
+//!    tile of the band are moved rather than estimated again);
+//! 2. the weighted median over the region as a frame of its own: a pixel's value after
+//!    every pass depends only on the input within the median's halo, so the TV region's
+//!    rows are the whole frame's;
+//! 3. TV on the TV region, writing the core.
+//!
+//! The crop margin makes every region sample bit-identical to the whole-frame EPI stage,
+//! the median's halo makes the median's TV region bit-identical, and the TV regions are
+//! the pipeline's own, so a stream gives exactly what [`crate::pipeline::run`] gives with
+//! the same parameters: the tests `stream_equals_the_whole_frame_pipeline` and
+//! `stream_with_the_median_equals_the_whole_frame_pipeline` check it.
 //!
 //! Memory: the input band ([`CrossBand`], the 17 cross views of a 9×9 grid, rows
 //! [`StreamPlan::input_rows`]), the output rows, and two scratch slices sized by
 //! [`StreamPlan::scratch_len`] (kernel scalars) and [`StreamPlan::map_scratch_len`]
-//! (`f32` disparity and confidence of one region). Both depend on the tile, halo, margin
-//! and grid, never on the frame width or height (for frames larger than one region).
+//! (`f32` maps of one region: the EPI disparity and confidence, and with the median its
+//! input, its scratch and its output). Both depend on the tile, halos, margin and grid,
+//! never on the frame width or height (for frames larger than one region).
 //!
 //! The disparity range must be given ([`DisparityRange::Fixed`]): the automatic range
-//! probes the whole frame. The photometric refinement, the weighted median and the alignment are not streamed
-//! (the views must be rectified).
+//! probes the whole frame. The photometric refinement, the geodesic refill, a median
+//! after TV, TV's outer sweeps and the alignment are not streamed (the views must be
+//! rectified).
 
 use core::ops::Range;
 
 use crate::align::AlignMode;
 use crate::epi::{
-    fuse, load_line, mix_chroma, ColorMode, DisparityRange, Hypotheses, LineEstimator, LineSpan,
+    fuse, load_line, mix_chroma, Chroma, ColorMode, DisparityRange, Hypotheses, LineEstimator,
+    LineSpan,
 };
 use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::float::clamp_f32;
 use crate::lightfield::{Grid, Layout, Sample, View};
+use crate::median;
 use crate::plan::{Params, Plan};
 use crate::scalar::Scalar;
+use crate::schedule::{Schedule, Stages, Step};
+use crate::setup::Setup;
 use crate::tv::{self, Guide, Maps, Rect, SolveOutput};
 
 /// Largest kernel radius of the EPI filters (`MAX_RADIUS` of the EPI kernels).
@@ -167,6 +185,8 @@ pub struct StreamPlan {
     /// Samples beyond a region the horizontal / vertical EPI lines need.
     margin_h: usize,
     margin_v: usize,
+    /// Pixels the weighted median reads beyond a TV region (0: no median).
+    median_halo: usize,
 }
 
 /// Samples a line needs beyond the outputs it must reproduce exactly: the outer smoothing,
@@ -183,40 +203,56 @@ fn line_margin(params: &Params, hypotheses: &Hypotheses, views_out: usize) -> us
 }
 
 impl StreamPlan {
-    /// Validates `layout` and `params` for streaming: the disparity range must be fixed
-    /// (or the shear off), the half-resolution EPI, the refinement, the weighted median,
-    /// the geodesic refill and the alignment off.
+    /// Validates `layout` and `params` for streaming. The stages come from the plan's
+    /// [`Schedule`]: the stream runs each step of it on the regions of a band (the
+    /// range is the fixed one, the EPI directions on each region with the lines cropped,
+    /// the weighted median before TV on the region grown by its halo, TV's first sweep on
+    /// the region), and refuses a step it cannot run band by band, naming the parameter
+    /// that switches it off: the photometric refinement, the geodesic refill, the median
+    /// after TV, TV's outer sweeps and the half-resolution EPI's upsampling. The disparity range must be fixed (or the shear
+    /// off) and the alignment off.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
-        if params.refine.enabled {
-            return Err(Error::InvalidParameter {
-                name: "refine.enabled",
-                reason: "must be off for a stream: the photometric refinement is not streamed",
-            });
-        }
-        if params.epi.half_resolution {
-            return Err(Error::InvalidParameter {
-                name: "half_resolution",
-                reason: "must be off for a stream: the half-resolution EPI is not streamed",
-            });
-        }
-        if params.median.enabled {
-            return Err(Error::InvalidParameter {
-                name: "median.enabled",
-                reason: "must be off for a stream: the weighted median is not streamed",
-            });
-        }
-        if params.geofill.enabled {
-            return Err(Error::InvalidParameter {
-                name: "geofill.enabled",
-                reason: "must be off for a stream: the geodesic refill is a whole-frame stage",
-            });
-        }
-        if params.tv.sweeps != 0 {
-            return Err(Error::InvalidParameter {
-                name: "tv.sweeps",
-                reason: "must be 0 for a stream: outer sweeps need the dual of the whole frame",
-            });
+        let schedule = Schedule::new(&plan, Stages::Full, 1)?;
+        let mut median_halo = 0;
+        let mut after_tv = false;
+        for &step in schedule.steps() {
+            match step {
+                // The range is fixed (below); the EPI runs on each region.
+                Step::Range | Step::Epi(_) => {}
+                Step::Upsample => {
+                    return Err(Error::InvalidParameter {
+                        name: "half_resolution",
+                        reason: "must be off for a stream: the half-resolution EPI is not streamed",
+                    })
+                }
+                Step::Refine => {
+                    return Err(Error::InvalidParameter {
+                        name: "refine.enabled",
+                        reason: "must be off for a stream: the photometric refinement is not streamed",
+                    })
+                }
+                Step::Refill => {
+                    return Err(Error::InvalidParameter {
+                        name: "geofill.enabled",
+                        reason: "must be off for a stream: the geodesic refill is a whole-frame stage",
+                    })
+                }
+                Step::Median if !after_tv => median_halo = median::halo(plan.median()),
+                Step::Median => {
+                    return Err(Error::InvalidParameter {
+                        name: "median.before_tv",
+                        reason: "must be true for a stream: a median after TV would read TV's output beyond the tile",
+                    })
+                }
+                Step::Tv { sweep: 0 } => after_tv = true,
+                Step::Tv { .. } => {
+                    return Err(Error::InvalidParameter {
+                        name: "tv.sweeps",
+                        reason: "must be 0 for a stream: outer sweeps need the dual of the whole frame",
+                    })
+                }
+            }
         }
         if params.align.mode != AlignMode::Off {
             return Err(Error::InvalidParameter {
@@ -247,6 +283,7 @@ impl StreamPlan {
             hypotheses,
             margin_h: line_margin(&params, &hypotheses, out_h),
             margin_v: line_margin(&params, &hypotheses, out_v),
+            median_halo,
         })
     }
 
@@ -288,7 +325,7 @@ impl StreamPlan {
     /// Image rows of the cross views band `band` reads.
     pub fn input_rows(&self, band: usize) -> Result<Range<usize>> {
         let out = self.output_rows(band)?;
-        let reach = self.plan.params().tv.halo + self.margin_v;
+        let reach = self.plan.params().tv.halo + self.median_halo + self.margin_v;
         let height = self.plan.layout().height;
         // Vertical lines start on a multiple of `LINE_ALIGN` (see there).
         Ok(align_down(out.start.saturating_sub(reach))..(out.end + reach).min(height))
@@ -297,7 +334,8 @@ impl StreamPlan {
     /// Most input rows any band reads.
     pub fn max_input_rows(&self) -> usize {
         let tv = &self.plan.params().tv;
-        (tv.tile + 2 * (tv.halo + self.margin_v) + LINE_ALIGN - 1).min(self.plan.layout().height)
+        (tv.tile + 2 * (tv.halo + self.median_halo + self.margin_v) + LINE_ALIGN - 1)
+            .min(self.plan.layout().height)
     }
 
     /// Elements of a packed [`CrossBand`] of [`StreamPlan::max_input_rows`] rows.
@@ -309,19 +347,68 @@ impl StreamPlan {
             .saturating_mul(layout.channels)
     }
 
-    /// Largest region (core + halo) side: `(width, height)`.
-    fn region_size(&self) -> (usize, usize) {
+    /// Pixels the weighted median reads beyond a TV region: its passes times its radius
+    /// plus one, 0 when the stream runs no median.
+    pub fn median_halo(&self) -> usize {
+        self.median_halo
+    }
+
+    /// Largest TV region (core + halo) side: `(width, height)`.
+    fn tv_region_size(&self) -> (usize, usize) {
         let tv = &self.plan.params().tv;
         let layout = self.plan.layout();
         let side = tv.tile + 2 * tv.halo;
         (side.min(layout.width), side.min(layout.height))
     }
 
+    /// Largest region the EPI stage and the median compute on (a TV region grown by the
+    /// median's halo) side: `(width, height)`.
+    fn region_size(&self) -> (usize, usize) {
+        let tv = &self.plan.params().tv;
+        let layout = self.plan.layout();
+        let side = tv.tile + 2 * (tv.halo + self.median_halo);
+        (side.min(layout.width), side.min(layout.height))
+    }
+
+    /// The region the EPI stage and the median compute on for the TV region `tv`: grown
+    /// by the median's halo, clipped to the frame.
+    fn grow(&self, tv: Rect) -> Rect {
+        let layout = self.plan.layout();
+        let h = self.median_halo;
+        let (x0, y0) = (tv.x.saturating_sub(h), tv.y.saturating_sub(h));
+        let x1 = (tv.x + tv.width + h).min(layout.width);
+        let y1 = (tv.y + tv.height + h).min(layout.height);
+        Rect {
+            x: x0,
+            y: y0,
+            width: x1 - x0,
+            height: y1 - y0,
+        }
+    }
+
+    /// The layout of a region `width × height` of the frame: what the median's setup
+    /// measures (its data is the band's, addressed through a view).
+    fn region_layout(&self, width: usize, height: usize) -> Layout {
+        let layout = self.plan.layout();
+        Layout::packed(layout.grid, width, height, layout.channels)
+    }
+
+    /// Map scratch of the median over the largest region.
+    fn median_scratch_len(&self) -> usize {
+        if self.median_halo == 0 {
+            return 0;
+        }
+        let (rw, rh) = self.region_size();
+        let layout = self.region_layout(rw, rh);
+        Setup::new(&layout, &self.plan.params().median).map_or(usize::MAX, median::band_scratch_len)
+    }
+
     /// Kernel scratch (elements of `T`): one EPI line of a region with its margins, or
-    /// one TV solve of a region, whichever is larger.
+    /// one TV solve of a TV region, whichever is larger.
     pub fn scratch_len(&self) -> usize {
         let layout = self.plan.layout();
         let (rw, rh) = self.region_size();
+        let (tw, th) = self.tv_region_size();
         let channels = match self.plan.params().epi.color {
             ColorMode::Gray => 1,
             ColorMode::Tensor => layout.channels.min(3),
@@ -335,13 +422,23 @@ impl StreamPlan {
         let (r0, c0) = layout.grid.center();
         line(layout.grid.cols, c0, n_h)
             .max(line(layout.grid.rows, r0, n_v))
-            .max(tv::scratch_len_for(rw, rh))
+            .max(tv::scratch_len_for(tw, th))
     }
 
-    /// Map scratch (`f32` elements): the EPI disparity and confidence of one region.
+    /// Map scratch (`f32` elements): the EPI disparity and confidence of one region; with
+    /// the median also its input, its own scratch ([`median::band_scratch_len`] of the
+    /// region) and its output on the TV region's rows.
     pub fn map_scratch_len(&self) -> usize {
         let (rw, rh) = self.region_size();
-        2 * rw * rh
+        let plane = rw.saturating_mul(rh);
+        if self.median_halo == 0 {
+            return plane.saturating_mul(2);
+        }
+        let (_, th) = self.tv_region_size();
+        plane
+            .saturating_mul(3)
+            .saturating_add(self.median_scratch_len())
+            .saturating_add(th.saturating_mul(rw))
     }
 
     /// Bytes of both scratch slices with kernel scalars of `bytes_per_scalar` bytes
@@ -354,7 +451,8 @@ impl StreamPlan {
 
     /// Estimates band `band` from `input` (which must hold [`StreamPlan::input_rows`]) into
     /// `disparity` and `confidence` (exactly `output_rows(band).len() · width` each,
-    /// row-major): EPI on each tile's region, then TV on it. `scratch` needs
+    /// row-major): for each tile, EPI on its region, the weighted median when the plan
+    /// runs one, then TV on the tile's TV region. `scratch` needs
     /// [`StreamPlan::scratch_len`] elements, `maps` [`StreamPlan::map_scratch_len`].
     pub fn process_band<T: Scalar, S: Sample>(
         &self,
@@ -412,25 +510,26 @@ impl StreamPlan {
         let (stride, max_height) = self.region_size();
         let plane = stride * max_height;
         let short = Error::ScratchTooSmall {
-            needed: 2 * plane,
+            needed: self.map_scratch_len(),
             got: maps.len(),
         };
         let (map_d, rest) = maps.split_at_mut_checked(plane).ok_or(short)?;
-        let map_c = rest.get_mut(..plane).ok_or(short)?;
+        let (map_c, median_maps) = rest.split_at_mut_checked(plane).ok_or(short)?;
         // Columns past a region's width are never used, but the maps must be finite.
         map_d.fill(0.0);
         map_c.fill(0.0);
+        let (r0, c0) = layout.grid.center();
+        let centre = CrossBand::<S>::slot(layout.grid, r0, c0).unwrap_or(0);
+        let mut report = tv::RefineReport::default();
+        let mut previous: Option<Rect> = None;
         let mut local = RegionMaps {
             disparity: map_d,
             confidence: map_c,
             stride,
         };
-        let (r0, c0) = layout.grid.center();
-        let centre = CrossBand::<S>::slot(layout.grid, r0, c0).unwrap_or(0);
-        let mut report = tv::RefineReport::default();
-        let mut previous: Option<Rect> = None;
         for tx in 0..cols {
-            let (core, region) = tv::tile_rects(self.plan.tv(), band * cols + tx)?;
+            let (core, tv_region) = tv::tile_rects(self.plan.tv(), band * cols + tx)?;
+            let region = self.grow(tv_region);
             let shared = match previous {
                 Some(p) => shift_left(p, region, &mut local),
                 None => 0,
@@ -440,51 +539,38 @@ impl StreamPlan {
             self.epi_rows(input, region, fresh.clone(), &mut local, scratch)?;
             self.epi_columns(input, region, fresh, &mut local, scratch)?;
 
-            let start = input.offset(centre, region.x, region.y);
-            let guide_data = input.data.get(start..).unwrap_or(&[]);
-            let guide = Guide::View(View::new(
-                guide_data,
-                stride,
-                region.height,
-                layout.channels,
-                input.row_stride,
-            )?);
-            let used = stride * region.height;
-            let (Some(used_d), Some(used_c)) =
-                (local.disparity.get(..used), local.confidence.get(..used))
-            else {
-                return Err(short);
-            };
-            let tv_maps = Maps::new(stride, region.height, used_d, used_c)?;
-            let local_core = Rect {
-                x: core.x - region.x,
-                y: core.y - region.y,
-                width: core.width,
-                height: core.height,
-            };
             let out_start = (core.y - out_rows.start) * width + core.x;
-            let tile = tv::solve(
-                &tv_maps,
-                &guide,
-                &self.plan.params().tv,
-                Rect {
-                    x: 0,
-                    y: 0,
-                    width: region.width,
-                    height: region.height,
-                },
-                local_core,
-                SolveOutput {
-                    disparity: disparity.get_mut(out_start..).unwrap_or_default(),
-                    stride: width,
-                    history: &mut [],
-                    dual: None,
-                },
-                scratch,
-            )?;
+            let out = SolveOutput {
+                disparity: disparity.get_mut(out_start..).unwrap_or_default(),
+                stride: width,
+                history: &mut [],
+                dual: None,
+            };
+            let guide = CentreView {
+                input,
+                slot: centre,
+            };
+            let tile = Tile {
+                region,
+                tv_region,
+                core,
+            };
+            let tile = if self.median_halo == 0 {
+                let used = stride * region.height;
+                let (Some(used_d), Some(used_c)) =
+                    (local.disparity.get(..used), local.confidence.get(..used))
+                else {
+                    return Err(short);
+                };
+                let maps = Maps::new(stride, region.height, used_d, used_c)?;
+                self.tv_tile(guide, region, &maps, tile, out, scratch)?
+            } else {
+                self.median_tv_tile(guide, tile, &local, median_maps, out, scratch)?
+            };
             report.add(&tile);
+            let local_core = (core.x - region.x, core.y - region.y);
             for y in 0..core.height {
-                let from = (local_core.y + y) * stride + local_core.x;
+                let from = (local_core.1 + y) * stride + local_core.0;
                 let to = out_start + y * width;
                 let src = local.confidence.get(from..from + core.width);
                 let dst = confidence.get_mut(to..to + core.width);
@@ -494,6 +580,129 @@ impl StreamPlan {
             }
         }
         Ok(report)
+    }
+
+    /// TV on the tile's TV region of the maps, which cover `maps_rect` of the frame (and,
+    /// as the guide, of the centre view), into `out` at the tile's core.
+    fn tv_tile<T: Scalar, S: Sample>(
+        &self,
+        guide: CentreView<'_, '_, S>,
+        maps_rect: Rect,
+        maps: &Maps<'_>,
+        tile: Tile,
+        out: SolveOutput<'_>,
+        scratch: &mut [T],
+    ) -> Result<tv::SolveReport> {
+        let layout = self.plan.layout();
+        let input = guide.input;
+        let start = input.offset(guide.slot, maps_rect.x, maps_rect.y);
+        let guide_data = input.data.get(start..).unwrap_or(&[]);
+        let guide = Guide::View(View::new(
+            guide_data,
+            maps.width(),
+            maps.height(),
+            layout.channels,
+            input.row_stride,
+        )?);
+        let local = |r: Rect| Rect {
+            x: r.x - maps_rect.x,
+            y: r.y - maps_rect.y,
+            width: r.width,
+            height: r.height,
+        };
+        tv::solve(
+            maps,
+            &guide,
+            &self.plan.params().tv,
+            local(tile.tv_region),
+            local(tile.core),
+            out,
+            scratch,
+        )
+    }
+
+    /// The weighted median over the tile's region (all its passes,
+    /// [`median::filter_band`] on the region as a frame of its own: the median's halo
+    /// makes the TV region's rows of it the whole frame's), then TV on the TV region of
+    /// its output. `epi` holds the region's EPI disparity and confidence.
+    #[inline(never)]
+    fn median_tv_tile<T: Scalar, S: Sample>(
+        &self,
+        centre_view: CentreView<'_, '_, S>,
+        tile: Tile,
+        epi: &RegionMaps<'_>,
+        maps: &mut [f32],
+        out: SolveOutput<'_>,
+        scratch: &mut [T],
+    ) -> Result<tv::SolveReport> {
+        let layout = self.plan.layout();
+        let (input, centre) = (centre_view.input, centre_view.slot);
+        let Tile {
+            region, tv_region, ..
+        } = tile;
+        let (stride, map_d, map_c) = (epi.stride, &*epi.disparity, &*epi.confidence);
+        let pixels = region.width * region.height;
+        let (rw, rh) = self.region_size();
+        let short = Error::ScratchTooSmall {
+            needed: self.map_scratch_len(),
+            got: maps.len(),
+        };
+        let (packed, rest) = maps.split_at_mut_checked(rw * rh).ok_or(short)?;
+        let (median_scratch, rest) = rest
+            .split_at_mut_checked(self.median_scratch_len())
+            .ok_or(short)?;
+        let tv_len = tv_region.height * region.width;
+        let (packed, filtered) = (
+            packed.get_mut(..pixels).ok_or(short)?,
+            rest.get_mut(..tv_len).ok_or(short)?,
+        );
+        // The median reads the region row-major, `region.width` apart.
+        let rows = map_d.chunks(stride.max(1)).take(region.height);
+        for (to, from) in packed.chunks_mut(region.width.max(1)).zip(rows) {
+            for (t, f) in to.iter_mut().zip(from) {
+                *t = *f;
+            }
+        }
+        let region_layout = self.region_layout(region.width, region.height);
+        let setup = Setup::new(&region_layout, &self.plan.params().median)?;
+        let start = input.offset(centre, region.x, region.y);
+        let guide = View::new(
+            input.data.get(start..).unwrap_or(&[]),
+            region.width,
+            region.height,
+            layout.channels,
+            input.row_stride,
+        )?;
+        let first = tv_region.y - region.y;
+        median::filter_band(
+            setup,
+            &guide,
+            packed,
+            first..first + tv_region.height,
+            filtered,
+            median_scratch,
+            &mut [],
+        )?;
+        // TV reads the EPI confidence of the TV region's rows, packed as the median's
+        // output; the median's scratch is free again.
+        let confidence = median_scratch.get_mut(..tv_len).ok_or(short)?;
+        let rows = map_c
+            .chunks(stride.max(1))
+            .skip(first)
+            .take(tv_region.height);
+        for (to, from) in confidence.chunks_mut(region.width.max(1)).zip(rows) {
+            for (t, f) in to.iter_mut().zip(from) {
+                *t = *f;
+            }
+        }
+        let maps = Maps::new(region.width, tv_region.height, filtered, confidence)?;
+        let maps_rect = Rect {
+            x: region.x,
+            y: tv_region.y,
+            width: region.width,
+            height: tv_region.height,
+        };
+        self.tv_tile(centre_view, maps_rect, &maps, tile, out, scratch)
     }
 
     /// Horizontal lines: image rows of the region, cropped to its columns ± margin.
@@ -521,7 +730,7 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
-        let chroma = crate::epi::Chroma::of(params);
+        let chroma = Chroma::of(params);
         let x0 = align_down((region.x + fresh.start).saturating_sub(self.margin_h));
         let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
         let n = x1 - x0;
@@ -590,7 +799,7 @@ impl StreamPlan {
         let (lo, hi) = (h.min(), h.max());
         let ch_n = layout.channels;
         let color = params.color;
-        let chroma = crate::epi::Chroma::of(params);
+        let chroma = Chroma::of(params);
         let y0 = align_down(region.y.saturating_sub(self.margin_v));
         let y1 = (region.y + region.height + self.margin_v).min(layout.height);
         let n = y1 - y0;
@@ -642,6 +851,30 @@ struct RegionMaps<'a> {
     confidence: &'a mut [f32],
     /// The row stride (the widest region's width).
     stride: usize,
+}
+
+/// The centre view's samples in a band: the median's and TV's guide.
+struct CentreView<'b, 'd, S: Sample> {
+    input: &'b CrossBand<'d, S>,
+    /// The centre view's slot in the band.
+    slot: usize,
+}
+
+impl<S: Sample> Clone for CentreView<'_, '_, S> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<S: Sample> Copy for CentreView<'_, '_, S> {}
+
+/// The rectangles of one tile in the frame: the region whose EPI maps are estimated
+/// (the TV region grown by the median's halo), the TV region, and the core it writes.
+#[derive(Clone, Copy)]
+struct Tile {
+    region: Rect,
+    tv_region: Rect,
+    core: Rect,
 }
 
 /// Moves the columns that `region` shares with `previous` (the tile to its left in the

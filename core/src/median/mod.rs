@@ -42,7 +42,7 @@ use pixel::{RowIndices, RowOrder, Window};
 use ring::RowRing;
 use weights::Weights;
 
-pub use passes::{band_scratch_len, filter_band};
+pub use passes::{band_scratch_len, filter_band, halo};
 
 /// Progress stage name.
 pub const STAGE: &str = "median";

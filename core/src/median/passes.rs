@@ -23,6 +23,20 @@ pub fn band_scratch_len(setup: Setup<'_, MedianParams>) -> usize {
         .saturating_add(super::scratch_len(setup))
 }
 
+/// Pixels (rows and columns) on each side that every pass together reads beyond a pixel:
+/// `passes · (radius + 1)`, 0 when the stage is off. A region computed on its pixels plus
+/// this halo (clipped at the image) gives the whole map's values, bit for bit.
+pub fn halo(setup: Setup<'_, MedianParams>) -> usize {
+    let params = setup.params();
+    if params.enabled {
+        params
+            .passes
+            .saturating_mul(params.radius.saturating_add(1))
+    } else {
+        0
+    }
+}
+
 /// Every pass of the median over image rows `rows` of `input` (row-major, the map
 /// before the first pass) into `out` (`rows.len() · width`, row-major). `maps` needs
 /// [`band_scratch_len`] elements. `settled` is empty, or one byte per pixel of the map:
@@ -79,8 +93,10 @@ pub fn filter_band<S: Sample>(
     let reach = params.radius + 1;
     // Only the rows a later pass reads are ever written: pass k's rows lie within pass
     // k − 1's, grown by the reach of one pass, so no pass reads a row it did not fill.
-    let first = rows.start.saturating_sub((passes - 1) * reach) * width;
-    let last = ((rows.end + (passes - 1) * reach).min(height)) * width;
+    // The first pass reads the input one reach beyond its own rows: those are copied too
+    // (a band that ends inside the map would otherwise read rows of the scratch).
+    let first = rows.start.saturating_sub(passes * reach) * width;
+    let last = ((rows.end + passes * reach).min(height)) * width;
     copy(
         current.get_mut(first..last).unwrap_or(&mut []),
         input.get(first..last),

@@ -186,6 +186,83 @@ fn q16_gray_stream_on_a_non_square_grid_equals_the_pipeline() {
     assert_same(&sc, &wc, spec.width, "Q16 confidence");
 }
 
+/// [`params`] with the default weighted median (four passes of radius 7, before TV).
+fn with_median(p: Params) -> Params {
+    Params {
+        median: crate::median::MedianParams::default(),
+        ..p
+    }
+}
+
+#[test]
+fn stream_with_the_median_equals_the_whole_frame_pipeline() {
+    // 9×9 RGB, f32: the median's halo (32 px) is wider than the tiles, so regions are
+    // clipped at every side of the frame and interior ones exist only in the middle.
+    let spec = SynthSpec::new(SceneKind::Mixed, Grid::new(9, 9), 150, 118);
+    let views = render(&spec);
+    let plan = StreamPlan::new(spec.layout(), with_median(params(24, 8, -1.5, 1.5))).unwrap();
+    assert_eq!(plan.median_halo(), 32);
+    assert_eq!(plan.bands(), 5);
+    let (sd, sc) = stream::<f32>(&plan, &views);
+    let (wd, wc) = whole_frame::<f32>(plan.plan(), &views);
+    assert_same(&sd, &wd, spec.width, "f32 disparity");
+    assert_same(&sc, &wc, spec.width, "f32 confidence");
+    // The median changed the map: the test compares more than EPI → TV.
+    let no_median = StreamPlan::new(spec.layout(), params(24, 8, -1.5, 1.5)).unwrap();
+    let (nd, _) = stream::<f32>(&no_median, &views);
+    assert!(nd.iter().zip(&sd).filter(|(a, b)| a != b).count() > 100);
+}
+
+#[test]
+fn q16_gray_stream_with_the_median_equals_the_pipeline() {
+    let mut spec = SynthSpec::new(SceneKind::Occlusion, Grid::new(5, 7), 84, 70);
+    spec.channels = 1;
+    spec.disparity_min = -1.0;
+    spec.disparity_max = 2.0;
+    let views = render(&spec);
+    let mut p = with_median(params(20, 6, -1.0, 2.0));
+    p.epi.color = ColorMode::Gray;
+    p.median.passes = 2;
+    p.median.radius = 4;
+    let plan = StreamPlan::new(spec.layout(), p).unwrap();
+    assert_eq!(plan.median_halo(), 10);
+    let (sd, sc) = stream::<Q16>(&plan, &views);
+    let (wd, wc) = whole_frame::<Q16>(plan.plan(), &views);
+    assert_same(&sd, &wd, spec.width, "Q16 disparity");
+    assert_same(&sc, &wc, spec.width, "Q16 confidence");
+}
+
+/// With the weighted median, a 9×9 RGB stream (tiles 16 + 8) needs at most 384 KiB of
+/// scratch at any width up to 2048 and any height, the same for every frame larger than
+/// one region; its input band does not grow with the height.
+#[test]
+fn median_stream_scratch_fits_384_kib_at_any_width_and_height() {
+    let p = with_median(params(16, 8, -1.5, 1.5));
+    let plan = |width: usize, height: usize| {
+        StreamPlan::new(Layout::packed(Grid::new(9, 9), width, height, 3), p).unwrap()
+    };
+    let reference = plan(512, 512);
+    let bytes = reference.scratch_bytes(4);
+    assert!(bytes <= 384 * 1024, "{bytes} bytes");
+    for width in [200, 512, 1000, 1536, 2048] {
+        for height in [200, 384, 1080, 2048, 4000] {
+            let stream = plan(width, height);
+            assert_eq!(stream.scratch_bytes(4), bytes, "{width}×{height}");
+            assert_eq!(stream.max_input_rows(), reference.max_input_rows());
+        }
+    }
+    // The median's halo is what grows the input band.
+    let without = StreamPlan::new(
+        Layout::packed(Grid::new(9, 9), 512, 512, 3),
+        params(16, 8, -1.5, 1.5),
+    )
+    .unwrap();
+    assert_eq!(
+        reference.max_input_rows(),
+        without.max_input_rows() + 2 * 32
+    );
+}
+
 /// The embedded goal: a 9×9 RGB light field of 512² streamed with at most 256 KiB of
 /// scratch, and the same bytes at 1024².
 #[test]
@@ -224,11 +301,25 @@ fn bad_streams_are_refused_with_errors() {
         })
     ));
     let mut median = params(32, 8, -1.0, 1.0);
-    median.median = crate::median::MedianParams::default();
+    median.median = crate::median::MedianParams {
+        before_tv: false,
+        ..crate::median::MedianParams::default()
+    };
     assert!(matches!(
         StreamPlan::new(layout, median),
         Err(Error::InvalidParameter {
-            name: "median.enabled",
+            name: "median.before_tv",
+            ..
+        })
+    ));
+    median.median.before_tv = true;
+    assert_eq!(StreamPlan::new(layout, median).unwrap().median_halo(), 32);
+    let mut sweeps = params(32, 8, -1.0, 1.0);
+    sweeps.tv.sweeps = 1;
+    assert!(matches!(
+        StreamPlan::new(layout, sweeps),
+        Err(Error::InvalidParameter {
+            name: "tv.sweeps",
             ..
         })
     ));
