@@ -4,7 +4,7 @@
 //! samples over half the shear hypotheses. The half-resolution map goes back to full
 //! resolution through [`super::upsample`].
 
-use super::{ColorMode, Direction, EpiParams, INTENSITY_SCALE};
+use super::{ColorMode, Direction, EpiParams, LineSpan, INTENSITY_SCALE};
 use crate::error::{Error, Result};
 use crate::lightfield::Sample;
 use crate::scalar::Scalar;
@@ -39,23 +39,25 @@ pub fn line_len(setup: Setup<'_, EpiParams>, direction: Direction) -> usize {
     }
 }
 
-/// Loads one half-resolution EPI line of `n` samples: sample `t` is the mean of the four
-/// pixels starting at `data[start + 2t·step]`, `+ step` (the next pixel along the line)
-/// and `+ across` (the next line), each `channels` samples; the planes as [`super::load_line`]
-/// writes them, intensities scaled by [`INTENSITY_SCALE`]. `BufferTooSmall` naming `what`
-/// when `data` ends before the last pixel.
-#[allow(clippy::too_many_arguments)]
+/// Loads one half-resolution EPI line of `span.n` samples: sample `t` is the mean of the
+/// four pixels starting at `data[span.start + 2t·span.step]`, `+ span.step` (the next pixel
+/// along the line) and `+ across` (the next line), each `span.channels` samples; the planes
+/// as [`super::load_line`] writes them, intensities scaled by [`INTENSITY_SCALE`].
+/// `BufferTooSmall` naming `what` when `data` ends before the last pixel.
 pub(super) fn load_half_line<T: Scalar, S: Sample>(
     data: &[S],
     what: &'static str,
-    start: usize,
-    step: usize,
+    span: LineSpan,
     across: usize,
-    channels: usize,
-    n: usize,
     color: ColorMode,
     out: &mut [T],
 ) -> Result<()> {
+    let LineSpan {
+        start,
+        step,
+        channels,
+        n,
+    } = span;
     let step = step.max(1);
     let pair = step.saturating_mul(2);
     // The pixels `2t` of the line (and `2t + 1`, `step` further) from `start`, and the

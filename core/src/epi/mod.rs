@@ -544,11 +544,13 @@ impl<'p, 'a, T: Scalar, S: Sample> BandEstimator<'p, 'a, T, S> {
                 return half::load_half_line(
                     data,
                     "the light-field buffer",
-                    start,
-                    step,
+                    LineSpan {
+                        start,
+                        step,
+                        channels: ch_n,
+                        n,
+                    },
                     across,
-                    ch_n,
-                    n,
                     color,
                     out,
                 );
