@@ -344,6 +344,57 @@ fn fattened_depth_edge_snaps_to_colour_edge() {
     }
 }
 
+/// A two-pixel pole 16 levels brighter than the background (colour weight ≈ 0.29: the
+/// background's 195 pixels of a window outweigh the pole's 30) and a short blotch of
+/// the same colour and disparity: without the thin-structure test the median erases
+/// both; with it the pole, long and narrow and of its own colour, keeps its disparity
+/// and the blotch (4 rows, shorter than r + 1) is still erased.
+#[test]
+fn thin_structures_keep_their_value_and_short_blotches_do_not() {
+    let (w, h) = (32usize, 24usize);
+    let mut views = [0u8; 9 * 32 * 24];
+    let centre = 4 * w * h;
+    let mut input = [-1.0f32; 32 * 24];
+    let pole = |x: usize| x == 10 || x == 11;
+    let blotch = |x: usize, y: usize| (23..25).contains(&x) && (10..14).contains(&y);
+    for y in 0..h {
+        for x in 0..w {
+            let on = pole(x) || blotch(x, y);
+            views[centre + y * w + x] = if on { 76 } else { 60 } + (x * 7 + y * 3) as u8 % 3;
+            if on {
+                input[y * w + x] = 1.0;
+            }
+        }
+    }
+    let run = |params: MedianParams| {
+        let stage = stage_for(w, h, params);
+        let lf = LightField::new(&views, *stage.layout()).unwrap();
+        let mut out = [0.0f32; 32 * 24];
+        filter(
+            stage.setup(),
+            &lf.center_view(),
+            &input,
+            &mut out,
+            &mut vec![0.0; scratch_len(stage.setup())],
+        )
+        .unwrap();
+        out
+    };
+    let without = run(MedianParams {
+        thin: 0.0,
+        ..MedianParams::default()
+    });
+    let with = run(MedianParams::default());
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            assert_eq!(without[i], -1.0, "without the test ({x}, {y})");
+            let want = if pole(x) { 1.0 } else { -1.0 };
+            assert_eq!(with[i], want, "with the test ({x}, {y})");
+        }
+    }
+}
+
 #[test]
 fn smooth_ramp_is_kept_and_bands_are_bit_identical() {
     let (w, h) = (24usize, 20usize);
