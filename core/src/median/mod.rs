@@ -31,6 +31,7 @@ mod passes;
 mod pixel;
 mod ring;
 mod select;
+mod support;
 mod weights;
 
 use crate::error::{check_scratch, Error, Result};
@@ -79,6 +80,12 @@ pub struct MedianParams {
     /// local slope (central differences, zero across steps above the gate), so the
     /// median of a slanted or curved surface is unbiased.
     pub planar: bool,
+    /// Thin structures: a pixel the median would move keeps its value when the
+    /// neighbours whose votes lie within `snap` of it, joined to it 8-connected, cross
+    /// its window from side to side with a mean width of at most this (px): a pole or a
+    /// wire that the EPI stage and the refinement found, which fills too small a part
+    /// of any window to hold its median (`support.rs`). 0 switches the test off.
+    pub thin: f32,
 }
 
 impl Default for MedianParams {
@@ -88,7 +95,8 @@ impl Default for MedianParams {
         // TV move fattened bands of up to ~5 px back onto their colour edges; σ = 0.04
         // (10 levels) separates the sides of soft edges; the 0.2 px step gate skips
         // smooth regions; planar votes and the 0.2 px snap keep curved surfaces (sphere
-        // rims) as the refinement measured them.
+        // rims) as the refinement measured them; the thin-structure test (3 px) keeps
+        // poles and wires, chosen on the realistic suite and HCI together.
         MedianParams {
             enabled: true,
             before_tv: true,
@@ -98,6 +106,7 @@ impl Default for MedianParams {
             gate: 0.2,
             snap: 0.2,
             planar: true,
+            thin: 3.0,
         }
     }
 }
@@ -137,6 +146,12 @@ impl MedianParams {
         }
         if !(self.gate.is_finite() && (0.0..=16.0).contains(&self.gate)) {
             return bad("median.gate", "must be in [0, 16] pixels");
+        }
+        if !(self.thin.is_finite() && (0.0..=16.0).contains(&self.thin)) {
+            return bad(
+                "median.thin",
+                "must be in [0, 16] pixels (0 switches the thin-structure test off)",
+            );
         }
         Ok(())
     }

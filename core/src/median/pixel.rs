@@ -16,6 +16,7 @@ use core::ops::Range;
 
 use super::ring::{ColourLanes, Lanes, RowRing, LANES};
 use super::select::{key, weighted_median, weighted_median_of_keys};
+use super::support;
 use super::weights::Weights;
 use super::{MedianParams, MAX_RADIUS, MAX_TAPS};
 use crate::lightfield::{Sample, View};
@@ -132,6 +133,9 @@ fn clearly_kept(below: u64, above: u64, inside: u64, q: u64) -> bool {
 const QUARTER_SHARE: u64 = 8;
 /// The same for the rows at an even distance.
 const EVEN_SHARE: u64 = 2;
+/// How many times more alike the pixel a thin structure's pixels are, on average, than
+/// the votes for the median's value ([`Window::keeps_structure`]).
+const CONTRAST: u64 = 2;
 
 /// What every pixel of one call shares.
 pub(super) struct Window<'a, 'g, S: Sample> {
@@ -228,8 +232,72 @@ impl<S: Sample> Window<'_, '_, S> {
     ) -> (f32, bool) {
         match self.decide(ring, x, y, own, indices) {
             Decision::Kept { by_quarter_rows } => (own, by_quarter_rows),
-            Decision::Side(side) => (self.select_side(ring, x, y, own, &side), false),
+            Decision::Side(side) => {
+                let m = self.select_side(ring, x, y, own, &side);
+                let moved = m.to_bits() != own.to_bits();
+                if moved && self.keeps_structure(ring, x, y, own, m) {
+                    (own, false)
+                } else {
+                    (m, false)
+                }
+            }
         }
+    }
+
+    /// Whether the pixel `(x, y)` of finite value `own`, which the median would move,
+    /// to the median `m`, lies on a thin structure and keeps its value (`support.rs`):
+    /// the votes closer to `own` than half the way to `m` (at least within `snap`)
+    /// joined to it 8-connected are long and narrow: their bounding box is at least
+    /// `r + 1` long (from the pixel to the window's border, where a structure ends
+    /// inside the window) and they number at most `thin` times that length (a mean
+    /// width of at most `thin` pixels). Only pixels that would move are tested.
+    #[inline(never)]
+    fn keeps_structure(&self, ring: &RowRing<'_>, x: usize, y: usize, own: f32, m: f32) -> bool {
+        let p = &self.params;
+        if p.thin <= 0.0 {
+            return false;
+        }
+        let (ys, _) = self.rows_and_columns(x, y);
+        let r = p.radius;
+        let dxs = self.offsets(x);
+        // Blurred or slanted structures ramp towards the background: their pixels are
+        // those nearer their own value than the background's.
+        let reach = p.snap.max(0.5 * (m - own).abs());
+        let (lo, hi) = (own - reach, own + reach);
+        let lanes_in_window = (1u32 << (2 * r + 1)) - 1;
+        let centre = ring.colour_at(y, x);
+        let mut inside = [0u16; SPAN];
+        let mut outside = [0u16; SPAN];
+        let mut indices: RowIndices = [[0; LANES]; SPAN];
+        let per_row = self.bases.iter().zip(self.dys);
+        let rows = inside.iter_mut().zip(&mut outside).zip(&mut indices);
+        for ((&base, &dy), ((inside, outside), indices)) in per_row.zip(rows).take(ys.len()) {
+            let (Some(lanes), Some(colours)) =
+                (ring.lanes_at(base, x, r), ring.colours_at(base, x, r))
+            else {
+                continue;
+            };
+            let (b, a, f) = classify(&lanes, &dxs, dy, lo, hi);
+            *inside = (f & !(b | a) & lanes_in_window) as u16;
+            *outside = ((b | a) & lanes_in_window) as u16;
+            *indices = table_indices(&colours, &centre, self.weights);
+        }
+        let reach = support::connected(&inside, ys.len(), y - ys.start, r);
+        if !support::is_thin(&reach, r + 1, p.thin) {
+            return false;
+        }
+        // The structure has a colour of its own: its pixels are, on average, at least
+        // twice as alike the pixel as the votes for the other value (a blotch of wrong
+        // disparity on one surface is not).
+        let (mut joined, mut joined_weight, mut others, mut others_weight) =
+            (0u64, 0u64, 0u64, 0u64);
+        for ((&j, &o), row) in reach.iter().zip(&outside).zip(&indices) {
+            joined += u64::from(j.count_ones());
+            joined_weight += self.weigh(j, row);
+            others += u64::from(o.count_ones());
+            others_weight += self.weigh(o, row);
+        }
+        joined_weight * others >= CONTRAST * others_weight * joined
     }
 
     /// Whether the pixel `(x, y)` of finite value `own` keeps it (and whether the first

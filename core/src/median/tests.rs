@@ -155,12 +155,102 @@ fn reference_rows<S: Sample>(
             if n > 0 && (below >= half || total - above < half) {
                 let m = weighted_median(&mut values[..n], &mut taps[..n], half);
                 if (m - own).abs() > p.snap {
-                    *o = m;
+                    let vote = |xx: usize, yy: usize| {
+                        let v = input[yy * width + xx];
+                        if p.planar {
+                            let base = 2 * (yy % SLOPE_ROWS) * width;
+                            let (gx, gy) = (slopes[base + xx], slopes[base + width + xx]);
+                            v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
+                        } else {
+                            v
+                        }
+                    };
+                    let d2 = |xx: usize, yy: usize| {
+                        let colours = guide.row(yy).unwrap_or(&[]);
+                        let pixel = &colours[xx * channels..xx * channels + used];
+                        let mut d2 = 0u32;
+                        for (s, c) in pixel.iter().zip(&centre) {
+                            let d = i32::from(s.level()) - c;
+                            d2 += (d * d) as u32;
+                        }
+                        d2
+                    };
+                    let window = (ys.clone(), xs.clone());
+                    let weight = |xx, yy| u64::from(weights.get(d2(xx, yy)));
+                    let keeps =
+                        reference_keeps_structure(p, window, (x, y), (own, m), vote, weight);
+                    if !keeps {
+                        *o = m;
+                    }
                 }
             }
         }
     }
     Ok(())
+}
+
+/// The reference's thin-structure test: a breadth-first search over the window from
+/// the pixel through 8-neighbours whose vote lies within `own ± max(snap, |m − own| / 2)`
+/// (`m` the median), then the
+/// bounding box of the pixels reached: at least `radius + 1` long along the rows or the
+/// columns, with at most `thin` pixels per pixel of that length; and their mean colour
+/// weight at least twice that of the window's other finite votes outside the band.
+fn reference_keeps_structure(
+    p: &MedianParams,
+    (ys, xs): (Range<usize>, Range<usize>),
+    (x, y): (usize, usize),
+    (own, m): (f32, f32),
+    vote: impl Fn(usize, usize) -> f32,
+    weight: impl Fn(usize, usize) -> u64,
+) -> bool {
+    if p.thin <= 0.0 {
+        return false;
+    }
+    let reach = p.snap.max(0.5 * (m - own).abs());
+    let joinable = |xx: usize, yy: usize| {
+        let v = vote(xx, yy);
+        v.is_finite() && v >= own - reach && v <= own + reach
+    };
+    let mut seen = [[false; 2 * MAX_RADIUS + 1]; 2 * MAX_RADIUS + 1];
+    let mut queue = vec![(x, y)];
+    seen[y - ys.start][x - xs.start] = true;
+    let mut head = 0;
+    while let Some(&(cx, cy)) = queue.get(head) {
+        head += 1;
+        for ny in cy.saturating_sub(1)..=cy + 1 {
+            for nx in cx.saturating_sub(1)..=cx + 1 {
+                if !ys.contains(&ny) || !xs.contains(&nx) || seen[ny - ys.start][nx - xs.start] {
+                    continue;
+                }
+                if joinable(nx, ny) {
+                    seen[ny - ys.start][nx - xs.start] = true;
+                    queue.push((nx, ny));
+                }
+            }
+        }
+    }
+    let span = |of: fn(&(usize, usize)) -> usize| {
+        let (lo, hi) = (queue.iter().map(of).min(), queue.iter().map(of).max());
+        hi.zip(lo).map_or(0, |(hi, lo)| hi - lo + 1)
+    };
+    let span = span(|q| q.0).max(span(|q| q.1));
+    if span <= p.radius || queue.len() as f32 > p.thin * span as f32 {
+        return false;
+    }
+    // Contrast: the mean weight of the pixels reached at least twice that of the
+    // window's finite votes outside the band.
+    let joined = queue.iter().map(|&(xx, yy)| weight(xx, yy)).sum::<u64>();
+    let (mut others, mut others_weight) = (0u64, 0u64);
+    for yy in ys.clone() {
+        for xx in xs.clone() {
+            let v = vote(xx, yy);
+            if v.is_finite() && (v < own - reach || v > own + reach) {
+                others += 1;
+                others_weight += weight(xx, yy);
+            }
+        }
+    }
+    joined * others >= 2 * others_weight * queue.len() as u64
 }
 
 /// Largest step per column in the rows `ys` (the reference's gate).
@@ -250,6 +340,57 @@ fn fattened_depth_edge_snaps_to_colour_edge() {
         for x in 0..w {
             let want = if x >= 16 { 1.5 } else { -0.5 };
             assert_eq!(out[y * w + x], want, "({x}, {y})");
+        }
+    }
+}
+
+/// A two-pixel pole 16 levels brighter than the background (colour weight ≈ 0.29: the
+/// background's 195 pixels of a window outweigh the pole's 30) and a short blotch of
+/// the same colour and disparity: without the thin-structure test the median erases
+/// both; with it the pole, long and narrow and of its own colour, keeps its disparity
+/// and the blotch (4 rows, shorter than r + 1) is still erased.
+#[test]
+fn thin_structures_keep_their_value_and_short_blotches_do_not() {
+    let (w, h) = (32usize, 24usize);
+    let mut views = [0u8; 9 * 32 * 24];
+    let centre = 4 * w * h;
+    let mut input = [-1.0f32; 32 * 24];
+    let pole = |x: usize| x == 10 || x == 11;
+    let blotch = |x: usize, y: usize| (23..25).contains(&x) && (10..14).contains(&y);
+    for y in 0..h {
+        for x in 0..w {
+            let on = pole(x) || blotch(x, y);
+            views[centre + y * w + x] = if on { 76 } else { 60 } + (x * 7 + y * 3) as u8 % 3;
+            if on {
+                input[y * w + x] = 1.0;
+            }
+        }
+    }
+    let run = |params: MedianParams| {
+        let stage = stage_for(w, h, params);
+        let lf = LightField::new(&views, *stage.layout()).unwrap();
+        let mut out = [0.0f32; 32 * 24];
+        filter(
+            stage.setup(),
+            &lf.center_view(),
+            &input,
+            &mut out,
+            &mut vec![0.0; scratch_len(stage.setup())],
+        )
+        .unwrap();
+        out
+    };
+    let without = run(MedianParams {
+        thin: 0.0,
+        ..MedianParams::default()
+    });
+    let with = run(MedianParams::default());
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            assert_eq!(without[i], -1.0, "without the test ({x}, {y})");
+            let want = if pole(x) { 1.0 } else { -1.0 };
+            assert_eq!(with[i], want, "with the test ({x}, {y})");
         }
     }
 }
@@ -510,6 +651,7 @@ fn random_params(rng: &mut Rng) -> MedianParams {
         gate: [0.0, 0.05, 0.2, 1.0][rng.below(4)],
         snap: [0.0, 0.05, 0.2, 1.0][rng.below(4)],
         planar: rng.below(3) != 0,
+        thin: [0.0, 1.0, 2.5, 4.0, 16.0][rng.below(5)],
         ..MedianParams::default()
     }
 }

@@ -564,6 +564,18 @@ pub static TUNABLES: &[Tunable] = &[
         },
     },
     Tunable {
+        flag: Some(Flag::Value("--median-thin")),
+        key: Some("medianThin"),
+        doc: "Weighted median: a pixel keeps its value when the pixels of its value joined to it cross its window with a mean width of at most this (px): thin structures survive; 0 switches the test off",
+        kind: closed(0.0, 16.0),
+        path: "median.thin",
+        get: |p| Value::Float(p.median.thin),
+        set: |p, v| {
+            p.median.thin = float(v)?;
+            Some(())
+        },
+    },
+    Tunable {
         flag: Some(Flag::Switch {
             name: "--median-flat",
             sets: true,
