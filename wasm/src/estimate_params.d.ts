@@ -135,6 +135,10 @@ export interface EstimateParams {
   /** Weighted median: a pixel takes the median only when it differs from it by more than
    * this (px) (0…16; default 0.2). CLI: `--median-snap`. */
   medianSnap?: number;
+  /** Weighted median: a pixel keeps its value when the pixels of its value joined to it
+   * cross its window with a mean width of at most this (px): thin structures survive; 0
+   * switches the test off (0…16; default 3). CLI: `--median-thin`. */
+  medianThin?: number;
   /** Weighted median: neighbours vote with their own value instead of extrapolating along
    * the local slope (default false). CLI: `--median-flat` sets true. */
   medianFlat?: boolean;
