@@ -186,6 +186,12 @@ impl StreamPlan {
     /// alignment off.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
+        if layout.grid.is_linear() {
+            return Err(Error::InvalidParameter {
+                name: "grid",
+                reason: "is one row or column of views: a stream fuses both EPI directions of a grid; run the whole-frame pipeline for a linear array",
+            });
+        }
         if params.refine.enabled {
             return Err(Error::InvalidParameter {
                 name: "refine.enabled",

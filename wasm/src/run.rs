@@ -38,8 +38,10 @@ fn snapshot_label(steps: &[Step], index: usize) -> Option<String> {
         return None;
     }
     let label = match step {
-        Step::Range | Step::Epi(Direction::Horizontal) => return None,
-        Step::Epi(Direction::Vertical) => "EPI estimate",
+        // The EPI estimate is complete after its last direction (a linear array has one).
+        Step::Range => return None,
+        Step::Epi(_) if matches!(next, Some(Step::Epi(_))) => return None,
+        Step::Epi(_) => "EPI estimate",
         Step::Refine => "refined",
         Step::Refill => "refilled at depth steps",
         Step::Median => "edge-snapping median",
@@ -434,5 +436,8 @@ mod tests {
             Some("edge-snapping median (final)")
         );
         assert_eq!(snapshot_label(&late, 3), None);
+        // A row of cameras: its horizontal step is the EPI estimate.
+        let row = [Step::Range, Step::Epi(Direction::Horizontal), Step::Refine];
+        assert_eq!(snapshot_label(&row, 1).as_deref(), Some("EPI estimate"));
     }
 }
