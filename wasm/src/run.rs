@@ -6,7 +6,6 @@
 //! keeps the disparity after each stage ([`Run::snapshots`], labelled here), so the page
 //! can show what every stage did without naming one.
 
-use lfdepth::epi::Direction;
 use lfdepth::pipeline::Stages;
 use lfdepth::schedule::{Cursor, PartOutput, PartScratch, Schedule, State, StateMaps, Step};
 use lfdepth::{LightField, Plan};
@@ -391,6 +390,7 @@ impl Estimator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lfdepth::epi::Direction;
 
     #[test]
     fn a_snapshot_after_each_stage_and_the_last_marked_final() {
