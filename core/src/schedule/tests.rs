@@ -273,7 +273,8 @@ fn misuse_is_an_error_not_a_panic() {
 }
 
 /// A linear array (one row or one column of cameras) runs the EPI direction it has and
-/// every later stage; by parts equals the serial run, in `f32` and Q16.16.
+/// every later stage; by parts equals the serial run, in `f32` and Q16.16, and the EPI
+/// stage's serial `epi::estimate` equals the schedule's EPI steps.
 #[test]
 fn a_linear_array_runs_its_one_direction_by_parts_as_serially() {
     let epi = |direction| match direction {
@@ -309,6 +310,15 @@ fn a_linear_array_runs_its_one_direction_by_parts_as_serially() {
                 assert_eq!(bits(&pc), bits(&c), "{grid:?} {name} {stages:?}");
             }
         }
+        // The EPI stage's own serial entry point gives the schedule's EPI maps.
+        let plan = Plan::new(layout, Params::default()).unwrap();
+        let (d, c, _) = serial::<f32>(&plan, &lf, Stages::Epi);
+        let mut ed = vec![0.0; plan.pixels()];
+        let mut ec = vec![0.0; plan.pixels()];
+        let mut scratch = vec![0.0f32; crate::epi::scratch_len(plan.epi())];
+        crate::epi::estimate(plan.epi(), &lf, &mut ed, &mut ec, &mut scratch).unwrap();
+        assert_eq!(bits(&ed), bits(&d), "{grid:?}: epi::estimate");
+        assert_eq!(bits(&ec), bits(&c), "{grid:?}: epi::estimate");
         let plan = Plan::new(layout, variants()[1].1).unwrap();
         let (d, _, _) = serial::<Q16>(&plan, &lf, Stages::Full);
         let (pd, _, _) = by_parts::<Q16>(&Schedule::new(&plan, Stages::Full, 3).unwrap(), &lf);
