@@ -1,7 +1,8 @@
 //! The folder and grid inference over a list of file names: any names, an optional
 //! `--pattern`, `--grid` and `parameters.cfg` grid → `scene::locate_names` gives a
 //! supported grid with one file per view (each present view's name among the names
-//! given), or an error in words; never a panic or a hang.
+//! given), or an error in words (no Rust debug structure unless a name given holds
+//! braces, which the message quotes); never a panic or a hang.
 //!
 //! Input: UTF-8 text, one name per line. A first line starting with `?` holds the
 //! options, `;`-separated: `grid=RxC`, `pattern=P`, `cfg=RxC` (`parameters.cfg`'s
@@ -58,7 +59,12 @@ fuzz_target!(|data: &[u8]| {
         }
         Err(e) => {
             let message = e.to_string();
-            assert!(!message.is_empty() && !message.contains(" { "), "{message}");
+            assert!(!message.is_empty());
+            // Names holding braces are quoted as they are; otherwise braces in a message
+            // would be a Rust debug structure.
+            if !names.iter().any(|n| n.contains(['{', '}'])) {
+                assert!(!message.contains(" { "), "{message}");
+            }
         }
     }
 });
