@@ -117,8 +117,8 @@ fn grid_infer_regressions() {
                     assert!(!present || names.iter().any(|n| n == name), "{name}");
                 }
             }
-            // Names holding braces are quoted as they are in the message.
-            Err(e) if names.iter().any(|n| n.contains(['{', '}'])) => {
+            // Names and patterns are quoted as they are in the message, braces included.
+            Err(e) if options.pattern.is_some() || names.iter().any(|n| n.contains(['{', '}'])) => {
                 assert!(!e.to_string().is_empty(), "{}", path.display());
             }
             Err(e) => in_words(&e.to_string(), &path),

@@ -1,8 +1,8 @@
 //! The folder and grid inference over a list of file names: any names, an optional
 //! `--pattern`, `--grid` and `parameters.cfg` grid → `scene::locate_names` gives a
 //! supported grid with one file per view (each present view's name among the names
-//! given), or an error in words (no Rust debug structure unless a name given holds
-//! braces, which the message quotes); never a panic or a hang.
+//! given), or an error in words (no Rust debug structure where no name given and no
+//! pattern holds braces the message could quote); never a panic or a hang.
 //!
 //! Input: UTF-8 text, one name per line. A first line starting with `?` holds the
 //! options, `;`-separated: `grid=RxC`, `pattern=P`, `cfg=RxC` (`parameters.cfg`'s
@@ -60,9 +60,10 @@ fuzz_target!(|data: &[u8]| {
         Err(e) => {
             let message = e.to_string();
             assert!(!message.is_empty());
-            // Names holding braces are quoted as they are; otherwise braces in a message
-            // would be a Rust debug structure.
-            if !names.iter().any(|n| n.contains(['{', '}'])) {
+            // Names and patterns are quoted as they are, braces included; without
+            // them, braces in a message would be a Rust debug structure.
+            let braces = |n: &String| n.contains(['{', '}']);
+            if options.pattern.is_none() && !names.iter().any(braces) {
                 assert!(!message.contains(" { "), "{message}");
             }
         }
