@@ -88,10 +88,11 @@ fn bad_cfg_value() {
 }
 
 #[test]
-fn one_by_n_grid_and_bad_flags() {
+fn a_strip_too_short_for_an_epi_and_bad_flags() {
     let dir = common::temp();
-    common::row_col_views(dir.path(), "strip", 1, 7, 0, 16);
-    assert_fails(&estimate(dir.path(), &[]), &["1x7", "3x3"]);
+    // One row of two cameras: a linear array needs three.
+    common::row_col_views(dir.path(), "strip", 1, 2, 0, 16);
+    assert_fails(&estimate(dir.path(), &[]), &["1x2", "1x3", "3x3"]);
     assert_fails(
         &estimate(dir.path(), &["--pattern", "strip_{row}.png"]),
         &["pattern", "{row}"],

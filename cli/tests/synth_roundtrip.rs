@@ -174,11 +174,11 @@ fn bad_synth_arguments() {
         "--scene",
         "mixed",
         "--grid",
-        "1x9",
+        "1x2",
         "--size",
         "32",
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert_fails(&run, &["1x9"]);
+    assert_fails(&run, &["1x2", "1x3"]);
 }

@@ -6,7 +6,8 @@ use core::fmt;
 #[non_exhaustive]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Error {
-    /// The view grid is outside the supported 3×3 … 17×17.
+    /// The view grid is outside the supported 3×3 … 17×17 and is no linear array of
+    /// 1×3 … 1×17 or 3×1 … 17×1 views.
     GridSize { rows: usize, cols: usize },
     /// Views are smaller than 16×16 pixels.
     ViewTooSmall { width: usize, height: usize },
@@ -58,7 +59,7 @@ impl fmt::Display for Error {
         match *self {
             Error::GridSize { rows, cols } => write!(
                 f,
-                "a {rows}x{cols} view grid is not supported: use between 3x3 and 17x17 views"
+                "a {rows}x{cols} view grid is not supported: use between 3x3 and 17x17 views, or one row or column of 3 to 17 views (1x3 to 1x17, 3x1 to 17x1)"
             ),
             Error::ViewTooSmall { width, height } => write!(
                 f,
@@ -163,8 +164,11 @@ mod tests {
     fn messages_say_what_to_change() {
         let msg = Error::ScratchTooSmall { needed: 10, got: 3 }.to_string();
         assert!(msg.contains("scratch_len"), "{msg}");
-        let msg = Error::GridSize { rows: 1, cols: 9 }.to_string();
-        assert!(msg.contains("1x9") && msg.contains("3x3"), "{msg}");
+        let msg = Error::GridSize { rows: 1, cols: 2 }.to_string();
+        assert!(
+            msg.contains("1x2") && msg.contains("3x3") && msg.contains("1x3"),
+            "{msg}"
+        );
     }
 
     #[test]

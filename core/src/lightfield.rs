@@ -84,7 +84,8 @@ impl Sample for f32 {
     }
 }
 
-/// Smallest and largest supported number of views along either grid axis.
+/// Smallest and largest supported number of views along either grid axis; a linear array
+/// (one row or one column of cameras, [`Grid::is_linear`]) has one view along the other.
 pub const GRID_MIN: usize = 3;
 /// See [`GRID_MIN`].
 pub const GRID_MAX: usize = 17;
@@ -121,6 +122,31 @@ impl Grid {
     /// Index of view `(row, col)` in row-major order.
     pub const fn index(&self, row: usize, col: usize) -> usize {
         row * self.cols + col
+    }
+    /// Whether the views differ along the horizontal camera axis (more than one
+    /// column): the horizontal EPIs exist.
+    pub const fn has_horizontal_parallax(&self) -> bool {
+        self.cols > 1
+    }
+    /// Whether the views differ along the vertical camera axis (more than one row):
+    /// the vertical EPIs exist.
+    pub const fn has_vertical_parallax(&self) -> bool {
+        self.rows > 1
+    }
+    /// Whether the grid is one row or one column of cameras (a linear array, such as a
+    /// camera rail): only one EPI direction exists.
+    pub const fn is_linear(&self) -> bool {
+        (self.rows == 1) != (self.cols == 1)
+    }
+    /// Whether the estimators take this grid: [`GRID_MIN`]…[`GRID_MAX`] views along
+    /// each axis, or along one axis of a linear array (1×N or N×1).
+    pub const fn is_supported(&self) -> bool {
+        const fn fits(n: usize) -> bool {
+            n >= GRID_MIN && n <= GRID_MAX
+        }
+        (fits(self.rows) || self.rows == 1)
+            && (fits(self.cols) || self.cols == 1)
+            && !(self.rows == 1 && self.cols == 1)
     }
 }
 
@@ -160,7 +186,7 @@ impl Layout {
     /// Checks dimensions and strides; returns the number of elements the buffer needs.
     pub fn validate(&self) -> Result<usize> {
         let Grid { rows, cols } = self.grid;
-        if !(GRID_MIN..=GRID_MAX).contains(&rows) || !(GRID_MIN..=GRID_MAX).contains(&cols) {
+        if !self.grid.is_supported() {
             return Err(Error::GridSize { rows, cols });
         }
         if self.width < VIEW_MIN || self.height < VIEW_MIN {
@@ -588,8 +614,22 @@ mod tests {
         let ok = Layout::packed(Grid::new(9, 9), 32, 32, 3);
         assert_eq!(ok.validate(), Ok(81 * 32 * 32 * 3));
         let mut l = ok;
-        l.grid = Grid::new(1, 9);
-        assert_eq!(l.validate(), Err(Error::GridSize { rows: 1, cols: 9 }));
+        l.grid = Grid::new(1, 2);
+        assert_eq!(l.validate(), Err(Error::GridSize { rows: 1, cols: 2 }));
+        for bad in [(1, 1), (2, 1), (2, 9), (1, 18), (18, 1), (0, 9)] {
+            l.grid = Grid::new(bad.0, bad.1);
+            assert!(
+                matches!(l.validate(), Err(Error::GridSize { .. })),
+                "{bad:?}"
+            );
+        }
+        // A linear array: one row or one column of 3 to 17 cameras.
+        for rail in [(1, 3), (1, 9), (1, 17), (9, 1), (3, 1)] {
+            l.grid = Grid::new(rail.0, rail.1);
+            assert_eq!(l.validate(), Ok(rail.0 * rail.1 * 32 * 32 * 3), "{rail:?}");
+            assert!(l.grid.is_linear());
+        }
+        assert!(!Grid::new(9, 9).is_linear());
         l.grid = Grid::new(18, 9);
         assert!(matches!(l.validate(), Err(Error::GridSize { .. })));
         let mut l = ok;

@@ -209,10 +209,16 @@ impl StreamPlan {
     /// the weighted median before TV on the region grown by its halo, TV's first sweep on
     /// the region), and refuses a step it cannot run band by band, naming the parameter
     /// that switches it off: the photometric refinement, the geodesic refill, the median
-    /// after TV, TV's outer sweeps and the half-resolution EPI's upsampling. The disparity range must be fixed (or the shear
-    /// off) and the alignment off.
+    /// after TV, TV's outer sweeps and the half-resolution EPI's upsampling. The disparity
+    /// range must be fixed (or the shear off), the alignment off and the grid two-dimensional.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
+        if layout.grid.is_linear() {
+            return Err(Error::InvalidParameter {
+                name: "grid",
+                reason: "is one row or column of views: a stream fuses both EPI directions of a grid; run the whole-frame pipeline for a linear array",
+            });
+        }
         let schedule = Schedule::new(&plan, Stages::Full, 1)?;
         let mut median_halo = 0;
         let mut after_tv = false;

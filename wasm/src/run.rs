@@ -6,7 +6,6 @@
 //! keeps the disparity after each stage ([`Run::snapshots`], labelled here), so the page
 //! can show what every stage did without naming one.
 
-use lfdepth::epi::Direction;
 use lfdepth::pipeline::Stages;
 use lfdepth::schedule::{Cursor, PartOutput, PartScratch, Schedule, State, StateMaps, Step};
 use lfdepth::Plan;
@@ -39,10 +38,12 @@ fn snapshot_label(steps: &[Step], index: usize) -> Option<String> {
         return None;
     }
     let label = match step {
-        Step::Range | Step::Epi(Direction::Horizontal) => return None,
-        // At half resolution the fused map is a quarter of the frame until upsampled.
-        Step::Epi(Direction::Vertical) if next == Some(&Step::Upsample) => return None,
-        Step::Epi(Direction::Vertical) | Step::Upsample => "EPI estimate",
+        // The EPI estimate is complete after its last direction (a linear array has one),
+        // and at half resolution only once upsampled (the fused map is a quarter of the
+        // frame until then).
+        Step::Range => return None,
+        Step::Epi(_) if matches!(next, Some(Step::Epi(_)) | Some(Step::Upsample)) => return None,
+        Step::Epi(_) | Step::Upsample => "EPI estimate",
         Step::Refine => "refined",
         Step::Refill => "refilled at depth steps",
         Step::Median => "edge-snapping median",
@@ -387,6 +388,7 @@ impl Estimator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lfdepth::epi::Direction;
 
     #[test]
     fn a_snapshot_after_each_stage_and_the_last_marked_final() {
@@ -432,5 +434,8 @@ mod tests {
             Some("edge-snapping median (final)")
         );
         assert_eq!(snapshot_label(&late, 3), None);
+        // A row of cameras: its horizontal step is the EPI estimate.
+        let row = [Step::Range, Step::Epi(Direction::Horizontal), Step::Refine];
+        assert_eq!(snapshot_label(&row, 1).as_deref(), Some("EPI estimate"));
     }
 }

@@ -160,6 +160,9 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     if let Some(note) = &files.grid_note {
         eprintln!("note: {note}");
     }
+    if let Some(note) = scene::linear_note(files.grid) {
+        eprintln!("note: {note}");
+    }
     let needs = needs::views_to_read(&files, &params, args.stage.into())?;
     let summary = needs.summary(&files);
     let scene = scene::read_selected(files, &args.limits.limits(), &needs.wanted)?;

@@ -7,7 +7,8 @@
 //!   `num_cams_x`), else the smallest square holding the highest index — a gapless run
 //!   of indices whose count is no square could be a linear array and needs `--grid`;
 //! - `NAME_RR_CC.png`: row and column, 0- or 1-based (the smallest number found decides);
-//!   the grid comes from `--grid`, `parameters.cfg` or the largest row and column;
+//!   the grid comes from `--grid`, `parameters.cfg` or the largest row and column (one
+//!   row or column of names is a linear array, [`linear_note`]);
 //! - anything else through `--pattern` (see [`super::pattern`]).
 //!
 //! Views of the grid may be absent ([`ViewFiles::present`]): only the views a run reads
@@ -61,6 +62,23 @@ pub struct ViewFiles {
     pub config: Option<SceneConfig>,
     /// How the grid was chosen when the names leave it open (for the user to check).
     pub grid_note: Option<String>,
+}
+
+/// The note for a linear array (one row or one column of cameras), which has one EPI
+/// direction only; `None` for a grid.
+pub fn linear_note(grid: Grid) -> Option<String> {
+    if !grid.is_linear() {
+        return None;
+    }
+    let (line, present, absent) = if grid.rows == 1 {
+        ("row", "horizontal", "vertical")
+    } else {
+        ("column", "vertical", "horizontal")
+    };
+    Some(format!(
+        "the {}x{} views are one {line} of cameras: one direction ({present}) only, the {absent} EPIs are absent; the estimate rests on the {present} parallax alone (edges along the {line} are not measured by the EPIs)",
+        grid.rows, grid.cols
+    ))
 }
 
 impl ViewFiles {
@@ -317,25 +335,28 @@ fn index_grid(
     Ok((Grid::new(side, side), note))
 }
 
-/// Refuses a grid the estimator cannot use; a single row or column of cameras (a linear
-/// array) is named as such.
+/// Refuses a grid the estimator cannot use; a single view or a row or column of cameras
+/// too short for an EPI is named as such.
 fn check_grid(dir: &Path, g: Grid) -> Result<(), IoError> {
     use lfdepth::lightfield::{GRID_MAX, GRID_MIN};
-    let fits = |n: usize| (GRID_MIN..=GRID_MAX).contains(&n);
-    if fits(g.rows) && fits(g.cols) {
+    if g.is_supported() {
         return Ok(());
     }
-    let line = match (g.rows, g.cols) {
-        (1, n) if n > 1 => Some("one row"),
-        (n, 1) if n > 1 => Some("one column"),
+    let what = match (g.rows, g.cols) {
+        (1, 1) => Some("holds one view (a 1x1 grid)".to_string()),
+        (1, n) | (n, 1) if n < GRID_MIN => Some(format!(
+            "its views form one {} of {n} cameras (a {}x{} grid)",
+            if g.rows == 1 { "row" } else { "column" },
+            g.rows,
+            g.cols
+        )),
         _ => None,
     };
-    match line {
-        Some(line) => Err(folder_error(
+    match what {
+        Some(what) => Err(folder_error(
             dir,
             format!(
-                "its views form {line} of cameras (a {}x{} linear array): lfdepth estimates from the horizontal and the vertical EPIs of a grid of at least {GRID_MIN}x{GRID_MIN} views and cannot yet use one direction alone; if the views are a grid, pass --grid RxC",
-                g.rows, g.cols
+                "{what}: depth from a light field needs at least {GRID_MIN} views along a row or column of cameras (1x{GRID_MIN} to 1x{GRID_MAX}, {GRID_MIN}x1 to {GRID_MAX}x1) or a grid of {GRID_MIN}x{GRID_MIN} to {GRID_MAX}x{GRID_MAX}; add views, or pass --grid RxC if that is not the grid"
             ),
         )),
         None => Err(IoError::core(
@@ -360,6 +381,18 @@ pub fn locate(dir: &Path, options: &LoadOptions) -> Result<ViewFiles, IoError> {
         None
     };
     let names = file_names(dir)?;
+    locate_names(dir, names, config, options)
+}
+
+/// [`locate`] of a folder holding the files `names` (and `config`, its
+/// `parameters.cfg`): the pattern, the grid and each view's file, from the names alone.
+/// `dir` only names the folder in messages and paths.
+pub fn locate_names(
+    dir: &Path,
+    names: Vec<String>,
+    config: Option<SceneConfig>,
+    options: &LoadOptions,
+) -> Result<ViewFiles, IoError> {
     let pattern = match &options.pattern {
         Some(p) => Pattern::parse(p)?,
         None => detect_pattern(dir, &names)?,

@@ -5,7 +5,9 @@
 //! view (views of the centre camera row), a vertical EPI line is one image column (views
 //! of the centre camera column). Lines are independent, so a band is any run of lines and
 //! the result never depends on how lines are grouped or threaded. Scratch covers one line.
-//! The two directions are fused per pixel with [`fuse`].
+//! The two directions are fused per pixel with [`fuse`]. A linear array (one row or one
+//! column of cameras) has one direction only ([`Direction::exists`]): its estimate is
+//! that direction's, with nothing to fuse.
 
 mod band;
 mod half;
@@ -247,6 +249,17 @@ impl EpiParams {
 }
 
 impl Direction {
+    /// The directions, horizontal first.
+    pub const BOTH: [Direction; 2] = [Direction::Horizontal, Direction::Vertical];
+
+    /// Whether the grid of `layout` has this direction's EPIs: more than one view along
+    /// its camera axis (a row of cameras has no vertical EPIs, a column no horizontal).
+    pub fn exists(&self, layout: &Layout) -> bool {
+        match self {
+            Direction::Horizontal => layout.grid.has_horizontal_parallax(),
+            Direction::Vertical => layout.grid.has_vertical_parallax(),
+        }
+    }
     /// Number of lines (image rows or columns).
     pub fn lines(&self, layout: &Layout) -> usize {
         match self {
@@ -813,15 +826,34 @@ pub fn hypotheses<T: Scalar, S: Sample>(
 /// Lines per progress report.
 const PROGRESS_LINES: usize = 32;
 
+type ProgressFn<'f> = dyn FnMut(Progress) -> ControlFlow<()> + 'f;
+
+fn report(
+    progress: &mut ProgressFn<'_>,
+    stage: &'static str,
+    done: usize,
+    total: usize,
+) -> Result<()> {
+    match progress(Progress {
+        stage,
+        done: done as u64,
+        total: total as u64,
+    }) {
+        ControlFlow::Continue(()) => Ok(()),
+        ControlFlow::Break(()) => Err(Error::Cancelled),
+    }
+}
+
 /// The serial stage with progress: both directions over every line, fused into
-/// `disparity` / `confidence` (row-major, `setup.pixels()` each). Returns the hypotheses.
+/// `disparity` / `confidence` (row-major, `setup.pixels()` each); a linear array's one
+/// direction alone. Returns the hypotheses.
 pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
     setup: Setup<'_, EpiParams>,
     lf: &LightField<'_, S>,
     disparity: &mut [f32],
     confidence: &mut [f32],
     scratch: &mut [T],
-    progress: &mut dyn FnMut(Progress) -> ControlFlow<()>,
+    progress: &mut ProgressFn<'_>,
 ) -> Result<Hypotheses> {
     check_layout(setup, lf)?;
     if setup.params().half_resolution {
@@ -841,25 +873,33 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
     }
     let needed = scratch_len(setup);
     check_scratch(needed, scratch.len())?;
-    let report =
-        |progress: &mut dyn FnMut(Progress) -> ControlFlow<()>, stage, done, total| match progress(
-            Progress {
-                stage,
-                done: done as u64,
-                total: total as u64,
-            },
-        ) {
-            ControlFlow::Continue(()) => Ok(()),
-            ControlFlow::Break(()) => Err(Error::Cancelled),
-        };
     report(progress, STAGE_RANGE, 0, 1)?;
     let hyps = hypotheses(setup, lf, scratch)?;
     report(progress, STAGE_RANGE, 1, 1)?;
+    let horizontal = Direction::Horizontal.exists(setup.layout());
+    if horizontal {
+        estimate_rows(setup, &hyps, lf, disparity, confidence, scratch, progress)?;
+    }
+    if Direction::Vertical.exists(setup.layout()) {
+        let maps = (disparity, confidence);
+        estimate_columns(setup, &hyps, lf, horizontal, maps, scratch, progress)?;
+    }
+    Ok(hyps)
+}
+
+/// The horizontal lines of [`estimate_with_progress`], written into the maps.
+fn estimate_rows<T: Scalar, S: Sample>(
+    setup: Setup<'_, EpiParams>,
+    hyps: &Hypotheses,
+    lf: &LightField<'_, S>,
+    disparity: &mut [f32],
+    confidence: &mut [f32],
+    scratch: &mut [T],
+    progress: &mut ProgressFn<'_>,
+) -> Result<()> {
     let width = setup.layout().width;
     let height = setup.layout().height;
-    let fusion = setup.params().fusion;
-
-    let band = BandEstimator::new(setup, hyps, lf, Direction::Horizontal);
+    let band = BandEstimator::new(setup, *hyps, lf, Direction::Horizontal);
     let (d_line, c_line, work) = band.split_scratch(scratch)?;
     for y in 0..height {
         if y % PROGRESS_LINES == 0 {
@@ -867,22 +907,37 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
         }
         band.line(y, work, d_line, c_line)?;
         let row = y * width..(y + 1) * width;
-        // Both maps hold `pixels` values (checked above): the skip never happens.
+        // Both maps hold `pixels` values (checked by the caller): the skip never happens.
         let (Some(out_d), Some(out_c)) = (disparity.get_mut(row.clone()), confidence.get_mut(row))
         else {
             continue;
         };
-        write_line(&hyps, d_line, c_line, out_d, out_c);
+        write_line(hyps, d_line, c_line, out_d, out_c);
     }
-    report(progress, STAGE_HORIZONTAL, height, height)?;
+    report(progress, STAGE_HORIZONTAL, height, height)
+}
 
+/// The vertical lines of [`estimate_with_progress`], fused into the maps' horizontal
+/// estimate when `horizontal` (the grid has one), else written as they are.
+fn estimate_columns<T: Scalar, S: Sample>(
+    setup: Setup<'_, EpiParams>,
+    hyps: &Hypotheses,
+    lf: &LightField<'_, S>,
+    horizontal: bool,
+    (disparity, confidence): (&mut [f32], &mut [f32]),
+    scratch: &mut [T],
+    progress: &mut ProgressFn<'_>,
+) -> Result<()> {
+    let width = setup.layout().width;
+    let height = setup.layout().height;
+    let fusion = setup.params().fusion;
     // Vertical lines in tiles of `VERTICAL_TILE` columns (their disparity lines, then
     // their confidence lines, before the band's work), each tile fused row by row.
-    let band = BandEstimator::new(setup, hyps, lf, Direction::Vertical);
+    let band = BandEstimator::new(setup, *hyps, lf, Direction::Vertical);
     let n = band.n;
     let tile_len = VERTICAL_TILE * n;
     let too_small = Error::ScratchTooSmall {
-        needed,
+        needed: scratch_len(setup),
         got: scratch.len(),
     };
     let (tile_d, rest) = scratch.split_at_mut_checked(tile_len).ok_or(too_small)?;
@@ -908,7 +963,8 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
         }
         for y in 0..height {
             let row = y * width + x0..y * width + x0 + columns;
-            // Both maps hold `pixels` values (checked above): the skip never happens.
+            // Both maps hold `pixels` values (checked by the caller): the skip never
+            // happens.
             let (Some(out_d), Some(out_c)) =
                 (disparity.get_mut(row.clone()), confidence.get_mut(row))
             else {
@@ -919,12 +975,15 @@ pub(crate) fn estimate_with_progress<T: Scalar, S: Sample>(
                     continue;
                 };
                 let (dv, cv) = (clamp_f32(dv.to_f32(), lo, hi), cv.to_f32().clamp(0.0, 1.0));
-                (*d, *c) = fuse(fusion, *d, *c, dv, cv);
+                (*d, *c) = if horizontal {
+                    fuse(fusion, *d, *c, dv, cv)
+                } else {
+                    (dv, cv)
+                };
             }
         }
     }
-    report(progress, STAGE_VERTICAL, width, width)?;
-    Ok(hyps)
+    report(progress, STAGE_VERTICAL, width, width)
 }
 
 /// Progress stage names.

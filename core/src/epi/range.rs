@@ -1,4 +1,5 @@
-//! Automatic disparity range: probe every `RANGE_LINE_STEP`-th line of both directions with
+//! Automatic disparity range: probe every `RANGE_LINE_STEP`-th line of both directions (the
+//! one of a linear array) with
 //! integer shears over the whole supported range, histogram the confident estimates and
 //! keep the outermost 0.3 px windows holding at least 1 % of them, padded.
 
@@ -47,7 +48,10 @@ pub fn estimate_range<T: Scalar, S: Sample>(
         ..*setup.params()
     };
     let gray = setup.with_params(&gray);
-    for direction in [Direction::Horizontal, Direction::Vertical] {
+    for direction in Direction::BOTH {
+        if !direction.exists(setup.layout()) {
+            continue;
+        }
         let band = BandEstimator::new(gray, probe, lf, direction);
         let (d, c, work) = band.split_scratch(scratch)?;
         let n = direction.line_len(setup.layout());

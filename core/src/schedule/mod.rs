@@ -55,8 +55,9 @@ pub enum Stages {
 /// enough that per-part overhead (scratch, progress) is negligible.
 pub const BAND_LINES: usize = 16;
 
-/// Most steps of a run: range, two EPI directions, the upsampling, refinement, refill,
-/// two medians and TV with at most [`tv::MAX_SWEEPS`] outer sweeps.
+/// Most steps of a run: range, two EPI directions (one for a linear array), the
+/// upsampling, refinement, refill, two medians and TV with at most [`tv::MAX_SWEEPS`]
+/// outer sweeps.
 pub const MAX_STEPS: usize = 8 + tv::MAX_SWEEPS + 1;
 
 /// Full-resolution rows per part of the upsampling step.
@@ -71,7 +72,10 @@ pub enum Step {
     /// lines into the current maps (row-major), vertical ones into the other maps
     /// (transposed: line after line); closing the vertical step fuses both directions
     /// into the current maps, per pixel, on the placing driver's thread (a pass over
-    /// the map that costs less than sending the four maps to workers).
+    /// the map that costs less than sending the four maps to workers). A linear array
+    /// has the step of its one direction only: a row of cameras ends the EPI stage with
+    /// the horizontal step, a column's vertical step moves its estimates into the
+    /// current maps unfused.
     Epi(Direction),
     /// The half-resolution EPI map upsampled to full resolution guided by the centre
     /// view ([`epi::upsample_rows`], only with [`epi::EpiParams::half_resolution`]), in
@@ -143,8 +147,12 @@ impl Schedule {
             })
         };
         push(Step::Range)?;
-        push(Step::Epi(Direction::Horizontal))?;
-        push(Step::Epi(Direction::Vertical))?;
+        // A linear array (one row or column of cameras) has one EPI direction only.
+        for direction in Direction::BOTH {
+            if direction.exists(plan.layout()) {
+                push(Step::Epi(direction))?;
+            }
+        }
         let params = plan.params();
         if params.epi.half_resolution {
             push(Step::Upsample)?;
@@ -581,10 +589,14 @@ impl Schedule {
         let swap_d = |state: &mut State<'_>| state.swap_maps(CURRENT_D, OTHER_D);
         match step {
             Step::Range | Step::Epi(Direction::Horizontal) => {}
-            // Both directions are in: the one fusion of every driver.
+            // Both directions are in: the one fusion of every driver (a column of
+            // cameras has no horizontal estimates to fuse with).
             Step::Epi(Direction::Vertical) => {
                 let (width, height) = epi::map_size(self.plan.epi());
-                state.fuse(self.plan.params().epi.fusion, width, height);
+                let fusion = Direction::Horizontal
+                    .exists(self.plan.layout())
+                    .then_some(self.plan.params().epi.fusion);
+                state.fuse(fusion, width, height);
             }
             Step::Upsample | Step::Refine => {
                 swap_d(state);

@@ -171,8 +171,10 @@ impl<'a> State<'a> {
     }
 
     /// Fuses the horizontal estimates (the current maps, row-major) with the vertical
-    /// ones (the other maps, transposed) into the current maps, pixel by pixel.
-    pub(super) fn fuse(&mut self, fusion: Fusion, width: usize, height: usize) {
+    /// ones (the other maps, transposed) into the current maps, pixel by pixel; with no
+    /// `fusion` (a column of cameras has no horizontal estimates) the vertical ones are
+    /// taken as they are.
+    pub(super) fn fuse(&mut self, fusion: Option<Fusion>, width: usize, height: usize) {
         let (d, c) = (self.map_range(CURRENT_D), self.map_range(CURRENT_C));
         let (dv, cv) = (self.map_range(OTHER_D), self.map_range(OTHER_C));
         for y in 0..height {
@@ -180,13 +182,17 @@ impl<'a> State<'a> {
                 let (p, t) = (y * width + x, x * height + y);
                 let at = |range: &core::ops::Range<usize>, i: usize| range.start + i;
                 let get = |i: usize| self.buffer.get(i).copied().unwrap_or(f32::NAN);
-                let (fd, fc) = epi::fuse(
-                    fusion,
-                    get(at(&d, p)),
-                    get(at(&c, p)),
-                    get(at(&dv, t)),
-                    get(at(&cv, t)),
-                );
+                let vertical = (get(at(&dv, t)), get(at(&cv, t)));
+                let (fd, fc) = match fusion {
+                    Some(fusion) => epi::fuse(
+                        fusion,
+                        get(at(&d, p)),
+                        get(at(&c, p)),
+                        vertical.0,
+                        vertical.1,
+                    ),
+                    None => vertical,
+                };
                 if let Some(v) = self.buffer.get_mut(at(&d, p)) {
                     *v = fd;
                 }

@@ -341,6 +341,13 @@ fn bad_streams_are_refused_with_errors() {
             ..
         })
     ));
+    for rail in [Grid::new(1, 9), Grid::new(9, 1)] {
+        let rail = Layout::packed(rail, 64, 64, 3);
+        assert!(matches!(
+            StreamPlan::new(rail, params(32, 8, -1.0, 1.0)),
+            Err(Error::InvalidParameter { name: "grid", .. })
+        ));
+    }
     let plan = StreamPlan::new(layout, params(32, 8, -1.0, 1.0)).unwrap();
     let rows = plan.input_rows(1).unwrap();
     let band = vec![0u8; plan.band_len()];
