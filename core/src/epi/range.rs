@@ -42,9 +42,12 @@ pub fn estimate_range<T: Scalar, S: Sample>(
     let mut histogram = [0u32; BINS];
     let mut total = 0u64;
     // The probe runs on the gray mean of the channels (a third of the work of the colour
-    // tensor; the range ends are padded histogram windows, docs/stages/epi.md).
+    // tensor; the range ends are padded histogram windows, docs/stages/epi.md), on
+    // full-resolution lines whatever resolution the EPI stage then runs at (its lines
+    // and disparities are the frame's).
     let gray = EpiParams {
         color: ColorMode::Gray,
+        half_resolution: false,
         ..*setup.params()
     };
     let gray = setup.with_params(&gray);
