@@ -79,7 +79,7 @@ fn half_resolution_keeps_its_measured_accuracy_on_the_shared_hci_scenes() {
         "1",
         "--json",
     ]);
-    // Measured 6.115 / 5.328 and 2.722 / 1.622 (BadPix0.07 / MSE×100), with a margin.
+    // Measured 6.064 / 5.286 and 2.639 / 1.250 (BadPix0.07 / MSE×100), with a margin.
     let floors = [
         ("stratified/backgammon", 6.3, 5.5),
         ("training/cotton", 2.85, 1.7),
