@@ -52,6 +52,8 @@ pub const MAX_PASSES: usize = 4;
 /// Largest window radius (px).
 pub const MAX_RADIUS: usize = 7;
 const MAX_TAPS: usize = (2 * MAX_RADIUS + 1) * (2 * MAX_RADIUS + 1);
+/// Most columns (and rows) of a window.
+const SPAN: usize = 2 * MAX_RADIUS + 1;
 const TABLE: usize = 256;
 
 /// Parameters of the weighted median.
@@ -338,7 +340,7 @@ fn run<S: Sample>(
     let recheck = previous.is_some() && settled.is_some();
     let mut ring = RowRing::new(ring, width);
     let offsets = pixel::lane_offsets(r);
-    let mut indices: RowIndices = [[0; ring::LANES]; pixel::SPAN];
+    let mut indices: RowIndices = [[0; ring::LANES]; SPAN];
     // The window's row order for (rows, the pixels' row in it).
     let mut order = ((0, 0), RowOrder::new(0, 0));
     let count_steps = |yy: usize, counts: &mut [f32], delta: f32| {
@@ -388,8 +390,8 @@ fn run<S: Sample>(
         if order.0 != shape {
             order = (shape, RowOrder::new(shape.0, shape.1));
         }
-        let mut bases = [0usize; pixel::SPAN];
-        let mut dys = [0.0f32; pixel::SPAN];
+        let mut bases = [0usize; SPAN];
+        let mut dys = [0.0f32; SPAN];
         for ((base, dy), yy) in bases.iter_mut().zip(dys.iter_mut()).zip(ys.clone()) {
             *base = ring.base(yy);
             *dy = y as f32 - yy as f32;

@@ -18,11 +18,9 @@ use super::ring::{ColourLanes, Lanes, RowRing, LANES};
 use super::select::{key, weighted_median, weighted_median_of_keys};
 use super::support;
 use super::weights::Weights;
-use super::{MedianParams, MAX_RADIUS, MAX_TAPS};
+use super::{MedianParams, MAX_TAPS, SPAN};
 use crate::lightfield::{Sample, View};
 
-/// Most columns (and rows) of a window.
-pub(super) const SPAN: usize = 2 * MAX_RADIUS + 1;
 /// Columns below which `x as f32 − xx as f32` is exact: 2²⁴ less the widest reach.
 const EXACT_COLUMNS: usize = (1 << 24) - 2 * LANES;
 

@@ -13,7 +13,7 @@
 //! by 8-connected dilation within the allowed lanes, sweeping down and up the rows until
 //! nothing changes: a few dozen integer operations per sweep.
 
-use super::pixel::SPAN;
+use super::SPAN;
 
 /// The lanes of each of the first `rows` window rows joined to lane `lane` of row
 /// `centre_row` through lanes set in `similar` (8-connected); empty when that lane is
