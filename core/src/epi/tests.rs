@@ -4,11 +4,13 @@ use std::vec::Vec;
 
 use core::ops::ControlFlow;
 
+use super::load::{load_levels, Levels};
+use super::serial::estimate_with_progress;
 use super::test_scenes::{noise, strips, Scene};
 use super::*;
 use crate::lightfield::{Grid, Layout};
 use crate::scalar::Q16;
-use crate::setup::TestSetup;
+use crate::setup::{DisparityOut, TestSetup};
 
 fn stage_for(layout: Layout, epi: EpiParams) -> TestSetup<EpiParams> {
     TestSetup::new(layout, epi)

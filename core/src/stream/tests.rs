@@ -7,6 +7,7 @@ use crate::epi::{EpiParams, Fusion};
 use crate::lightfield::LightField;
 use crate::pipeline::{self, Stages};
 use crate::refine::RefineParams;
+use crate::scalar::Scalar;
 use crate::synth::{self, SceneKind, SynthSpec};
 use crate::tv::TvParams;
 use crate::Q16;
