@@ -66,32 +66,14 @@ fn half_resolution_maps_are_the_same_for_any_thread_count() {
     ignore = "512x512 scenes: run with cargo test --release"
 )]
 fn half_resolution_keeps_its_measured_accuracy_on_the_shared_hci_scenes() {
-    let Some(data) =
-        common::shared_data("half_resolution_keeps_its_measured_accuracy_on_the_shared_hci_scenes")
-    else {
-        return;
-    };
-    let v = common::lfdepth_json(&[
-        "eval",
-        "--dataset",
-        data.join("hci").to_str().unwrap(),
-        "--epi-half",
-        "1",
-        "--json",
-    ]);
     // Measured 6.064 / 5.286 and 2.639 / 1.250 (BadPix0.07 / MSE×100), with a margin.
-    let floors = [
-        ("stratified/backgammon", 6.3, 5.5),
-        ("training/cotton", 2.85, 1.7),
-    ];
-    let scenes = v["scenes"].as_array().unwrap();
-    assert_eq!(scenes.len(), floors.len(), "{v}");
-    for (s, (name, bad_max, mse_max)) in scenes.iter().zip(floors) {
-        assert_eq!(s["scene"].as_str(), Some(name));
-        let bad = s["badpix007"].as_f64().unwrap();
-        let mse = s["mse100"].as_f64().unwrap();
-        eprintln!("{name}: --epi-half 1 {bad:.3} % / {mse:.3} (BadPix0.07 / MSE×100)");
-        assert!(bad < bad_max, "{name}: BadPix0.07 {bad:.3} % ≥ {bad_max}");
-        assert!(mse < mse_max, "{name}: MSE×100 {mse:.3} ≥ {mse_max}");
-    }
+    common::assert_hci_below(
+        "half_resolution_keeps_its_measured_accuracy_on_the_shared_hci_scenes",
+        "--epi-half 1",
+        &["--epi-half", "1"],
+        [
+            ("stratified/backgammon", 6.3, 5.5),
+            ("training/cotton", 2.85, 1.7),
+        ],
+    );
 }

@@ -133,35 +133,15 @@ fn unknown_preset_names_fail_cleanly_listing_the_names() {
     ignore = "512x512 scenes: run with cargo test --release"
 )]
 fn fast_preset_still_beats_spo_on_the_shared_hci_scenes() {
-    let Some(data) = common::shared_data("fast_preset_still_beats_spo_on_the_shared_hci_scenes")
-    else {
-        return;
-    };
-    let v = common::lfdepth_json(&[
-        "eval",
-        "--dataset",
-        data.join("hci").to_str().unwrap(),
-        "--preset",
-        "fast",
-        "--json",
-    ]);
     // What the preset promises (Preset::Fast): below SPO on both scenes (measured
     // values in docs/BENCHMARKS.md, "Presets"; BadPix0.07 / MSE×100).
-    let spo = [
-        ("stratified/backgammon", 2.55, 3.24),
-        ("training/cotton", 2.59, 1.31),
-    ];
-    let scenes = v["scenes"].as_array().unwrap();
-    assert_eq!(scenes.len(), spo.len(), "{v}");
-    for (s, (name, bad_max, mse_max)) in scenes.iter().zip(spo) {
-        assert_eq!(s["scene"].as_str(), Some(name));
-        let bad = s["badpix007"].as_f64().unwrap();
-        let mse = s["mse100"].as_f64().unwrap();
-        eprintln!("{name}: --preset fast {bad:.3} % / {mse:.3} (BadPix0.07 / MSE×100)");
-        assert!(
-            bad < bad_max,
-            "{name}: BadPix0.07 {bad:.3} % ≥ SPO's {bad_max}"
-        );
-        assert!(mse < mse_max, "{name}: MSE×100 {mse:.3} ≥ SPO's {mse_max}");
-    }
+    common::assert_hci_below(
+        "fast_preset_still_beats_spo_on_the_shared_hci_scenes",
+        "--preset fast",
+        &["--preset", "fast"],
+        [
+            ("stratified/backgammon", 2.55, 3.24),
+            ("training/cotton", 2.59, 1.31),
+        ],
+    );
 }

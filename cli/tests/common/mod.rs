@@ -134,3 +134,33 @@ pub fn png_with_header(width: u32, height: u32) -> Vec<u8> {
     chunk(&mut out, b"IEND", &[]);
     out
 }
+
+/// Scores `lfdepth eval --dataset ../shared/data/hci FLAGS` and asserts each scene's
+/// BadPix0.07 % and MSE×100 below its `limits` (backgammon, then cotton: the order
+/// `eval` lists them); `what` names the run in the output. Skips loudly without the data.
+pub fn assert_hci_below(test: &str, what: &str, flags: &[&str], limits: [(&str, f64, f64); 2]) {
+    let Some(data) = shared_data(test) else {
+        return;
+    };
+    let hci = data.join("hci");
+    let mut args = vec!["eval", "--dataset", arg(&hci)];
+    args.extend_from_slice(flags);
+    args.push("--json");
+    let v = lfdepth_json(&args);
+    let scenes = v["scenes"].as_array().unwrap();
+    assert_eq!(scenes.len(), limits.len(), "{v}");
+    for (s, (name, bad_max, mse_max)) in scenes.iter().zip(limits) {
+        assert_eq!(s["scene"].as_str(), Some(name));
+        let bad = s["badpix007"].as_f64().unwrap();
+        let mse = s["mse100"].as_f64().unwrap();
+        eprintln!("{name}: {what} {bad:.3} % / {mse:.3} (BadPix0.07 / MSE×100)");
+        assert!(
+            bad < bad_max,
+            "{name}: {what}: BadPix0.07 {bad:.3} % ≥ {bad_max}"
+        );
+        assert!(
+            mse < mse_max,
+            "{name}: {what}: MSE×100 {mse:.3} ≥ {mse_max}"
+        );
+    }
+}
