@@ -16,24 +16,13 @@ fn ok(out: &std::process::Output) -> (String, String) {
     (String::from_utf8_lossy(&out.stdout).to_string(), stderr)
 }
 
+/// The `mixed` scene on a 5×5 grid of 128² views in `dir`, misaligned or rectified.
 fn synth(dir: &Path, misalign: bool) {
-    let mut args = vec![
-        "synth",
-        "--scene",
-        "mixed",
-        "--grid",
-        "5x5",
-        "--size",
-        "128",
-        "--seed",
-        "4",
-        "--out",
-        dir.to_str().unwrap(),
-    ];
+    let mut flags = vec!["--grid", "5x5", "--seed", "4"];
     if misalign {
-        args.push("--misalign");
+        flags.push("--misalign");
     }
-    ok(&lfdepth(&args));
+    common::synth_scene(dir, "mixed", 128, &flags);
 }
 
 /// EPI disparity of `scene` with `--align mode`, scored against its ground truth:

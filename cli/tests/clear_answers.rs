@@ -15,20 +15,6 @@ fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
-/// A synthetic 9x9 scene of `size`² views (with ground truth and parameters.cfg).
-fn synth(dir: &Path, size: usize) {
-    let out = lfdepth(&[
-        "synth",
-        "--scene",
-        "planes",
-        "--size",
-        &size.to_string(),
-        "--out",
-        arg(dir),
-    ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-}
-
 fn estimate(scene: &Path, extra: &[&str]) -> Output {
     let out = scene.parent().unwrap().join("out.pfm");
     let mut args = vec!["estimate", arg(scene), "-o", arg(&out)];
@@ -138,19 +124,11 @@ fn a_folder_that_cannot_be_made_is_named_in_plain_words() {
     let file = dir.path().join("file.txt");
     std::fs::write(&file, "x").unwrap();
     let inside = file.join("scene");
-    for args in [
-        vec![
-            "synth",
-            "--scene",
-            "planes",
-            "--size",
-            "16",
-            "--out",
-            arg(&inside),
-        ],
-        vec!["demo", "--size", "32", "--out", arg(&inside)],
+    for run in [
+        common::synth_command(&inside, "planes", &["--size", "16"]),
+        lfdepth(&["demo", "--size", "32", "--out", arg(&inside)]),
     ] {
-        let line = assert_fails(&lfdepth(&args), &["scene: cannot create it:"]);
+        let line = assert_fails(&run, &["scene: cannot create it:"]);
         assert!(!line.contains("the folder it"), "{line}");
     }
 }
@@ -160,11 +138,11 @@ fn a_folder_that_cannot_be_made_is_named_in_plain_words() {
 #[cfg(unix)]
 fn dataset(root: &Path, outside: &Path) {
     use std::os::unix::fs::symlink;
-    synth(&root.join("real"), 32);
-    synth(&outside.join("elsewhere"), 32);
+    common::synth_scene(&root.join("real"), "planes", 32, &[]);
+    common::synth_scene(&outside.join("elsewhere"), "planes", 32, &[]);
     symlink(outside.join("elsewhere"), root.join("linked")).unwrap();
     symlink(root, root.join("cycle")).unwrap();
-    synth(&root.join("broken"), 32);
+    common::synth_scene(&root.join("broken"), "planes", 32, &[]);
     // The centre view: every stage reads it.
     std::fs::write(root.join("broken/input_Cam040.png"), b"not a png").unwrap();
 }
@@ -218,7 +196,7 @@ fn eval_dataset_follows_links_and_reports_a_broken_scene_after_the_others() {
 #[test]
 fn negative_numbers_get_a_range_error_not_unexpected_argument() {
     let dir = common::temp();
-    synth(dir.path(), 16);
+    common::synth_scene(dir.path(), "planes", 16, &[]);
     for (flag, needle) in [
         ("--tv-tolerance", "--tv-tolerance"),
         ("--threads", "1 to 256"),
@@ -258,7 +236,7 @@ fn cfg_with_resolution(scene: &Path, x: usize, y: usize) {
 fn a_cfg_resolution_unlike_the_views_warns_and_blocks_metric_depth() {
     let dir = common::temp();
     let scene = dir.path().join("scene");
-    synth(&scene, 32);
+    common::synth_scene(&scene, "planes", 32, &[]);
     cfg_with_resolution(&scene, 32, 32);
     let depth = dir.path().join("depth.pfm");
     let epi = ["--stage", "epi", "--align", "off"];
@@ -292,7 +270,7 @@ fn a_cfg_resolution_unlike_the_views_warns_and_blocks_metric_depth() {
 fn cfg_disparity_bounds_out_of_range_name_the_cfg() {
     for (min, max) in [("3", "-2"), ("-50", "50"), ("nan", "1")] {
         let dir = common::temp();
-        synth(dir.path(), 16);
+        common::synth_scene(dir.path(), "planes", 16, &[]);
         let path = dir.path().join("parameters.cfg");
         let text = std::fs::read_to_string(&path)
             .unwrap()
@@ -329,7 +307,7 @@ fn out_of_range(kind: Kind) -> String {
 #[test]
 fn every_option_error_names_the_flag_as_typed() {
     let dir = common::temp();
-    synth(dir.path(), 16);
+    common::synth_scene(dir.path(), "planes", 16, &[]);
     let mut checked = 0;
     for t in TUNABLES {
         let Some(Flag::Value(flag)) = t.flag else {
@@ -384,7 +362,7 @@ fn a_corrupt_png_is_described_in_words() {
 fn views_too_small_to_score_are_refused_up_front_with_the_minimum() {
     let dir = common::temp();
     let scene = dir.path().join("s16");
-    synth(&scene, 16);
+    common::synth_scene(&scene, "planes", 16, &[]);
     // Estimating small views works…
     let est = dir.path().join("est.pfm");
     let out = lfdepth(&["estimate", arg(&scene), "-o", arg(&est), "--stage", "epi"]);

@@ -51,17 +51,7 @@ fn demo_writes_maps_and_reports_accuracy_and_timings() {
 fn synth_estimate_eval_pipeline() {
     let dir = common::temp();
     let scene = dir.path().join("data/planes");
-    ok(&lfdepth(&[
-        "synth",
-        "--scene",
-        "planes",
-        "--grid",
-        "5x5",
-        "--size",
-        "40",
-        "--out",
-        scene.to_str().unwrap(),
-    ]));
+    common::synth_scene(&scene, "planes", 40, &["--grid", "5x5"]);
     let est = dir.path().join("est.pfm");
     let conf = dir.path().join("conf.pfm");
     let colour = dir.path().join("est.png");
@@ -111,17 +101,12 @@ fn synth_estimate_eval_pipeline() {
     assert!(stdout.starts_with("BadPix0.07 "), "{stdout}");
 
     // Two scenes under one root: one Markdown table with a mean row, or JSON.
-    ok(&lfdepth(&[
-        "synth",
-        "--scene",
+    common::synth_scene(
+        &dir.path().join("data/deeper/slanted"),
         "slanted",
-        "--grid",
-        "5x5",
-        "--size",
-        "40",
-        "--out",
-        dir.path().join("data/deeper/slanted").to_str().unwrap(),
-    ]));
+        40,
+        &["--grid", "5x5"],
+    );
     let root = dir.path().join("data");
     let table = ok(&lfdepth(&[
         "eval",
@@ -241,17 +226,7 @@ fn help_lists_every_command() {
 fn sixteen_bit_views_estimate_like_their_8_bit_originals() {
     let dir = common::temp();
     let eight = dir.path().join("eight");
-    ok(&lfdepth(&[
-        "synth",
-        "--scene",
-        "spheres",
-        "--grid",
-        "5x5",
-        "--size",
-        "40",
-        "--out",
-        eight.to_str().unwrap(),
-    ]));
+    common::synth_scene(&eight, "spheres", 40, &["--grid", "5x5"]);
     let sixteen = dir.path().join("sixteen");
     std::fs::create_dir(&sixteen).unwrap();
     for i in 0..25 {

@@ -37,21 +37,7 @@ fn estimate(scene: &Path, out: &Path, extra: &[&str]) -> Vec<u32> {
 #[test]
 fn half_resolution_maps_are_the_same_for_any_thread_count() {
     let dir = common::temp();
-    let scene = dir.path().join("mixed");
-    let synth = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--size",
-        "66",
-        "--out",
-        scene.to_str().unwrap(),
-    ]);
-    assert!(
-        synth.status.success(),
-        "{}",
-        String::from_utf8_lossy(&synth.stderr)
-    );
+    let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 66, &[]);
     let out = dir.path().join("est.pfm");
     let one = estimate(&scene, &out, &["--epi-half", "1", "--threads", "1"]);
     let three = estimate(&scene, &out, &["--epi-half", "1", "--threads", "3"]);

@@ -203,39 +203,19 @@ fn typed_sizes_are_checked_before_allocating() {
         assert!(start.elapsed() < Duration::from_secs(10));
         assert!(!out.exists(), "{args:?} created its folder");
     }
+    let synth = |flags: &[&str]| common::synth_command(&out, "planes", flags);
     // Within the per-view cap but not the light-field cap.
     assert_fails(
         &lfdepth(&["demo", "--size", "4096", "--out", arg(&out)]),
         &["--size", "81 views of 4096x4096", "--max-pixels"],
     );
     assert_fails(
-        &lfdepth(&[
-            "synth",
-            "--scene",
-            "planes",
-            "--grid",
-            "17x17",
-            "--size",
-            "2048",
-            "--out",
-            arg(&out),
-        ]),
+        &synth(&["--grid", "17x17", "--size", "2048"]),
         &["289 views", "--max-pixels"],
     );
     // Grids are checked against the supported 3x3 … 17x17 before anything is rendered.
     for grid in ["100x100", "99999999x3"] {
-        assert_fails(
-            &lfdepth(&[
-                "synth",
-                "--scene",
-                "planes",
-                "--grid",
-                grid,
-                "--out",
-                arg(&out),
-            ]),
-            &["view grid", "17x17"],
-        );
+        assert_fails(&synth(&["--grid", grid]), &["view grid", "17x17"]);
     }
     assert!(!out.exists());
 }

@@ -18,24 +18,7 @@ fn s(p: &Path) -> &str {
 /// The synthetic `mixed` scene of 128² on `grid` (e.g. `1x9`) in `dir/name`, with its
 /// ground truth and `parameters.cfg`.
 fn synth(dir: &Path, name: &str, grid: &str) -> PathBuf {
-    let out = dir.join(name);
-    let run = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--size",
-        "128",
-        "--grid",
-        grid,
-        "--out",
-        s(&out),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out
+    common::synth_scene(&dir.join(name), "mixed", 128, &["--grid", grid])
 }
 
 fn estimate(input: &Path, out: &Path, extra: &[&str]) -> Output {
@@ -194,14 +177,6 @@ fn rails_of_fewer_than_three_views_are_refused() {
         &["one column of 2 cameras", "3x1"],
     );
     assert!(!out.exists());
-    let run = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--grid",
-        "1x2",
-        "--out",
-        s(&dir.path().join("short")),
-    ]);
+    let run = common::synth_command(&dir.path().join("short"), "mixed", &["--grid", "1x2"]);
     assert_fails(&run, &["1x2", "1x3"]);
 }

@@ -12,24 +12,7 @@ use common::{arg, assert_fails, lfdepth};
 
 /// A 3x3 synthetic scene of 32x32 views (views, ground truth, parameters.cfg).
 fn scene(dir: &Path) -> PathBuf {
-    let scene = dir.join("scene");
-    let out = lfdepth(&[
-        "synth",
-        "--scene",
-        "planes",
-        "--grid",
-        "3x3",
-        "--size",
-        "32",
-        "--out",
-        scene.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    scene
+    common::synth_scene(&dir.join("scene"), "planes", 32, &["--grid", "3x3"])
 }
 
 /// Every file of `dir` with its bytes, sorted by name.
@@ -320,17 +303,9 @@ fn synth_refuses_a_used_folder_and_force_removes_only_its_own_files() {
     let dir = common::temp();
     let out = dir.path().join("lf");
     let synth = |extra: &[&str]| {
-        let mut args = vec![
-            "synth",
-            "--scene",
-            "planes",
-            "--size",
-            "24",
-            "--out",
-            arg(&out),
-        ];
-        args.extend_from_slice(extra);
-        lfdepth(&args)
+        let mut flags = vec!["--size", "24"];
+        flags.extend_from_slice(extra);
+        common::synth_command(&out, "planes", &flags)
     };
     assert!(synth(&["--misalign"]).status.success());
     assert!(out.join("input_Cam080.png").is_file() && out.join("homographies.txt").is_file());
@@ -375,7 +350,7 @@ fn synth_refuses_a_used_folder_and_force_removes_only_its_own_files() {
     let file = dir.path().join("plain-file");
     std::fs::write(&file, b"x").unwrap();
     assert_fails(
-        &lfdepth(&["synth", "--scene", "planes", "--out", arg(&file)]),
+        &common::synth_command(&file, "planes", &[]),
         &["--out", "not a folder"],
     );
     assert_eq!(std::fs::read(&file).unwrap(), b"x");

@@ -12,25 +12,7 @@ use common::{arg, assert_fails, lfdepth};
 
 /// A synthetic 9×9 scene of `size`² in `dir/name` (views `input_CamNNN.png`).
 fn synth(dir: &Path, name: &str, size: usize, extra: &[&str]) -> std::path::PathBuf {
-    let out = dir.join(name);
-    let size = size.to_string();
-    let mut args = vec![
-        "synth",
-        "--scene",
-        "mixed",
-        "--size",
-        &size,
-        "--out",
-        arg(&out),
-    ];
-    args.extend_from_slice(extra);
-    let run = lfdepth(&args);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out
+    common::synth_scene(&dir.join(name), "mixed", size, extra)
 }
 
 /// A copy of `scene` holding only the views `keep(row, col)` accepts (and every other

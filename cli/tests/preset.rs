@@ -69,21 +69,7 @@ fn bits(map: &[f32]) -> Vec<u32> {
 #[test]
 fn fast_preset_is_its_knobs_and_explicit_flags_override_it() {
     let dir = common::temp();
-    let scene = dir.path().join("mixed");
-    let synth = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--size",
-        "64",
-        "--out",
-        scene.to_str().unwrap(),
-    ]);
-    assert!(
-        synth.status.success(),
-        "{}",
-        String::from_utf8_lossy(&synth.stderr)
-    );
+    let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 64, &[]);
     let out = dir.path().join("est.pfm");
     let default = bits(&estimate(&scene, &out, &[]));
     let named_default = bits(&estimate(&scene, &out, &["--preset", "default"]));

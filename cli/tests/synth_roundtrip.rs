@@ -19,24 +19,7 @@ fn spec(size: usize) -> SynthSpec {
 fn synth_then_eval_round_trips_exactly() {
     let dir = common::temp();
     let out = dir.path().join("scene");
-    let run = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--grid",
-        "3x3",
-        "--size",
-        "48",
-        "--seed",
-        "7",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    common::synth_scene(&out, "mixed", 48, &["--grid", "3x3", "--seed", "7"]);
     let spec = spec(48);
 
     // Ground truth: bit-exact through the PFM.
@@ -104,25 +87,11 @@ fn synth_then_eval_round_trips_exactly() {
 fn misaligned_synth_writes_the_true_homographies() {
     let dir = common::temp();
     let out = dir.path().join("mis");
-    let run = lfdepth(&[
-        "synth",
-        "--scene",
+    common::synth_scene(
+        &out,
         "planes",
-        "--grid",
-        "3x3",
-        "--size",
-        "32",
-        "--misalign",
-        "--gray",
-        "--seed",
-        "3",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+        32,
+        &["--grid", "3x3", "--misalign", "--gray", "--seed", "3"],
     );
     let mut spec = SynthSpec::new(SceneKind::Planes, Grid::new(3, 3), 32, 32);
     spec.channels = 1;
@@ -154,31 +123,15 @@ fn misaligned_synth_writes_the_true_homographies() {
 fn bad_synth_arguments() {
     let dir = common::temp();
     let out = dir.path().join("x");
-    let run = lfdepth(&["synth", "--scene", "nosuch", "--out", out.to_str().unwrap()]);
+    let run = common::synth_command(&out, "nosuch", &[]);
     assert_eq!(run.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&run.stderr).contains("mixed"));
-    let run = lfdepth(&[
-        "synth",
-        "--scene",
+    let run = common::synth_command(
+        &out,
         "mixed",
-        "--disparity-range",
-        "-9..9",
-        "--size",
-        "32",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+        &["--disparity-range", "-9..9", "--size", "32"],
+    );
     assert_fails(&run, &["disparity"]);
-    let run = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--grid",
-        "1x2",
-        "--size",
-        "32",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let run = common::synth_command(&out, "mixed", &["--grid", "1x2", "--size", "32"]);
     assert_fails(&run, &["1x2", "1x3"]);
 }

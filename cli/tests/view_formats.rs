@@ -14,23 +14,9 @@ use lfdepth_cli::io::png::{self, Image, Samples};
 use lfdepth_cli::io::scene::{self, LoadOptions, Views};
 use tiff::encoder::{colortype, TiffEncoder};
 
+/// The `mixed` scene of 48² PNG views in `dir/png`.
 fn synth(dir: &Path) -> PathBuf {
-    let out = dir.join("png");
-    let run = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--size",
-        "48",
-        "--out",
-        arg(&out),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out
+    common::synth_scene(&dir.join("png"), "mixed", 48, &[])
 }
 
 fn eight_bit(image: &Image) -> &[u8] {

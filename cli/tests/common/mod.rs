@@ -102,6 +102,31 @@ pub fn row_col_views(dir: &Path, name: &str, rows: usize, cols: usize, first: us
     }
 }
 
+/// Runs `lfdepth synth --scene SCENE --out OUT FLAGS…` and returns what it did, for
+/// tests that expect it to fail.
+pub fn synth_command(out: &Path, scene: &str, flags: &[&str]) -> Output {
+    let mut args = vec!["synth", "--scene", scene, "--out", arg(out)];
+    args.extend_from_slice(flags);
+    lfdepth(&args)
+}
+
+/// Writes the synthetic scene `scene` of `size`² views into the folder `out` (views,
+/// ground truth, `parameters.cfg`; the default 9×9 grid unless `flags` choose another),
+/// asserts that `synth` succeeded (showing its stderr otherwise) and returns `out`.
+pub fn synth_scene(out: &Path, scene: &str, size: usize, flags: &[&str]) -> PathBuf {
+    let size = size.to_string();
+    let mut all = vec!["--size", &size];
+    all.extend_from_slice(flags);
+    let run = synth_command(out, scene, &all);
+    assert!(
+        run.status.success(),
+        "lfdepth synth --scene {scene} {}: {}",
+        all.join(" "),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    out.to_path_buf()
+}
+
 /// A fresh temporary folder (removed when dropped).
 pub fn temp() -> tempfile::TempDir {
     tempfile::tempdir().expect("a temporary folder")
