@@ -272,10 +272,7 @@ impl StreamPlan {
     }
 
     /// Horizontal lines: image rows of the region, cropped to its columns ± margin.
-    /// Not inlined, like [`StreamPlan::epi_columns`], so that only one line estimator
-    /// (a few KiB) is on the stack at a time.
     /// Writes the local columns `fresh` of every region row into `out`.
-    #[inline(never)]
     fn epi_rows<T: Scalar, S: Sample>(
         &self,
         input: &CrossBand<'_, S>,
@@ -287,64 +284,32 @@ impl StreamPlan {
         if fresh.is_empty() {
             return Ok(());
         }
-        let (map_d, map_c, stride) = (&mut *out.disparity, &mut *out.confidence, out.stride);
-        let layout = self.plan.layout();
-        let params = &self.plan.params().epi;
-        let grid = layout.grid;
-        let (r0, c0) = grid.center();
-        let h = &self.hypotheses;
-        let (lo, hi) = (h.min(), h.max());
-        let ch_n = layout.channels;
-        let color = params.color;
-        let chroma = Chroma::of(params);
         let x0 = align_down((region.x + fresh.start).saturating_sub(self.margin_h));
-        let x1 = (region.x + fresh.end + self.margin_h).min(layout.width);
+        let x1 = (region.x + fresh.end + self.margin_h).min(self.plan.layout().width);
         let n = x1 - x0;
-        let estimator = LineEstimator::<T>::new(params, *h, grid.cols, c0, ch_n);
-        let (d_line, c_line, work) = split_line(scratch, &estimator, n)?;
-        for ly in 0..region.height {
-            let y = region.y + ly;
-            let load = |k: usize, out: &mut [T]| {
-                let slot = CrossBand::<S>::slot(grid, r0, k).unwrap_or(0);
-                let start = input.offset(slot, x0, y);
-                load_line(
-                    input.data,
-                    BAND_BUFFER,
-                    LineSpan {
-                        start,
-                        step: ch_n,
-                        channels: ch_n,
-                        n,
-                    },
-                    color,
-                    out,
-                )?;
-                mix_chroma(color, ch_n, chroma, n, out);
-                Ok(())
-            };
-            estimator.estimate(n, load, work, d_line, c_line)?;
-            let first = region.x + fresh.start - x0;
+        let lines = Lines {
+            axis: Axis::Rows,
+            indices: 0..region.height,
+            origin: (x0, region.y),
+            n,
+            // To the line's end: placing stops after the `fresh` columns.
+            keep: region.x + fresh.start - x0..n,
+        };
+        let (map_d, map_c, stride) = (&mut *out.disparity, &mut *out.confidence, out.stride);
+        self.epi_lines(input, lines, scratch, |ly, estimates| {
             let row = ly * stride + fresh.start..ly * stride + fresh.end;
-            let (Some(out_d), Some(out_c), Some(d), Some(c)) = (
-                map_d.get_mut(row.clone()),
-                map_c.get_mut(row),
-                d_line.get(first..),
-                c_line.get(first..),
-            ) else {
-                continue;
+            let (Some(out_d), Some(out_c)) = (map_d.get_mut(row.clone()), map_c.get_mut(row))
+            else {
+                return;
             };
-            for (((o, oc), &v), &w) in out_d.iter_mut().zip(out_c).zip(d).zip(c) {
-                *o = clamp_f32(v.to_f32(), lo, hi);
-                *oc = w.to_f32().clamp(0.0, 1.0);
+            for ((o, oc), (d, c)) in out_d.iter_mut().zip(out_c).zip(estimates) {
+                (*o, *oc) = (d, c);
             }
-        }
-
-        Ok(())
+        })
     }
 
-    /// Vertical lines: image columns of the region, cropped to its rows ± margin,
-    /// fused into the horizontal estimate.
-    #[inline(never)]
+    /// Vertical lines: image columns `fresh` of the region, cropped to its rows ±
+    /// margin, fused into the horizontal estimate.
     fn epi_columns<T: Scalar, S: Sample>(
         &self,
         input: &CrossBand<'_, S>,
@@ -356,7 +321,40 @@ impl StreamPlan {
         if fresh.is_empty() {
             return Ok(());
         }
+        let y0 = align_down(region.y.saturating_sub(self.margin_v));
+        let y1 = (region.y + region.height + self.margin_v).min(self.plan.layout().height);
+        let first = region.y - y0;
+        let lines = Lines {
+            axis: Axis::Columns,
+            indices: fresh,
+            origin: (region.x, y0),
+            n: y1 - y0,
+            keep: first..first + region.height,
+        };
+        let fusion = self.plan.params().epi.fusion;
         let (map_d, map_c, stride) = (&mut *out.disparity, &mut *out.confidence, out.stride);
+        self.epi_lines(input, lines, scratch, |lx, estimates| {
+            // Column `lx` of the region maps: every `stride`-th element from `lx`.
+            let column_d = map_d.iter_mut().skip(lx).step_by(stride.max(1));
+            let column_c = map_c.iter_mut().skip(lx).step_by(stride.max(1));
+            for ((od, oc), (dv, cv)) in column_d.zip(column_c).zip(estimates) {
+                (*od, *oc) = fuse(fusion, *od, *oc, dv, cv);
+            }
+        })
+    }
+
+    /// Estimates the EPI lines `lines` of the centre row's views (horizontal) or the
+    /// centre column's (vertical) and hands `place` each line's index and its estimates
+    /// on the samples that land in the region. Not inlined, so that only one line
+    /// estimator (a few KiB) is on the stack at a time.
+    #[inline(never)]
+    fn epi_lines<T: Scalar, S: Sample>(
+        &self,
+        input: &CrossBand<'_, S>,
+        lines: Lines,
+        scratch: &mut [T],
+        mut place: impl FnMut(usize, Estimates<'_, T>),
+    ) -> Result<()> {
         let layout = self.plan.layout();
         let params = &self.plan.params().epi;
         let grid = layout.grid;
@@ -366,18 +364,28 @@ impl StreamPlan {
         let ch_n = layout.channels;
         let color = params.color;
         let chroma = Chroma::of(params);
-        let y0 = align_down(region.y.saturating_sub(self.margin_v));
-        let y1 = (region.y + region.height + self.margin_v).min(layout.height);
-        let n = y1 - y0;
-        let estimator = LineEstimator::<T>::new(params, *h, grid.rows, r0, ch_n);
+        // The views a line crosses, the centre one among them, and the step between a
+        // line's samples.
+        let (views, centre, step) = match lines.axis {
+            Axis::Rows => (grid.cols, c0, ch_n),
+            Axis::Columns => (grid.rows, r0, input.row_stride),
+        };
+        let n = lines.n;
+        let estimator = LineEstimator::<T>::new(params, *h, views, centre, ch_n);
         let (d_line, c_line, work) = split_line(scratch, &estimator, n)?;
-        let fusion = params.fusion;
-        let step = input.row_stride;
-        for lx in fresh {
-            let x = region.x + lx;
+        // The band slot of the line's view `k`.
+        let slot = |k: usize| match lines.axis {
+            Axis::Rows => CrossBand::<S>::slot(grid, r0, k),
+            Axis::Columns => CrossBand::<S>::slot(grid, k, c0),
+        };
+        let (ox, oy) = lines.origin;
+        for line in lines.indices {
+            let (x, y) = match lines.axis {
+                Axis::Rows => (ox, oy + line),
+                Axis::Columns => (ox + line, oy),
+            };
             let load = |k: usize, out: &mut [T]| {
-                let slot = CrossBand::<S>::slot(grid, k, c0).unwrap_or(0);
-                let start = input.offset(slot, x, y0);
+                let start = input.offset(slot(k).unwrap_or(0), x, y);
                 load_line(
                     input.data,
                     BAND_BUFFER,
@@ -394,20 +402,64 @@ impl StreamPlan {
                 Ok(())
             };
             estimator.estimate(n, load, work, d_line, c_line)?;
-            let first = region.y - y0;
-            let column = first..first + region.height;
-            let (Some(d), Some(c)) = (d_line.get(column.clone()), c_line.get(column)) else {
+            let keep = lines.keep.clone();
+            let (Some(d), Some(c)) = (d_line.get(keep.clone()), c_line.get(keep)) else {
                 continue;
             };
-            // Column `lx` of the region maps: every `stride`-th element from `lx`.
-            let column_d = map_d.iter_mut().skip(lx).step_by(stride.max(1));
-            let column_c = map_c.iter_mut().skip(lx).step_by(stride.max(1));
-            for (((od, oc), &dv), &cv) in column_d.zip(column_c).zip(d).zip(c) {
-                let (dv, cv) = (clamp_f32(dv.to_f32(), lo, hi), cv.to_f32().clamp(0.0, 1.0));
-                (*od, *oc) = fuse(fusion, *od, *oc, dv, cv);
-            }
+            place(
+                line,
+                Estimates {
+                    disparity: d.iter(),
+                    confidence: c.iter(),
+                    lo,
+                    hi,
+                },
+            );
         }
         Ok(())
+    }
+}
+
+/// The direction of a set of EPI lines.
+#[derive(Clone, Copy)]
+enum Axis {
+    /// Image rows through the centre row's views.
+    Rows,
+    /// Image columns through the centre column's views.
+    Columns,
+}
+
+/// Where the EPI lines of one direction run through a region: line `i` of `indices`
+/// (local rows or columns of the region) starts at the frame pixel `origin` moved by
+/// `i` across the lines, and has `n` samples, of which those at `keep` land in the
+/// region.
+struct Lines {
+    axis: Axis,
+    indices: Range<usize>,
+    origin: (usize, usize),
+    n: usize,
+    keep: Range<usize>,
+}
+
+/// One line's estimates as the region maps take them: (disparity clamped to the
+/// hypotheses' range, confidence clamped to [0, 1]) per sample.
+struct Estimates<'l, T> {
+    disparity: core::slice::Iter<'l, T>,
+    confidence: core::slice::Iter<'l, T>,
+    lo: f32,
+    hi: f32,
+}
+
+impl<T: Scalar> Iterator for Estimates<'_, T> {
+    type Item = (f32, f32);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<(f32, f32)> {
+        let (d, c) = (self.disparity.next()?, self.confidence.next()?);
+        Some((
+            clamp_f32(d.to_f32(), self.lo, self.hi),
+            c.to_f32().clamp(0.0, 1.0),
+        ))
     }
 }
 
