@@ -9,7 +9,8 @@
 //! A window holds a step larger than the gate exactly when one of its columns does,
 //! counting for each of its rows the step to the right neighbour (also when that lies
 //! right of the window) and the step to the lower neighbour when that row is in the
-//! window too. Non-finite values make no step (NaN compares false).
+//! window too. A NaN makes no step (NaN compares false), nor does ∞ next to ∞; an
+//! infinite value next to a finite one does (the difference is infinite).
 
 use core::ops::Range;
 

@@ -1,6 +1,6 @@
-//! Tests of the median: behaviour on small scenes, and equality, bit for bit, with a
-//! direct reference implementation (every pixel weighs and selects its whole window, as
-//! the stage did before the exact early test) on random maps and guides.
+//! Tests of the median: behaviour on small scenes, and equality, bit for bit, with an
+//! independent reference written from the stage's definition (every pixel weighs,
+//! sorts and selects its whole window) on random maps and guides.
 
 use super::*;
 use crate::lightfield::{Grid, Layout};

@@ -1,7 +1,7 @@
 //! Equality, bit for bit, with the reference on random maps and guides, over bands and
 //! passes.
 
-use super::reference::reference_rows;
+use super::reference::{reference_pass, reference_passes, same};
 use super::*;
 
 /// A small xorshift generator: the tests are reproducible without a dependency.
@@ -117,7 +117,8 @@ fn random_params(rng: &mut Rng) -> MedianParams {
 }
 
 /// `filter_rows` over the whole map and in random bands, checked bit for bit against
-/// the reference; returns how many pixels the median moved.
+/// the reference (a median of zero of either sign: [`same`]); returns how many pixels
+/// the median moved.
 fn check_against_reference<S: Sample>(
     rng: &mut Rng,
     stage: Setup<'_, MedianParams>,
@@ -129,8 +130,7 @@ fn check_against_reference<S: Sample>(
     let pixels = w * h;
     let mut scratch = vec![0.0f32; scratch_len(stage)];
     let scratch = &mut scratch[..];
-    let mut expected = [0.0f32; MAX_SIDE * MAX_SIDE];
-    reference_rows(stage, guide, map, 0..h, &mut expected[..pixels], scratch).unwrap();
+    let expected = reference_pass(stage.params(), guide, map);
     let mut got = [0.0f32; MAX_SIDE * MAX_SIDE];
     filter(stage, guide, map, &mut got[..pixels], scratch).unwrap();
     let mut banded = [0.0f32; MAX_SIDE * MAX_SIDE];
@@ -152,17 +152,17 @@ fn check_against_reference<S: Sample>(
     }
     for i in 0..pixels {
         let (x, y) = (i % w, i / w);
-        assert_eq!(
-            got[i].to_bits(),
-            expected[i].to_bits(),
+        assert!(
+            same(got[i], expected[i]),
             "trial {trial}, ({x}, {y}): {} vs reference {}",
             got[i],
             expected[i]
         );
-        assert_eq!(
-            banded[i].to_bits(),
-            expected[i].to_bits(),
-            "trial {trial}, banded ({x}, {y})"
+        assert!(
+            same(banded[i], expected[i]),
+            "trial {trial}, banded ({x}, {y}): {} vs reference {}",
+            banded[i],
+            expected[i]
         );
     }
     (0..pixels)
@@ -209,6 +209,64 @@ fn equals_the_reference_with_a_float_guide() {
         moved += check_against_reference(&mut rng, stage.setup(), &guide, &s.map[..w * h], trial);
     }
     assert!(moved > 50, "only {moved} pixels moved");
+}
+
+/// Every pass of [`filter_band`] over random bands, with and without the settled
+/// bytes, equals the reference's passes one after the other over the whole map.
+#[test]
+fn every_pass_of_a_band_equals_the_reference_passes() {
+    let mut rng = Rng(0x6A09_E667_F3BC_C908);
+    let mut moved = 0;
+    for trial in 0..24 {
+        let (w, h) = (side(&mut rng), side(&mut rng));
+        let channels = [1, 3, 4][rng.below(3)];
+        let s = scene(&mut rng, w, h, channels);
+        let params = MedianParams {
+            passes: 1 + rng.below(MAX_PASSES),
+            ..random_params(&mut rng)
+        };
+        let stage = stage_for(w, h, params);
+        let guide =
+            View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
+        let pixels = w * h;
+        let map = &s.map[..pixels];
+        let expected = reference_passes(stage.setup().params(), &guide, map);
+        moved += (0..pixels)
+            .filter(|&i| expected[i].to_bits() != map[i].to_bits())
+            .count();
+        let mut maps = vec![f32::NAN; band_scratch_len(stage.setup())];
+        for remember in [false, true] {
+            let mut settled = vec![7u8; if remember { pixels } else { 0 }];
+            let mut got = vec![0.0f32; pixels];
+            let mut start = 0;
+            while start < h {
+                let end = (start + 1 + rng.below(h)).min(h);
+                filter_band(
+                    stage.setup(),
+                    &guide,
+                    map,
+                    start..end,
+                    &mut got[start * w..end * w],
+                    &mut maps,
+                    &mut settled,
+                )
+                .unwrap();
+                start = end;
+            }
+            for i in 0..pixels {
+                assert!(
+                    same(got[i], expected[i]),
+                    "trial {trial} ({} passes, settled bytes {remember}), ({}, {}): {} vs reference {}",
+                    params.passes,
+                    i % w,
+                    i / w,
+                    got[i],
+                    expected[i]
+                );
+            }
+        }
+    }
+    assert!(moved > 100, "only {moved} pixels moved");
 }
 
 #[test]

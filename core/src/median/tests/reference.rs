@@ -1,299 +1,334 @@
-//! The direct reference implementation: every pixel weighs and selects its whole
-//! window, as the stage did before the exact early test.
+//! An independent reference of the median, written from the stage's definition
+//! (docs/stages/median.md, the module docs of `median`) and sharing nothing with the
+//! stage but its parameters: for every pixel, every vote of its window is weighed and
+//! classified, the gate and the two sampled phases are applied to the sums, the votes
+//! are sorted and the weighted median read off, and the thin-structure test searches
+//! the window breadth first. Slow and plain: no ring, no lanes, no early exit, no
+//! quickselect.
+//!
+//! The one freedom the definition leaves is the sign of a median of zero: `−0` and `+0`
+//! are the same vote (they compare equal), and which of the two the stage's selection
+//! returns depends on where its pivots fall. [`same`] accepts either.
 
 use core::ops::Range;
 
 use super::*;
-use crate::error::check_scratch;
-use crate::median::select::weighted_median;
-use crate::median::weights::Weights;
 
-const SLOPE_ROWS: usize = 2 * MAX_RADIUS + 1;
-
-/// The median as first written: per pixel, every neighbour of the window is weighed
-/// and voted, and the snap test decides on the sums.
-pub(super) fn reference_rows<S: Sample>(
-    stage: Setup<'_, MedianParams>,
-    guide: &View<'_, S>,
-    input: &[f32],
-    rows: Range<usize>,
-    out: &mut [f32],
-    scratch: &mut [f32],
-) -> Result<()> {
-    let (width, height) = check(stage, guide, input)?;
-    if rows.start > rows.end || rows.end > height {
-        return Err(Error::OutOfRange {
-            what: "median band end row",
-            index: rows.end,
-            len: height,
-        });
-    }
-    let needed = rows.len() * width;
-    if out.len() != needed {
-        return Err(Error::OutputSize {
-            what: "the median band",
-            needed,
-            got: out.len(),
-        });
-    }
-    let needed = scratch_len(stage);
-    check_scratch(needed, scratch.len())?;
-    let (column_steps, slopes) = scratch[..needed].split_at_mut(width);
-    // Slopes of image row `yy` live in slot `yy % SLOPE_ROWS` (x then y, `width` each),
-    // computed when the row first enters a window: each row once per call.
-    let mut slot_row = [usize::MAX; SLOPE_ROWS];
-    let p = stage.params();
-    let weights = Weights::new(p.color_sigma);
-    let channels = guide.channels();
-    let used = channels.min(3);
-    let r = p.radius;
-    let mut values = [0.0f32; MAX_TAPS];
-    let mut taps = [0u32; MAX_TAPS];
-    for (o, y) in out.chunks_exact_mut(width).zip(rows) {
-        let ys = y.saturating_sub(r)..(y + r + 1).min(height);
-        if p.gate > 0.0 {
-            steps_by_column(input, width, ys.clone(), column_steps);
-        }
-        if p.planar {
-            for yy in ys.clone() {
-                let slot = yy % SLOPE_ROWS;
-                if slot_row[slot] != yy {
-                    let row = &mut slopes[2 * slot * width..2 * (slot + 1) * width];
-                    let (sx, sy) = row.split_at_mut(width);
-                    for (xx, (gx, gy)) in sx.iter_mut().zip(sy.iter_mut()).enumerate() {
-                        (*gx, *gy) = slope(input, width, height, xx, yy, p.gate);
-                    }
-                    slot_row[slot] = yy;
-                }
-            }
-        }
-        let guide_row = guide.row(y).ok_or(Error::OutOfRange {
-            what: "guide row",
-            index: y,
-            len: guide.height(),
-        })?;
-        for (x, o) in o.iter_mut().enumerate() {
-            let own = input[y * width + x];
-            *o = own;
-            if !own.is_finite() {
-                continue;
-            }
-            let xs = x.saturating_sub(r)..(x + r + 1).min(width);
-            if p.gate > 0.0 && !column_steps[xs.clone()].iter().any(|&s| s > p.gate) {
-                continue;
-            }
-            let mut centre = [0i32; 3];
-            for (k, c) in centre.iter_mut().enumerate().take(used) {
-                *c = i32::from(guide_row[x * channels + k].level());
-            }
-            let mut n = 0;
-            let (mut total, mut below, mut above) = (0u64, 0u64, 0u64);
-            // The same sums over the rows at a distance from the pixel's divisible by 4
-            // and by 2.
-            let mut quarter_sums = [0u64; 3];
-            let mut even_sums = [0u64; 3];
-            for yy in ys.clone() {
-                let (quarter, even) = (y.abs_diff(yy) % 4 == 0, y.abs_diff(yy) % 2 == 0);
-                let row = &input[yy * width..(yy + 1) * width];
-                let colours = guide.row(yy).unwrap_or(&[]);
-                for xx in xs.clone() {
-                    let v = row[xx];
-                    let Some(pixel) = colours.get(xx * channels..xx * channels + used) else {
-                        continue;
-                    };
-                    if !v.is_finite() {
-                        continue;
-                    }
-                    let mut d2 = 0u32;
-                    for (s, c) in pixel.iter().zip(&centre) {
-                        let d = i32::from(s.level()) - c;
-                        d2 += (d * d) as u32;
-                    }
-                    let w = weights.get(d2);
-                    if w > 0 {
-                        let v = if p.planar {
-                            let base = 2 * (yy % SLOPE_ROWS) * width;
-                            let (gx, gy) = (slopes[base + xx], slopes[base + width + xx]);
-                            v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
-                        } else {
-                            v
-                        };
-                        values[n] = v;
-                        taps[n] = w;
-                        let w = u64::from(w);
-                        let (b, a) = (
-                            if v < own - p.snap { w } else { 0 },
-                            if v > own + p.snap { w } else { 0 },
-                        );
-                        (total, below, above) = (total + w, below + b, above + a);
-                        for (sums, add) in [(&mut quarter_sums, quarter), (&mut even_sums, even)] {
-                            if add {
-                                sums[0] += w;
-                                sums[1] += b;
-                                sums[2] += a;
-                            }
-                        }
-                        n += 1;
-                    }
-                }
-            }
-            // Outside votes weighing less than a ninth of the quarter rows, or a third of
-            // the even rows, on either side keep the pixel without the rest of the window.
-            let clear = |[total, below, above]: [u64; 3], parts: u64| {
-                parts * below < total && parts * above < total
-            };
-            if clear(quarter_sums, 9) || clear(even_sums, 3) {
-                continue;
-            }
-            // The median lies within `snap` of the pixel's value (which then stays)
-            // unless the weight beyond `own ± snap` on one side reaches half: a linear
-            // test that spares most pixels the selection.
-            let half = total.div_ceil(2);
-            if n > 0 && (below >= half || total - above < half) {
-                let m = weighted_median(&mut values[..n], &mut taps[..n], half);
-                if (m - own).abs() > p.snap {
-                    let vote = |xx: usize, yy: usize| {
-                        let v = input[yy * width + xx];
-                        if p.planar {
-                            let base = 2 * (yy % SLOPE_ROWS) * width;
-                            let (gx, gy) = (slopes[base + xx], slopes[base + width + xx]);
-                            v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
-                        } else {
-                            v
-                        }
-                    };
-                    let d2 = |xx: usize, yy: usize| {
-                        let colours = guide.row(yy).unwrap_or(&[]);
-                        let pixel = &colours[xx * channels..xx * channels + used];
-                        let mut d2 = 0u32;
-                        for (s, c) in pixel.iter().zip(&centre) {
-                            let d = i32::from(s.level()) - c;
-                            d2 += (d * d) as u32;
-                        }
-                        d2
-                    };
-                    let window = (ys.clone(), xs.clone());
-                    let weight = |xx, yy| u64::from(weights.get(d2(xx, yy)));
-                    let keeps =
-                        reference_keeps_structure(p, window, (x, y), (own, m), vote, weight);
-                    if !keeps {
-                        *o = m;
-                    }
-                }
-            }
-        }
-    }
-    Ok(())
+/// A window's vote: its value, its colour weight and its row distance from the pixel.
+#[derive(Clone, Copy)]
+struct Vote {
+    value: f32,
+    weight: u64,
+    distance: usize,
 }
 
-/// The reference's thin-structure test: a breadth-first search over the window from
-/// the pixel through 8-neighbours whose vote lies within `own ± max(snap, |m − own| / 2)`
-/// (`m` the median), then the
-/// bounding box of the pixels reached: at least `radius + 1` long along the rows or the
-/// columns, with at most `thin` pixels per pixel of that length; and their mean colour
-/// weight at least twice that of the window's other finite votes outside the band.
-fn reference_keeps_structure(
+/// Whether the stage's value `got` is the reference's `expected`: the same bits, or
+/// both zero (the sign of a median of zero is not defined; see the module docs).
+pub(super) fn same(got: f32, expected: f32) -> bool {
+    got.to_bits() == expected.to_bits() || (got == 0.0 && expected == 0.0)
+}
+
+/// Every pass of the median (`params.passes`, none when the stage is off) over the
+/// whole map `input` (row-major, `width · height`), guided by `guide`.
+pub(super) fn reference_passes<S: Sample>(
+    params: &MedianParams,
+    guide: &View<'_, S>,
+    input: &[f32],
+) -> Vec<f32> {
+    let passes = if params.enabled { params.passes } else { 0 };
+    let mut map = input.to_vec();
+    for _ in 0..passes {
+        map = reference_pass(params, guide, &map);
+    }
+    map
+}
+
+/// One pass of the median over the whole map `input`, guided by `guide` (of the map's
+/// width and height).
+pub(super) fn reference_pass<S: Sample>(
+    params: &MedianParams,
+    guide: &View<'_, S>,
+    input: &[f32],
+) -> Vec<f32> {
+    let (width, height) = (guide.width(), guide.height());
+    assert_eq!(input.len(), width * height, "the map is the guide's size");
+    let weights = ColourWeights::new(params.color_sigma);
+    let mut out = input.to_vec();
+    for y in 0..height {
+        for x in 0..width {
+            out[y * width + x] = pixel(params, guide, &weights, input, (width, height), x, y);
+        }
+    }
+    out
+}
+
+/// The median's value at `(x, y)`.
+fn pixel<S: Sample>(
     p: &MedianParams,
-    (ys, xs): (Range<usize>, Range<usize>),
+    guide: &View<'_, S>,
+    weights: &ColourWeights,
+    map: &[f32],
+    (width, height): (usize, usize),
+    x: usize,
+    y: usize,
+) -> f32 {
+    let at = |xx: usize, yy: usize| map[yy * width + xx];
+    let own = at(x, y);
+    // Non-finite values are kept and never vote.
+    if !own.is_finite() {
+        return own;
+    }
+    let r = p.radius;
+    let ys = y.saturating_sub(r)..(y + r + 1).min(height);
+    let xs = x.saturating_sub(r)..(x + r + 1).min(width);
+    if p.gate > 0.0 && !window_has_step(map, width, height, &ys, &xs, p.gate) {
+        return own;
+    }
+    let centre = colour(guide, x, y);
+    // Each finite neighbour votes: its value, extrapolated to the pixel along the map's
+    // slope at the neighbour with planar votes.
+    let vote_at = |xx: usize, yy: usize| -> Option<f32> {
+        let v = at(xx, yy);
+        if !v.is_finite() {
+            return None;
+        }
+        Some(if p.planar {
+            let (gx, gy) = slope(map, width, height, xx, yy, p.gate);
+            v + gx * (x as f32 - xx as f32) + gy * (y as f32 - yy as f32)
+        } else {
+            v
+        })
+    };
+    let weight_at = |xx: usize, yy: usize| weights.of(distance2(&centre, &colour(guide, xx, yy)));
+    let mut votes = Vec::new();
+    for yy in ys.clone() {
+        for xx in xs.clone() {
+            if let Some(value) = vote_at(xx, yy) {
+                votes.push(Vote {
+                    value,
+                    weight: weight_at(xx, yy),
+                    distance: y.abs_diff(yy),
+                });
+            }
+        }
+    }
+    // Below, inside and above `own ± snap`, over the votes of the rows `rows` selects.
+    let sums = |rows: &dyn Fn(usize) -> bool| {
+        let (mut below, mut inside, mut above) = (0u64, 0u64, 0u64);
+        for v in votes.iter().filter(|v| rows(v.distance)) {
+            if v.value < own - p.snap {
+                below += v.weight;
+            } else if v.value > own + p.snap {
+                above += v.weight;
+            } else {
+                inside += v.weight;
+            }
+        }
+        (below, inside, above)
+    };
+    // The two sampled phases: on the rows at a distance divisible by 4, then on those at
+    // an even distance, the pixel keeps its value when the votes outside `own ± snap`
+    // weigh less than a ninth, then a third, of those rows on either side.
+    for (rows, q) in [
+        (&(|d: usize| d % 4 == 0) as &dyn Fn(usize) -> bool, 8),
+        (&|d: usize| d % 2 == 0, 2),
+    ] {
+        let (below, inside, above) = sums(rows);
+        if q * below < inside + above && q * above < inside + below {
+            return own;
+        }
+    }
+    // The weighted median: the smallest vote whose weight of votes at or below it
+    // reaches half the window's weight.
+    let mut weighed: Vec<Vote> = votes.iter().copied().filter(|v| v.weight > 0).collect();
+    weighed.sort_by(|a, b| a.value.total_cmp(&b.value));
+    let total: u64 = weighed.iter().map(|v| v.weight).sum();
+    let half = total.div_ceil(2);
+    let mut sum = 0;
+    let m = weighed
+        .iter()
+        .find(|v| {
+            sum += v.weight;
+            sum >= half
+        })
+        .map_or(own, |v| v.value);
+    // The snap: only a median further than `snap` from the pixel's value moves it.
+    if (m - own).abs() <= p.snap {
+        return own;
+    }
+    if p.thin > 0.0 && thin_structure(p, (&ys, &xs), (x, y), (own, m), vote_at, weight_at) {
+        return own;
+    }
+    m
+}
+
+/// The thin-structure test of a pixel `(x, y)` of value `own` that the median would move
+/// to `m`: the window's votes within `reach = max(snap, |m − own| / 2)` of `own`
+/// joined to the pixel 8-connected (set J) are at least `r + 1` long (rows or columns
+/// of their bounding box, L), number at most `thin · L`, and weigh on average at least
+/// twice as much as the window's other votes (set O).
+fn thin_structure(
+    p: &MedianParams,
+    (ys, xs): (&Range<usize>, &Range<usize>),
     (x, y): (usize, usize),
     (own, m): (f32, f32),
-    vote: impl Fn(usize, usize) -> f32,
-    weight: impl Fn(usize, usize) -> u64,
+    vote_at: impl Fn(usize, usize) -> Option<f32>,
+    weight_at: impl Fn(usize, usize) -> u64,
 ) -> bool {
-    if p.thin <= 0.0 {
-        return false;
-    }
     let reach = p.snap.max(0.5 * (m - own).abs());
-    let joinable = |xx: usize, yy: usize| {
-        let v = vote(xx, yy);
-        v.is_finite() && v >= own - reach && v <= own + reach
-    };
-    let mut seen = [[false; 2 * MAX_RADIUS + 1]; 2 * MAX_RADIUS + 1];
-    let mut queue = vec![(x, y)];
-    seen[y - ys.start][x - xs.start] = true;
+    let near = |v: f32| v >= own - reach && v <= own + reach;
+    let in_band = |xx: usize, yy: usize| vote_at(xx, yy).is_some_and(near);
+    // Breadth first from the pixel through 8-neighbours in the band, inside the window.
+    let mut joined = vec![(x, y)];
     let mut head = 0;
-    while let Some(&(cx, cy)) = queue.get(head) {
+    while head < joined.len() {
+        let (cx, cy) = joined[head];
         head += 1;
         for ny in cy.saturating_sub(1)..=cy + 1 {
             for nx in cx.saturating_sub(1)..=cx + 1 {
-                if !ys.contains(&ny) || !xs.contains(&nx) || seen[ny - ys.start][nx - xs.start] {
-                    continue;
-                }
-                if joinable(nx, ny) {
-                    seen[ny - ys.start][nx - xs.start] = true;
-                    queue.push((nx, ny));
+                if ys.contains(&ny)
+                    && xs.contains(&nx)
+                    && in_band(nx, ny)
+                    && !joined.contains(&(nx, ny))
+                {
+                    joined.push((nx, ny));
                 }
             }
         }
     }
-    let span = |of: fn(&(usize, usize)) -> usize| {
-        let (lo, hi) = (queue.iter().map(of).min(), queue.iter().map(of).max());
-        hi.zip(lo).map_or(0, |(hi, lo)| hi - lo + 1)
+    let extent = |coordinate: fn(&(usize, usize)) -> usize| {
+        let lo = joined.iter().map(coordinate).min().unwrap();
+        let hi = joined.iter().map(coordinate).max().unwrap();
+        hi - lo + 1
     };
-    let span = span(|q| q.0).max(span(|q| q.1));
-    if span <= p.radius || queue.len() as f32 > p.thin * span as f32 {
+    let length = extent(|q| q.0).max(extent(|q| q.1));
+    if length < p.radius + 1 || joined.len() as f32 > p.thin * length as f32 {
         return false;
     }
-    // Contrast: the mean weight of the pixels reached at least twice that of the
-    // window's finite votes outside the band.
-    let joined = queue.iter().map(|&(xx, yy)| weight(xx, yy)).sum::<u64>();
+    let joined_weight: u64 = joined.iter().map(|&(xx, yy)| weight_at(xx, yy)).sum();
     let (mut others, mut others_weight) = (0u64, 0u64);
     for yy in ys.clone() {
         for xx in xs.clone() {
-            let v = vote(xx, yy);
-            if v.is_finite() && (v < own - reach || v > own + reach) {
+            if vote_at(xx, yy).is_some_and(|v| !near(v)) {
                 others += 1;
-                others_weight += weight(xx, yy);
+                others_weight += weight_at(xx, yy);
             }
         }
     }
-    joined * others >= 2 * others_weight * queue.len() as u64
+    // mean_J w ≥ 2 · mean_O w, without division.
+    joined_weight * others >= 2 * others_weight * joined.len() as u64
 }
 
-/// Largest step per column in the rows `ys` (the reference's gate).
-fn steps_by_column(map: &[f32], width: usize, ys: Range<usize>, out: &mut [f32]) {
-    out.fill(0.0);
-    let last = ys.end.saturating_sub(1);
-    for yy in ys {
-        let row = &map[yy * width..(yy + 1) * width];
-        for (x, o) in out.iter_mut().enumerate() {
-            let v = row[x];
-            let mut step = 0.0f32;
-            if let Some(&right) = row.get(x + 1) {
-                step = (right - v).abs();
-            }
-            if yy < last {
-                step = step.max((map[(yy + 1) * width + x] - v).abs());
-            }
-            // NaN steps compare false and are ignored by `max`.
-            *o = o.max(step);
-        }
-    }
+/// Whether the window `ys` × `xs` holds a step above `gate` between adjacent pixels:
+/// from each of its pixels to the right neighbour (also when that lies right of the
+/// window) and to the lower neighbour when that is in the window too. A step is
+/// `|b − a| > gate`: a NaN makes none (nor ∞ next to ∞), an infinite value next to a
+/// finite one does.
+fn window_has_step(
+    map: &[f32],
+    width: usize,
+    height: usize,
+    ys: &Range<usize>,
+    xs: &Range<usize>,
+    gate: f32,
+) -> bool {
+    let at = |xx: usize, yy: usize| map[yy * width + xx];
+    let step = |a: f32, b: f32| (b - a).abs() > gate;
+    ys.clone().any(|yy| {
+        xs.clone().any(|xx| {
+            (xx + 1 < width && step(at(xx, yy), at(xx + 1, yy)))
+                || (yy + 1 < ys.end && yy + 1 < height && step(at(xx, yy), at(xx, yy + 1)))
+        })
+    })
 }
 
-/// The reference's slope.
-#[inline(always)]
+/// The map's slope at `(x, y)`: per axis the mean of the backward and forward
+/// differences, each left out when its neighbour is missing or non-finite or the step
+/// exceeds `gate` (at least 1e-6, so that a gate of 0 still lets a flat map have
+/// slope 0 from its equal neighbours); zero when both are out.
 fn slope(map: &[f32], width: usize, height: usize, x: usize, y: usize, gate: f32) -> (f32, f32) {
     let at = |xx: usize, yy: usize| map[yy * width + xx];
     let v = at(x, y);
-    let diff = |prev: Option<f32>, next: Option<f32>| -> f32 {
-        let ok = |d: f32| d.is_finite() && d.abs() <= gate.max(1e-6);
-        let back = prev.map(|p| v - p).filter(|&d| ok(d));
-        let fwd = next.map(|n| n - v).filter(|&d| ok(d));
-        match (back, fwd) {
-            (Some(b), Some(f)) => 0.5 * (b + f),
-            (Some(b), None) => b,
-            (None, Some(f)) => f,
+    let limit = gate.max(1e-6);
+    let usable = |d: f32| d.is_finite() && d.abs() <= limit;
+    let axis = |back: Option<f32>, forward: Option<f32>| {
+        let back = back.map(|b| v - b).filter(|&d| usable(d));
+        let forward = forward.map(|f| f - v).filter(|&d| usable(d));
+        match (back, forward) {
+            (Some(b), Some(f)) => (b + f) / 2.0,
+            (Some(d), None) | (None, Some(d)) => d,
             (None, None) => 0.0,
         }
     };
-    let gx = diff(
-        x.checked_sub(1).map(|xx| at(xx, y)),
+    let gx = axis(
+        (x > 0).then(|| at(x - 1, y)),
         (x + 1 < width).then(|| at(x + 1, y)),
     );
-    let gy = diff(
-        y.checked_sub(1).map(|yy| at(x, yy)),
+    let gy = axis(
+        (y > 0).then(|| at(x, y - 1)),
         (y + 1 < height).then(|| at(x, y + 1)),
     );
     (gx, gy)
+}
+
+/// The guide's 8-bit levels at `(x, y)`: its first three channels (fewer when it has
+/// fewer; the others are ignored).
+fn colour<S: Sample>(guide: &View<'_, S>, x: usize, y: usize) -> Vec<i32> {
+    let channels = guide.channels();
+    let row = guide.row(y).expect("a guide row of the map");
+    row[x * channels..x * channels + channels.min(3)]
+        .iter()
+        .map(|s| i32::from(s.level()))
+        .collect()
+}
+
+/// The squared distance of two colours in 8-bit levels: a whole number.
+fn distance2(a: &[i32], b: &[i32]) -> u32 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| ((a - b) * (a - b)) as u32)
+        .sum()
+}
+
+/// The colour weights `exp(−d² / 2σ²)` (σ in 8-bit levels) as 16-bit values (units of
+/// 1/65535) from a table of 256 bins of squared distance: bins one level² wide while 256
+/// of them reach 12 · 2σ² (where the weight rounds to zero), else the narrowest
+/// power-of-two width (at most 2²⁰) that reaches it, each bin's weight taken at its
+/// middle; zero beyond the table, and at least 1 for the pixel's own colour.
+struct ColourWeights {
+    table: Vec<u64>,
+    shift: u32,
+}
+
+impl ColourWeights {
+    fn new(color_sigma: f32) -> Self {
+        let sigma = color_sigma * 255.0;
+        let two_sigma2 = 2.0 * sigma * sigma;
+        let shift = (0..=20)
+            .find(|&s| 256.0 * (1u32 << s) as f32 >= 12.0 * two_sigma2)
+            .unwrap_or(20);
+        let table = (0..256)
+            .map(|bin| {
+                let middle = if shift == 0 {
+                    bin as f32
+                } else {
+                    (bin as f32 + 0.5) * (1u32 << shift) as f32
+                };
+                let w = libm::roundf(libm::expf(-middle / two_sigma2) * 65535.0) as u64;
+                if bin == 0 {
+                    w.max(1)
+                } else {
+                    w
+                }
+            })
+            .collect();
+        ColourWeights { table, shift }
+    }
+
+    fn of(&self, d2: u32) -> u64 {
+        self.table
+            .get((d2 >> self.shift) as usize)
+            .copied()
+            .unwrap_or(0)
+    }
 }
