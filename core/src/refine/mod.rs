@@ -47,6 +47,13 @@
 //! that fits much worse than its opposite is dropped, and when the horizontal and
 //! vertical views disagree, only the axis with the smaller error is used.
 //!
+//! With [`RefineParams::slanted`] (off by default) the window is slanted: each
+//! neighbour's statistics are moved along the local plane, `B_j − o_j A_j` with
+//! `o_j = g_x·Δx_j + g_y·Δy_j`, and gated by `|d_j − d − o_j|`; the slope `(g_x, g_y)` is
+//! the mean central difference across the window of its rows (columns) that lie on one
+//! smooth surface with the pixel (`SLANT_GATE`), so the window reaches no further and the
+//! bands' halo stays as it is.
+//!
 //! With a [`RefineParams::sampling_slack`] (the pipelines set one on warped views only)
 //! a view's residual counts in its Cauchy weight, the residual energy and the
 //! propagation's costs only by how far it falls outside the values the centre view's
