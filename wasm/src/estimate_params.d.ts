@@ -90,6 +90,10 @@ export interface EstimateParams {
    * disparity and confidence (0: update every pixel in every iteration) (0…1; default
    * 0.05). CLI: `--refine-skip-settled`. */
   refineSkipSettled?: number;
+  /** Refinement: slanted window: neighbours' Gauss–Newton statistics are moved along
+   * the local slope of the disparity and gated by their distance from that plane (0: the
+   * fronto-parallel window) (default false). CLI: `--refine-slant`. */
+  refineSlant?: boolean;
   /** Refinement: image rows per band, one part of the refinement step (1…4096; default
    * 128). CLI: `--refine-band-rows`. */
   refineBandRows?: number;

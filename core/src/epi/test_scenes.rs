@@ -73,6 +73,48 @@ pub(crate) fn strips(
     Scene { data, layout, gt }
 }
 
+/// One textured plane slanted across the whole view: disparity
+/// `centre + slope.0 · (x − cx) + slope.1 · (y − cy)` about the image centre `(cx, cy)`.
+pub(crate) fn slanted(
+    grid: Grid,
+    (width, height, channels): (usize, usize, usize),
+    centre: f32,
+    slope: (f32, f32),
+) -> Scene {
+    let layout = Layout::packed(grid, width, height, channels);
+    let (r0, c0) = grid.center();
+    let (cx, cy) = (width as f32 / 2.0, height as f32 / 2.0);
+    let (gx, gy) = slope;
+    let disparity = |x: f32, y: f32| centre + gx * (x - cx) + gy * (y - cy);
+    let mut data = Vec::with_capacity(grid.len() * width * height * channels);
+    for r in 0..grid.rows {
+        for c in 0..grid.cols {
+            let (dr, dc) = (r as f32 - r0 as f32, c as f32 - c0 as f32);
+            for v in 0..height {
+                for u in 0..width {
+                    // The centre-view point (x, y) seen at (u, v): u = x − d(x, y)·dc,
+                    // v = y − d(x, y)·dr, linear in (x, y).
+                    let k = centre - gx * cx - gy * cy;
+                    let (a, b, e) = (1.0 - gx * dc, -gy * dc, u as f32 + k * dc);
+                    let (c2, d2, f) = (-gx * dr, 1.0 - gy * dr, v as f32 + k * dr);
+                    let det = a * d2 - b * c2;
+                    let (x, y) = ((e * d2 - b * f) / det, (a * f - e * c2) / det);
+                    for ch in 0..channels {
+                        data.push(texture(x, y, 0, ch));
+                    }
+                }
+            }
+        }
+    }
+    let mut gt = Vec::with_capacity(width * height);
+    for v in 0..height {
+        for u in 0..width {
+            gt.push(disparity(u as f32, v as f32));
+        }
+    }
+    Scene { data, layout, gt }
+}
+
 /// Deterministic pseudo-random samples in [0, 1) (xorshift).
 pub(crate) fn noise(len: usize, seed: u64) -> Vec<f32> {
     let mut s = seed | 1;

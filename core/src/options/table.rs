@@ -385,6 +385,18 @@ pub static TUNABLES: &[Tunable] = &[
         },
     },
     Tunable {
+        flag: Some(Flag::Value("--refine-slant")),
+        key: Some("refineSlant"),
+        doc: "Refinement: slanted window: neighbours' Gauss–Newton statistics are moved along the local slope of the disparity and gated by their distance from that plane (0: the fronto-parallel window)",
+        kind: Kind::Bool,
+        path: "refine.slanted",
+        get: |p| Value::Bool(p.refine.slanted),
+        set: |p, v| {
+            p.refine.slanted = boolean(v)?;
+            Some(())
+        },
+    },
+    Tunable {
         flag: Some(Flag::Value("--refine-band-rows")),
         key: Some("refineBandRows"),
         doc: "Refinement: image rows per band, one part of the refinement step",

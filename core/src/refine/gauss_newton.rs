@@ -9,7 +9,7 @@ use crate::scalar::Scalar;
 use super::params::RefineParams;
 use super::photo::{Photometric, GROUPS, STATS};
 use super::state::{OwnCost, Planes, Region};
-use super::{Constants, Measure, MEMORY};
+use super::{Constants, Measure, Slant, MEMORY};
 
 /// Term counts of the groups over one window, as the window sums are scaled: the
 /// divisors of the mean residuals and the damping's term counts.
@@ -49,19 +49,23 @@ struct Evaluated<'a, T> {
 
 /// The window sum of the statistics of the pixels within `gate` of `d`, over
 /// `ys × xs` of the region, in a fixed order so that every band sums alike. Each term is
-/// multiplied by `scale` when one is given. (A row's interior pixels at radius 1 take
-/// [`update_row`]'s [`window_rows`] instead.)
+/// multiplied by `scale` when one is given. With a `plane` (the slanted window), each
+/// neighbour is gated by and transferred along the plane instead (see [`Plane`]). (A
+/// row's interior pixels at radius 1 take [`update_row`]'s [`window_rows`] instead.)
 #[inline]
 fn window_sum<T: Scalar>(
     evaluated: &Evaluated<'_, T>,
-    ys: Range<usize>,
-    xs: Range<usize>,
+    (ys, xs): (Range<usize>, Range<usize>),
     d: T,
     gate: T,
+    plane: Option<&Plane<T>>,
     scale: Option<T>,
 ) -> [T; STATS] {
     let (stats, previous, width) = (evaluated.stats, evaluated.disparity, evaluated.width);
     let mut sum = [T::ZERO; STATS];
+    if let Some(plane) = plane {
+        return window_sum_slanted(evaluated, (ys, xs), d, gate, plane, scale);
+    }
     if xs.len() == 3 {
         // Radius 1 away from the image's sides (fewer than three rows at the region's
         // ends): each window row as one array of three disparities and one of their
@@ -76,7 +80,7 @@ fn window_sum<T: Scalar>(
                     .get(at * STATS..)
                     .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
             ) else {
-                return window_sum_each(evaluated, ys, xs, d, gate, scale);
+                return window_sum_each(evaluated, (ys, xs), d, gate, scale);
             };
             for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
                 let outside = (p - d).abs() > gate;
@@ -91,7 +95,116 @@ fn window_sum<T: Scalar>(
         }
         return sum;
     }
-    window_sum_each(evaluated, ys, xs, d, gate, scale)
+    window_sum_each(evaluated, (ys, xs), d, gate, scale)
+}
+
+/// The local plane of a slanted window ([`RefineParams::slanted`]): the pixel's
+/// position and the disparity's slope there (px per px).
+pub(super) struct Plane<T> {
+    x: usize,
+    y: usize,
+    slope: (T, T),
+}
+
+impl<T: Scalar> Plane<T> {
+    /// The plane through a pixel at `(x, y)` with disparity `d` whose disparities at
+    /// `(x + dx, y + dy)` are `at(dx, dy)` (`None` outside the region): per axis, the
+    /// mean central difference across the window (`±radius`) of the window's rows
+    /// (columns) whose ends lie within `reach` of their centre, which lies within it
+    /// of the pixel, bending by at most the window gate; 0 where none does.
+    #[inline(always)]
+    fn at(
+        (x, y): (usize, usize),
+        d: T,
+        at: impl Fn(isize, isize) -> Option<T>,
+        gate: T,
+        slant: &Slant<T>,
+    ) -> Self {
+        let line = |a: Option<T>, c: Option<T>, b: Option<T>| -> Option<T> {
+            let (a, c, b) = (a?, c?, b?);
+            let smooth = (c - d).abs() <= slant.reach
+                && (a - c).abs() <= slant.reach
+                && (b - c).abs() <= slant.reach
+                && (a + b - c - c).abs() <= gate;
+            smooth.then(|| b - a)
+        };
+        let r = slant.radius as isize;
+        let average = |diff: &dyn Fn(isize) -> Option<T>| {
+            let (mut sum, mut n) = (T::ZERO, 0);
+            for diff in (-r..=r).filter_map(diff) {
+                sum += diff;
+                n += 1;
+            }
+            sum * slant.mean.get(n).copied().unwrap_or(T::ZERO)
+        };
+        let gx = average(&|dy| line(at(-r, dy), at(0, dy), at(r, dy)));
+        let gy = average(&|dx| line(at(dx, -r), at(dx, 0), at(dx, r)));
+        Plane {
+            x,
+            y,
+            slope: (gx, gy),
+        }
+    }
+
+    /// The plane's disparity at `(xx, yy)` relative to the pixel's.
+    #[inline(always)]
+    fn offset(&self, xx: usize, yy: usize) -> T {
+        let steps = |to: usize, from: usize| T::from_f32(to as f32 - from as f32);
+        self.slope.0 * steps(xx, self.x) + self.slope.1 * steps(yy, self.y)
+    }
+}
+
+/// Adds one pixel's statistics to a window's sum transferred along a plane that lies
+/// `offset` px above it at the pixel: `B − offset · A` per group (the pixel's own
+/// Gauss–Newton target moved by the plane's step), scaled by `scale` when given.
+#[inline(always)]
+fn add_stats_slanted<T: Scalar>(sum: &mut [T; STATS], stat: &[T], offset: T, scale: Option<T>) {
+    for (sum, stat) in sum.chunks_exact_mut(3).zip(stat.chunks_exact(3)) {
+        if let ([sa, sb, se], [a, b, e]) = (sum, stat) {
+            let b = *b - offset * *a;
+            match scale {
+                None => {
+                    *sa += *a;
+                    *sb += b;
+                    *se += *e;
+                }
+                Some(f) => {
+                    *sa += *a * f;
+                    *sb += b * f;
+                    *se += *e * f;
+                }
+            }
+        }
+    }
+}
+
+/// [`window_sum`] of a slanted window: each neighbour within `gate` of the plane
+/// through the pixel, its statistics transferred along the plane.
+fn window_sum_slanted<T: Scalar>(
+    evaluated: &Evaluated<'_, T>,
+    (ys, xs): (Range<usize>, Range<usize>),
+    d: T,
+    gate: T,
+    plane: &Plane<T>,
+    scale: Option<T>,
+) -> [T; STATS] {
+    let (stats, previous, width) = (evaluated.stats, evaluated.disparity, evaluated.width);
+    let mut sum = [T::ZERO; STATS];
+    for yy in ys {
+        for xx in xs.clone() {
+            let j = yy * width + xx;
+            let Some(&p) = previous.get(j) else { continue };
+            let offset = plane.offset(xx, yy);
+            if (p - d - offset).abs() > gate {
+                continue;
+            }
+            let Some(stat) = stats.get(j * STATS..(j + 1) * STATS) else {
+                continue;
+            };
+            add_stats_slanted(&mut sum, stat, offset, scale);
+        }
+    }
+    sum
 }
 
 /// The total curvature `A` of a window sum (all groups).
@@ -149,6 +262,30 @@ fn window_rows<T: Scalar>(
                 continue;
             }
             add_stats(&mut sum, s, scale);
+        }
+    }
+    sum
+}
+
+/// [`window_rows`] of a slanted window around the pixel at (1, 1) of the three rows:
+/// the same terms in the same order as [`window_sum_slanted`].
+#[allow(clippy::type_complexity)]
+#[inline(never)]
+fn window_rows_slanted<T: Scalar>(
+    (ds, ss): &([&[T; 3]; 3], [&[T; 3 * STATS]; 3]),
+    d: T,
+    gate: T,
+    plane: &Plane<T>,
+    scale: Option<T>,
+) -> [T; STATS] {
+    let mut sum = [T::ZERO; STATS];
+    for (yy, (ds, ss)) in ds.iter().zip(ss).enumerate() {
+        for (xx, (&p, s)) in ds.iter().zip(ss.chunks_exact(STATS)).enumerate() {
+            let offset = plane.offset(xx, yy);
+            if (p - d - offset).abs() > gate {
+                continue;
+            }
+            add_stats_slanted(&mut sum, s, offset, scale);
         }
     }
     sum
@@ -342,8 +479,24 @@ fn update_row<T: Scalar>(
         };
         let d = d1[1];
         let rows = ([d0, d1, d2], [s0, s1, s2]);
-        let sum = window_rows(&rows, d, gate, None);
-        let (n, e, damped) = step.update(d, sum, |f| window_rows(&rows, d, gate, Some(f)));
+        let (n, e, damped) = match &step.k.slant {
+            None => {
+                let sum = window_rows(&rows, d, gate, None);
+                step.update(d, sum, |f| window_rows(&rows, d, gate, Some(f)))
+            }
+            Some(slant) => {
+                let ds = [d0, d1, d2];
+                let at = |dx: isize, dy: isize| {
+                    let row = ds.get(usize::try_from(dy + 1).ok()?)?;
+                    row.get(usize::try_from(dx + 1).ok()?).copied()
+                };
+                let plane = Plane::at((1, 1), d, at, gate, slant);
+                let sum = window_rows_slanted(&rows, d, gate, &plane, None);
+                step.update(d, sum, |f| {
+                    window_rows_slanted(&rows, d, gate, &plane, Some(f))
+                })
+            }
+        };
         *next = n;
         if let Some((_, ke, kd, _, true)) = &mut reuse {
             if let (Some(ke), Some(kd)) = (ke.get_mut(x), kd.get_mut(x)) {
@@ -362,8 +515,7 @@ fn update_row<T: Scalar>(
 #[inline]
 fn window_sum_each<T: Scalar>(
     evaluated: &Evaluated<'_, T>,
-    ys: Range<usize>,
-    xs: Range<usize>,
+    (ys, xs): (Range<usize>, Range<usize>),
     d: T,
     gate: T,
     scale: Option<T>,
@@ -552,9 +704,20 @@ pub(super) fn iterate<T: Scalar, P: Photometric<T>>(
                     stats,
                     width,
                 };
-                let sum = window_sum(&evaluated, ys.clone(), xs.clone(), d, k.gate, None);
+                // The slanted window's plane, from the window's disparities within the
+                // region.
+                let plane = k.slant.as_ref().map(|slant| {
+                    let at = |dx: isize, dy: isize| {
+                        let xx = x.checked_add_signed(dx).filter(|&xx| xx < width)?;
+                        let yy = y.checked_add_signed(dy).filter(|&yy| yy < region_rows)?;
+                        previous.get(yy * width + xx).copied()
+                    };
+                    Plane::at((x, y), d, at, k.gate, slant)
+                });
+                let window = (ys, xs);
+                let sum = window_sum(&evaluated, window.clone(), d, k.gate, plane.as_ref(), None);
                 let (next, e, damped) = step.update(d, sum, |f| {
-                    window_sum(&evaluated, ys, xs, d, k.gate, Some(f))
+                    window_sum(&evaluated, window, d, k.gate, plane.as_ref(), Some(f))
                 });
                 if let Some(current) = current.get_mut(j) {
                     *current = next;

@@ -47,6 +47,13 @@
 //! that fits much worse than its opposite is dropped, and when the horizontal and
 //! vertical views disagree, only the axis with the smaller error is used.
 //!
+//! With [`RefineParams::slanted`] (off by default) the window is slanted: each
+//! neighbour's statistics are moved along the local plane, `B_j − o_j A_j` with
+//! `o_j = g_x·Δx_j + g_y·Δy_j`, and gated by `|d_j − d − o_j|`; the slope `(g_x, g_y)` is
+//! the mean central difference across the window of its rows (columns) that lie on one
+//! smooth surface with the pixel (`SLANT_GATE`), so the window reaches no further and the
+//! bands' halo stays as it is.
+//!
 //! With a [`RefineParams::sampling_slack`] (the pipelines set one on warped views only)
 //! a view's residual counts in its Cauchy weight, the residual energy and the
 //! propagation's costs only by how far it falls outside the values the centre view's
@@ -137,6 +144,10 @@ const OCCLUSION_FLOOR: f32 = 1.0e-4;
 /// Neighbours whose disparity differs by more than this (px) are left out of a pixel's
 /// window: they lie across a depth edge.
 const WINDOW_GATE: f32 = 0.1;
+/// The slanted window ([`RefineParams::slanted`]) measures the slope along a row or
+/// column of the 3 × 3 neighbourhood only where adjacent disparities differ by at most
+/// this (px): slopes up to this many px per px, never across a depth edge.
+const SLANT_GATE: f32 = 0.25;
 /// Horizontal and vertical solutions further apart than this (px) disagree.
 const AXIS_AGREEMENT: f32 = 0.05;
 /// Per-pixel statistics (and the damping and occlusion floor with them) are multiplied
@@ -267,6 +278,8 @@ struct Constants<T> {
     /// The power of two the per-pixel statistics are multiplied by.
     stat_scale: f32,
     gate: T,
+    /// With [`RefineParams::slanted`]: how the window's plane is measured.
+    slant: Option<Slant<T>>,
     offer: T,
     same: T,
     accept: T,
@@ -299,6 +312,7 @@ impl<T: Scalar> Constants<T> {
             damping: T::from_f32(DAMPING_PER_TERM * intensity2 * stat_scale),
             stat_scale,
             gate: T::from_f32(WINDOW_GATE),
+            slant: (p.slanted && p.radius > 0).then(|| Slant::new(p.radius)),
             offer: T::from_f32(PROPAGATION_OFFER),
             same: T::from_f32(SAME_CANDIDATE),
             accept: T::from_f32(PROPAGATION_ACCEPT),
@@ -309,6 +323,34 @@ impl<T: Scalar> Constants<T> {
             settled: T::from_f32(SETTLED),
             settled_early: T::from_f32(SETTLED_EARLY),
             confidence2: T::from_f32(p.confidence_scale * p.confidence_scale),
+        }
+    }
+}
+
+/// How the slanted window ([`RefineParams::slanted`]) measures its plane: per axis, the
+/// mean central difference across the window (`±radius` px) of the window's rows
+/// (columns) that lie on one smooth surface with the pixel.
+struct Slant<T> {
+    /// The window's radius (px, 1…4).
+    radius: usize,
+    /// A difference across the window counts when each end lies within this of the
+    /// row's centre (`radius ·` [`SLANT_GATE`]).
+    reach: T,
+    /// `1 / (2 · radius · n)` for `n` differences averaged (`[0]`: none, slope 0).
+    mean: [T; 10],
+}
+
+impl<T: Scalar> Slant<T> {
+    fn new(radius: usize) -> Self {
+        let span = 2.0 * radius as f32;
+        let mut mean = [T::ZERO; 10];
+        for (n, m) in mean.iter_mut().enumerate().skip(1) {
+            *m = T::from_f32(1.0 / (span * n as f32));
+        }
+        Slant {
+            radius,
+            reach: T::from_f32(radius as f32 * SLANT_GATE),
+            mean,
         }
     }
 }

@@ -75,6 +75,14 @@ pub struct RefineParams {
     /// damping. 0 updates every pixel in every iteration. Measured on HCI in
     /// `docs/stages/refine.md`.
     pub skip_settled: f32,
+    /// Slanted window: each pixel's window transfers its neighbours' Gauss–Newton
+    /// statistics along the local slope of the disparity (the gated central
+    /// differences of its 3 × 3 neighbourhood), `B_j − o_j·A_j` with
+    /// `o_j = g_x·Δx_j + g_y·Δy_j`, and gates them by their distance from that plane
+    /// instead of from the pixel's disparity. Off: the fronto-parallel window, which
+    /// pulls a sloping surface towards its better-textured neighbours by up to the
+    /// slope times the window radius.
+    pub slanted: bool,
 }
 
 /// The default [`RefineParams::skip_settled`] (px).
@@ -98,6 +106,7 @@ impl Default for RefineParams {
             band_rows: 128,
             sampling_slack: 0.0,
             skip_settled: SKIP_SETTLED,
+            slanted: false,
         }
     }
 }

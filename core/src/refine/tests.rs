@@ -3,7 +3,7 @@ use std::vec;
 use std::vec::Vec;
 
 use super::*;
-use crate::epi::test_scenes::{noise, strips, Scene};
+use crate::epi::test_scenes::{noise, slanted, strips, Scene};
 use crate::lightfield::Grid;
 use crate::setup::TestSetup;
 
@@ -12,11 +12,16 @@ fn stage_for(scene: &Scene, refine: RefineParams) -> TestSetup<RefineParams> {
 }
 
 fn run(scene: &Scene, refine: RefineParams, input: &[f32]) -> (Vec<f32>, Vec<f32>) {
+    run_in::<f32>(scene, refine, input)
+}
+
+/// [`run`] computing in `T`.
+fn run_in<T: Scalar>(scene: &Scene, refine: RefineParams, input: &[f32]) -> (Vec<f32>, Vec<f32>) {
     let stage = stage_for(scene, refine);
     let lf = LightField::new(&scene.data, scene.layout).unwrap();
     let mut d = vec![0.0; stage.pixels()];
     let mut c = vec![0.0; stage.pixels()];
-    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    let mut scratch = vec![T::ZERO; scratch_len(stage.setup())];
     super::refine(
         stage.setup(),
         &lf,
@@ -422,5 +427,89 @@ fn settled_windows_give_bit_identical_maps_in_any_band_and_stay_close_to_every_u
     for on in &maps[..2] {
         assert!(most(&on.0, &off.0, 0.01), "disparities");
         assert!(most(&on.1, &off.1, 0.05), "confidences");
+    }
+}
+
+/// Largest error over pixels `margin` from every border.
+fn max_error(scene: &Scene, d: &[f32], margin: usize) -> f32 {
+    let (w, h) = (scene.layout.width, scene.layout.height);
+    (margin..h - margin)
+        .flat_map(|y| (margin..w - margin).map(move |x| y * w + x))
+        .map(|i| (d[i] - scene.gt[i]).abs())
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn a_slanted_window_recovers_a_slanted_plane_that_the_fronto_parallel_window_pulls_off() {
+    // 0.08 px per px down the view and 0.03 across: at radius 2 the fronto-parallel
+    // window averages targets up to 0.16 px apart, weighted by their texture.
+    let scene = slanted(Grid::new(9, 9), (48, 40, 3), 0.3, (0.03, 0.08));
+    let input = perturbed(&scene, 0.03, 3);
+    for radius in [1, 2] {
+        let fronto = RefineParams {
+            radius,
+            ..RefineParams::default()
+        };
+        let slant = RefineParams {
+            slanted: true,
+            ..fronto
+        };
+        let (df, _) = run(&scene, fronto, &input);
+        let (ds, cs) = run(&scene, slant, &input);
+        let (ef, es) = (max_error(&scene, &df, 8), max_error(&scene, &ds, 8));
+        let (rf, rs) = (rms(&scene, &df, 8), rms(&scene, &ds, 8));
+        std::eprintln!("radius {radius}: max |error| {ef} -> {es}, rms {rf} -> {rs}");
+        assert!(es < 0.02 && es < 0.5 * ef, "radius {radius}: {ef} -> {es}");
+        assert!(rs < 0.5 * rf, "radius {radius}: rms {rf} -> {rs}");
+        let w = scene.layout.width;
+        assert!(cs[20 * w + 24] > 0.9, "confidence on an exact plane");
+    }
+}
+
+#[test]
+fn a_slanted_window_keeps_fronto_parallel_planes_and_their_edges() {
+    let scene = strips(Grid::new(9, 9), 48, 40, 3, 0.4, &[0.0, 1.6, 0.0]);
+    let input = perturbed(&scene, 0.3, 7);
+    let slant = RefineParams {
+        slanted: true,
+        ..RefineParams::default()
+    };
+    let (d, _) = run(&scene, RefineParams::default(), &input);
+    let (ds, _) = run(&scene, slant, &input);
+    let (good, good_slanted) = (
+        share_within(&scene, &d, 0.07, 6),
+        share_within(&scene, &ds, 0.07, 6),
+    );
+    assert!(good_slanted >= good - 0.01, "{good} -> {good_slanted}");
+}
+
+#[test]
+fn slanted_windows_give_bit_identical_maps_in_any_band_and_agree_in_q16() {
+    let scene = slanted(Grid::new(9, 9), (40, 37, 3), -0.2, (-0.05, 0.07));
+    let input = perturbed(&scene, 0.1, 9);
+    for radius in [1, 2] {
+        let wide = RefineParams {
+            band_rows: 100,
+            radius,
+            slanted: true,
+            ..RefineParams::default()
+        };
+        let (dw, cw) = run(&scene, wide, &input);
+        for band_rows in [1, 5, 16] {
+            let (d, c) = run(&scene, RefineParams { band_rows, ..wide }, &input);
+            assert!(d.iter().zip(&dw).all(|(a, b)| a.to_bits() == b.to_bits()));
+            assert!(c.iter().zip(&cw).all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        let (dq, _) = run_in::<crate::Q16>(&scene, wide, &input);
+        let close = dq
+            .iter()
+            .zip(&dw)
+            .filter(|(q, f)| (*q - *f).abs() <= 0.02)
+            .count();
+        assert!(
+            close * 100 >= 99 * dw.len(),
+            "radius {radius}: {close} of {}",
+            dw.len()
+        );
     }
 }
