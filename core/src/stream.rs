@@ -227,6 +227,12 @@ impl StreamPlan {
                         reason: "must be off for a stream: the half-resolution EPI is not streamed",
                     })
                 }
+                Step::PlaneSweep => {
+                    return Err(Error::InvalidParameter {
+                        name: "sweep.enabled",
+                        reason: "must be off for a stream: the plane sweep is not streamed",
+                    })
+                }
                 Step::Refine => {
                     return Err(Error::InvalidParameter {
                         name: "refine.enabled",
