@@ -136,6 +136,18 @@ impl Preset {
     }
 }
 
+/// The plane sweep replaces the EPI stage, so it cannot start from the half-resolution
+/// EPI's upsampling.
+pub(crate) fn check_initial(params: &Params) -> Result<()> {
+    if params.sweep.enabled && params.epi.half_resolution {
+        return Err(crate::error::Error::InvalidParameter {
+            name: "sweep.enabled",
+            reason: "replaces the EPI stage: switch the half-resolution EPI off with it",
+        });
+    }
+    Ok(())
+}
+
 /// Validated dimensions and parameters of one estimation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plan {
@@ -155,12 +167,7 @@ impl Plan {
         params.median.validate()?;
         params.geofill.validate()?;
         params.sweep.validate()?;
-        if params.sweep.enabled && params.epi.half_resolution {
-            return Err(crate::error::Error::InvalidParameter {
-                name: "sweep",
-                reason: "replaces the EPI stage, so the half-resolution EPI must be off with it",
-            });
-        }
+        check_initial(&params)?;
         let pixels = checked_product(&[layout.width, layout.height], "the disparity map")?;
         Ok(Plan {
             layout,

@@ -71,7 +71,7 @@ pub const STAGE: &str = "sweep";
 /// Image rows per band (a part of the schedule's step): the cost rows of a band's halo
 /// (`2 · radius`) are computed again by the next band, so a band should be much taller
 /// than the window.
-pub const BAND_ROWS: usize = 32;
+pub const BAND_ROWS: usize = 64;
 
 /// `√2`: the noise weight of a whole-pixel shift is 1.
 const NOISE_SCALE: f32 = core::f32::consts::SQRT_2;
@@ -104,7 +104,7 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     .fold(0usize, |a, &b| a.saturating_add(b));
     let parts = [
         width.saturating_mul(channels).saturating_mul(GROUPS),
-        width,
+        width.saturating_mul(3),
         volume.saturating_mul(VOLUMES),
     ];
     parts.iter().fold(0usize, |a, &b| a.saturating_add(b))
@@ -223,6 +223,7 @@ pub fn estimate_rows<S: Sample>(
     let row_len = width * channels;
     let (acc, rest) = take(scratch, GROUPS * row_len)?;
     let (agg, rest) = take(rest, width)?;
+    let (sums, rest) = take(rest, 2 * width)?;
     let line = params.line * r;
     let region = rows.start.saturating_sub(line)..(rows.end + line).min(height);
     let mut rest = rest;
@@ -256,18 +257,23 @@ pub fn estimate_rows<S: Sample>(
         for (k, y) in region.clone().enumerate() {
             pixel_costs(&centre, &views, y, d, tau, acc)?;
             let (across, along) = acc.split_at(row_len);
+            let (h_sum, v_sum) = sums.split_at_mut(width);
+            for (sum, costs) in [(&mut *h_sum, across), (&mut *v_sum, along)] {
+                for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels)) {
+                    *s = px.iter().take(used).sum();
+                }
+            }
             for volume in volumes.iter_mut() {
                 let source = volume.source;
-                let pixels = across
-                    .chunks_exact(channels)
-                    .zip(along.chunks_exact(channels));
-                for (p, (h, v)) in volume.body_mut(width).iter_mut().zip(pixels) {
-                    let sum = |s: &[f32]| -> f32 { s.iter().take(used).sum() };
-                    *p = match source {
-                        Source::All => sum(h) + sum(v),
-                        Source::Horizontal => sum(h),
-                        Source::Vertical => sum(v),
-                    };
+                let body = volume.body_mut(width);
+                match source {
+                    Source::All => {
+                        for ((p, &h), &v) in body.iter_mut().zip(h_sum.iter()).zip(v_sum.iter()) {
+                            *p = h + v;
+                        }
+                    }
+                    Source::Horizontal => copy(body, h_sum),
+                    Source::Vertical => copy(body, v_sum),
                 }
                 volume.filter_row(width, k)?;
             }
@@ -292,8 +298,8 @@ pub fn estimate_rows<S: Sample>(
             what: "the volumes",
         });
     };
-    out.disparity.copy_from_slice(all.best_at);
-    out.confidence.copy_from_slice(all.sum);
+    copy(out.disparity, all.best_at);
+    copy(out.confidence, all.sum);
     for volume in axes {
         let pixels = out
             .disparity
@@ -489,6 +495,13 @@ impl<'a> Volume<'a> {
                 0.0
             };
         }
+    }
+}
+
+/// Copies what `from` and `to` have in common (no length check that could panic).
+fn copy(to: &mut [f32], from: &[f32]) {
+    for (t, &f) in to.iter_mut().zip(from) {
+        *t = f;
     }
 }
 
