@@ -256,10 +256,10 @@ pub fn estimate_rows<S: Sample>(
         let d = min + i as f32 * spacing;
         for (k, y) in region.clone().enumerate() {
             pixel_costs(&centre, &views, y, d, tau, acc)?;
-            let (across, along) = acc.split_at(row_len);
-            let (h_sum, v_sum) = sums.split_at_mut(width);
+            let (across, along) = acc.split_at_checked(row_len).unwrap_or((&[], &[]));
+            let (h_sum, v_sum) = take(sums, width)?;
             for (sum, costs) in [(&mut *h_sum, across), (&mut *v_sum, along)] {
-                for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels)) {
+                for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels.max(1))) {
                     *s = px.iter().take(used).sum();
                 }
             }
@@ -487,7 +487,7 @@ impl<'a> Volume<'a> {
             } else {
                 0.0
             };
-            *bi = (min + (*bi + offset) * spacing).clamp(min, max);
+            *bi = (min + (*bi + offset) * spacing).max(min).min(max);
             let mean = *c * mean_scale;
             *c = if mean > 0.0 {
                 (1.0 - b / mean).clamp(0.0, 1.0)
@@ -553,9 +553,11 @@ fn pixel_costs<S: Sample>(
             let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
             let k = kf as isize;
             // Pixels whose two taps x + k and x + k + 1 lie inside the row.
-            let lo = (-k).clamp(0, width as isize) as usize;
-            let hi = (width as isize - 1 - k).clamp(lo as isize, width as isize) as usize;
-            let shift = |x: usize| (x as isize + k).clamp(0, width as isize - 1) as usize;
+            let lo = (-k).max(0).min(width as isize) as usize;
+            let hi = (width as isize - 1 - k)
+                .min(width as isize)
+                .max(lo as isize) as usize;
+            let shift = |x: usize| (x as isize + k).min(width as isize - 1).max(0) as usize;
             let inner = lo * channels..hi * channels;
             let from = (lo as isize + k).max(0) as usize * channels;
             let s0 = src.get(from..from + inner.len()).unwrap_or(&[]);
@@ -587,7 +589,7 @@ fn pixel_costs<S: Sample>(
             let f = t - kf;
             let g = 1.0 - f;
             let row = |dy: f32| {
-                let yy = (y as f32 + kf + dy).clamp(0.0, height as f32 - 1.0) as usize;
+                let yy = (y as f32 + kf + dy).min(height as f32 - 1.0).max(0.0) as usize;
                 sv.view.row(yy).ok_or(missing)
             };
             let (s0, s1) = (row(0.0)?, row(1.0)?);
