@@ -87,7 +87,8 @@ const STATE: usize = 6;
 const VOLUMES: usize = 5;
 
 /// Scratch (`f32` elements) of [`estimate_rows`] for a band of up to [`BAND_ROWS`] rows:
-/// two interleaved rows of matching costs (row and column views), one aggregated row,
+/// two interleaved rows of matching costs (row and column views) and the centre row,
+/// one aggregated row,
 /// and per volume a padded row of pixel costs, the filtered rows of the band and its halo
 /// and six values per pixel of the band.
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
@@ -103,7 +104,7 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     .iter()
     .fold(0usize, |a, &b| a.saturating_add(b));
     let parts = [
-        width.saturating_mul(channels).saturating_mul(GROUPS),
+        width.saturating_mul(channels).saturating_mul(GROUPS + 1),
         width.saturating_mul(3),
         volume.saturating_mul(VOLUMES),
     ];
@@ -221,7 +222,7 @@ pub fn estimate_rows<S: Sample>(
     let r = params.radius;
     let tau = params.truncate;
     let row_len = width * channels;
-    let (acc, rest) = take(scratch, GROUPS * row_len)?;
+    let (acc, rest) = take(scratch, (GROUPS + 1) * row_len)?;
     let (agg, rest) = take(rest, width)?;
     let (sums, rest) = take(rest, 2 * width)?;
     let line = params.line * r;
@@ -403,8 +404,10 @@ impl<'a> Volume<'a> {
             .costs
             .get_mut(k * width..(k + 1) * width)
             .ok_or(Error::SizeOverflow { what: "a cost row" })?;
-        row.fill(0.0);
-        for j in 0..=2 * r {
+        // The first tap initialises the sum (bit-identical to adding it to zero: costs are
+        // never −0).
+        copy(row, self.padded.get(..width).unwrap_or(&[]));
+        for j in 1..=2 * r {
             let src = self.padded.get(j..j + width).unwrap_or(&[]);
             for (c, s) in row.iter_mut().zip(src) {
                 *c += s;
@@ -423,7 +426,6 @@ impl<'a> Volume<'a> {
         first: usize,
     ) -> Result<()> {
         let r = self.ry;
-        agg.fill(0.0);
         for j in 0..=2 * r {
             let yy = (y + j)
                 .saturating_sub(r)
@@ -433,8 +435,12 @@ impl<'a> Volume<'a> {
                 .costs
                 .get(yy * width..(yy + 1) * width)
                 .ok_or(Error::SizeOverflow { what: "a cost row" })?;
-            for (a, s) in agg.iter_mut().zip(src) {
-                *a += s;
+            if j == 0 {
+                copy(agg, src);
+            } else {
+                for (a, s) in agg.iter_mut().zip(src) {
+                    *a += s;
+                }
             }
         }
         Ok(())
@@ -531,8 +537,14 @@ fn pixel_costs<S: Sample>(
     let channels = centre.channels();
     let height = centre.height();
     let c_row = centre.row(y).ok_or(missing)?;
-    acc.fill(0.0);
     let row_len = width * channels;
+    let (acc, cen) = take(acc, GROUPS * row_len)?;
+    acc.fill(0.0);
+    // The centre row in unit intensity, converted once for every view.
+    for (c, s) in cen.iter_mut().zip(c_row) {
+        *c = s.to_unit();
+    }
+    let cen = &*cen;
     for sv in views {
         let acc = acc
             .get_mut(sv.group * row_len..(sv.group + 1) * row_len)
@@ -564,11 +576,11 @@ fn pixel_costs<S: Sample>(
             let s1 = src
                 .get(from + channels..from + channels + inner.len())
                 .unwrap_or(&[]);
-            let cen = c_row.get(inner.clone()).unwrap_or(&[]);
+            let c_in = cen.get(inner.clone()).unwrap_or(&[]);
             let a = acc.get_mut(inner).unwrap_or(&mut []);
-            for (((a, &p0), &p1), &c) in a.iter_mut().zip(s0).zip(s1).zip(cen) {
+            for (((a, &p0), &p1), &c) in a.iter_mut().zip(s0).zip(s1).zip(c_in) {
                 let value = g * p0.to_unit() + f * p1.to_unit();
-                *a += (w * libm::fabsf(value - c.to_unit())).min(tau);
+                *a += (w * libm::fabsf(value - c)).min(tau);
             }
             // The edges, with the taps clamped to the row.
             for x in (0..lo).chain(hi..width) {
@@ -576,7 +588,7 @@ fn pixel_costs<S: Sample>(
                 for ch in 0..channels {
                     let p0 = src.get(x0 * channels + ch).map_or(0.0, |s| s.to_unit());
                     let p1 = src.get(x1 * channels + ch).map_or(0.0, |s| s.to_unit());
-                    let c = c_row.get(x * channels + ch).map_or(0.0, |s| s.to_unit());
+                    let c = cen.get(x * channels + ch).copied().unwrap_or(0.0);
                     if let Some(a) = acc.get_mut(x * channels + ch) {
                         *a += (w * libm::fabsf(g * p0 + f * p1 - c)).min(tau);
                     }
@@ -594,9 +606,9 @@ fn pixel_costs<S: Sample>(
             };
             let (s0, s1) = (row(0.0)?, row(1.0)?);
             let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
-            for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(c_row) {
+            for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(cen) {
                 let value = g * p0.to_unit() + f * p1.to_unit();
-                *a += (w * libm::fabsf(value - c.to_unit())).min(tau);
+                *a += (w * libm::fabsf(value - c)).min(tau);
             }
         }
     }
