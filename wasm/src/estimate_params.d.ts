@@ -82,7 +82,7 @@ export interface EstimateParams {
    * this much (unit intensity) (0.001…1; default 0.1). CLI: `--sweep-truncate`. */
   sweepTruncate?: number;
   /** Plane sweep: a one-axis volume's winner replaces the combined one's when its
-   * confidence exceeds the combined one's times this (0.5…4; default 1). CLI:
+   * confidence exceeds the combined one's times this (1…4; default 1). CLI:
    * `--sweep-select`. */
   sweepSelect?: number;
   /** Plane sweep: the one-axis volumes' windows are lines this many times the radius long

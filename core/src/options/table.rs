@@ -369,7 +369,7 @@ pub static TUNABLES: &[Tunable] = &[
         flag: Some(Flag::Value("--sweep-select")),
         key: Some("sweepSelect"),
         doc: "Plane sweep: a one-axis volume's winner replaces the combined one's when its confidence exceeds the combined one's times this",
-        kind: closed(0.5, 4.0),
+        kind: closed(1.0, 4.0),
         path: "sweep.select",
         get: |p| Value::Float(p.sweep.select),
         set: |p, v| {

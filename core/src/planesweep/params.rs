@@ -21,7 +21,7 @@ pub struct PlaneSweepParams {
     /// Truncation of each channel's absolute difference (unit intensity), 0.001…1.
     pub truncate: f32,
     /// A one-axis volume's winner replaces the combined one's when its confidence
-    /// exceeds the combined one's times this, 0.5…4.
+    /// exceeds the combined one's times this (and the other one-axis volumes'), 1…4.
     pub select: f32,
     /// Line windows of the one-axis volumes: this many times the radius on each side, 1…4.
     pub line: usize,
@@ -67,8 +67,8 @@ impl PlaneSweepParams {
         if !(self.truncate.is_finite() && (0.001..=1.0).contains(&self.truncate)) {
             return bad("sweep.truncate", "must be in [0.001, 1] (unit intensity)");
         }
-        if !(self.select.is_finite() && (0.5..=4.0).contains(&self.select)) {
-            return bad("sweep.select", "must be in [0.5, 4]");
+        if !(self.select.is_finite() && (1.0..=4.0).contains(&self.select)) {
+            return bad("sweep.select", "must be in [1, 4]");
         }
         if !(1..=4).contains(&self.line) {
             return bad("sweep.line", "must be in 1..=4");

@@ -169,7 +169,7 @@ fn bad_parameters_are_named() {
         (
             "sweep.select",
             PlaneSweepParams {
-                select: 0.1,
+                select: 0.9,
                 ..enabled()
             },
         ),
