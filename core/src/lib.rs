@@ -33,6 +33,7 @@ pub mod metrics;
 pub mod options;
 pub mod pipeline;
 pub mod plan;
+pub mod planesweep;
 pub mod progress;
 pub mod refine;
 pub mod scalar;

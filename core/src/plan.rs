@@ -9,6 +9,7 @@ use crate::error::{checked_product, Result};
 use crate::geofill::GeoFillParams;
 use crate::lightfield::Layout;
 use crate::median::MedianParams;
+use crate::planesweep::PlaneSweepParams;
 use crate::refine::RefineParams;
 use crate::setup::Setup;
 use crate::tv::TvParams;
@@ -23,6 +24,9 @@ pub struct Params {
     pub align: AlignParams,
     /// Initial disparity from EPIs.
     pub epi: EpiParams,
+    /// Initial disparity from a plane sweep instead of the EPI stage (off by default; the
+    /// EPI stage's automatic range still sets its hypotheses).
+    pub sweep: PlaneSweepParams,
     /// Photometric refinement of the EPI disparity over many views.
     pub refine: RefineParams,
     /// Total-variation refinement.
@@ -47,6 +51,7 @@ impl Default for Params {
                 ..AlignParams::default()
             },
             epi: EpiParams::default(),
+            sweep: PlaneSweepParams::default(),
             refine: RefineParams::default(),
             tv: TvParams {
                 lambda: 0.25,
@@ -64,6 +69,7 @@ impl Params {
         Params {
             align: Params::default().align,
             epi: EpiParams::paper(),
+            sweep: PlaneSweepParams::off(),
             refine: RefineParams::off(),
             tv: TvParams::default(),
             median: MedianParams::off(),
@@ -130,6 +136,18 @@ impl Preset {
     }
 }
 
+/// The plane sweep replaces the EPI stage, so it cannot start from the half-resolution
+/// EPI's upsampling.
+pub(crate) fn check_initial(params: &Params) -> Result<()> {
+    if params.sweep.enabled && params.epi.half_resolution {
+        return Err(crate::error::Error::InvalidParameter {
+            name: "sweep.enabled",
+            reason: "replaces the EPI stage: switch the half-resolution EPI off with it",
+        });
+    }
+    Ok(())
+}
+
 /// Validated dimensions and parameters of one estimation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plan {
@@ -148,6 +166,8 @@ impl Plan {
         params.tv.validate()?;
         params.median.validate()?;
         params.geofill.validate()?;
+        params.sweep.validate()?;
+        check_initial(&params)?;
         let pixels = checked_product(&[layout.width, layout.height], "the disparity map")?;
         Ok(Plan {
             layout,
@@ -170,6 +190,10 @@ impl Plan {
     /// What the EPI stage needs: the layout and [`Params::epi`].
     pub fn epi(&self) -> Setup<'_, EpiParams> {
         Setup::validated(&self.layout, &self.params.epi, self.pixels)
+    }
+    /// What the plane sweep needs: the layout and [`Params::sweep`].
+    pub fn sweep(&self) -> Setup<'_, PlaneSweepParams> {
+        Setup::validated(&self.layout, &self.params.sweep, self.pixels)
     }
     /// What the refinement needs: the layout and [`Params::refine`].
     pub fn refine(&self) -> Setup<'_, RefineParams> {

@@ -204,7 +204,8 @@ impl StreamPlan {
     /// the weighted median before TV on the region grown by its halo, TV's first sweep on
     /// the region), and refuses a step it cannot run band by band, naming the parameter
     /// that switches it off: the photometric refinement, the geodesic refill, the median
-    /// after TV, TV's outer sweeps and the half-resolution EPI's upsampling. The disparity
+    /// after TV, TV's outer sweeps, the plane sweep and the half-resolution EPI's
+    /// upsampling. The disparity
     /// range must be fixed (or the shear off), the alignment off and the grid two-dimensional.
     pub fn new(layout: Layout, params: Params) -> Result<Self> {
         let plan = Plan::new(layout, params)?;
@@ -225,6 +226,12 @@ impl StreamPlan {
                     return Err(Error::InvalidParameter {
                         name: "half_resolution",
                         reason: "must be off for a stream: the half-resolution EPI is not streamed",
+                    })
+                }
+                Step::PlaneSweep => {
+                    return Err(Error::InvalidParameter {
+                        name: "sweep.enabled",
+                        reason: "must be off for a stream: the plane sweep is not streamed",
                     })
                 }
                 Step::Refine => {

@@ -68,6 +68,26 @@ export interface EstimateParams {
   /** Disparity search range in px between adjacent views: auto (estimated from the views)
    * or fixed from a minimum to a maximum (default "auto"). CLI: `--disparity-range`. */
   range?: "auto" | [number, number];
+  /** Initial disparity: epi (the structure tensor on sheared EPIs) or sweep (a plane
+   * sweep over the EPI stage's range with window-aggregated truncated differences to the
+   * centre row and column of views) (default "epi"). CLI: `--initial`. */
+  initial?: "epi" | "sweep";
+  /** Plane sweep: largest distance between hypotheses (px) (0.05…1; default 0.25). CLI:
+   * `--sweep-step`. */
+  sweepStep?: number;
+  /** Plane sweep: radius (px) of the square window the matching costs are summed over
+   * (0…8; default 4). CLI: `--sweep-radius`. */
+  sweepRadius?: number;
+  /** Plane sweep: each channel's absolute difference to the centre view counts at most
+   * this much (unit intensity) (0.001…1; default 0.1). CLI: `--sweep-truncate`. */
+  sweepTruncate?: number;
+  /** Plane sweep: a one-axis volume's winner replaces the combined one's when its
+   * confidence exceeds the combined one's times this (1…4; default 1). CLI:
+   * `--sweep-select`. */
+  sweepSelect?: number;
+  /** Plane sweep: the one-axis volumes' windows are lines this many times the radius long
+   * on each side (1…4; default 2). CLI: `--sweep-line`. */
+  sweepLine?: number;
   /** Photometric refinement of the EPI disparity over many views (default true). CLI:
    * `--refine`. */
   refine?: boolean;

@@ -44,6 +44,7 @@ fn snapshot_label(steps: &[Step], index: usize) -> Option<String> {
         Step::Range => return None,
         Step::Epi(_) if matches!(next, Some(Step::Epi(_)) | Some(Step::Upsample)) => return None,
         Step::Epi(_) | Step::Upsample => "EPI estimate",
+        Step::PlaneSweep => "plane-sweep estimate",
         Step::Refine => "refined",
         Step::Refill => "refilled at depth steps",
         Step::Median => "edge-snapping median",

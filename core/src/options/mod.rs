@@ -303,6 +303,8 @@ pub fn validate(params: &Params, front: Front) -> Result<()> {
         .and_then(|()| params.tv.validate())
         .and_then(|()| params.median.validate())
         .and_then(|()| params.geofill.validate())
+        .and_then(|()| params.sweep.validate())
+        .and_then(|()| crate::plan::check_initial(params))
         .map_err(|e| rename(e, front))
 }
 

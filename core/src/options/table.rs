@@ -50,6 +50,7 @@ const INTERPOLATIONS: &[&str] = &["bilinear", "sharpened-bilinear", "catmull-rom
 const ALIGNED_VIEWS: &[&str] = &["read", "cross", "all"];
 const FUSIONS: &[&str] = &["coherence", "weighted"];
 const COLORS: &[&str] = &["tensor", "gray"];
+const INITIALS: &[&str] = &["epi", "sweep"];
 
 /// Every tunable, in the order the front ends apply them (a later one may build on an
 /// earlier one: `--no-shear` replaces the whole EPI stage's settings, so it comes first
@@ -309,6 +310,83 @@ pub static TUNABLES: &[Tunable] = &[
                 Some(())
             }
             _ => None,
+        },
+    },
+    // Plane sweep.
+    Tunable {
+        flag: Some(Flag::Value("--initial")),
+        key: Some("initial"),
+        doc: "Initial disparity: epi (the structure tensor on sheared EPIs) or sweep (a plane sweep over the EPI stage's range with window-aggregated truncated differences to the centre row and column of views)",
+        kind: Kind::Choice(INITIALS),
+        path: "sweep.enabled",
+        get: |p| Value::Choice(if p.sweep.enabled { "sweep" } else { "epi" }),
+        set: |p, v| {
+            p.sweep.enabled = match choice(v)? {
+                "epi" => false,
+                "sweep" => true,
+                _ => return None,
+            };
+            Some(())
+        },
+    },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-step")),
+        key: Some("sweepStep"),
+        doc: "Plane sweep: largest distance between hypotheses (px)",
+        kind: closed(0.05, 1.0),
+        path: "sweep.step",
+        get: |p| Value::Float(p.sweep.step),
+        set: |p, v| {
+            p.sweep.step = float(v)?;
+            Some(())
+        },
+    },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-radius")),
+        key: Some("sweepRadius"),
+        doc: "Plane sweep: radius (px) of the square window the matching costs are summed over",
+        kind: ints(0, crate::planesweep::MAX_RADIUS),
+        path: "sweep.radius",
+        get: |p| Value::Int(p.sweep.radius),
+        set: |p, v| {
+            p.sweep.radius = int(v)?;
+            Some(())
+        },
+    },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-truncate")),
+        key: Some("sweepTruncate"),
+        doc: "Plane sweep: each channel's absolute difference to the centre view counts at most this much (unit intensity)",
+        kind: closed(0.001, 1.0),
+        path: "sweep.truncate",
+        get: |p| Value::Float(p.sweep.truncate),
+        set: |p, v| {
+            p.sweep.truncate = float(v)?;
+            Some(())
+        },
+    },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-select")),
+        key: Some("sweepSelect"),
+        doc: "Plane sweep: a one-axis volume's winner replaces the combined one's when its confidence exceeds the combined one's times this",
+        kind: closed(1.0, 4.0),
+        path: "sweep.select",
+        get: |p| Value::Float(p.sweep.select),
+        set: |p, v| {
+            p.sweep.select = float(v)?;
+            Some(())
+        },
+    },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-line")),
+        key: Some("sweepLine"),
+        doc: "Plane sweep: the one-axis volumes' windows are lines this many times the radius long on each side",
+        kind: ints(1, crate::planesweep::MAX_LINE),
+        path: "sweep.line",
+        get: |p| Value::Int(p.sweep.line),
+        set: |p, v| {
+            p.sweep.line = int(v)?;
+            Some(())
         },
     },
     // Photometric refinement.

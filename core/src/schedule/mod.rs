@@ -29,6 +29,7 @@ use crate::geofill;
 use crate::lightfield::{LightField, Sample};
 use crate::median;
 use crate::plan::Plan;
+use crate::planesweep;
 use crate::refine;
 use crate::scalar::Scalar;
 use crate::setup::DisparityOut;
@@ -77,6 +78,10 @@ pub enum Step {
     /// the horizontal step, a column's vertical step moves its estimates into the
     /// current maps unfused.
     Epi(Direction),
+    /// The plane sweep's initial disparity ([`crate::planesweep`], instead of the EPI
+    /// steps when [`crate::plan::Params::sweep`] is enabled), in bands of
+    /// [`planesweep::BAND_ROWS`] rows into the other maps.
+    PlaneSweep,
     /// The half-resolution EPI map upsampled to full resolution guided by the centre
     /// view ([`epi::upsample_rows`], only with [`epi::EpiParams::half_resolution`]), in
     /// bands of [`UPSAMPLE_ROWS`] rows into the other maps.
@@ -103,6 +108,7 @@ impl Step {
             Step::Epi(Direction::Horizontal) => epi::STAGE_HORIZONTAL,
             Step::Epi(Direction::Vertical) => epi::STAGE_VERTICAL,
             Step::Upsample => epi::STAGE_UPSAMPLE,
+            Step::PlaneSweep => planesweep::STAGE,
             Step::Refine => refine::STAGE,
             Step::Refill => geofill::STAGE,
             Step::Median => median::STAGE,
@@ -147,13 +153,17 @@ impl Schedule {
             })
         };
         push(Step::Range)?;
-        // A linear array (one row or column of cameras) has one EPI direction only.
-        for direction in Direction::BOTH {
-            if direction.exists(plan.layout()) {
-                push(Step::Epi(direction))?;
+        let params = plan.params();
+        if params.sweep.enabled {
+            push(Step::PlaneSweep)?;
+        } else {
+            // A linear array (one row or column of cameras) has one EPI direction only.
+            for direction in Direction::BOTH {
+                if direction.exists(plan.layout()) {
+                    push(Step::Epi(direction))?;
+                }
             }
         }
-        let params = plan.params();
         if params.epi.half_resolution {
             push(Step::Upsample)?;
         }
@@ -226,6 +236,7 @@ impl Schedule {
             Step::Range | Step::Refill => 1,
             Step::Epi(direction) => epi::lines(self.plan.epi(), direction).div_ceil(BAND_LINES),
             Step::Upsample => layout.height.div_ceil(UPSAMPLE_ROWS),
+            Step::PlaneSweep => planesweep::band_count(self.plan.sweep()),
             Step::Refine => refine::band_count(self.plan.refine()),
             Step::Median => layout
                 .height
@@ -258,6 +269,7 @@ impl Schedule {
             Step::Range => Region::Range,
             Step::Epi(direction) => lines(BAND_LINES, epi::lines(self.plan.epi(), direction)),
             Step::Upsample => lines(UPSAMPLE_ROWS, height),
+            Step::PlaneSweep => lines(planesweep::BAND_ROWS, height),
             Step::Refine => {
                 let rows = refine::band_rows(self.plan.refine(), index)?;
                 Region::Lines(rows.start, rows.end)
@@ -272,7 +284,7 @@ impl Schedule {
     pub fn reads(&self, step: Step) -> Reads {
         let none = Reads::default();
         match step {
-            Step::Range | Step::Epi(_) => none,
+            Step::Range | Step::Epi(_) | Step::PlaneSweep => none,
             Step::Refine | Step::Refill | Step::Median => Reads {
                 disparity: true,
                 ..none
@@ -358,6 +370,10 @@ impl Schedule {
                 maps: epi::upsample_scratch_len(plan.epi(), UPSAMPLE_ROWS),
                 ..none
             },
+            Step::PlaneSweep => ScratchLen {
+                maps: planesweep::scratch_len(plan.sweep()),
+                ..none
+            },
             Step::Refine => ScratchLen {
                 kernel: refine::scratch_len(plan.refine()),
                 ..none
@@ -439,6 +455,20 @@ impl Schedule {
                     &lf.center_view(),
                     state.disparity(),
                     state.confidence(),
+                    lines,
+                    DisparityOut {
+                        disparity: &mut *out.disparity,
+                        confidence: &mut *out.confidence,
+                    },
+                    scratch.maps,
+                )
+            }),
+            Step::PlaneSweep => alone(|| {
+                let h = range()?;
+                planesweep::estimate_rows(
+                    plan.sweep(),
+                    (h.min(), h.max()),
+                    lf,
                     lines,
                     DisparityOut {
                         disparity: &mut *out.disparity,
@@ -598,7 +628,7 @@ impl Schedule {
                     .then_some(self.plan.params().epi.fusion);
                 state.fuse(fusion, width, height);
             }
-            Step::Upsample | Step::Refine => {
+            Step::Upsample | Step::PlaneSweep | Step::Refine => {
                 swap_d(state);
                 state.swap_maps(CURRENT_C, OTHER_C);
             }

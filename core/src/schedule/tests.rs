@@ -96,7 +96,7 @@ fn bits(values: &[f32]) -> Vec<u32> {
     values.iter().map(|v| v.to_bits()).collect()
 }
 
-fn variants() -> [(&'static str, Params); 6] {
+fn variants() -> [(&'static str, Params); 7] {
     let small = Params {
         refine: RefineParams {
             band_rows: 10,
@@ -134,6 +134,16 @@ fn variants() -> [(&'static str, Params); 6] {
             },
         ),
         ("the paper's pipeline", Params::paper()),
+        (
+            "plane sweep",
+            Params {
+                sweep: crate::planesweep::PlaneSweepParams {
+                    enabled: true,
+                    ..Default::default()
+                },
+                ..small
+            },
+        ),
         (
             "half-resolution EPI",
             Params {
@@ -312,7 +322,12 @@ fn a_linear_array_runs_its_one_direction_by_parts_as_serially() {
             let plan = Plan::new(layout, params).unwrap();
             let schedule = Schedule::new(&plan, Stages::Full, 2).unwrap();
             let stages: Vec<_> = schedule.steps().iter().map(|s| s.stage()).collect();
-            assert_eq!(stages[..2], [crate::epi::STAGE_RANGE, epi(direction)]);
+            let first = if params.sweep.enabled {
+                crate::planesweep::STAGE
+            } else {
+                epi(direction)
+            };
+            assert_eq!(stages[..2], [crate::epi::STAGE_RANGE, first]);
             assert!(
                 !schedule
                     .steps()

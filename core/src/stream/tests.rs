@@ -423,4 +423,18 @@ fn a_stream_refuses_the_refill() {
         ..params
     };
     assert!(StreamPlan::new(layout, off).is_ok());
+    let sweep = Params {
+        sweep: crate::planesweep::PlaneSweepParams {
+            enabled: true,
+            ..Default::default()
+        },
+        ..off
+    };
+    assert!(matches!(
+        StreamPlan::new(layout, sweep),
+        Err(Error::InvalidParameter {
+            name: "sweep.enabled",
+            ..
+        })
+    ));
 }

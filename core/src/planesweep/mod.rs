@@ -1,0 +1,616 @@
+//! Initial disparity from a plane sweep with window-aggregated matching costs: an
+//! alternative to the EPI stage ([`crate::epi`]) for the start of the pipeline.
+//!
+//! For each hypothesis `d` on a grid over the disparity range (spacing at most
+//! [`PlaneSweepParams::step`], both ends included), every view of the centre row and
+//! column of cameras is compared with the centre view where `d` puts the centre pixel in
+//! that view: view `(r, c)` at camera offset `(u, v) = (c − c0, r − r0)` is read at
+//! `(x − d·u, y − d·v)`, linearly interpolated. For a horizontal view that is the view's
+//! row `y` shifted by the constant `−d·u`, for a vertical view a blend of two of its rows
+//! with constant weights: either way a contiguous, branch-free pass over a row that the
+//! compiler vectorises. With `f` the fractional part of the shift and `g = 1 − f`, a view
+//! contributes per colour channel
+//!
+//! ```text
+//! e = min(w·|g·I(⌊s⌋) + f·I(⌊s⌋ + 1) − I_centre|, τ),     w = √2 / √(1 + g² + f²)
+//! ```
+//!
+//! (`τ` [`PlaneSweepParams::truncate`], unit intensity): `w` divides by the residual's
+//! deviation under independent noise of equal deviation in every view, relative to a
+//! whole-pixel shift. Without it, interpolation that averages two noisy samples lowers
+//! the cost at half-pixel shifts and pulls faint texture towards those hypotheses.
+//!
+//! The costs are summed into five volumes, each aggregated over its own window
+//! (`r` = [`PlaneSweepParams::radius`], `ℓ = line · r`, [`PlaneSweepParams::line`]; the
+//! cost is replicated at the image edges):
+//!
+//! | volume | views | window |
+//! |---|---|---|
+//! | combined | row and column | `(2r + 1)²` square |
+//! | horizontal, along | centre row | `2ℓ + 1` along x |
+//! | vertical, along | centre column | `2ℓ + 1` along y |
+//! | horizontal, across | centre row | `2ℓ + 1` along y |
+//! | vertical, across | centre column | `2ℓ + 1` along x |
+//!
+//! A square window straddles thin structures and the gaps between them (the slats of
+//! HCI backgammon, poles); a line window along the structure keeps them, and the views
+//! of one axis avoid the other axis's occlusions. Per volume and pixel the stage keeps
+//! the lowest cost `c₀`, its hypothesis and its neighbours' costs `c₋`, `c₊`, and refines
+//! the winner by the equiangular fit `Δ = (c₋ − c₊) / (2 (max(c₋, c₊) − c₀))` (clamped
+//! to half a step; absolute differences make V-shaped minima, which a parabola biases
+//! towards the hypotheses). The confidence is `1 − c₀ / c̄`, `c̄` the mean cost over the
+//! hypotheses: near 1 where one hypothesis stands out, 0 on textureless surfaces. Each
+//! pixel takes the combined volume's winner unless a one-axis volume's confidence
+//! exceeds the combined one's times [`PlaneSweepParams::select`] (and the other
+//! one-axis volumes').
+//!
+//! # Bands
+//! The stage runs over bands of [`BAND_ROWS`] rows; a band computes the costs of its
+//! rows and `ℓ` rows on each side (clamped to the image), and every sum runs in one
+//! order, so the map is bit-identical for any banding and thread count.
+//!
+//! # Numbers
+//! The stage computes in `f32` whatever the pipeline's scalar type: its scratch is the
+//! run's `f32` map scratch.
+
+mod params;
+#[cfg(test)]
+mod tests;
+
+use core::ops::Range;
+
+use crate::error::{check_scratch, checked_product, Error, Result};
+use crate::lightfield::{LightField, Sample, View};
+use crate::setup::{DisparityOut, Setup};
+
+pub use params::{PlaneSweepParams, MAX_LINE, MAX_RADIUS};
+
+/// Progress and timing stage name.
+pub const STAGE: &str = "sweep";
+
+/// Image rows per band (a part of the schedule's step): the cost rows of a band's halo
+/// (`2 · radius`) are computed again by the next band, so a band should be much taller
+/// than the window.
+pub const BAND_ROWS: usize = 64;
+
+/// `√2`: the noise weight of a whole-pixel shift is 1.
+const NOISE_SCALE: f32 = core::f32::consts::SQRT_2;
+
+/// View groups: the centre row's views and the centre column's.
+const GROUPS: usize = 2;
+
+/// Per-pixel state a band keeps over the hypotheses, per volume.
+const STATE: usize = 6;
+
+/// Cost volumes: every view in a square window, then each axis's views in a line
+/// window along and across its axis.
+const VOLUMES: usize = 5;
+
+/// Scratch (`f32` elements) of [`estimate_rows`] for a band of up to [`BAND_ROWS`] rows:
+/// two interleaved rows of matching costs (row and column views) and the centre row,
+/// one aggregated row,
+/// and per volume a padded row of pixel costs, the filtered rows of the band and its halo
+/// and six values per pixel of the band.
+pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
+    let layout = setup.layout();
+    let (width, channels) = (layout.width, layout.channels);
+    let line = setup.params().line * setup.params().radius;
+    let rows = BAND_ROWS.min(layout.height);
+    let volume = [
+        width.saturating_add(2 * line),
+        rows.saturating_add(2 * line).saturating_mul(width),
+        rows.saturating_mul(width).saturating_mul(STATE),
+    ]
+    .iter()
+    .fold(0usize, |a, &b| a.saturating_add(b));
+    let parts = [
+        width.saturating_mul(channels).saturating_mul(GROUPS + 1),
+        width.saturating_mul(3),
+        volume.saturating_mul(VOLUMES),
+    ];
+    parts.iter().fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// Number of bands of [`BAND_ROWS`] rows.
+pub fn band_count(setup: Setup<'_, PlaneSweepParams>) -> usize {
+    setup.layout().height.div_ceil(BAND_ROWS)
+}
+
+/// The hypotheses over `[min, max]`: their number and spacing (at most `step`, both ends
+/// included).
+fn hypotheses(step: f32, min: f32, max: f32) -> (usize, f32) {
+    let span = max - min;
+    if span.is_nan() || span <= 0.0 {
+        return (1, 0.0);
+    }
+    // `span / step` ≤ 16 / 0.05 by the parameters' and the range's bounds.
+    let intervals = libm::ceilf(span / step - 1.0e-4).max(1.0) as usize;
+    (intervals + 1, span / intervals as f32)
+}
+
+/// One view of the sweep: its image and camera offset from the centre.
+#[derive(Clone, Copy)]
+struct SweepView<'a, S: Sample> {
+    view: View<'a, S>,
+    u: f32,
+    v: f32,
+    /// 0 for the centre row's views, 1 for the centre column's.
+    group: usize,
+}
+
+/// Estimates rows `rows` (at most [`BAND_ROWS`]) of the disparity of `lf`'s centre view
+/// over the hypotheses of `range` (`(min, max)`, px) into `out` (one value per pixel of
+/// the rows), with `scratch` ([`scratch_len`] `f32` elements).
+pub fn estimate_rows<S: Sample>(
+    setup: Setup<'_, PlaneSweepParams>,
+    range: (f32, f32),
+    lf: &LightField<'_, S>,
+    rows: Range<usize>,
+    out: DisparityOut<'_>,
+    scratch: &mut [f32],
+) -> Result<()> {
+    let layout = setup.layout();
+    if lf.layout() != layout {
+        return Err(Error::InvalidParameter {
+            name: "plan",
+            reason: "was made for a different light-field layout: build it from this light field",
+        });
+    }
+    let params = setup.params();
+    let (width, height, channels) = (layout.width, layout.height, layout.channels);
+    if rows.start > rows.end || rows.end > height || rows.len() > BAND_ROWS {
+        return Err(Error::InvalidParameter {
+            name: "rows",
+            reason: "must be a run of at most BAND_ROWS rows inside the image",
+        });
+    }
+    let len = checked_product(&[rows.len(), width], "a band of the plane sweep")?;
+    for (what, got) in [
+        ("the plane sweep's disparity", out.disparity.len()),
+        ("the plane sweep's confidence", out.confidence.len()),
+    ] {
+        if got != len {
+            return Err(Error::OutputSize {
+                what,
+                needed: len,
+                got,
+            });
+        }
+    }
+    check_scratch(scratch_len(setup), scratch.len())?;
+    let (min, max) = range;
+    if !(min.is_finite() && max.is_finite() && min <= max) {
+        return Err(Error::InvalidParameter {
+            name: "range",
+            reason: "must be finite with min ≤ max",
+        });
+    }
+    if rows.is_empty() {
+        return Ok(());
+    }
+
+    let grid = lf.grid();
+    let (r0, c0) = grid.center();
+    let centre = lf.center_view();
+    let mut views: heapless::Vec<SweepView<'_, S>, { 2 * crate::lightfield::GRID_MAX }> =
+        heapless::Vec::new();
+    for c in (0..grid.cols).filter(|&c| c != c0) {
+        let view = lf.view(r0, c)?;
+        let u = c as f32 - c0 as f32;
+        views
+            .push(SweepView {
+                view,
+                u,
+                v: 0.0,
+                group: 0,
+            })
+            .map_err(|_| Error::SizeOverflow { what: "the views" })?;
+    }
+    for r in (0..grid.rows).filter(|&r| r != r0) {
+        let view = lf.view(r, c0)?;
+        let v = r as f32 - r0 as f32;
+        views
+            .push(SweepView {
+                view,
+                u: 0.0,
+                v,
+                group: 1,
+            })
+            .map_err(|_| Error::SizeOverflow { what: "the views" })?;
+    }
+
+    let r = params.radius;
+    let tau = params.truncate;
+    let row_len = width * channels;
+    let (acc, rest) = take(scratch, (GROUPS + 1) * row_len)?;
+    let (agg, rest) = take(rest, width)?;
+    let (sums, rest) = take(rest, 2 * width)?;
+    let line = params.line * r;
+    let region = rows.start.saturating_sub(line)..(rows.end + line).min(height);
+    let mut rest = rest;
+    let mut volumes: heapless::Vec<Volume<'_>, VOLUMES> = heapless::Vec::new();
+    let kinds = [
+        (Source::All, (r, r)),
+        (Source::Horizontal, (line, 0)),
+        (Source::Vertical, (0, line)),
+        (Source::Horizontal, (0, line)),
+        (Source::Vertical, (line, 0)),
+    ];
+    for (source, radii) in kinds {
+        let (volume, tail) = Volume::take(
+            rest,
+            source,
+            radii,
+            width + 2 * line,
+            region.len() * width,
+            len,
+        )?;
+        rest = tail;
+        volumes.push(volume).map_err(|_| Error::SizeOverflow {
+            what: "the volumes",
+        })?;
+    }
+
+    let used = channels.min(3);
+    let (count, spacing) = hypotheses(params.step, min, max);
+    for i in 0..count {
+        let d = min + i as f32 * spacing;
+        for (k, y) in region.clone().enumerate() {
+            pixel_costs(&centre, &views, y, d, tau, acc)?;
+            let (across, along) = acc.split_at_checked(row_len).unwrap_or((&[], &[]));
+            let (h_sum, v_sum) = take(sums, width)?;
+            for (sum, costs) in [(&mut *h_sum, across), (&mut *v_sum, along)] {
+                for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels.max(1))) {
+                    *s = px.iter().take(used).sum();
+                }
+            }
+            for volume in volumes.iter_mut() {
+                let source = volume.source;
+                let body = volume.body_mut(width);
+                match source {
+                    Source::All => {
+                        for ((p, &h), &v) in body.iter_mut().zip(h_sum.iter()).zip(v_sum.iter()) {
+                            *p = h + v;
+                        }
+                    }
+                    Source::Horizontal => copy(body, h_sum),
+                    Source::Vertical => copy(body, v_sum),
+                }
+                volume.filter_row(width, k)?;
+            }
+        }
+        let at = i as f32;
+        for (b, y) in rows.clone().enumerate() {
+            for volume in volumes.iter_mut() {
+                volume.aggregate(agg, width, height, y, region.start)?;
+                volume.update(agg, b * width..(b + 1) * width, at);
+            }
+        }
+    }
+
+    // Per pixel, the combined volume's winner unless a one-axis volume's stands out
+    // more.
+    let mean_scale = 1.0 / count as f32;
+    for volume in volumes.iter_mut() {
+        volume.finish(mean_scale, min, max, spacing);
+    }
+    let Some((all, axes)) = volumes.split_first() else {
+        return Err(Error::SizeOverflow {
+            what: "the volumes",
+        });
+    };
+    copy(out.disparity, all.best_at);
+    copy(out.confidence, all.sum);
+    for volume in axes {
+        let pixels = out
+            .disparity
+            .iter_mut()
+            .zip(out.confidence.iter_mut())
+            .zip(all.sum.iter())
+            .zip(volume.best_at.iter().zip(volume.sum.iter()));
+        for (((d, c), &ca), (&dv, &cv)) in pixels {
+            if cv > ca * params.select && cv > *c {
+                *d = dv;
+                *c = cv;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The views a cost volume sums.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Source {
+    All,
+    Horizontal,
+    Vertical,
+}
+
+/// One cost volume's rows and per-pixel winners over a band.
+struct Volume<'a> {
+    /// Which views it sums.
+    source: Source,
+    /// Window radii along x and y.
+    rx: usize,
+    ry: usize,
+    /// One row of pixel costs, padded by the radius on each side.
+    padded: &'a mut [f32],
+    /// Horizontally box-filtered cost rows of the band and its halo.
+    costs: &'a mut [f32],
+    best: &'a mut [f32],
+    best_at: &'a mut [f32],
+    before: &'a mut [f32],
+    after: &'a mut [f32],
+    last: &'a mut [f32],
+    /// The sum of the costs over the hypotheses (then the confidence).
+    sum: &'a mut [f32],
+}
+
+impl<'a> Volume<'a> {
+    fn take(
+        s: &'a mut [f32],
+        source: Source,
+        (rx, ry): (usize, usize),
+        padded: usize,
+        costs: usize,
+        len: usize,
+    ) -> Result<(Self, &'a mut [f32])> {
+        let (padded, s) = take(s, padded)?;
+        let (costs, s) = take(s, costs)?;
+        let (best, s) = take(s, len)?;
+        let (best_at, s) = take(s, len)?;
+        let (before, s) = take(s, len)?;
+        let (after, s) = take(s, len)?;
+        let (last, s) = take(s, len)?;
+        let (sum, s) = take(s, len)?;
+        best.fill(f32::INFINITY);
+        best_at.fill(0.0);
+        before.fill(f32::INFINITY);
+        after.fill(f32::INFINITY);
+        last.fill(f32::INFINITY);
+        sum.fill(0.0);
+        Ok((
+            Volume {
+                source,
+                rx,
+                ry,
+                padded,
+                costs,
+                best,
+                best_at,
+                before,
+                after,
+                last,
+                sum,
+            },
+            s,
+        ))
+    }
+
+    /// The unpadded part of the pixel-cost row.
+    fn body_mut(&mut self, width: usize) -> &mut [f32] {
+        let r = self.rx;
+        self.padded.get_mut(r..r + width).unwrap_or(&mut [])
+    }
+
+    /// Pads the pixel-cost row with its end values and box-filters it into cost row `k`.
+    fn filter_row(&mut self, width: usize, k: usize) -> Result<()> {
+        let r = self.rx;
+        let (lead, tail) = take(self.padded, r)?;
+        let (body, trail) = take(tail, width)?;
+        lead.fill(body.first().copied().unwrap_or(0.0));
+        trail.fill(body.last().copied().unwrap_or(0.0));
+        let row = self
+            .costs
+            .get_mut(k * width..(k + 1) * width)
+            .ok_or(Error::SizeOverflow { what: "a cost row" })?;
+        // The first tap initialises the sum (bit-identical to adding it to zero: costs are
+        // never −0).
+        copy(row, self.padded.get(..width).unwrap_or(&[]));
+        for j in 1..=2 * r {
+            let src = self.padded.get(j..j + width).unwrap_or(&[]);
+            for (c, s) in row.iter_mut().zip(src) {
+                *c += s;
+            }
+        }
+        Ok(())
+    }
+
+    /// The box sum over rows `y − r ..= y + r` (clamped to the image) into `agg`.
+    fn aggregate(
+        &self,
+        agg: &mut [f32],
+        width: usize,
+        height: usize,
+        y: usize,
+        first: usize,
+    ) -> Result<()> {
+        let r = self.ry;
+        for j in 0..=2 * r {
+            let yy = (y + j)
+                .saturating_sub(r)
+                .min(height - 1)
+                .saturating_sub(first);
+            let src = self
+                .costs
+                .get(yy * width..(yy + 1) * width)
+                .ok_or(Error::SizeOverflow { what: "a cost row" })?;
+            if j == 0 {
+                copy(agg, src);
+            } else {
+                for (a, s) in agg.iter_mut().zip(src) {
+                    *a += s;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes hypothesis `at`'s aggregated costs `agg` of band row `band`.
+    fn update(&mut self, agg: &[f32], band: Range<usize>, at: f32) {
+        let best = self.best.get_mut(band.clone()).unwrap_or(&mut []);
+        let best_at = self.best_at.get_mut(band.clone()).unwrap_or(&mut []);
+        let before = self.before.get_mut(band.clone()).unwrap_or(&mut []);
+        let after = self.after.get_mut(band.clone()).unwrap_or(&mut []);
+        let last = self.last.get_mut(band.clone()).unwrap_or(&mut []);
+        let sum = self.sum.get_mut(band).unwrap_or(&mut []);
+        let state = best
+            .iter_mut()
+            .zip(best_at.iter_mut())
+            .zip(before.iter_mut())
+            .zip(after.iter_mut())
+            .zip(last.iter_mut())
+            .zip(sum.iter_mut());
+        for ((((((b, bi), be), af), l), s), &a) in state.zip(agg.iter()) {
+            let better = a < *b;
+            let next = *bi + 1.0 == at;
+            *af = if better {
+                f32::INFINITY
+            } else if next {
+                a
+            } else {
+                *af
+            };
+            *be = if better { *l } else { *be };
+            *b = if better { a } else { *b };
+            *bi = if better { at } else { *bi };
+            *l = a;
+            *s += a;
+        }
+    }
+
+    /// Turns the winners into disparities (in `best_at`) and confidences (in `sum`).
+    fn finish(&mut self, mean_scale: f32, min: f32, max: f32, spacing: f32) {
+        let pixels = self.best_at.iter_mut().zip(self.sum.iter_mut()).zip(
+            self.best
+                .iter()
+                .zip(self.before.iter().zip(self.after.iter())),
+        );
+        for ((bi, c), (&b, (&be, &af))) in pixels {
+            let curvature = 2.0 * (be.max(af) - b);
+            let offset = if be.is_finite() && af.is_finite() && curvature > 0.0 {
+                ((be - af) / curvature).clamp(-0.5, 0.5)
+            } else {
+                0.0
+            };
+            *bi = (min + (*bi + offset) * spacing).max(min).min(max);
+            let mean = *c * mean_scale;
+            *c = if mean > 0.0 {
+                (1.0 - b / mean).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+        }
+    }
+}
+
+/// Copies what `from` and `to` have in common (no length check that could panic).
+fn copy(to: &mut [f32], from: &[f32]) {
+    for (t, &f) in to.iter_mut().zip(from) {
+        *t = f;
+    }
+}
+
+/// The first `n` elements of `s` and the rest; a too-short slice is an error.
+fn take(s: &mut [f32], n: usize) -> Result<(&mut [f32], &mut [f32])> {
+    let got = s.len();
+    s.split_at_mut_checked(n)
+        .ok_or(Error::ScratchTooSmall { needed: n, got })
+}
+
+/// The weighted, truncated absolute differences of row `y` of the centre view to every
+/// view at hypothesis `d`, per interleaved sample, summed over the centre row's views
+/// into the first row of `acc` and over the centre column's into the second.
+fn pixel_costs<S: Sample>(
+    centre: &View<'_, S>,
+    views: &[SweepView<'_, S>],
+    y: usize,
+    d: f32,
+    tau: f32,
+    acc: &mut [f32],
+) -> Result<()> {
+    let missing = Error::InvalidParameter {
+        name: "light field",
+        reason: "holds fewer rows than its layout: build the light field from the whole frame",
+    };
+    let width = centre.width();
+    let channels = centre.channels();
+    let height = centre.height();
+    let c_row = centre.row(y).ok_or(missing)?;
+    let row_len = width * channels;
+    let (acc, cen) = take(acc, GROUPS * row_len)?;
+    acc.fill(0.0);
+    // The centre row in unit intensity, converted once for every view.
+    for (c, s) in cen.iter_mut().zip(c_row) {
+        *c = s.to_unit();
+    }
+    let cen = &*cen;
+    for sv in views {
+        let acc = acc
+            .get_mut(sv.group * row_len..(sv.group + 1) * row_len)
+            .ok_or(Error::ScratchTooSmall {
+                needed: GROUPS * row_len,
+                got: 0,
+            })?;
+        if sv.v == 0.0 {
+            // Source x = x + t, t = −d·u: the row shifted by k = ⌊t⌋ and blended by f.
+            let t = -d * sv.u;
+            let kf = libm::floorf(t);
+            let f = t - kf;
+            let g = 1.0 - f;
+            let src = sv.view.row(y).ok_or(missing)?;
+            // Under i.i.d. noise of deviation σ the residual's deviation is
+            // σ·√(1 + g² + f²): linear interpolation averages noise away at half-pixel
+            // shifts, which would pull faint texture towards those hypotheses.
+            let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
+            let k = kf as isize;
+            // Pixels whose two taps x + k and x + k + 1 lie inside the row.
+            let lo = (-k).max(0).min(width as isize) as usize;
+            let hi = (width as isize - 1 - k)
+                .min(width as isize)
+                .max(lo as isize) as usize;
+            let shift = |x: usize| (x as isize + k).min(width as isize - 1).max(0) as usize;
+            let inner = lo * channels..hi * channels;
+            let from = (lo as isize + k).max(0) as usize * channels;
+            let s0 = src.get(from..from + inner.len()).unwrap_or(&[]);
+            let s1 = src
+                .get(from + channels..from + channels + inner.len())
+                .unwrap_or(&[]);
+            let c_in = cen.get(inner.clone()).unwrap_or(&[]);
+            let a = acc.get_mut(inner).unwrap_or(&mut []);
+            for (((a, &p0), &p1), &c) in a.iter_mut().zip(s0).zip(s1).zip(c_in) {
+                let value = g * p0.to_unit() + f * p1.to_unit();
+                *a += (w * libm::fabsf(value - c)).min(tau);
+            }
+            // The edges, with the taps clamped to the row.
+            for x in (0..lo).chain(hi..width) {
+                let (x0, x1) = (shift(x), (shift(x) + 1).min(width - 1));
+                for ch in 0..channels {
+                    let p0 = src.get(x0 * channels + ch).map_or(0.0, |s| s.to_unit());
+                    let p1 = src.get(x1 * channels + ch).map_or(0.0, |s| s.to_unit());
+                    let c = cen.get(x * channels + ch).copied().unwrap_or(0.0);
+                    if let Some(a) = acc.get_mut(x * channels + ch) {
+                        *a += (w * libm::fabsf(g * p0 + f * p1 - c)).min(tau);
+                    }
+                }
+            }
+        } else {
+            // Source y + t, t = −d·v: a blend of two rows (clamped to the image).
+            let t = -d * sv.v;
+            let kf = libm::floorf(t);
+            let f = t - kf;
+            let g = 1.0 - f;
+            let row = |dy: f32| {
+                let yy = (y as f32 + kf + dy).min(height as f32 - 1.0).max(0.0) as usize;
+                sv.view.row(yy).ok_or(missing)
+            };
+            let (s0, s1) = (row(0.0)?, row(1.0)?);
+            let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
+            for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(cen) {
+                let value = g * p0.to_unit() + f * p1.to_unit();
+                *a += (w * libm::fabsf(value - c)).min(tau);
+            }
+        }
+    }
+    Ok(())
+}

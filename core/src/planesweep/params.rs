@@ -1,0 +1,78 @@
+//! The parameters of the plane sweep and their limits.
+
+use crate::error::{Error, Result};
+use crate::setup::StageParams;
+
+/// Largest aggregation radius (px): a `(2·8 + 1)²` box.
+pub const MAX_RADIUS: usize = 8;
+/// Longest line window factor.
+pub const MAX_LINE: usize = 4;
+
+/// Parameters of the plane-sweep start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneSweepParams {
+    /// Start the pipeline from the plane sweep instead of the EPI stage (the automatic
+    /// range of the EPI stage still sets the hypotheses).
+    pub enabled: bool,
+    /// Largest distance between hypotheses (px), 0.05…1.
+    pub step: f32,
+    /// Aggregation window radius (px), 0…[`MAX_RADIUS`].
+    pub radius: usize,
+    /// Truncation of each channel's absolute difference (unit intensity), 0.001…1.
+    pub truncate: f32,
+    /// A one-axis volume's winner replaces the combined one's when its confidence
+    /// exceeds the combined one's times this (and the other one-axis volumes'), 1…4.
+    pub select: f32,
+    /// Line windows of the one-axis volumes: this many times the radius on each side, 1…4.
+    pub line: usize,
+}
+
+impl Default for PlaneSweepParams {
+    fn default() -> Self {
+        PlaneSweepParams {
+            enabled: false,
+            step: 0.25,
+            radius: 4,
+            truncate: 0.1,
+            select: 1.0,
+            line: 2,
+        }
+    }
+}
+
+impl StageParams for PlaneSweepParams {
+    fn validate(&self) -> Result<()> {
+        PlaneSweepParams::validate(self)
+    }
+}
+
+impl PlaneSweepParams {
+    /// The stage switched off: the EPI stage starts the pipeline.
+    pub fn off() -> Self {
+        PlaneSweepParams {
+            enabled: false,
+            ..Self::default()
+        }
+    }
+
+    /// Checks every parameter.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, reason| Err(Error::InvalidParameter { name, reason });
+        if !(self.step.is_finite() && (0.05..=1.0).contains(&self.step)) {
+            return bad("sweep.step", "must be in [0.05, 1] pixels");
+        }
+        if self.radius > MAX_RADIUS {
+            return bad("sweep.radius", "must be in 0..=8 pixels");
+        }
+        if !(self.truncate.is_finite() && (0.001..=1.0).contains(&self.truncate)) {
+            return bad("sweep.truncate", "must be in [0.001, 1] (unit intensity)");
+        }
+        if !(self.select.is_finite() && (1.0..=4.0).contains(&self.select)) {
+            return bad("sweep.select", "must be in [1, 4]");
+        }
+        if !(1..=4).contains(&self.line) {
+            return bad("sweep.line", "must be in 1..=4");
+        }
+        Ok(())
+    }
+}

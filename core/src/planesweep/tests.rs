@@ -1,0 +1,266 @@
+extern crate std;
+use std::vec;
+use std::vec::Vec;
+
+use super::*;
+use crate::lightfield::{Grid, Layout};
+use crate::setup::TestSetup;
+
+/// Smooth band-limited texture (frequencies ≤ 1.1 rad/px), distinct per channel.
+fn texture(x: f32, y: f32, channel: usize) -> f32 {
+    let p = channel as f32 * 0.9;
+    0.5 + 0.18 * libm::sinf(0.83 * x + 0.31 * y + p)
+        + 0.12 * libm::sinf(0.29 * x - 0.67 * y + 2.0 * p)
+        + 0.08 * libm::sinf(1.1 * x + 0.9 * y - p)
+        + 0.07 * libm::sinf(0.17 * x + 1.05 * y + 0.5 * p)
+}
+
+/// A textured plane of disparity `a + b·x` (x of the centre view), rendered exactly on a
+/// 9×9 grid: view `(u, v)` shows at `(x', y')` the centre's point `X` with
+/// `x' = X − (a + b·X)·u`, `y' = Y − (a + b·X)·v`.
+fn plane(width: usize, height: usize, a: f32, b: f32) -> (Vec<f32>, Layout, Vec<f32>) {
+    let grid = Grid::new(9, 9);
+    let layout = Layout::packed(grid, width, height, 3);
+    let (r0, c0) = grid.center();
+    let mut data = Vec::with_capacity(grid.len() * width * height * 3);
+    for r in 0..grid.rows {
+        for c in 0..grid.cols {
+            let (v, u) = (r as f32 - r0 as f32, c as f32 - c0 as f32);
+            for y in 0..height {
+                for x in 0..width {
+                    let big_x = (x as f32 + a * u) / (1.0 - b * u);
+                    let big_y = y as f32 + (a + b * big_x) * v;
+                    for ch in 0..3 {
+                        data.push(texture(big_x, big_y, ch));
+                    }
+                }
+            }
+        }
+    }
+    let gt = (0..height)
+        .flat_map(|_| (0..width).map(move |x| a + b * x as f32))
+        .collect();
+    (data, layout, gt)
+}
+
+/// The whole map, band by band (`band` rows at a time).
+fn estimate(
+    setup: &TestSetup<PlaneSweepParams>,
+    lf: &LightField<'_, f32>,
+    range: (f32, f32),
+    band: usize,
+) -> (Vec<f32>, Vec<f32>) {
+    let (width, height) = (setup.layout().width, setup.layout().height);
+    let mut d = vec![f32::NAN; width * height];
+    let mut c = vec![f32::NAN; width * height];
+    let mut scratch = vec![f32::NAN; scratch_len(setup.setup())];
+    let mut start = 0;
+    while start < height {
+        let end = (start + band).min(height);
+        estimate_rows(
+            setup.setup(),
+            range,
+            lf,
+            start..end,
+            DisparityOut {
+                disparity: &mut d[start * width..end * width],
+                confidence: &mut c[start * width..end * width],
+            },
+            &mut scratch,
+        )
+        .unwrap();
+        start = end;
+    }
+    (d, c)
+}
+
+/// Share of the pixels (8 px from the border) within `tolerance` of the truth.
+fn within(d: &[f32], gt: &[f32], width: usize, tolerance: f32) -> f32 {
+    let height = d.len() / width;
+    let (mut good, mut all) = (0, 0);
+    for y in 8..height - 8 {
+        for x in 8..width - 8 {
+            all += 1;
+            if (d[y * width + x] - gt[y * width + x]).abs() <= tolerance {
+                good += 1;
+            }
+        }
+    }
+    good as f32 / all as f32
+}
+
+fn enabled() -> PlaneSweepParams {
+    PlaneSweepParams {
+        enabled: true,
+        ..PlaneSweepParams::default()
+    }
+}
+
+#[test]
+fn fronto_parallel_planes_are_recovered() {
+    for a in [-1.3f32, 0.0, 0.8, 2.6] {
+        let (data, layout, gt) = plane(64, 48, a, 0.0);
+        let lf = LightField::new(&data[..], layout).unwrap();
+        let setup = TestSetup::new(layout, enabled());
+        let (d, c) = estimate(&setup, &lf, (-3.0, 3.0), BAND_ROWS);
+        let share = within(&d, &gt, 64, 0.05);
+        assert!(share >= 0.99, "disparity {a}: {share} within 0.05 px");
+        assert!(c.iter().all(|c| (0.0..=1.0).contains(c)));
+        assert!(d.iter().all(|d| (-3.0..=3.0).contains(d)));
+    }
+}
+
+#[test]
+fn a_slanted_plane_is_recovered() {
+    // −1.2 px at the left edge to +0.06 px at the right: 0.02 px per pixel.
+    let (data, layout, gt) = plane(64, 48, -1.2, 0.02);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let setup = TestSetup::new(layout, enabled());
+    let (d, _) = estimate(&setup, &lf, (-2.0, 1.0), BAND_ROWS);
+    let share = within(&d, &gt, 64, 0.07);
+    assert!(share >= 0.95, "{share} within 0.07 px");
+}
+
+#[test]
+fn any_banding_gives_the_same_bits() {
+    let (data, layout, _) = plane(40, 70, -0.4, 0.015);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let setup = TestSetup::new(layout, enabled());
+    let (d, c) = estimate(&setup, &lf, (-1.5, 1.5), BAND_ROWS);
+    for band in [1, 7, 13] {
+        let (bd, bc) = estimate(&setup, &lf, (-1.5, 1.5), band);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&bd), bits(&d), "bands of {band} rows");
+        assert_eq!(bits(&bc), bits(&c), "bands of {band} rows");
+    }
+}
+
+#[test]
+fn bad_parameters_are_named() {
+    let bad = [
+        (
+            "sweep.step",
+            PlaneSweepParams {
+                step: 0.0,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.step",
+            PlaneSweepParams {
+                step: f32::NAN,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.radius",
+            PlaneSweepParams {
+                radius: MAX_RADIUS + 1,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.truncate",
+            PlaneSweepParams {
+                truncate: 0.0,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.select",
+            PlaneSweepParams {
+                select: 0.9,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.line",
+            PlaneSweepParams {
+                line: 0,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.line",
+            PlaneSweepParams {
+                line: MAX_LINE + 1,
+                ..enabled()
+            },
+        ),
+    ];
+    for (name, params) in bad {
+        match params.validate() {
+            Err(Error::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+    enabled().validate().unwrap();
+}
+
+#[test]
+fn bad_calls_are_errors() {
+    let (data, layout, _) = plane(32, 40, 0.5, 0.0);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let setup = TestSetup::new(layout, enabled());
+    let mut d = vec![0.0; 32 * 8];
+    let mut c = vec![0.0; 32 * 8];
+    let mut scratch = vec![0.0; scratch_len(setup.setup())];
+    let mut call = |rows: Range<usize>, range: (f32, f32), d: &mut [f32], scratch: &mut [f32]| {
+        estimate_rows(
+            setup.setup(),
+            range,
+            &lf,
+            rows,
+            DisparityOut {
+                disparity: d,
+                confidence: &mut c,
+            },
+            scratch,
+        )
+    };
+    call(0..8, (-1.0, 1.0), &mut d, &mut scratch).unwrap();
+    assert!(matches!(
+        call(36..44, (-1.0, 1.0), &mut d, &mut scratch),
+        Err(Error::InvalidParameter { name: "rows", .. })
+    ));
+    assert!(matches!(
+        call(0..8, (1.0, -1.0), &mut d, &mut scratch),
+        Err(Error::InvalidParameter { name: "range", .. })
+    ));
+    assert!(matches!(
+        call(0..8, (-1.0, 1.0), &mut d[..10], &mut scratch),
+        Err(Error::OutputSize { .. })
+    ));
+    let short = scratch.len() - 1;
+    assert!(matches!(
+        call(0..8, (-1.0, 1.0), &mut d, &mut scratch[..short]),
+        Err(Error::ScratchTooSmall { .. })
+    ));
+    let other = Layout::packed(Grid::new(9, 9), 32, 40, 1);
+    let wrong = TestSetup::new(other, enabled());
+    let result = estimate_rows(
+        wrong.setup(),
+        (-1.0, 1.0),
+        &lf,
+        0..8,
+        DisparityOut {
+            disparity: &mut vec![0.0; 32 * 8],
+            confidence: &mut vec![0.0; 32 * 8],
+        },
+        &mut vec![0.0; scratch_len(wrong.setup())],
+    );
+    assert!(matches!(
+        result,
+        Err(Error::InvalidParameter { name: "plan", .. })
+    ));
+}
+
+#[test]
+fn one_hypothesis_is_its_value() {
+    let (data, layout, _) = plane(32, 32, 0.5, 0.0);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let setup = TestSetup::new(layout, enabled());
+    let (d, c) = estimate(&setup, &lf, (0.5, 0.5), BAND_ROWS);
+    assert!(d.iter().all(|&d| d == 0.5));
+    assert!(c.iter().all(|c| c.is_finite()));
+}
