@@ -1,6 +1,6 @@
 //! View containers besides PNG — JPEG (`zune-jpeg`) and TIFF (`tiff`) — behind one
 //! header/decode pair that dispatches on the file's first bytes, and float maps as
-//! 32-bit TIFF beside PFM.
+//! 32-bit TIFF (`tiff`) or OpenEXR (`exr`) beside PFM, chosen by the output's extension.
 //!
 //! Every format answers its header first, so the caps of [`super::limits`] hold before
 //! any pixel is decoded. Decoded views are [`Image`]s as from PNG: 8-bit samples stay
@@ -232,12 +232,77 @@ fn tiff_finish(mut decoder: Tiff, header: Header) -> Result<Image, IoError> {
     })
 }
 
+/// The container a float map (disparity, confidence, depth) is written in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapFormat {
+    /// PFM, one channel, rows bottom-to-top (`.pfm`, or a name without extension such
+    /// as `/dev/null`).
+    Pfm,
+    /// 32-bit float TIFF, one channel (`.tif`, `.tiff`).
+    Tiff,
+    /// OpenEXR, one 32-bit float channel `Y`, ZIP-compressed (lossless) (`.exr`).
+    Exr,
+}
+
+/// The extensions float maps may have, as named in errors and help.
+pub const MAP_EXTENSIONS: &str = ".pfm, .tif, .tiff or .exr";
+
+/// The container of a float map written to `path`, from its extension (any case); an
+/// unknown extension is an error naming the known ones, so that a map is never written
+/// in a container its name does not say.
+pub fn map_format(path: &Path) -> Result<MapFormat, IoError> {
+    let Some(ext) = path.extension() else {
+        return Ok(MapFormat::Pfm);
+    };
+    let lower = ext.to_str().map(str::to_ascii_lowercase);
+    match lower.as_deref() {
+        Some("pfm") => Ok(MapFormat::Pfm),
+        Some("tif" | "tiff") => Ok(MapFormat::Tiff),
+        Some("exr") => Ok(MapFormat::Exr),
+        _ => Err(IoError::format(format!(
+            "maps are written as PFM, 32-bit float TIFF or OpenEXR, told by the name's extension, and .{} is none of them: name the file with {MAP_EXTENSIONS}",
+            ext.to_string_lossy()
+        ))
+        .in_file(path)),
+    }
+}
+
 /// Whether `path` names a TIFF file (`.tif`, `.tiff`, any case): maps written there are
 /// 32-bit float TIFF instead of PFM.
 pub fn is_tiff_name(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
+    matches!(map_format(path), Ok(MapFormat::Tiff))
+}
+
+/// The one channel's name in the EXR maps: `Y`, which viewers show as gray.
+pub const EXR_CHANNEL: &str = "Y";
+
+/// Encodes a one-channel float map (row-major, top row first) as OpenEXR: one 32-bit
+/// float channel [`EXR_CHANNEL`], scan lines top to bottom, ZIP compression (lossless:
+/// every value, NaN and infinities included, reads back bit for bit).
+pub fn encode_float_exr(width: usize, height: usize, values: &[f32]) -> Result<Vec<u8>, IoError> {
+    use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes};
+    use exr::prelude::{Image as ExrImage, WritableImage};
+    if Some(values.len()) != width.checked_mul(height) {
+        return Err(IoError::format(format!(
+            "a {width}x{height} map needs {} values but has {}",
+            width.saturating_mul(height),
+            values.len()
+        )));
+    }
+    let channel = AnyChannel::new(EXR_CHANNEL, FlatSamples::F32(values.to_vec()));
+    let layer = Layer::new(
+        (width, height),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(vec![channel].into()),
+    );
+    let mut out = Cursor::new(Vec::new());
+    ExrImage::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_buffered(&mut out)
+        .map_err(|e| IoError::format(format!("OpenEXR encoding failed: {e}")))?;
+    Ok(out.into_inner())
 }
 
 /// Encodes a one-channel float map (row-major, top row first) as a 32-bit float TIFF.
@@ -263,16 +328,15 @@ pub fn encode_float_tiff(width: usize, height: usize, values: &[f32]) -> Result<
     Ok(out.into_inner())
 }
 
-/// Writes a float map as PFM, or as 32-bit float TIFF when `path` ends in `.tif` or
-/// `.tiff`; atomically, like every output.
+/// Writes a float map in the container its extension names ([`map_format`]: PFM,
+/// 32-bit float TIFF or OpenEXR); atomically, like every output.
 pub fn write_map(path: &Path, map: &super::pfm::Pfm) -> Result<(), IoError> {
-    if is_tiff_name(path) {
-        let bytes =
-            encode_float_tiff(map.width, map.height, &map.data).map_err(|e| e.in_file(path))?;
-        write_bytes(path, &bytes)
-    } else {
-        super::pfm::write(path, map)
-    }
+    let encoded = match map_format(path)? {
+        MapFormat::Pfm => return super::pfm::write(path, map),
+        MapFormat::Tiff => encode_float_tiff(map.width, map.height, &map.data),
+        MapFormat::Exr => encode_float_exr(map.width, map.height, &map.data),
+    };
+    write_bytes(path, &encoded.map_err(|e| e.in_file(path))?)
 }
 
 #[cfg(test)]
@@ -303,5 +367,55 @@ mod tests {
             assert!(a.to_bits() == b.to_bits(), "{a} {b}");
         }
         assert!(encode_float_tiff(3, 3, &values).is_err());
+    }
+
+    #[test]
+    fn float_exr_round_trips() {
+        use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+        let values = [0.5f32, -1.25, f32::NAN, 3.0, f32::INFINITY, 7.5];
+        let bytes = encode_float_exr(3, 2, &values).unwrap();
+        let image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_buffered(Cursor::new(bytes))
+            .unwrap();
+        let layer = &image.layer_data;
+        assert_eq!((layer.size.0, layer.size.1), (3, 2));
+        let [channel] = layer.channel_data.list.as_slice() else {
+            panic!("not one channel");
+        };
+        assert_eq!(channel.name.to_string(), EXR_CHANNEL);
+        let FlatSamples::F32(back) = &channel.sample_data else {
+            panic!("not f32");
+        };
+        assert!(back
+            .iter()
+            .zip(values)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(encode_float_exr(3, 3, &values).is_err());
+    }
+
+    #[test]
+    fn map_formats_by_extension() {
+        for (name, format) in [
+            ("d.pfm", MapFormat::Pfm),
+            ("d.PFM", MapFormat::Pfm),
+            ("/dev/null", MapFormat::Pfm),
+            ("d.tif", MapFormat::Tiff),
+            ("d.TIFF", MapFormat::Tiff),
+            ("d.exr", MapFormat::Exr),
+            ("d.EXR", MapFormat::Exr),
+        ] {
+            assert_eq!(map_format(Path::new(name)).unwrap(), format, "{name}");
+        }
+        let e = map_format(Path::new("d.png")).unwrap_err().to_string();
+        assert!(
+            e.contains("d.png") && e.contains(".png") && e.contains(".exr"),
+            "{e}"
+        );
     }
 }
