@@ -10,7 +10,7 @@
 //! compression the `tiff` crate reads.
 
 use std::fs::File;
-use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
+use std::io::{BufRead, BufReader, Cursor, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use tiff::decoder::{Decoder as TiffDecoder, DecodingResult, Limits as TiffLimits};
@@ -96,6 +96,20 @@ pub fn read_limited(path: &Path, max_pixels: u64) -> Result<Image, IoError> {
     .map_err(|e| e.in_file(path))
 }
 
+/// Decodes a view held in memory (PNG, JPEG or TIFF, told by its first bytes) whose
+/// header declares at most `max_pixels` pixels, as [`read_limited`] decodes a file.
+pub fn decode_limited(bytes: &[u8], max_pixels: u64) -> Result<Image, IoError> {
+    let reader = Cursor::new(bytes);
+    match sniff(bytes.get(..4).unwrap_or(bytes)) {
+        Some(Format::Png) => pngio::decode_limited(bytes, max_pixels),
+        Some(Format::Jpeg) => jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+        Some(Format::Tiff) => tiff_start(reader, max_pixels).and_then(|(d, h)| tiff_finish(d, h)),
+        None => Err(IoError::format(
+            "is not a PNG, JPEG or TIFF image (its first bytes say so): save the views as PNG, JPEG or TIFF",
+        )),
+    }
+}
+
 /// Checks a declared size against the cap, in the words of the format.
 fn check_size(kind: &str, width: usize, height: usize, max_pixels: u64) -> Result<(), IoError> {
     if width == 0 || height == 0 {
@@ -112,14 +126,15 @@ fn check_size(kind: &str, width: usize, height: usize, max_pixels: u64) -> Resul
         .map_err(|e| IoError::format(format!("the {kind} header declares {e}")))
 }
 
-type Jpeg = JpegDecoder<BufReader<File>>;
-
 fn jpeg_error(e: impl std::fmt::Display) -> IoError {
     IoError::format(format!("not a readable JPEG image: {e}"))
 }
 
 /// Reads a JPEG's headers (not its pixels) and checks them against `max_pixels`.
-fn jpeg_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Jpeg, Header), IoError> {
+fn jpeg_start<R: BufRead + Seek>(
+    reader: R,
+    max_pixels: u64,
+) -> Result<(JpegDecoder<R>, Header), IoError> {
     // JPEG sizes are 16-bit; the caps below are the ones that count.
     let options = DecoderOptions::default()
         .set_max_width(usize::from(u16::MAX))
@@ -147,7 +162,10 @@ fn jpeg_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Jpeg, Header)
     Ok((decoder, header))
 }
 
-fn jpeg_finish(mut decoder: Jpeg, header: Header) -> Result<Image, IoError> {
+fn jpeg_finish<R: BufRead + Seek>(
+    mut decoder: JpegDecoder<R>,
+    header: Header,
+) -> Result<Image, IoError> {
     let len = header.width * header.height * header.channels;
     let mut samples = vec![0u8; len];
     decoder.decode_into(&mut samples).map_err(jpeg_error)?;
@@ -159,15 +177,16 @@ fn jpeg_finish(mut decoder: Jpeg, header: Header) -> Result<Image, IoError> {
     })
 }
 
-type Tiff = TiffDecoder<BufReader<File>>;
-
 fn tiff_error(e: impl std::fmt::Display) -> IoError {
     IoError::format(format!("not a readable TIFF image: {e}"))
 }
 
 /// Reads a TIFF's first image directory (not its pixels) and checks it against
 /// `max_pixels`.
-fn tiff_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Tiff, Header), IoError> {
+fn tiff_start<R: Read + Seek>(
+    reader: R,
+    max_pixels: u64,
+) -> Result<(TiffDecoder<R>, Header), IoError> {
     let mut decoder = TiffDecoder::new(reader).map_err(tiff_error)?;
     let (w, h) = decoder.dimensions().map_err(tiff_error)?;
     let (width, height) = (w as usize, h as usize);
@@ -180,7 +199,8 @@ fn tiff_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Tiff, Header)
         TiffColor::RGBA(d) => (4, d),
         other => {
             return Err(IoError::format(format!(
-                "TIFF colour type {other:?} is not supported: re-save the view as gray or RGB"
+                "TIFF images of {} are not supported: re-save the view as gray or RGB",
+                tiff_colour_words(other)
             )))
         }
     };
@@ -205,7 +225,27 @@ fn tiff_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Tiff, Header)
     Ok((decoder.with_limits(limits), header))
 }
 
-fn tiff_finish(mut decoder: Tiff, header: Header) -> Result<Image, IoError> {
+/// A TIFF colour type the loader does not take, in words (its `Debug` form is a Rust
+/// structure).
+fn tiff_colour_words(color: TiffColor) -> String {
+    let bits = color.bit_depth();
+    match color {
+        TiffColor::Palette(_) => format!("palette colour ({bits}-bit indices)"),
+        TiffColor::CMYK(_) => format!("CMYK colour ({bits}-bit samples)"),
+        TiffColor::CMYKA(_) => format!("CMYK colour with alpha ({bits}-bit samples)"),
+        TiffColor::YCbCr(_) => format!("YCbCr colour ({bits}-bit samples)"),
+        TiffColor::Lab(_) => format!("CIE L*a*b* colour ({bits}-bit samples)"),
+        TiffColor::Multiband { num_samples, .. } => {
+            format!("{num_samples} bands per pixel ({bits}-bit samples)")
+        }
+        _ => format!("this colour type ({bits}-bit samples)"),
+    }
+}
+
+fn tiff_finish<R: Read + Seek>(
+    mut decoder: TiffDecoder<R>,
+    header: Header,
+) -> Result<Image, IoError> {
     let samples = match decoder.read_image().map_err(tiff_error)? {
         DecodingResult::U8(s) if header.bit_depth == 8 => Samples::Eight(s),
         DecodingResult::U16(s) if header.bit_depth == 16 => Samples::Sixteen(s),
@@ -397,6 +437,38 @@ mod tests {
             .zip(values)
             .all(|(a, b)| a.to_bits() == b.to_bits()));
         assert!(encode_float_exr(3, 3, &values).is_err());
+    }
+
+    #[test]
+    fn views_decode_from_memory_by_their_first_bytes() {
+        let samples: Vec<u8> = (0..4 * 3 * 3).map(|i| (i * 7) as u8).collect();
+        let mut tiff = Cursor::new(Vec::new());
+        tiff::encoder::TiffEncoder::new(&mut tiff)
+            .unwrap()
+            .write_image::<tiff::encoder::colortype::RGB8>(4, 3, &samples)
+            .unwrap();
+        let tiff = tiff.into_inner();
+        let image = decode_limited(&tiff, 12).unwrap();
+        assert_eq!((image.width, image.height, image.channels), (4, 3, 3));
+        assert!(matches!(&image.samples, Samples::Eight(s) if *s == samples));
+        // Over the cap: refused from the header, in words naming the cap.
+        let e = decode_limited(&tiff, 11).unwrap_err().to_string();
+        assert!(e.contains("TIFF header declares"), "{e}");
+        let e = decode_limited(b"\xFF\xD8\xFF\xE0 truncated", 100).unwrap_err();
+        assert!(e.to_string().contains("JPEG"), "{e}");
+        // A colour type the loader does not take is named in words.
+        let mut cmyk = Cursor::new(Vec::new());
+        tiff::encoder::TiffEncoder::new(&mut cmyk)
+            .unwrap()
+            .write_image::<tiff::encoder::colortype::CMYK8>(1, 1, &[1, 2, 3, 4])
+            .unwrap();
+        let e = decode_limited(&cmyk.into_inner(), 100)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("CMYK colour (8-bit samples)"), "{e}");
+        assert!(!e.contains(" { ") && !e.contains("CMYK(8)"), "{e}");
+        let e = decode_limited(b"GIF89a", 100).unwrap_err();
+        assert!(e.to_string().contains("not a PNG, JPEG or TIFF"), "{e}");
     }
 
     #[test]
