@@ -360,3 +360,36 @@ fn a_map_with_an_unknown_extension_is_refused_before_any_work() {
         assert!(!bad.exists() && !ok.exists());
     }
 }
+
+#[test]
+fn a_jpeg_the_decoder_panics_on_is_an_error_in_words() {
+    // Found by the view_decode fuzz target: a 24x20 JPEG whose second colour component
+    // is sampled more finely than the first makes zune-jpeg panic in its IDCT.
+    let kept = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fuzz/regressions/view_decode/jpeg-chroma-sampled-finer-than-luma"
+    );
+    // The target's first byte (0: the bytes as they are) is not part of the file.
+    let bytes = std::fs::read(kept).unwrap()[1..].to_vec();
+    let dir = common::temp();
+    let views = dir.path().join("views");
+    std::fs::create_dir(&views).unwrap();
+    for i in 0..9 {
+        std::fs::write(views.join(format!("input_Cam{i:03}.jpg")), &bytes).unwrap();
+    }
+    let out = dir.path().join("d.pfm");
+    let msg = assert_fails(
+        &lfdepth(&[
+            "estimate",
+            arg(&views),
+            "-o",
+            arg(&out),
+            "-q",
+            "--align",
+            "off",
+        ]),
+        &[".jpg", "not a readable JPEG image", "re-save the view"],
+    );
+    assert!(!msg.contains("panicked"), "{msg}");
+    assert!(!out.exists());
+}

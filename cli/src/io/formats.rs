@@ -78,7 +78,7 @@ pub fn read_header(path: &Path, max_pixels: u64) -> Result<Header, IoError> {
     let (reader, format) = open(path)?;
     match format {
         Format::Png => pngio::read_header(path, max_pixels),
-        Format::Jpeg => jpeg_start(reader, max_pixels).map(|(_, h)| h),
+        Format::Jpeg => contained(|| jpeg_start(reader, max_pixels), jpeg_panicked).map(|(_, h)| h),
         Format::Tiff => tiff_start(reader, max_pixels).map(|(_, h)| h),
     }
     .map_err(|e| e.in_file(path))
@@ -90,7 +90,10 @@ pub fn read_limited(path: &Path, max_pixels: u64) -> Result<Image, IoError> {
     let (reader, format) = open(path)?;
     match format {
         Format::Png => pngio::read_limited(path, max_pixels),
-        Format::Jpeg => jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+        Format::Jpeg => contained(
+            || jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+            jpeg_panicked,
+        ),
         Format::Tiff => tiff_start(reader, max_pixels).and_then(|(d, h)| tiff_finish(d, h)),
     }
     .map_err(|e| e.in_file(path))
@@ -102,7 +105,10 @@ pub fn decode_limited(bytes: &[u8], max_pixels: u64) -> Result<Image, IoError> {
     let reader = Cursor::new(bytes);
     match sniff(bytes.get(..4).unwrap_or(bytes)) {
         Some(Format::Png) => pngio::decode_limited(bytes, max_pixels),
-        Some(Format::Jpeg) => jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+        Some(Format::Jpeg) => contained(
+            || jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+            jpeg_panicked,
+        ),
         Some(Format::Tiff) => tiff_start(reader, max_pixels).and_then(|(d, h)| tiff_finish(d, h)),
         None => Err(IoError::format(
             "is not a PNG, JPEG or TIFF image (its first bytes say so): save the views as PNG, JPEG or TIFF",
@@ -128,6 +134,43 @@ fn check_size(kind: &str, width: usize, height: usize, max_pixels: u64) -> Resul
 
 fn jpeg_error(e: impl std::fmt::Display) -> IoError {
     IoError::format(format!("not a readable JPEG image: {e}"))
+}
+
+std::thread_local! {
+    /// Set while this thread runs a decoder under [`contained`]: its panics are caught
+    /// there and answered as errors, so the panic hook stays quiet.
+    static CONTAINED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `decode` (a call into a decoder crate) so that a panic inside it becomes the
+/// error `failed` instead of ending the process: `zune-jpeg` 0.5.15 panics (an
+/// `unwrap` in its IDCT) on some malformed files, e.g. a colour component sampled more
+/// finely than the first one (found by the `view_decode` fuzz target). The panic hook,
+/// wrapped once, keeps quiet for panics it contains; others are reported as before.
+fn contained<T>(
+    decode: impl FnOnce() -> Result<T, IoError>,
+    failed: impl FnOnce() -> IoError,
+) -> Result<T, IoError> {
+    static QUIET_HOOK: std::sync::Once = std::sync::Once::new();
+    QUIET_HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !CONTAINED.with(std::cell::Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    let was = CONTAINED.with(|c| c.replace(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(decode));
+    CONTAINED.with(|c| c.set(was));
+    result.unwrap_or_else(|_| Err(failed()))
+}
+
+/// The JPEG decoder's failure on a file it panics on.
+fn jpeg_panicked() -> IoError {
+    jpeg_error(
+        "its contents make the JPEG decoder fail (a malformed or unusual file): re-save the view",
+    )
 }
 
 /// Reads a JPEG's headers (not its pixels) and checks them against `max_pixels`.
