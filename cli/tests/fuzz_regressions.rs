@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use lfdepth::Grid;
 use lfdepth_cli::io::limits::Limits;
 use lfdepth_cli::io::scene::{self, LoadOptions};
-use lfdepth_cli::io::{cfg, pfm, png};
+use lfdepth_cli::io::{cfg, formats, pfm};
 
 fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
     let dir =
@@ -43,11 +43,23 @@ fn in_words(message: &str, path: &std::path::Path) {
 #[test]
 fn view_decode_regressions() {
     for (path, bytes) in corpus("view_decode") {
-        // The target's first byte picks the format (PNG is the only one today).
-        let Some((_, data)) = bytes.split_first() else {
+        // As the target: the first byte picks a signature (none, PNG, JPEG, TIFF) put
+        // before the other bytes unless they start with it.
+        let Some((&pick, data)) = bytes.split_first() else {
             continue;
         };
-        match png::decode_limited(data, Limits::default().max_view_pixels) {
+        let signature: &[u8] = match pick % 4 {
+            0 => b"",
+            1 => b"\x89PNG\r\n\x1a\n",
+            2 => b"\xFF\xD8\xFF",
+            _ => b"II*\0",
+        };
+        let mut file = Vec::new();
+        if !data.starts_with(signature) {
+            file.extend_from_slice(signature);
+        }
+        file.extend_from_slice(data);
+        match formats::decode_limited(&file, Limits::default().max_view_pixels) {
             Ok(image) => assert!(image.width > 0 && image.height > 0),
             Err(e) => in_words(&e.to_string(), &path),
         }

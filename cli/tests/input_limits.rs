@@ -12,16 +12,16 @@ use std::time::{Duration, Instant};
 use common::{arg, assert_fails, lfdepth};
 
 /// A valid PNG signature and `IHDR` declaring `width`×`height` gray pixels of `bits`
-/// bits, then a `paDd` ancillary chunk of `padding` zero bytes (which decoders skip)
+/// bits (RGB when `rgb`), then a `paDd` ancillary chunk of `padding` zero bytes (which decoders skip)
 /// and an empty image stream: a small file whose header promises a huge image, and
 /// whose size passes the check of the header against the file's length.
-fn png_header_only(width: u32, height: u32, bits: u8, padding: usize) -> Vec<u8> {
+fn png_header_only(width: u32, height: u32, bits: u8, rgb: bool, padding: usize) -> Vec<u8> {
     let chunk = common::png_chunk;
     let mut out = b"\x89PNG\r\n\x1a\n".to_vec();
     let mut ihdr = Vec::new();
     ihdr.extend_from_slice(&width.to_be_bytes());
     ihdr.extend_from_slice(&height.to_be_bytes());
-    ihdr.extend_from_slice(&[bits, 0, 0, 0, 0]);
+    ihdr.extend_from_slice(&[bits, if rgb { 2 } else { 0 }, 0, 0, 0]);
     chunk(&mut out, b"IHDR", &ihdr);
     chunk(&mut out, b"paDd", &vec![0; padding]);
     chunk(
@@ -59,12 +59,21 @@ fn a_huge_png_header_is_refused_before_decoding() {
     common::hci_views(&views, 9, 16);
     // 60000² 1-bit pixels: 450 MB of rows and 3.6 GB once expanded to 8 bits; the file
     // (≈ 440 KB) is large enough that the header is not refused as corrupt.
-    let hostile = png_header_only(60000, 60000, 1, 440_000);
+    let hostile = png_header_only(60000, 60000, 1, false, 440_000);
     std::fs::write(views.join("input_Cam004.png"), &hostile).unwrap();
     let start = Instant::now();
     assert_fails(
         &estimate(&views, &[]),
         &["input_Cam004.png", "60000x60000", "--max-view-pixels"],
+    );
+    assert!(start.elapsed() < Duration::from_secs(10));
+    // RGB of 20000² (1.2 GB once decoded): refused the same way.
+    let rgb = png_header_only(20000, 20000, 8, true, 1_200_000);
+    std::fs::write(views.join("input_Cam004.png"), &rgb).unwrap();
+    let start = Instant::now();
+    assert_fails(
+        &estimate(&views, &[]),
+        &["input_Cam004.png", "20000x20000", "--max-view-pixels"],
     );
     assert!(start.elapsed() < Duration::from_secs(10));
     // Every view hostile: the first one is refused, nothing is decoded.
@@ -98,7 +107,7 @@ fn the_whole_light_field_is_capped_from_the_headers() {
     std::fs::create_dir(&views).unwrap();
     // 17x17 views of 8000² 1-bit pixels each pass the per-view cap (64 Mi) but are
     // 18.5 G pixels together.
-    let big = png_header_only(8000, 8000, 1, 8_000);
+    let big = png_header_only(8000, 8000, 1, false, 8_000);
     for i in 0..289 {
         std::fs::write(views.join(format!("input_Cam{i:03}.png")), &big).unwrap();
     }

@@ -1,7 +1,7 @@
 //! Nothing is lost, through the binary: outputs onto inputs or onto each other are
-//! refused before any work, missing output folders are refused before loading, outputs
-//! replace old files whole, and `synth`/`demo` never remove or overwrite files they did
-//! not write.
+//! refused before any work, missing output folders and folders that take no files are
+//! refused before loading, outputs replace old files whole, and `synth`/`demo` never
+//! remove or overwrite files they did not write.
 
 mod common;
 
@@ -236,6 +236,39 @@ fn a_missing_output_folder_is_refused_before_the_views_are_read() {
         &lfdepth(&["estimate", arg(&scene), "-o", arg(dir.path()), "--quiet"]),
         &["-o", "is a folder"],
     );
+}
+
+/// A folder that exists but takes no files is refused like a missing one, before the
+/// views are read. Permission bits do not stop root, so the folder is one of the
+/// process's own entries in `/proc`, where nobody can create a file.
+#[test]
+fn an_output_folder_that_takes_no_files_is_refused_before_the_views_are_read() {
+    let unwritable = Path::new("/proc/self");
+    if !cfg!(target_os = "linux") || !unwritable.is_dir() {
+        eprintln!("SKIPPED: /proc/self is not a folder here (Linux only)");
+        return;
+    }
+    let dir = common::temp();
+    let scene = scene(dir.path());
+    // A corrupt view: had the views been decoded first, the error would be about it.
+    std::fs::write(scene.join("input_Cam008.png"), b"not a png").unwrap();
+    for flag in ["-o", "--png", "--png16", "--confidence", "--depth"] {
+        let bad = unwritable.join("out.pfm");
+        let ok_out = dir.path().join("est.pfm");
+        let mut args = vec!["estimate", arg(&scene)];
+        if flag == "-o" {
+            args.extend(["-o", arg(&bad)]);
+        } else {
+            args.extend(["-o", arg(&ok_out), flag, arg(&bad)]);
+        }
+        args.push("--quiet");
+        let msg = assert_fails(
+            &lfdepth(&args),
+            &[flag, "out.pfm", "cannot write in the folder"],
+        );
+        assert!(!msg.contains("input_Cam008"), "{msg}");
+        assert!(!ok_out.exists());
+    }
 }
 
 #[test]

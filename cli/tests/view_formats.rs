@@ -1,7 +1,9 @@
 //! JPEG and TIFF views and float-TIFF maps, through the binary: a synthetic scene's
 //! views converted with the `tiff` and `jpeg-encoder` crates estimate like the PNGs
 //! (8-bit TIFF bit for bit), 16-bit TIFF keeps its precision, the decode caps hold for
-//! the new containers, and `-o out.tif` writes the PFM's values as 32-bit float TIFF.
+//! the new containers, `-o out.tif` writes the PFM's values as 32-bit float TIFF and
+//! `-o out.exr` as OpenEXR (NaN included), and a map named with another extension is
+//! refused before any work.
 
 mod common;
 
@@ -222,4 +224,158 @@ fn maps_as_float_tiff() {
         .zip(&reference)
         .all(|(a, b)| a.to_bits() == b.to_bits()));
     assert!(read(&conf_out).iter().all(|c| (0.0..=1.0).contains(c)));
+}
+
+/// The one float channel of an OpenEXR file, its size and the channel's name, read
+/// with the `exr` crate.
+fn read_exr(path: &Path) -> ((usize, usize), String, Vec<f32>) {
+    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .non_parallel()
+        .from_file(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let layer = image.layer_data;
+    let [channel] = layer.channel_data.list.as_slice() else {
+        panic!("{} has not one channel", path.display());
+    };
+    let FlatSamples::F32(values) = &channel.sample_data else {
+        panic!("{} is not 32-bit float", path.display());
+    };
+    (
+        (layer.size.0, layer.size.1),
+        channel.name.to_string(),
+        values.clone(),
+    )
+}
+
+fn same_bits(a: &[f32], b: &[f32]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+}
+
+#[test]
+fn maps_as_openexr() {
+    let dir = common::temp();
+    let png_scene = synth(dir.path());
+    // Camera parameters for --depth, focused so far away that every negative disparity
+    // lies beyond infinity: the depth map holds NaN there.
+    let cfg = png_scene.join("parameters.cfg");
+    let text = std::fs::read_to_string(&cfg)
+        .unwrap()
+        .replace(
+            "image_resolution_x_px = 48",
+            "image_resolution_x_px = 48\nfocal_length_mm = 100\nsensor_size_mm = 35",
+        )
+        .replace(
+            "num_cams_y = 9",
+            "num_cams_y = 9\nbaseline_mm = 90\nfocus_distance_m = 1000",
+        );
+    std::fs::write(&cfg, text).unwrap();
+    let out = |name: &str| dir.path().join(name);
+    let reference = estimate(
+        &png_scene,
+        &out("d.pfm"),
+        &[
+            "--confidence",
+            arg(&out("c.pfm")),
+            "--depth",
+            arg(&out("z.pfm")),
+        ],
+    );
+    estimate(
+        &png_scene,
+        &out("d.exr"),
+        &[
+            "--confidence",
+            arg(&out("c.EXR")),
+            "--depth",
+            arg(&out("z.exr")),
+        ],
+    );
+    for (exr, pfm) in [("d.exr", "d.pfm"), ("c.EXR", "c.pfm"), ("z.exr", "z.pfm")] {
+        let (size, name, values) = read_exr(&out(exr));
+        let pfm = pfm::read(&out(pfm)).unwrap();
+        assert_eq!(size, (pfm.width, pfm.height), "{exr}");
+        assert_eq!(name, "Y", "{exr}");
+        // Same values in the same order: both top row first, so the orientation holds.
+        assert!(same_bits(&values, &pfm.data), "{exr} differs from its PFM");
+    }
+    assert!(same_bits(&read_exr(&out("d.exr")).2, &reference));
+    let depth = read_exr(&out("z.exr")).2;
+    assert!(
+        depth.iter().any(|z| z.is_nan()) && depth.iter().any(|z| z.is_finite()),
+        "the depth map should hold NaN and finite depths"
+    );
+    // Not a symmetric picture: a flip of rows or columns would not compare equal.
+    let (w, h) = (48, 48);
+    let flipped: Vec<f32> = (0..w * h)
+        .map(|i| reference[(h - 1 - i / w) * w + i % w])
+        .collect();
+    assert!(!same_bits(&flipped, &reference));
+}
+
+#[test]
+fn a_map_with_an_unknown_extension_is_refused_before_any_work() {
+    let dir = common::temp();
+    let png_scene = synth(dir.path());
+    // A corrupt view: had the views been decoded first, the error would be about it.
+    std::fs::write(png_scene.join("input_Cam040.png"), b"not a png").unwrap();
+    for flag in ["-o", "--confidence", "--depth"] {
+        let bad = dir.path().join("map.png");
+        let ok = dir.path().join("d.pfm");
+        let mut args = vec!["estimate", arg(&png_scene), "-q"];
+        if flag == "-o" {
+            args.extend(["-o", arg(&bad)]);
+        } else {
+            args.extend(["-o", arg(&ok), flag, arg(&bad)]);
+        }
+        let msg = assert_fails(
+            &lfdepth(&args),
+            &[
+                flag,
+                "map.png",
+                ".png is none of them",
+                ".pfm, .tif, .tiff or .exr",
+            ],
+        );
+        assert!(!msg.contains("input_Cam040"), "{msg}");
+        assert!(!bad.exists() && !ok.exists());
+    }
+}
+
+#[test]
+fn a_jpeg_the_decoder_panics_on_is_an_error_in_words() {
+    // Found by the view_decode fuzz target: a 24x20 JPEG whose second colour component
+    // is sampled more finely than the first makes zune-jpeg panic in its IDCT.
+    let kept = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fuzz/regressions/view_decode/jpeg-chroma-sampled-finer-than-luma"
+    );
+    // The target's first byte (0: the bytes as they are) is not part of the file.
+    let bytes = std::fs::read(kept).unwrap()[1..].to_vec();
+    let dir = common::temp();
+    let views = dir.path().join("views");
+    std::fs::create_dir(&views).unwrap();
+    for i in 0..9 {
+        std::fs::write(views.join(format!("input_Cam{i:03}.jpg")), &bytes).unwrap();
+    }
+    let out = dir.path().join("d.pfm");
+    let msg = assert_fails(
+        &lfdepth(&[
+            "estimate",
+            arg(&views),
+            "-o",
+            arg(&out),
+            "-q",
+            "--align",
+            "off",
+        ]),
+        &[".jpg", "not a readable JPEG image", "re-save the view"],
+    );
+    assert!(!msg.contains("panicked"), "{msg}");
+    assert!(!out.exists());
 }

@@ -24,8 +24,9 @@ pub struct EstimateArgs {
     /// column of the grid (and the refinement's views when they reach further).
     #[arg(value_name = "INPUT")]
     pub input: PathBuf,
-    /// Disparity map to write: PFM (one channel, rows bottom-to-top), or 32-bit float
-    /// TIFF when the name ends in .tif or .tiff.
+    /// Disparity map to write, in the container its extension names: .pfm (one channel,
+    /// rows bottom-to-top; also a name without extension), .tif/.tiff (32-bit float
+    /// TIFF) or .exr (OpenEXR, one 32-bit float channel Y); another extension is refused.
     #[arg(short, long, value_name = "OUT.pfm")]
     pub output: PathBuf,
     /// Also write the disparity as a colour PNG with a legend bar.
@@ -39,11 +40,11 @@ pub struct EstimateArgs {
     /// from --png-range or the map; the range is stored in its text chunks).
     #[arg(long, value_name = "OUT.png")]
     pub png16: Option<PathBuf>,
-    /// Also write depth in metres (PFM, or float TIFF for .tif) from parameters.cfg with the HCI formula
+    /// Also write depth in metres (PFM; float TIFF for .tif, OpenEXR for .exr) from parameters.cfg with the HCI formula
     /// z = b·f·D / (d·D + b·f); NaN where the disparity lies at or beyond infinity.
     #[arg(long, value_name = "DEPTH.pfm")]
     pub depth: Option<PathBuf>,
-    /// Also write the per-pixel confidence in [0, 1] (PFM, or float TIFF for .tif).
+    /// Also write the per-pixel confidence in [0, 1] (PFM; float TIFF for .tif, OpenEXR for .exr).
     #[arg(long, value_name = "CONF.pfm")]
     pub confidence: Option<PathBuf>,
     /// How far to run: `epi` (initial estimate) or `full` (with TV refinement).
@@ -149,6 +150,15 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     let files = scene::locate(&args.input, &args.views.load_options())?;
     outputs.refuse_inputs(&files)?;
     outputs.check_writable()?;
+    for (flag, path) in [
+        ("-o", Some(&args.output)),
+        ("--confidence", args.confidence.as_ref()),
+        ("--depth", args.depth.as_ref()),
+    ] {
+        if let Some(path) = path {
+            formats::map_format(path).map_err(|e| CliError::Usage(format!("{flag}: {e}")))?;
+        }
+    }
     let config = files.config.as_ref();
     if args.depth.is_some() && config.and_then(|c| c.depth_m(0.0)).is_none() {
         return Err(CliError::Usage(format!(

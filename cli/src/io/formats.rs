@@ -1,6 +1,6 @@
 //! View containers besides PNG — JPEG (`zune-jpeg`) and TIFF (`tiff`) — behind one
 //! header/decode pair that dispatches on the file's first bytes, and float maps as
-//! 32-bit TIFF beside PFM.
+//! 32-bit TIFF (`tiff`) or OpenEXR (`exr`) beside PFM, chosen by the output's extension.
 //!
 //! Every format answers its header first, so the caps of [`super::limits`] hold before
 //! any pixel is decoded. Decoded views are [`Image`]s as from PNG: 8-bit samples stay
@@ -10,7 +10,7 @@
 //! compression the `tiff` crate reads.
 
 use std::fs::File;
-use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
+use std::io::{BufRead, BufReader, Cursor, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use tiff::decoder::{Decoder as TiffDecoder, DecodingResult, Limits as TiffLimits};
@@ -78,7 +78,7 @@ pub fn read_header(path: &Path, max_pixels: u64) -> Result<Header, IoError> {
     let (reader, format) = open(path)?;
     match format {
         Format::Png => pngio::read_header(path, max_pixels),
-        Format::Jpeg => jpeg_start(reader, max_pixels).map(|(_, h)| h),
+        Format::Jpeg => contained(|| jpeg_start(reader, max_pixels), jpeg_panicked).map(|(_, h)| h),
         Format::Tiff => tiff_start(reader, max_pixels).map(|(_, h)| h),
     }
     .map_err(|e| e.in_file(path))
@@ -90,10 +90,30 @@ pub fn read_limited(path: &Path, max_pixels: u64) -> Result<Image, IoError> {
     let (reader, format) = open(path)?;
     match format {
         Format::Png => pngio::read_limited(path, max_pixels),
-        Format::Jpeg => jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+        Format::Jpeg => contained(
+            || jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+            jpeg_panicked,
+        ),
         Format::Tiff => tiff_start(reader, max_pixels).and_then(|(d, h)| tiff_finish(d, h)),
     }
     .map_err(|e| e.in_file(path))
+}
+
+/// Decodes a view held in memory (PNG, JPEG or TIFF, told by its first bytes) whose
+/// header declares at most `max_pixels` pixels, as [`read_limited`] decodes a file.
+pub fn decode_limited(bytes: &[u8], max_pixels: u64) -> Result<Image, IoError> {
+    let reader = Cursor::new(bytes);
+    match sniff(bytes.get(..4).unwrap_or(bytes)) {
+        Some(Format::Png) => pngio::decode_limited(bytes, max_pixels),
+        Some(Format::Jpeg) => contained(
+            || jpeg_start(reader, max_pixels).and_then(|(d, h)| jpeg_finish(d, h)),
+            jpeg_panicked,
+        ),
+        Some(Format::Tiff) => tiff_start(reader, max_pixels).and_then(|(d, h)| tiff_finish(d, h)),
+        None => Err(IoError::format(
+            "is not a PNG, JPEG or TIFF image (its first bytes say so): save the views as PNG, JPEG or TIFF",
+        )),
+    }
 }
 
 /// Checks a declared size against the cap, in the words of the format.
@@ -112,14 +132,52 @@ fn check_size(kind: &str, width: usize, height: usize, max_pixels: u64) -> Resul
         .map_err(|e| IoError::format(format!("the {kind} header declares {e}")))
 }
 
-type Jpeg = JpegDecoder<BufReader<File>>;
-
 fn jpeg_error(e: impl std::fmt::Display) -> IoError {
     IoError::format(format!("not a readable JPEG image: {e}"))
 }
 
+std::thread_local! {
+    /// Set while this thread runs a decoder under [`contained`]: its panics are caught
+    /// there and answered as errors, so the panic hook stays quiet.
+    static CONTAINED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `decode` (a call into a decoder crate) so that a panic inside it becomes the
+/// error `failed` instead of ending the process: `zune-jpeg` 0.5.15 panics (an
+/// `unwrap` in its IDCT) on some malformed files, e.g. a colour component sampled more
+/// finely than the first one (found by the `view_decode` fuzz target). The panic hook,
+/// wrapped once, keeps quiet for panics it contains; others are reported as before.
+fn contained<T>(
+    decode: impl FnOnce() -> Result<T, IoError>,
+    failed: impl FnOnce() -> IoError,
+) -> Result<T, IoError> {
+    static QUIET_HOOK: std::sync::Once = std::sync::Once::new();
+    QUIET_HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !CONTAINED.with(std::cell::Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    let was = CONTAINED.with(|c| c.replace(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(decode));
+    CONTAINED.with(|c| c.set(was));
+    result.unwrap_or_else(|_| Err(failed()))
+}
+
+/// The JPEG decoder's failure on a file it panics on.
+fn jpeg_panicked() -> IoError {
+    jpeg_error(
+        "its contents make the JPEG decoder fail (a malformed or unusual file): re-save the view",
+    )
+}
+
 /// Reads a JPEG's headers (not its pixels) and checks them against `max_pixels`.
-fn jpeg_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Jpeg, Header), IoError> {
+fn jpeg_start<R: BufRead + Seek>(
+    reader: R,
+    max_pixels: u64,
+) -> Result<(JpegDecoder<R>, Header), IoError> {
     // JPEG sizes are 16-bit; the caps below are the ones that count.
     let options = DecoderOptions::default()
         .set_max_width(usize::from(u16::MAX))
@@ -147,7 +205,10 @@ fn jpeg_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Jpeg, Header)
     Ok((decoder, header))
 }
 
-fn jpeg_finish(mut decoder: Jpeg, header: Header) -> Result<Image, IoError> {
+fn jpeg_finish<R: BufRead + Seek>(
+    mut decoder: JpegDecoder<R>,
+    header: Header,
+) -> Result<Image, IoError> {
     let len = header.width * header.height * header.channels;
     let mut samples = vec![0u8; len];
     decoder.decode_into(&mut samples).map_err(jpeg_error)?;
@@ -159,15 +220,16 @@ fn jpeg_finish(mut decoder: Jpeg, header: Header) -> Result<Image, IoError> {
     })
 }
 
-type Tiff = TiffDecoder<BufReader<File>>;
-
 fn tiff_error(e: impl std::fmt::Display) -> IoError {
     IoError::format(format!("not a readable TIFF image: {e}"))
 }
 
 /// Reads a TIFF's first image directory (not its pixels) and checks it against
 /// `max_pixels`.
-fn tiff_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Tiff, Header), IoError> {
+fn tiff_start<R: Read + Seek>(
+    reader: R,
+    max_pixels: u64,
+) -> Result<(TiffDecoder<R>, Header), IoError> {
     let mut decoder = TiffDecoder::new(reader).map_err(tiff_error)?;
     let (w, h) = decoder.dimensions().map_err(tiff_error)?;
     let (width, height) = (w as usize, h as usize);
@@ -180,7 +242,8 @@ fn tiff_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Tiff, Header)
         TiffColor::RGBA(d) => (4, d),
         other => {
             return Err(IoError::format(format!(
-                "TIFF colour type {other:?} is not supported: re-save the view as gray or RGB"
+                "TIFF images of {} are not supported: re-save the view as gray or RGB",
+                tiff_colour_words(other)
             )))
         }
     };
@@ -205,7 +268,27 @@ fn tiff_start(reader: BufReader<File>, max_pixels: u64) -> Result<(Tiff, Header)
     Ok((decoder.with_limits(limits), header))
 }
 
-fn tiff_finish(mut decoder: Tiff, header: Header) -> Result<Image, IoError> {
+/// A TIFF colour type the loader does not take, in words (its `Debug` form is a Rust
+/// structure).
+fn tiff_colour_words(color: TiffColor) -> String {
+    let bits = color.bit_depth();
+    match color {
+        TiffColor::Palette(_) => format!("palette colour ({bits}-bit indices)"),
+        TiffColor::CMYK(_) => format!("CMYK colour ({bits}-bit samples)"),
+        TiffColor::CMYKA(_) => format!("CMYK colour with alpha ({bits}-bit samples)"),
+        TiffColor::YCbCr(_) => format!("YCbCr colour ({bits}-bit samples)"),
+        TiffColor::Lab(_) => format!("CIE L*a*b* colour ({bits}-bit samples)"),
+        TiffColor::Multiband { num_samples, .. } => {
+            format!("{num_samples} bands per pixel ({bits}-bit samples)")
+        }
+        _ => format!("this colour type ({bits}-bit samples)"),
+    }
+}
+
+fn tiff_finish<R: Read + Seek>(
+    mut decoder: TiffDecoder<R>,
+    header: Header,
+) -> Result<Image, IoError> {
     let samples = match decoder.read_image().map_err(tiff_error)? {
         DecodingResult::U8(s) if header.bit_depth == 8 => Samples::Eight(s),
         DecodingResult::U16(s) if header.bit_depth == 16 => Samples::Sixteen(s),
@@ -232,12 +315,77 @@ fn tiff_finish(mut decoder: Tiff, header: Header) -> Result<Image, IoError> {
     })
 }
 
+/// The container a float map (disparity, confidence, depth) is written in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapFormat {
+    /// PFM, one channel, rows bottom-to-top (`.pfm`, or a name without extension such
+    /// as `/dev/null`).
+    Pfm,
+    /// 32-bit float TIFF, one channel (`.tif`, `.tiff`).
+    Tiff,
+    /// OpenEXR, one 32-bit float channel `Y`, ZIP-compressed (lossless) (`.exr`).
+    Exr,
+}
+
+/// The extensions float maps may have, as named in errors and help.
+pub const MAP_EXTENSIONS: &str = ".pfm, .tif, .tiff or .exr";
+
+/// The container of a float map written to `path`, from its extension (any case); an
+/// unknown extension is an error naming the known ones, so that a map is never written
+/// in a container its name does not say.
+pub fn map_format(path: &Path) -> Result<MapFormat, IoError> {
+    let Some(ext) = path.extension() else {
+        return Ok(MapFormat::Pfm);
+    };
+    let lower = ext.to_str().map(str::to_ascii_lowercase);
+    match lower.as_deref() {
+        Some("pfm") => Ok(MapFormat::Pfm),
+        Some("tif" | "tiff") => Ok(MapFormat::Tiff),
+        Some("exr") => Ok(MapFormat::Exr),
+        _ => Err(IoError::format(format!(
+            "maps are written as PFM, 32-bit float TIFF or OpenEXR, told by the name's extension, and .{} is none of them: name the file with {MAP_EXTENSIONS}",
+            ext.to_string_lossy()
+        ))
+        .in_file(path)),
+    }
+}
+
 /// Whether `path` names a TIFF file (`.tif`, `.tiff`, any case): maps written there are
 /// 32-bit float TIFF instead of PFM.
 pub fn is_tiff_name(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
+    matches!(map_format(path), Ok(MapFormat::Tiff))
+}
+
+/// The one channel's name in the EXR maps: `Y`, which viewers show as gray.
+pub const EXR_CHANNEL: &str = "Y";
+
+/// Encodes a one-channel float map (row-major, top row first) as OpenEXR: one 32-bit
+/// float channel [`EXR_CHANNEL`], scan lines top to bottom, ZIP compression (lossless:
+/// every value, NaN and infinities included, reads back bit for bit).
+pub fn encode_float_exr(width: usize, height: usize, values: &[f32]) -> Result<Vec<u8>, IoError> {
+    use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes};
+    use exr::prelude::{Image as ExrImage, WritableImage};
+    if Some(values.len()) != width.checked_mul(height) {
+        return Err(IoError::format(format!(
+            "a {width}x{height} map needs {} values but has {}",
+            width.saturating_mul(height),
+            values.len()
+        )));
+    }
+    let channel = AnyChannel::new(EXR_CHANNEL, FlatSamples::F32(values.to_vec()));
+    let layer = Layer::new(
+        (width, height),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(vec![channel].into()),
+    );
+    let mut out = Cursor::new(Vec::new());
+    ExrImage::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_buffered(&mut out)
+        .map_err(|e| IoError::format(format!("OpenEXR encoding failed: {e}")))?;
+    Ok(out.into_inner())
 }
 
 /// Encodes a one-channel float map (row-major, top row first) as a 32-bit float TIFF.
@@ -263,16 +411,15 @@ pub fn encode_float_tiff(width: usize, height: usize, values: &[f32]) -> Result<
     Ok(out.into_inner())
 }
 
-/// Writes a float map as PFM, or as 32-bit float TIFF when `path` ends in `.tif` or
-/// `.tiff`; atomically, like every output.
+/// Writes a float map in the container its extension names ([`map_format`]: PFM,
+/// 32-bit float TIFF or OpenEXR); atomically, like every output.
 pub fn write_map(path: &Path, map: &super::pfm::Pfm) -> Result<(), IoError> {
-    if is_tiff_name(path) {
-        let bytes =
-            encode_float_tiff(map.width, map.height, &map.data).map_err(|e| e.in_file(path))?;
-        write_bytes(path, &bytes)
-    } else {
-        super::pfm::write(path, map)
-    }
+    let encoded = match map_format(path)? {
+        MapFormat::Pfm => return super::pfm::write(path, map),
+        MapFormat::Tiff => encode_float_tiff(map.width, map.height, &map.data),
+        MapFormat::Exr => encode_float_exr(map.width, map.height, &map.data),
+    };
+    write_bytes(path, &encoded.map_err(|e| e.in_file(path))?)
 }
 
 #[cfg(test)]
@@ -303,5 +450,87 @@ mod tests {
             assert!(a.to_bits() == b.to_bits(), "{a} {b}");
         }
         assert!(encode_float_tiff(3, 3, &values).is_err());
+    }
+
+    #[test]
+    fn float_exr_round_trips() {
+        use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+        let values = [0.5f32, -1.25, f32::NAN, 3.0, f32::INFINITY, 7.5];
+        let bytes = encode_float_exr(3, 2, &values).unwrap();
+        let image = exr::prelude::read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .non_parallel()
+            .from_buffered(Cursor::new(bytes))
+            .unwrap();
+        let layer = &image.layer_data;
+        assert_eq!((layer.size.0, layer.size.1), (3, 2));
+        let [channel] = layer.channel_data.list.as_slice() else {
+            panic!("not one channel");
+        };
+        assert_eq!(channel.name.to_string(), EXR_CHANNEL);
+        let FlatSamples::F32(back) = &channel.sample_data else {
+            panic!("not f32");
+        };
+        assert!(back
+            .iter()
+            .zip(values)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(encode_float_exr(3, 3, &values).is_err());
+    }
+
+    #[test]
+    fn views_decode_from_memory_by_their_first_bytes() {
+        let samples: Vec<u8> = (0..4 * 3 * 3).map(|i| (i * 7) as u8).collect();
+        let mut tiff = Cursor::new(Vec::new());
+        tiff::encoder::TiffEncoder::new(&mut tiff)
+            .unwrap()
+            .write_image::<tiff::encoder::colortype::RGB8>(4, 3, &samples)
+            .unwrap();
+        let tiff = tiff.into_inner();
+        let image = decode_limited(&tiff, 12).unwrap();
+        assert_eq!((image.width, image.height, image.channels), (4, 3, 3));
+        assert!(matches!(&image.samples, Samples::Eight(s) if *s == samples));
+        // Over the cap: refused from the header, in words naming the cap.
+        let e = decode_limited(&tiff, 11).unwrap_err().to_string();
+        assert!(e.contains("TIFF header declares"), "{e}");
+        let e = decode_limited(b"\xFF\xD8\xFF\xE0 truncated", 100).unwrap_err();
+        assert!(e.to_string().contains("JPEG"), "{e}");
+        // A colour type the loader does not take is named in words.
+        let mut cmyk = Cursor::new(Vec::new());
+        tiff::encoder::TiffEncoder::new(&mut cmyk)
+            .unwrap()
+            .write_image::<tiff::encoder::colortype::CMYK8>(1, 1, &[1, 2, 3, 4])
+            .unwrap();
+        let e = decode_limited(&cmyk.into_inner(), 100)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("CMYK colour (8-bit samples)"), "{e}");
+        assert!(!e.contains(" { ") && !e.contains("CMYK(8)"), "{e}");
+        let e = decode_limited(b"GIF89a", 100).unwrap_err();
+        assert!(e.to_string().contains("not a PNG, JPEG or TIFF"), "{e}");
+    }
+
+    #[test]
+    fn map_formats_by_extension() {
+        for (name, format) in [
+            ("d.pfm", MapFormat::Pfm),
+            ("d.PFM", MapFormat::Pfm),
+            ("/dev/null", MapFormat::Pfm),
+            ("d.tif", MapFormat::Tiff),
+            ("d.TIFF", MapFormat::Tiff),
+            ("d.exr", MapFormat::Exr),
+            ("d.EXR", MapFormat::Exr),
+        ] {
+            assert_eq!(map_format(Path::new(name)).unwrap(), format, "{name}");
+        }
+        let e = map_format(Path::new("d.png")).unwrap_err().to_string();
+        assert!(
+            e.contains("d.png") && e.contains(".png") && e.contains(".exr"),
+            "{e}"
+        );
     }
 }

@@ -452,8 +452,9 @@ pub fn estimate_with<S: Sample, M: ViewMap>(
 
 /// [`estimate_with`] on a light field of which only the views `present` accepts
 /// (row-major grid index) exist: the others are never read and keep the identity. The
-/// probe of [`AlignMode::Auto`] and the estimate use the views of their set that exist
-/// (the centre view must); with every view present the result is [`estimate_with`]'s.
+/// probe of [`AlignMode::Auto`] and the estimate use the views of their set that exist;
+/// the centre view must exist ([`Error::Alignment`] in mode on, a skipped estimate with
+/// that warning in auto). With every view present the result is [`estimate_with`]'s.
 pub fn estimate_present<S: Sample, M: ViewMap>(
     lf: &LightField<'_, S>,
     params: &AlignParams,
@@ -493,6 +494,21 @@ pub(crate) fn estimate_into<S: Sample, M: ViewMap>(
     check_scratch(needed, scratch.len())?;
     homographies.fill(Homography::IDENTITY);
     report.start(0);
+    let (r0, c0) = layout.grid.center();
+    let centre = layout.grid.index(r0, c0);
+    if params.mode != AlignMode::Off && !present(centre) {
+        // Every view is aligned by the centre view's corners: it is never optional.
+        let error = Error::Alignment {
+            view: centre,
+            reason: "the centre view is absent: alignment tracks its corners into the other views, so supply it or turn alignment off",
+        };
+        if params.mode == AlignMode::On {
+            return Err(error);
+        }
+        report.skipped = true;
+        report.warning = Some(error);
+        return Ok(());
+    }
     let set = match params.views {
         AlignedViews::All | AlignedViews::Read => solve::ViewSet::All,
         AlignedViews::Cross => solve::ViewSet::Cross,

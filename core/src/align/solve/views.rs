@@ -84,21 +84,27 @@ pub(crate) fn view_order(
         }
         ViewSet::Probe => {
             let (last_r, last_c) = (grid.rows - 1, grid.cols - 1);
+            // A step that leaves the grid (the missing axis of a rail) picks nothing.
+            let (before, after) = (|i: usize| i.checked_sub(1), |i: usize| i.checked_add(1));
             let picks = [
-                (r0, c0 - 1),
-                (r0, c0 + 1),
-                (r0 - 1, c0),
-                (r0 + 1, c0),
-                (r0, c0.saturating_sub(2)),
-                (r0, (c0 + 2).min(grid.cols - 1)),
-                (r0.saturating_sub(2), c0),
-                ((r0 + 2).min(grid.rows - 1), c0),
-                (0, 0),
-                (0, last_c),
-                (last_r, 0),
-                (last_r, last_c),
+                (Some(r0), before(c0)),
+                (Some(r0), after(c0)),
+                (before(r0), Some(c0)),
+                (after(r0), Some(c0)),
+                (Some(r0), Some(c0.saturating_sub(2))),
+                (Some(r0), Some((c0 + 2).min(last_c))),
+                (Some(r0.saturating_sub(2)), Some(c0)),
+                (Some((r0 + 2).min(last_r)), Some(c0)),
+                (Some(0), Some(0)),
+                (Some(0), Some(last_c)),
+                (Some(last_r), Some(0)),
+                (Some(last_r), Some(last_c)),
             ];
-            for (r, c) in picks {
+            for pick in picks {
+                let (Some(r), Some(c)) = pick else { continue };
+                if r > last_r || c > last_c {
+                    continue;
+                }
                 let v = grid.index(r, c);
                 if v != centre && !out.contains(&v) && present(v) {
                     let _ = out.push(v);
