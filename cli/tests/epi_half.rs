@@ -6,42 +6,14 @@
 
 mod common;
 
-use std::path::Path;
-
-use common::lfdepth;
-use lfdepth_cli::io::pfm;
-
-fn estimate(scene: &Path, out: &Path, extra: &[&str]) -> Vec<u32> {
-    let mut args = vec![
-        "estimate",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    let output = lfdepth(&args);
-    assert!(
-        output.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    pfm::read(out)
-        .unwrap()
-        .data
-        .iter()
-        .map(|v| v.to_bits())
-        .collect()
-}
-
 #[test]
 fn half_resolution_maps_are_the_same_for_any_thread_count() {
     let dir = common::temp();
     let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 66, &[]);
     let out = dir.path().join("est.pfm");
-    let one = estimate(&scene, &out, &["--epi-half", "1", "--threads", "1"]);
-    let three = estimate(&scene, &out, &["--epi-half", "1", "--threads", "3"]);
-    let default = estimate(&scene, &out, &["--threads", "1"]);
+    let one = common::estimate_bits(&scene, &out, &["--epi-half", "1", "--threads", "1"]);
+    let three = common::estimate_bits(&scene, &out, &["--epi-half", "1", "--threads", "3"]);
+    let default = common::estimate_bits(&scene, &out, &["--threads", "1"]);
     assert_eq!(one, three, "1 and 3 threads give the same bits");
     assert_ne!(one, default, "--epi-half 1 changes the map");
 }

@@ -5,64 +5,19 @@
 
 mod common;
 
-use std::path::Path;
-
 use common::lfdepth;
-use lfdepth_cli::io::pfm;
-
-/// The synthetic `mixed` scene at `size`² under `dir`.
-fn mixed(dir: &Path, size: &str) -> std::path::PathBuf {
-    let scene = dir.join("mixed");
-    let synth = lfdepth(&[
-        "synth",
-        "--scene",
-        "mixed",
-        "--size",
-        size,
-        "--out",
-        scene.to_str().unwrap(),
-    ]);
-    assert!(
-        synth.status.success(),
-        "{}",
-        String::from_utf8_lossy(&synth.stderr)
-    );
-    scene
-}
-
-fn estimate(scene: &Path, out: &Path, extra: &[&str]) -> Vec<u32> {
-    let mut args = vec![
-        "estimate",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    let output = lfdepth(&args);
-    assert!(
-        output.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    pfm::read(out)
-        .unwrap()
-        .data
-        .iter()
-        .map(|v| v.to_bits())
-        .collect()
-}
 
 #[test]
 fn plane_sweep_maps_are_the_same_for_any_thread_count() {
     let dir = common::temp();
-    let scene = mixed(dir.path(), "70");
+    let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 70, &[]);
     let out = dir.path().join("est.pfm");
     for stage in ["epi", "full"] {
         let sweep = ["--initial", "sweep", "--stage", stage];
-        let one = estimate(&scene, &out, &[&sweep[..], &["--threads", "1"]].concat());
-        let three = estimate(&scene, &out, &[&sweep[..], &["--threads", "3"]].concat());
-        let default = estimate(&scene, &out, &["--threads", "1", "--stage", stage]);
+        let one = common::estimate_bits(&scene, &out, &[&sweep[..], &["--threads", "1"]].concat());
+        let three =
+            common::estimate_bits(&scene, &out, &[&sweep[..], &["--threads", "3"]].concat());
+        let default = common::estimate_bits(&scene, &out, &["--threads", "1", "--stage", stage]);
         assert_eq!(one, three, "{stage}: 1 and 3 threads give the same bits");
         assert_ne!(one, default, "{stage}: --initial sweep changes the map");
     }
@@ -71,7 +26,7 @@ fn plane_sweep_maps_are_the_same_for_any_thread_count() {
 #[test]
 fn bad_sweep_flags_are_refused_with_their_range() {
     let dir = common::temp();
-    let scene = mixed(dir.path(), "32");
+    let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 32, &[]);
     let out = dir.path().join("est.pfm");
     for (flags, named) in [
         (&["--sweep-step", "0"][..], "--sweep-step"),

@@ -8,7 +8,6 @@ mod common;
 use std::path::Path;
 
 use common::lfdepth;
-use lfdepth_cli::io::pfm;
 
 /// What `fast` sets, spelled out as the flags that set each knob.
 const FAST_KNOBS: [&str; 10] = [
@@ -40,30 +39,9 @@ fn default_knobs() -> Vec<String> {
     .collect()
 }
 
-/// The disparity map `estimate` writes for `scene` with `extra` flags (one thread).
-fn estimate(scene: &Path, out: &Path, extra: &[&str]) -> Vec<f32> {
-    let mut args = vec![
-        "estimate",
-        scene.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--threads",
-        "1",
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    let output = lfdepth(&args);
-    assert!(
-        output.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    pfm::read(out).unwrap().data
-}
-
-/// Bit patterns, so that maps compare exactly (NaN included).
-fn bits(map: &[f32]) -> Vec<u32> {
-    map.iter().map(|v| v.to_bits()).collect()
+/// The disparity map's bits `estimate` writes for `scene` with `extra` flags (one thread).
+fn estimate(scene: &Path, out: &Path, extra: &[&str]) -> Vec<u32> {
+    common::estimate_bits(scene, out, &[&["--threads", "1"][..], extra].concat())
 }
 
 #[test]
@@ -71,14 +49,14 @@ fn fast_preset_is_its_knobs_and_explicit_flags_override_it() {
     let dir = common::temp();
     let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 64, &[]);
     let out = dir.path().join("est.pfm");
-    let default = bits(&estimate(&scene, &out, &[]));
-    let named_default = bits(&estimate(&scene, &out, &["--preset", "default"]));
-    let fast = bits(&estimate(&scene, &out, &["--preset", "fast"]));
-    let spelled_out = bits(&estimate(&scene, &out, &FAST_KNOBS));
+    let default = estimate(&scene, &out, &[]);
+    let named_default = estimate(&scene, &out, &["--preset", "default"]);
+    let fast = estimate(&scene, &out, &["--preset", "fast"]);
+    let spelled_out = estimate(&scene, &out, &FAST_KNOBS);
     let defaults = default_knobs();
     let mut overridden_args = vec!["--preset", "fast"];
     overridden_args.extend(defaults.iter().map(String::as_str));
-    let overridden = bits(&estimate(&scene, &out, &overridden_args));
+    let overridden = estimate(&scene, &out, &overridden_args);
 
     assert_eq!(named_default, default, "--preset default is the default");
     assert_eq!(fast, spelled_out, "--preset fast sets exactly its knobs");

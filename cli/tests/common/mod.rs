@@ -127,6 +127,25 @@ pub fn synth_scene(out: &Path, scene: &str, size: usize, flags: &[&str]) -> Path
     out.to_path_buf()
 }
 
+/// The bit patterns of the disparity map `estimate` writes for `scene` with `extra`
+/// flags, so that maps compare exactly (NaN included).
+pub fn estimate_bits(scene: &Path, out: &Path, extra: &[&str]) -> Vec<u32> {
+    let mut args = vec!["estimate", arg(scene), "-o", arg(out), "--quiet"];
+    args.extend_from_slice(extra);
+    let output = lfdepth(&args);
+    assert!(
+        output.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    lfdepth_cli::io::pfm::read(out)
+        .unwrap()
+        .data
+        .iter()
+        .map(|v| v.to_bits())
+        .collect()
+}
+
 /// A fresh temporary folder (removed when dropped).
 pub fn temp() -> tempfile::TempDir {
     tempfile::tempdir().expect("a temporary folder")
