@@ -1,18 +1,21 @@
 //! Replays the regression corpus of the byte-level fuzz targets
 //! (`fuzz/regressions/<target>/`): every input that once crashed a target, or gave an
 //! unclear answer, goes through the same call the target makes and must give a value or
-//! an error in words, never a panic. `grid_infer`'s inputs are name listings (see
-//! `fuzz/fuzz_targets/grid_infer.rs`), decoded here the same way. The structured targets (`options_parse`,
-//! `stages`, `align`) keep theirs in `fuzz/regressions/` too, for `cargo fuzz run`;
-//! each crash they found is also a unit test in the crate it concerns (see
-//! docs/FUZZING.md).
+//! an error in words, never a panic. `grid_infer`'s inputs are name listings, decoded
+//! and located by the target's own code (`fuzz/fuzz_targets/grid_infer_input.rs`,
+//! included here). The structured targets (`options_parse`, `stages`, `align`) keep
+//! theirs in `fuzz/regressions/` too, for `cargo fuzz run`; each crash they found is
+//! also a unit test in the crate it concerns (see docs/FUZZING.md).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use lfdepth::Grid;
 use lfdepth_cli::io::limits::Limits;
-use lfdepth_cli::io::scene::{self, LoadOptions};
 use lfdepth_cli::io::{cfg, formats, pfm};
+
+#[path = "../../fuzz/fuzz_targets/grid_infer_input.rs"]
+mod grid_infer_input;
+
+use grid_infer_input::Listing;
 
 fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
     let dir =
@@ -86,51 +89,27 @@ fn cfg_parse_regressions() {
     }
 }
 
-/// `RxC` as two numbers.
-fn grid(text: &str) -> Option<(usize, usize)> {
-    let (r, c) = text.split_once('x')?;
-    Some((r.parse().ok()?, c.parse().ok()?))
-}
-
 #[test]
 fn grid_infer_regressions() {
     for (path, bytes) in corpus("grid_infer") {
-        let Ok(text) = std::str::from_utf8(&bytes) else {
-            continue;
+        // The target ignores input that is not UTF-8: no such input can be a regression.
+        let Some(listing) = Listing::decode(&bytes) else {
+            panic!("{}: not UTF-8, which grid_infer ignores", path.display());
         };
-        let mut lines = text.lines().peekable();
-        let mut options = LoadOptions::default();
-        let mut config = None;
-        if let Some(first) = lines.next_if(|l| l.starts_with('?')) {
-            for option in first[1..].split(';') {
-                match option.split_once('=') {
-                    Some(("grid", g)) => options.grid = grid(g).map(|(r, c)| Grid::new(r, c)),
-                    Some(("pattern", p)) => options.pattern = Some(p.to_string()),
-                    Some(("cfg", g)) => {
-                        config = grid(g).map(|(r, c)| cfg::SceneConfig {
-                            num_cams_y: Some(r),
-                            num_cams_x: Some(c),
-                            ..cfg::SceneConfig::default()
-                        })
-                    }
-                    _ => {}
-                }
-            }
-        }
-        let mut names: Vec<String> = lines.map(String::from).collect();
-        names.sort();
-        match scene::locate_names(Path::new("scene"), names.clone(), config, &options) {
+        match listing.locate() {
             Ok(files) => {
                 assert!(files.grid.is_supported(), "{}", path.display());
                 assert_eq!(files.paths.len(), files.grid.len(), "{}", path.display());
                 assert_eq!(files.present.len(), files.grid.len(), "{}", path.display());
                 for (p, &present) in files.paths.iter().zip(&files.present) {
                     let name = p.file_name().and_then(|n| n.to_str()).unwrap_or("");
-                    assert!(!present || names.iter().any(|n| n == name), "{name}");
+                    assert!(
+                        !present || listing.names.iter().any(|n| n == name),
+                        "{name}"
+                    );
                 }
             }
-            // Names and patterns are quoted as they are in the message, braces included.
-            Err(e) if options.pattern.is_some() || names.iter().any(|n| n.contains(['{', '}'])) => {
+            Err(e) if listing.quotes_braces() => {
                 assert!(!e.to_string().is_empty(), "{}", path.display());
             }
             Err(e) => in_words(&e.to_string(), &path),

@@ -4,50 +4,22 @@
 //! given), or an error in words (no Rust debug structure where no name given and no
 //! pattern holds braces the message could quote); never a panic or a hang.
 //!
-//! Input: UTF-8 text, one name per line. A first line starting with `?` holds the
-//! options, `;`-separated: `grid=RxC`, `pattern=P`, `cfg=RxC` (`parameters.cfg`'s
-//! `num_cams_y` × `num_cams_x`). `cli/tests/fuzz_regressions.rs` decodes its corpus
-//! the same way.
+//! Input: a name listing with the options, decoded by [`grid_infer_input`] (shared
+//! with `cli/tests/fuzz_regressions.rs`, which replays this target's corpus).
 #![no_main]
 
-use std::path::Path;
-
-use lfdepth::Grid;
-use lfdepth_cli::io::cfg::SceneConfig;
-use lfdepth_cli::io::scene::{self, LoadOptions};
 use libfuzzer_sys::fuzz_target;
 
-fn grid(text: &str) -> Option<(usize, usize)> {
-    let (r, c) = text.split_once('x')?;
-    Some((r.parse().ok()?, c.parse().ok()?))
-}
+mod grid_infer_input;
+
+use grid_infer_input::Listing;
 
 fuzz_target!(|data: &[u8]| {
-    let Ok(text) = core::str::from_utf8(data) else {
+    let Some(listing) = Listing::decode(data) else {
         return;
     };
-    let mut lines = text.lines().peekable();
-    let mut options = LoadOptions::default();
-    let mut config = None;
-    if let Some(first) = lines.next_if(|l| l.starts_with('?')) {
-        for option in first[1..].split(';') {
-            match option.split_once('=') {
-                Some(("grid", g)) => options.grid = grid(g).map(|(r, c)| Grid::new(r, c)),
-                Some(("pattern", p)) => options.pattern = Some(p.to_string()),
-                Some(("cfg", g)) => {
-                    config = grid(g).map(|(r, c)| SceneConfig {
-                        num_cams_y: Some(r),
-                        num_cams_x: Some(c),
-                        ..SceneConfig::default()
-                    })
-                }
-                _ => {}
-            }
-        }
-    }
-    let mut names: Vec<String> = lines.map(String::from).collect();
-    names.sort();
-    match scene::locate_names(Path::new("scene"), names.clone(), config, &options) {
+    let names = &listing.names;
+    match listing.locate() {
         Ok(files) => {
             assert!(files.grid.is_supported(), "{:?}", files.grid);
             assert_eq!(files.paths.len(), files.grid.len());
@@ -60,10 +32,7 @@ fuzz_target!(|data: &[u8]| {
         Err(e) => {
             let message = e.to_string();
             assert!(!message.is_empty());
-            // Names and patterns are quoted as they are, braces included; without
-            // them, braces in a message would be a Rust debug structure.
-            let braces = |n: &String| n.contains(['{', '}']);
-            if options.pattern.is_none() && !names.iter().any(braces) {
+            if !listing.quotes_braces() {
                 assert!(!message.contains(" { "), "{message}");
             }
         }

@@ -64,7 +64,7 @@ fn window_sum<T: Scalar>(
     let (stats, previous, width) = (evaluated.stats, evaluated.disparity, evaluated.width);
     let mut sum = [T::ZERO; STATS];
     if let Some(plane) = plane {
-        return window_sum_slanted(evaluated, (ys, xs), d, gate, plane, scale);
+        return window_sum_each(evaluated, (ys, xs), d, gate, plane, scale);
     }
     if xs.len() == 3 {
         // Radius 1 away from the image's sides (fewer than three rows at the region's
@@ -80,7 +80,7 @@ fn window_sum<T: Scalar>(
                     .get(at * STATS..)
                     .and_then(|s| s.first_chunk::<{ 3 * STATS }>()),
             ) else {
-                return window_sum_each(evaluated, (ys, xs), d, gate, scale);
+                return window_sum_each(evaluated, (ys, xs), d, gate, &Flat, scale);
             };
             for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
                 let outside = (p - d).abs() > gate;
@@ -95,7 +95,7 @@ fn window_sum<T: Scalar>(
         }
         return sum;
     }
-    window_sum_each(evaluated, (ys, xs), d, gate, scale)
+    window_sum_each(evaluated, (ys, xs), d, gate, &Flat, scale)
 }
 
 /// The local plane of a slanted window ([`RefineParams::slanted`]): the pixel's
@@ -145,12 +145,48 @@ impl<T: Scalar> Plane<T> {
             slope: (gx, gy),
         }
     }
+}
 
+/// The plane a window's neighbours are gated around and their statistics transferred
+/// along: the fronto-parallel [`Flat`] or a slanted window's [`Plane`]. Each is its own
+/// monomorphised loop, so the fronto-parallel window pays nothing for the other.
+trait WindowPlane<T: Scalar> {
     /// The plane's disparity at `(xx, yy)` relative to the pixel's.
+    fn offset(&self, xx: usize, yy: usize) -> T;
+
+    /// Adds a neighbour's statistics to a window's sum, the plane lying `offset` px
+    /// above it at the pixel, scaled by `scale` when given.
+    fn add(sum: &mut [T; STATS], stat: &[T], offset: T, scale: Option<T>);
+}
+
+/// The fronto-parallel window: the plane of the pixel's disparity, along which the
+/// statistics are added as they are.
+struct Flat;
+
+impl<T: Scalar> WindowPlane<T> for Flat {
+    /// Zero: `p − d − 0` is `p − d`, bit for bit (also for [`Q16`](crate::Q16)'s
+    /// saturating subtraction), and the compiler drops it.
+    #[inline(always)]
+    fn offset(&self, _: usize, _: usize) -> T {
+        T::ZERO
+    }
+
+    #[inline(always)]
+    fn add(sum: &mut [T; STATS], stat: &[T], _: T, scale: Option<T>) {
+        add_stats(sum, stat, scale);
+    }
+}
+
+impl<T: Scalar> WindowPlane<T> for Plane<T> {
     #[inline(always)]
     fn offset(&self, xx: usize, yy: usize) -> T {
         let steps = |to: usize, from: usize| T::from_f32(to as f32 - from as f32);
         self.slope.0 * steps(xx, self.x) + self.slope.1 * steps(yy, self.y)
+    }
+
+    #[inline(always)]
+    fn add(sum: &mut [T; STATS], stat: &[T], offset: T, scale: Option<T>) {
+        add_stats_slanted(sum, stat, offset, scale);
     }
 }
 
@@ -176,35 +212,6 @@ fn add_stats_slanted<T: Scalar>(sum: &mut [T; STATS], stat: &[T], offset: T, sca
             }
         }
     }
-}
-
-/// [`window_sum`] of a slanted window: each neighbour within `gate` of the plane
-/// through the pixel, its statistics transferred along the plane.
-fn window_sum_slanted<T: Scalar>(
-    evaluated: &Evaluated<'_, T>,
-    (ys, xs): (Range<usize>, Range<usize>),
-    d: T,
-    gate: T,
-    plane: &Plane<T>,
-    scale: Option<T>,
-) -> [T; STATS] {
-    let (stats, previous, width) = (evaluated.stats, evaluated.disparity, evaluated.width);
-    let mut sum = [T::ZERO; STATS];
-    for yy in ys {
-        for xx in xs.clone() {
-            let j = yy * width + xx;
-            let Some(&p) = previous.get(j) else { continue };
-            let offset = plane.offset(xx, yy);
-            if (p - d - offset).abs() > gate {
-                continue;
-            }
-            let Some(stat) = stats.get(j * STATS..(j + 1) * STATS) else {
-                continue;
-            };
-            add_stats_slanted(&mut sum, stat, offset, scale);
-        }
-    }
-    sum
 }
 
 /// The total curvature `A` of a window sum (all groups).
@@ -241,41 +248,20 @@ fn three_rows<'a, T>(
     ))
 }
 
-/// [`window_sum`] of a whole 3 × 3 window given as its three rows of disparities and
-/// statistics: the same terms in the same order. A neighbour outside the gate is
-/// skipped, which is adding +0 (the sum starts at +0 and never becomes −0; adding 0 to
-/// a Q16 integer is exact): the same bits. Not inlined: inlined into the row's loop,
+/// [`window_sum_each`] of a whole 3 × 3 window given as its three rows of disparities
+/// and statistics, around the pixel at (1, 1) of the three rows: the same terms in the
+/// same order. A neighbour outside the gate is skipped, which is adding +0 (the sum
+/// starts at +0 and never becomes −0; adding 0 to a Q16 integer is exact): the same
+/// bits as [`window_sum`]'s branchless rows. Not inlined: inlined into the row's loop,
 /// its sums were kept in vector lanes by group (for the curvature), which cost more
 /// than the call.
 #[allow(clippy::type_complexity)]
 #[inline(never)]
-fn window_rows<T: Scalar>(
+fn window_rows<T: Scalar, W: WindowPlane<T>>(
     (ds, ss): &([&[T; 3]; 3], [&[T; 3 * STATS]; 3]),
     d: T,
     gate: T,
-    scale: Option<T>,
-) -> [T; STATS] {
-    let mut sum = [T::ZERO; STATS];
-    for (ds, ss) in ds.iter().zip(ss) {
-        for (&p, s) in ds.iter().zip(ss.chunks_exact(STATS)) {
-            if (p - d).abs() > gate {
-                continue;
-            }
-            add_stats(&mut sum, s, scale);
-        }
-    }
-    sum
-}
-
-/// [`window_rows`] of a slanted window around the pixel at (1, 1) of the three rows:
-/// the same terms in the same order as [`window_sum_slanted`].
-#[allow(clippy::type_complexity)]
-#[inline(never)]
-fn window_rows_slanted<T: Scalar>(
-    (ds, ss): &([&[T; 3]; 3], [&[T; 3 * STATS]; 3]),
-    d: T,
-    gate: T,
-    plane: &Plane<T>,
+    plane: &W,
     scale: Option<T>,
 ) -> [T; STATS] {
     let mut sum = [T::ZERO; STATS];
@@ -285,7 +271,7 @@ fn window_rows_slanted<T: Scalar>(
             if (p - d - offset).abs() > gate {
                 continue;
             }
-            add_stats_slanted(&mut sum, s, offset, scale);
+            W::add(&mut sum, s, offset, scale);
         }
     }
     sum
@@ -481,8 +467,8 @@ fn update_row<T: Scalar>(
         let rows = ([d0, d1, d2], [s0, s1, s2]);
         let (n, e, damped) = match &step.k.slant {
             None => {
-                let sum = window_rows(&rows, d, gate, None);
-                step.update(d, sum, |f| window_rows(&rows, d, gate, Some(f)))
+                let sum = window_rows(&rows, d, gate, &Flat, None);
+                step.update(d, sum, |f| window_rows(&rows, d, gate, &Flat, Some(f)))
             }
             Some(slant) => {
                 let ds = [d0, d1, d2];
@@ -491,10 +477,8 @@ fn update_row<T: Scalar>(
                     row.get(usize::try_from(dx + 1).ok()?).copied()
                 };
                 let plane = Plane::at((1, 1), d, at, gate, slant);
-                let sum = window_rows_slanted(&rows, d, gate, &plane, None);
-                step.update(d, sum, |f| {
-                    window_rows_slanted(&rows, d, gate, &plane, Some(f))
-                })
+                let sum = window_rows(&rows, d, gate, &plane, None);
+                step.update(d, sum, |f| window_rows(&rows, d, gate, &plane, Some(f)))
             }
         };
         *next = n;
@@ -511,13 +495,16 @@ fn update_row<T: Scalar>(
     }
 }
 
-/// [`window_sum`] pixel by pixel.
+/// [`window_sum`] pixel by pixel: each neighbour within `gate` of the window's `plane`
+/// through the pixel, its statistics transferred along the plane ([`Flat`]: gated
+/// around `d`, added as they are).
 #[inline]
-fn window_sum_each<T: Scalar>(
+fn window_sum_each<T: Scalar, W: WindowPlane<T>>(
     evaluated: &Evaluated<'_, T>,
     (ys, xs): (Range<usize>, Range<usize>),
     d: T,
     gate: T,
+    plane: &W,
     scale: Option<T>,
 ) -> [T; STATS] {
     let (stats, previous, width) = (evaluated.stats, evaluated.disparity, evaluated.width);
@@ -527,13 +514,14 @@ fn window_sum_each<T: Scalar>(
             let j = yy * width + xx;
             // The window lies within the region, which `previous` covers.
             let Some(&p) = previous.get(j) else { continue };
-            if (p - d).abs() > gate {
+            let offset = plane.offset(xx, yy);
+            if (p - d - offset).abs() > gate {
                 continue;
             }
             let Some(stat) = stats.get(j * STATS..(j + 1) * STATS) else {
                 continue;
             };
-            add_stats(&mut sum, stat, scale);
+            W::add(&mut sum, stat, offset, scale);
         }
     }
     sum

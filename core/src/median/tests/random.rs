@@ -116,6 +116,60 @@ fn random_params(rng: &mut Rng) -> MedianParams {
     }
 }
 
+/// One random case: its sides and a [`scene`] whose guide has `channels` channels.
+struct Case {
+    w: usize,
+    h: usize,
+    channels: usize,
+    scene: Scene,
+}
+
+/// Draws a [`Case`]: the sides, the guide's channels (`channels`), then the scene.
+fn case_with(rng: &mut Rng, channels: impl FnOnce(&mut Rng) -> usize) -> Case {
+    let (w, h) = (side(rng), side(rng));
+    let channels = channels(rng);
+    Case {
+        w,
+        h,
+        channels,
+        scene: scene(rng, w, h, channels),
+    }
+}
+
+/// A [`Case`] whose guide has 1, 3 or 4 channels.
+fn random_case(rng: &mut Rng) -> Case {
+    case_with(rng, |rng| [1, 3, 4][rng.below(3)])
+}
+
+impl Case {
+    fn pixels(&self) -> usize {
+        self.w * self.h
+    }
+
+    /// The scene's disparity map.
+    fn map(&self) -> &[f32] {
+        &self.scene.map[..self.pixels()]
+    }
+
+    /// The scene's colours as the guide.
+    fn guide(&self) -> View<'_, u8> {
+        let (w, h, channels) = (self.w, self.h, self.channels);
+        View::new(
+            &self.scene.colours[..w * h * channels],
+            w,
+            h,
+            channels,
+            w * channels,
+        )
+        .unwrap()
+    }
+
+    /// The median stage with `params` on a map of the case's sides.
+    fn stage(&self, params: MedianParams) -> TestSetup<MedianParams> {
+        stage_for(self.w, self.h, params)
+    }
+}
+
 /// `filter_rows` over the whole map and in random bands, checked bit for bit against
 /// the reference (a median of zero of either sign: [`same`]); returns how many pixels
 /// the median moved.
@@ -175,13 +229,9 @@ fn equals_the_reference_bit_for_bit_on_random_scenes() {
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
     let mut moved = 0;
     for trial in 0..60 {
-        let (w, h) = (side(&mut rng), side(&mut rng));
-        let channels = [1, 3, 4][rng.below(3)];
-        let s = scene(&mut rng, w, h, channels);
-        let stage = stage_for(w, h, random_params(&mut rng));
-        let guide =
-            View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
-        moved += check_against_reference(&mut rng, stage.setup(), &guide, &s.map[..w * h], trial);
+        let case = random_case(&mut rng);
+        let stage = case.stage(random_params(&mut rng));
+        moved += check_against_reference(&mut rng, stage.setup(), &case.guide(), case.map(), trial);
     }
     // The comparison means something only if the selection ran and moved pixels.
     assert!(moved > 200, "only {moved} pixels moved");
@@ -192,10 +242,10 @@ fn equals_the_reference_with_a_float_guide() {
     let mut rng = Rng(0x0123_4567_89AB_CDEF);
     let mut moved = 0;
     for trial in 0..20 {
-        let (w, h) = (side(&mut rng), side(&mut rng));
-        let s = scene(&mut rng, w, h, 3);
+        let case = case_with(&mut rng, |_| 3);
+        let (w, h) = (case.w, case.h);
         let mut colours = [0.0f32; 3 * MAX_SIDE * MAX_SIDE];
-        for (c, &level) in colours.iter_mut().zip(&s.colours[..3 * w * h]) {
+        for (c, &level) in colours.iter_mut().zip(&case.scene.colours[..3 * w * h]) {
             // Levels beyond [0, 1] and NaN clamp to the ends.
             *c = match rng.below(100) {
                 0 => f32::NAN,
@@ -204,9 +254,9 @@ fn equals_the_reference_with_a_float_guide() {
                 _ => f32::from(level) / 255.0 + (rng.unit() - 0.5) / 255.0,
             };
         }
-        let stage = stage_for(w, h, random_params(&mut rng));
+        let stage = case.stage(random_params(&mut rng));
         let guide = View::new(&colours[..3 * w * h], w, h, 3, 3 * w).unwrap();
-        moved += check_against_reference(&mut rng, stage.setup(), &guide, &s.map[..w * h], trial);
+        moved += check_against_reference(&mut rng, stage.setup(), &guide, case.map(), trial);
     }
     assert!(moved > 50, "only {moved} pixels moved");
 }
@@ -218,18 +268,14 @@ fn every_pass_of_a_band_equals_the_reference_passes() {
     let mut rng = Rng(0x6A09_E667_F3BC_C908);
     let mut moved = 0;
     for trial in 0..24 {
-        let (w, h) = (side(&mut rng), side(&mut rng));
-        let channels = [1, 3, 4][rng.below(3)];
-        let s = scene(&mut rng, w, h, channels);
+        let case = random_case(&mut rng);
         let params = MedianParams {
             passes: 1 + rng.below(MAX_PASSES),
             ..random_params(&mut rng)
         };
-        let stage = stage_for(w, h, params);
-        let guide =
-            View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
-        let pixels = w * h;
-        let map = &s.map[..pixels];
+        let stage = case.stage(params);
+        let (guide, map) = (case.guide(), case.map());
+        let (w, h, pixels) = (case.w, case.h, case.pixels());
         let expected = reference_passes(stage.setup().params(), &guide, map);
         moved += (0..pixels)
             .filter(|&i| expected[i].to_bits() != map[i].to_bits())
@@ -274,15 +320,12 @@ fn later_passes_skip_unchanged_windows_with_the_same_result() {
     let mut rng = Rng(0x5DEE_CE66_D1CE_4E5B);
     let mut skipped_some = 0;
     for trial in 0..30 {
-        let (w, h) = (side(&mut rng), side(&mut rng));
-        let channels = [1, 3, 4][rng.below(3)];
-        let s = scene(&mut rng, w, h, channels);
-        let stage = stage_for(w, h, random_params(&mut rng));
-        let guide =
-            View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
-        let pixels = w * h;
+        let case = random_case(&mut rng);
+        let stage = case.stage(random_params(&mut rng));
+        let guide = case.guide();
+        let (w, h, pixels) = (case.w, case.h, case.pixels());
         let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
-        let mut previous = s.map[..pixels].to_vec();
+        let mut previous = case.map().to_vec();
         let mut input = vec![0.0f32; pixels];
         filter(stage.setup(), &guide, &previous, &mut input, &mut scratch).unwrap();
         for pass in 1..4 {
@@ -350,15 +393,12 @@ fn passes_that_remember_settled_pixels_equal_full_passes() {
     let mut rng = Rng(0x2545_F491_4F6C_DD1D);
     let (mut settled_pixels, mut moved) = (0, 0);
     for trial in 0..30 {
-        let (w, h) = (side(&mut rng), side(&mut rng));
-        let channels = [1, 3, 4][rng.below(3)];
-        let s = scene(&mut rng, w, h, channels);
-        let stage = stage_for(w, h, random_params(&mut rng));
-        let guide =
-            View::new(&s.colours[..w * h * channels], w, h, channels, w * channels).unwrap();
-        let pixels = w * h;
+        let case = random_case(&mut rng);
+        let stage = case.stage(random_params(&mut rng));
+        let guide = case.guide();
+        let (w, h, pixels) = (case.w, case.h, case.pixels());
         let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
-        let mut expected = s.map[..pixels].to_vec();
+        let mut expected = case.map().to_vec();
         let mut input = expected.clone();
         let mut previous: Option<Vec<f32>> = None;
         let mut settled = vec![7u8; pixels];
