@@ -5,10 +5,10 @@
 //! computation: `Some(sample)` inside the light field, `None`/`Err` outside, no panic.
 #![no_main]
 
+use lfdepth::epi::{self, ColorMode, Direction, DisparityRange, EpiParams, Fusion, Search};
+use lfdepth::{Grid, Layout, LightField, Params, Plan};
 use libfuzzer_sys::arbitrary::{self, Arbitrary};
 use libfuzzer_sys::fuzz_target;
-use lfdepth::epi::{self, ColorMode, DisparityRange, Direction, EpiParams, Fusion, Search};
-use lfdepth::{Grid, Layout, LightField, Params, Plan};
 
 /// A size or index: mostly small (where valid layouts live), sometimes anything.
 #[derive(Arbitrary, Debug, Clone, Copy)]

@@ -12,8 +12,8 @@ use core::ops::ControlFlow;
 
 use common::{Setting, Shape};
 use lfdepth::pipeline::{self, Stages};
-use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::setup::DisparityOut;
+use lfdepth::tv::{self, Guide, Maps};
 use lfdepth::{epi, geofill, median, refine};
 use lfdepth::{LightField, Plan, Sample, Scalar, Q16};
 use libfuzzer_sys::arbitrary::{self, Arbitrary};
@@ -51,7 +51,11 @@ fn buffer<T: Clone + Default>(len: usize) -> Option<Vec<T>> {
 
 fn confidence_ok(confidence: &[f32]) {
     for &c in confidence {
-        assert!(!(c < 0.0 || c > 1.0), "confidence {c} outside [0, 1]");
+        // NaN is allowed: it marks a pixel without an estimate (module docs).
+        assert!(
+            c.is_nan() || (0.0..=1.0).contains(&c),
+            "confidence {c} outside [0, 1]"
+        );
     }
 }
 
@@ -122,7 +126,12 @@ fn run_entry<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>, input: &
                 &mut confidence,
                 &mut scratch,
             ) {
-                assert!(!(h.min() > h.max()), "hypotheses {} > {}", h.min(), h.max());
+                assert!(
+                    h.min().partial_cmp(&h.max()) != Some(core::cmp::Ordering::Greater),
+                    "hypotheses {} > {}",
+                    h.min(),
+                    h.max()
+                );
                 confidence_ok(&confidence);
             }
         }
