@@ -44,7 +44,10 @@ fn snapshot_label(steps: &[Step], index: usize) -> Option<String> {
         Step::Range => return None,
         Step::Epi(_) if matches!(next, Some(Step::Epi(_)) | Some(Step::Upsample)) => return None,
         Step::Epi(_) | Step::Upsample => "EPI estimate",
+        // In the fused start the plane sweep's map is not the current one until chosen.
+        Step::PlaneSweep if next == Some(&Step::Fuse) => return None,
         Step::PlaneSweep => "plane-sweep estimate",
+        Step::Fuse => "fused start",
         Step::Refine => "refined",
         Step::Refill => "refilled at depth steps",
         Step::Median => "edge-snapping median",
