@@ -12,17 +12,17 @@ use crate::setup::{DisparityOut, Setup};
 
 /// Two starts within this many px of each other at a pixel agree: the pixel keeps the
 /// first start's (`kept`) without comparing costs (the refinement's window gate).
-pub const AGREE: f32 = 0.1;
+pub(crate) const AGREE: f32 = 0.1;
 
 /// Radius of the window whose photometric cost decides between two starts that
 /// disagree: `(2·1 + 1)²` pixels (a radius of 2 carries foreground further out at
 /// silhouettes, 0 follows the noise: docs/stages/fused.md).
-pub const RADIUS: usize = 1;
+pub(crate) const RADIUS: usize = 1;
 
 /// Per pixel of `rows`, of two refined starts the one whose disparity the views agree
 /// with better: `out` holds one start's refined disparity and confidence for `rows`
 /// (as [`super::refine_band`] wrote them) and takes `kept`'s (the same rows of the other
-/// start) where the two are within [`AGREE`] px or where `kept`'s disparity has the
+/// start) where the two are within `AGREE` (0.1) px or where `kept`'s disparity has the
 /// lower or equal photometric cost over the `3×3` window around the pixel. The cost at
 /// disparity `d` is the refinement's robust cost (Cauchy-weighted residuals of every
 /// compared view against the centre view, [`RefineParams::views`]) summed over the
