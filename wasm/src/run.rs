@@ -438,6 +438,29 @@ mod tests {
             Some("edge-snapping median (final)")
         );
         assert_eq!(snapshot_label(&late, 3), None);
+        // The fused start: the plane sweep's map is not shown before the choice.
+        let fused = [
+            Step::Range,
+            Step::Epi(Direction::Horizontal),
+            Step::Epi(Direction::Vertical),
+            Step::Refine,
+            Step::PlaneSweep,
+            Step::Fuse,
+            Step::Refill,
+        ];
+        let labels: Vec<_> = (0..fused.len())
+            .map(|k| snapshot_label(&fused, k))
+            .collect();
+        let expected = [
+            None,
+            None,
+            Some("EPI estimate"),
+            Some("refined"),
+            None,
+            Some("fused start"),
+            Some("refilled at depth steps (final)"),
+        ];
+        assert_eq!(labels, expected.map(|l| l.map(String::from)));
         // A row of cameras: its horizontal step is the EPI estimate.
         let row = [Step::Range, Step::Epi(Direction::Horizontal), Step::Refine];
         assert_eq!(snapshot_label(&row, 1).as_deref(), Some("EPI estimate"));
