@@ -316,7 +316,7 @@ pub static TUNABLES: &[Tunable] = &[
     Tunable {
         flag: Some(Flag::Value("--initial")),
         key: Some("initial"),
-        doc: "Initial disparity: epi (the structure tensor on sheared EPIs), sweep (a plane sweep over the EPI stage's range with window-aggregated truncated differences to the centre row and column of views) or fused (both, each refined, per pixel the one with the lower photometric residual)",
+        doc: "Initial disparity: epi (the structure tensor on sheared EPIs), sweep (a plane sweep over the EPI stage's range with window-aggregated truncated differences to the centre row and column of views) or fused (both, each refined, per pixel the one with the lower photometric cost over a 3×3 window)",
         kind: Kind::Choice(INITIALS),
         path: "initial",
         get: |p| {
