@@ -186,7 +186,8 @@ pub fn estimate<T: Scalar, S: Sample>(
 
 /// Whether `stages` read view `view` (row-major grid index): the EPI stage reads the
 /// centre row and column of the grid, the refinement (when enabled and `stages` is
-/// [`Stages::Full`]) also its `views`; TV reads only the centre view. Only these views
+/// [`Stages::Full`], or in the fused start) also its `views`; TV reads only the centre
+/// view. Only these views
 /// need warping.
 pub fn reads_view(plan: &Plan, stages: Stages, view: usize) -> bool {
     stages_read_view(plan.layout().grid, plan.params(), stages, view)
@@ -209,7 +210,7 @@ pub fn stages_read_view(grid: Grid, params: &Params, stages: Stages, view: usize
         return true;
     }
     let refine = &params.refine;
-    stages == Stages::Full
+    (stages == Stages::Full || params.fused)
         && refine.enabled
         && refine
             .views

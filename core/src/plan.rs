@@ -27,6 +27,10 @@ pub struct Params {
     /// Initial disparity from a plane sweep instead of the EPI stage (off by default; the
     /// EPI stage's automatic range still sets its hypotheses).
     pub sweep: PlaneSweepParams,
+    /// Start from both the EPI stage and the plane sweep (whatever `sweep.enabled` says),
+    /// refine each and keep per pixel the one the views agree with better (off by
+    /// default; needs the refinement; docs/stages/fused.md).
+    pub fused: bool,
     /// Photometric refinement of the EPI disparity over many views.
     pub refine: RefineParams,
     /// Total-variation refinement.
@@ -52,6 +56,7 @@ impl Default for Params {
             },
             epi: EpiParams::default(),
             sweep: PlaneSweepParams::default(),
+            fused: false,
             refine: RefineParams::default(),
             tv: TvParams {
                 lambda: 0.25,
@@ -70,6 +75,7 @@ impl Params {
             align: Params::default().align,
             epi: EpiParams::paper(),
             sweep: PlaneSweepParams::off(),
+            fused: false,
             refine: RefineParams::off(),
             tv: TvParams::default(),
             median: MedianParams::off(),
@@ -137,12 +143,26 @@ impl Preset {
 }
 
 /// The plane sweep replaces the EPI stage, so it cannot start from the half-resolution
-/// EPI's upsampling.
+/// EPI's upsampling; the fused start runs the sweep at full resolution beside the EPI
+/// stage and chooses by the refinement's residual, so it needs the refinement and the
+/// full-resolution EPI.
 pub(crate) fn check_initial(params: &Params) -> Result<()> {
+    if params.fused && !params.refine.enabled {
+        return Err(crate::error::Error::InvalidParameter {
+            name: "initial",
+            reason: "fused chooses between the starts by the refinement's cost: enable the refinement with it",
+        });
+    }
+    if params.fused && params.epi.half_resolution {
+        return Err(crate::error::Error::InvalidParameter {
+            name: "initial",
+            reason: "fused runs the plane sweep at full resolution beside the EPI stage: switch the half-resolution EPI off with it",
+        });
+    }
     if params.sweep.enabled && params.epi.half_resolution {
         return Err(crate::error::Error::InvalidParameter {
-            name: "sweep.enabled",
-            reason: "replaces the EPI stage: switch the half-resolution EPI off with it",
+            name: "initial",
+            reason: "sweep replaces the EPI stage: switch the half-resolution EPI off with it",
         });
     }
     Ok(())

@@ -215,6 +215,12 @@ impl StreamPlan {
                 reason: "is one row or column of views: a stream fuses both EPI directions of a grid; run the whole-frame pipeline for a linear array",
             });
         }
+        if params.fused {
+            return Err(Error::InvalidParameter {
+                name: "fused",
+                reason: "must be off for a stream: the fused start refines and sweeps whole frames",
+            });
+        }
         let schedule = Schedule::new(&plan, Stages::Full, 1)?;
         let mut median_halo = 0;
         let mut after_tv = false;
@@ -232,6 +238,12 @@ impl StreamPlan {
                     return Err(Error::InvalidParameter {
                         name: "sweep.enabled",
                         reason: "must be off for a stream: the plane sweep is not streamed",
+                    })
+                }
+                Step::Fuse => {
+                    return Err(Error::InvalidParameter {
+                        name: "fused",
+                        reason: "must be off for a stream: the fused start refines and sweeps whole frames",
                     })
                 }
                 Step::Refine => {

@@ -44,7 +44,10 @@ fn snapshot_label(steps: &[Step], index: usize) -> Option<String> {
         Step::Range => return None,
         Step::Epi(_) if matches!(next, Some(Step::Epi(_)) | Some(Step::Upsample)) => return None,
         Step::Epi(_) | Step::Upsample => "EPI estimate",
+        // In the fused start the plane sweep's map is not the current one until chosen.
+        Step::PlaneSweep if next == Some(&Step::Fuse) => return None,
         Step::PlaneSweep => "plane-sweep estimate",
+        Step::Fuse => "fused start",
         Step::Refine => "refined",
         Step::Refill => "refilled at depth steps",
         Step::Median => "edge-snapping median",
@@ -435,6 +438,29 @@ mod tests {
             Some("edge-snapping median (final)")
         );
         assert_eq!(snapshot_label(&late, 3), None);
+        // The fused start: the plane sweep's map is not shown before the choice.
+        let fused = [
+            Step::Range,
+            Step::Epi(Direction::Horizontal),
+            Step::Epi(Direction::Vertical),
+            Step::Refine,
+            Step::PlaneSweep,
+            Step::Fuse,
+            Step::Refill,
+        ];
+        let labels: Vec<_> = (0..fused.len())
+            .map(|k| snapshot_label(&fused, k))
+            .collect();
+        let expected = [
+            None,
+            None,
+            Some("EPI estimate"),
+            Some("refined"),
+            None,
+            Some("fused start"),
+            Some("refilled at depth steps (final)"),
+        ];
+        assert_eq!(labels, expected.map(|l| l.map(String::from)));
         // A row of cameras: its horizontal step is the EPI estimate.
         let row = [Step::Range, Step::Epi(Direction::Horizontal), Step::Refine];
         assert_eq!(snapshot_label(&row, 1).as_deref(), Some("EPI estimate"));

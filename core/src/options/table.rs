@@ -50,7 +50,7 @@ const INTERPOLATIONS: &[&str] = &["bilinear", "sharpened-bilinear", "catmull-rom
 const ALIGNED_VIEWS: &[&str] = &["read", "cross", "all"];
 const FUSIONS: &[&str] = &["coherence", "weighted"];
 const COLORS: &[&str] = &["tensor", "gray"];
-const INITIALS: &[&str] = &["epi", "sweep"];
+const INITIALS: &[&str] = &["epi", "sweep", "fused"];
 
 /// Every tunable, in the order the front ends apply them (a later one may build on an
 /// earlier one: `--no-shear` replaces the whole EPI stage's settings, so it comes first
@@ -316,14 +316,23 @@ pub static TUNABLES: &[Tunable] = &[
     Tunable {
         flag: Some(Flag::Value("--initial")),
         key: Some("initial"),
-        doc: "Initial disparity: epi (the structure tensor on sheared EPIs) or sweep (a plane sweep over the EPI stage's range with window-aggregated truncated differences to the centre row and column of views)",
+        doc: "Initial disparity: epi (the structure tensor on sheared EPIs), sweep (a plane sweep over the EPI stage's range with window-aggregated truncated differences to the centre row and column of views) or fused (both, each refined, per pixel the one with the lower photometric cost over a 3×3 window)",
         kind: Kind::Choice(INITIALS),
-        path: "sweep.enabled",
-        get: |p| Value::Choice(if p.sweep.enabled { "sweep" } else { "epi" }),
+        path: "initial",
+        get: |p| {
+            Value::Choice(if p.fused {
+                "fused"
+            } else if p.sweep.enabled {
+                "sweep"
+            } else {
+                "epi"
+            })
+        },
         set: |p, v| {
-            p.sweep.enabled = match choice(v)? {
-                "epi" => false,
-                "sweep" => true,
+            (p.sweep.enabled, p.fused) = match choice(v)? {
+                "epi" => (false, false),
+                "sweep" => (true, false),
+                "fused" => (true, true),
                 _ => return None,
             };
             Some(())

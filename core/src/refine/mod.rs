@@ -112,12 +112,14 @@
 //! The tests in `pipeline::fixed_tests` and `docs/stages/fixed-point.md` measure Q16.16
 //! against `f32`.
 
+mod choose;
 mod gauss_newton;
 mod params;
 mod photo;
 mod propagation;
 mod state;
 
+pub use choose::choose;
 pub use params::{RefineParams, ViewSet, RESAMPLED_SLACK, SKIP_SETTLED};
 
 use core::ops::{ControlFlow, Range};
@@ -134,6 +136,9 @@ use state::{Planes, Region};
 
 /// Progress stage name.
 pub const STAGE: &str = "refine";
+
+/// Progress stage name of the fused start's second refinement and choice ([`choose`]).
+pub const STAGE_FUSED: &str = "fused start";
 
 /// A half of a pair of groups is dropped when its mean squared residual exceeds the
 /// other's by this factor plus [`OCCLUSION_FLOOR`].

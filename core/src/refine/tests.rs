@@ -513,3 +513,71 @@ fn slanted_windows_give_bit_identical_maps_in_any_band_and_agree_in_q16() {
         );
     }
 }
+
+/// Share of pixels of columns `columns` (rows `margin` from the top and bottom) within
+/// `tol` of the truth.
+fn share_in_columns(scene: &Scene, d: &[f32], columns: Range<usize>, margin: usize) -> f32 {
+    let (w, h) = (scene.layout.width, scene.layout.height);
+    let (mut good, mut n) = (0, 0);
+    for y in margin..h - margin {
+        for x in columns.clone() {
+            good += usize::from((d[y * w + x] - scene.gt[y * w + x]).abs() <= 0.07);
+            n += 1;
+        }
+    }
+    good as f32 / n as f32
+}
+
+#[test]
+fn the_fused_choice_keeps_each_start_where_it_is_right() {
+    // A strip at 1.2 px in front of a background at −0.5 px: the left half, then the
+    // background on the right half. Start A is right on the left half and 1.9 px off on
+    // the right, start B 1.5 px off on the left and right on the right. The refinement
+    // mends neither wrong half (its propagation offers only the other surface's
+    // disparity across the edge); the choice must take each half from the right start.
+    let scene = strips(Grid::new(9, 9), 64, 40, 3, -0.5, &[1.2, -2.0]);
+    let w = scene.layout.width;
+    let half = |d: &[f32], left: f32, right: f32| -> Vec<f32> {
+        d.iter()
+            .enumerate()
+            .map(|(i, v)| v + if i % w < w / 2 { left } else { right })
+            .collect()
+    };
+    let a = half(&scene.gt, 0.0, 1.9);
+    let b = half(&scene.gt, -1.5, 0.0);
+    let (ad, ac) = run(&scene, RefineParams::default(), &a);
+    let (bd, bc) = run(&scene, RefineParams::default(), &b);
+    // Columns 8 px from the image's sides and from the strip's edge (its occlusion zone).
+    let (left, right) = (8..w / 2 - 8, w / 2 + 8..w - 8);
+    assert!(share_in_columns(&scene, &ad, right.clone(), 8) < 0.2);
+    assert!(share_in_columns(&scene, &bd, left.clone(), 8) < 0.2);
+    let stage = stage_for(&scene, RefineParams::default());
+    let lf = LightField::new(&scene.data, scene.layout).unwrap();
+    let (mut d, mut c) = (bd.clone(), bc.clone());
+    let rows = 0..scene.layout.height;
+    let out = DisparityOut {
+        disparity: &mut d,
+        confidence: &mut c,
+    };
+    choose::<f32, f32>(stage.setup(), &lf, rows.clone(), (&ad, &ac), out).unwrap();
+    for (name, columns) in [("left", left), ("right", right)] {
+        let share = share_in_columns(&scene, &d, columns, 8);
+        assert!(share > 0.95, "{name} half: {share}");
+    }
+    // Each pixel carries its start's confidence.
+    for i in 0..d.len() {
+        let from_a = d[i].to_bits() == ad[i].to_bits() && c[i].to_bits() == ac[i].to_bits();
+        let from_b = d[i].to_bits() == bd[i].to_bits() && c[i].to_bits() == bc[i].to_bits();
+        assert!(from_a || from_b, "pixel {i}");
+    }
+    // Candidates of the wrong length are an error in words.
+    let (mut d, mut c) = (bd.clone(), bc.clone());
+    let out = DisparityOut {
+        disparity: &mut d,
+        confidence: &mut c,
+    };
+    assert!(matches!(
+        choose::<f32, f32>(stage.setup(), &lf, rows, (&ad[1..], &ac), out),
+        Err(Error::OutputSize { .. })
+    ));
+}

@@ -57,9 +57,9 @@ pub enum Stages {
 pub const BAND_LINES: usize = 16;
 
 /// Most steps of a run: range, two EPI directions (one for a linear array), the
-/// upsampling, refinement, refill, two medians and TV with at most [`tv::MAX_SWEEPS`]
-/// outer sweeps.
-pub const MAX_STEPS: usize = 8 + tv::MAX_SWEEPS + 1;
+/// upsampling, refinement, the fused start's plane sweep and choice, refill, two
+/// medians and TV with at most [`tv::MAX_SWEEPS`] outer sweeps.
+pub const MAX_STEPS: usize = 10 + tv::MAX_SWEEPS + 1;
 
 /// Full-resolution rows per part of the upsampling step.
 pub const UPSAMPLE_ROWS: usize = 64;
@@ -80,8 +80,15 @@ pub enum Step {
     Epi(Direction),
     /// The plane sweep's initial disparity ([`crate::planesweep`], instead of the EPI
     /// steps when [`crate::plan::Params::sweep`] is enabled), in bands of
-    /// [`planesweep::BAND_ROWS`] rows into the other maps.
+    /// [`planesweep::BAND_ROWS`] rows into the other maps. In the fused start
+    /// ([`crate::plan::Params::fused`]) it runs after the EPI steps and their
+    /// refinement and leaves the refined EPI maps current.
     PlaneSweep,
+    /// The fused start's last step: the plane sweep's map (the other maps) refined in
+    /// the plan's refine bands, and per pixel the refined start with the lower
+    /// photometric residual kept ([`refine::choose`]) in the current maps. A part reads
+    /// the current maps at its own rows only, which only its own `place` writes.
+    Fuse,
     /// The half-resolution EPI map upsampled to full resolution guided by the centre
     /// view ([`epi::upsample_rows`], only with [`epi::EpiParams::half_resolution`]), in
     /// bands of [`UPSAMPLE_ROWS`] rows into the other maps.
@@ -110,6 +117,7 @@ impl Step {
             Step::Upsample => epi::STAGE_UPSAMPLE,
             Step::PlaneSweep => planesweep::STAGE,
             Step::Refine => refine::STAGE,
+            Step::Fuse => refine::STAGE_FUSED,
             Step::Refill => geofill::STAGE,
             Step::Median => median::STAGE,
             Step::Tv { .. } => tv::STAGE,
@@ -125,7 +133,8 @@ pub struct Reads {
     pub disparity: bool,
     /// The current confidence.
     pub confidence: bool,
-    /// The other pair of maps (the transposed vertical EPI estimates).
+    /// The other pair of maps (the transposed vertical EPI estimates, or the plane
+    /// sweep's maps in the fused start).
     pub other: bool,
     /// The previous sweep's TV dual.
     pub dual: bool,
@@ -154,7 +163,7 @@ impl Schedule {
         };
         push(Step::Range)?;
         let params = plan.params();
-        if params.sweep.enabled {
+        if params.sweep.enabled && !params.fused {
             push(Step::PlaneSweep)?;
         } else {
             // A linear array (one row or column of cameras) has one EPI direction only.
@@ -167,8 +176,15 @@ impl Schedule {
         if params.epi.half_resolution {
             push(Step::Upsample)?;
         }
+        // The fused start refines both starts (the plan requires the refinement), so
+        // its refinement belongs to the start: with `Stages::Epi` too.
+        if params.fused {
+            push(Step::Refine)?;
+            push(Step::PlaneSweep)?;
+            push(Step::Fuse)?;
+        }
         if stages == Stages::Full {
-            if params.refine.enabled {
+            if params.refine.enabled && !params.fused {
                 push(Step::Refine)?;
             }
             if params.geofill.enabled {
@@ -237,7 +253,7 @@ impl Schedule {
             Step::Epi(direction) => epi::lines(self.plan.epi(), direction).div_ceil(BAND_LINES),
             Step::Upsample => layout.height.div_ceil(UPSAMPLE_ROWS),
             Step::PlaneSweep => planesweep::band_count(self.plan.sweep()),
-            Step::Refine => refine::band_count(self.plan.refine()),
+            Step::Refine | Step::Fuse => refine::band_count(self.plan.refine()),
             Step::Median => layout
                 .height
                 .checked_add(self.median_rows.saturating_sub(1))
@@ -270,7 +286,7 @@ impl Schedule {
             Step::Epi(direction) => lines(BAND_LINES, epi::lines(self.plan.epi(), direction)),
             Step::Upsample => lines(UPSAMPLE_ROWS, height),
             Step::PlaneSweep => lines(planesweep::BAND_ROWS, height),
-            Step::Refine => {
+            Step::Refine | Step::Fuse => {
                 let rows = refine::band_rows(self.plan.refine(), index)?;
                 Region::Lines(rows.start, rows.end)
             }
@@ -298,6 +314,12 @@ impl Schedule {
                 disparity: true,
                 confidence: true,
                 dual: sweep > 0,
+                ..none
+            },
+            Step::Fuse => Reads {
+                disparity: true,
+                confidence: true,
+                other: true,
                 ..none
             },
         }
@@ -374,7 +396,7 @@ impl Schedule {
                 maps: planesweep::scratch_len(plan.sweep()),
                 ..none
             },
-            Step::Refine => ScratchLen {
+            Step::Refine | Step::Fuse => ScratchLen {
                 kernel: refine::scratch_len(plan.refine()),
                 ..none
             },
@@ -492,6 +514,40 @@ impl Schedule {
                     scratch.kernel,
                 )
             }),
+            Step::Fuse => alone(|| {
+                let h = range()?;
+                refine::refine_band(
+                    plan.refine(),
+                    lf,
+                    (h.min(), h.max()),
+                    state.other().0,
+                    lines.clone(),
+                    DisparityOut {
+                        disparity: &mut *out.disparity,
+                        confidence: &mut *out.confidence,
+                    },
+                    scratch.kernel,
+                )?;
+                let own = lines.start * width..lines.end * width;
+                let short = Error::OutputSize {
+                    what: "the refined EPI maps",
+                    needed: own.end,
+                    got: state.disparity().len(),
+                };
+                refine::choose::<T, S>(
+                    plan.refine(),
+                    lf,
+                    lines,
+                    (
+                        state.disparity().get(own.clone()).ok_or(short)?,
+                        state.confidence().get(own).ok_or(short)?,
+                    ),
+                    DisparityOut {
+                        disparity: &mut *out.disparity,
+                        confidence: &mut *out.confidence,
+                    },
+                )
+            }),
             Step::Refill => alone(|| {
                 geofill::fill(
                     plan.geofill(),
@@ -601,7 +657,7 @@ impl Schedule {
                 };
                 let at = start * line_len;
                 let (d, c) = match step {
-                    Step::Epi(Direction::Horizontal) => (CURRENT_D, CURRENT_C),
+                    Step::Epi(Direction::Horizontal) | Step::Fuse => (CURRENT_D, CURRENT_C),
                     _ => (OTHER_D, OTHER_C),
                 };
                 put(state.map_mut(d), at, part.disparity)?;
@@ -618,7 +674,10 @@ impl Schedule {
     pub fn finish(&self, step: Step, state: &mut State<'_>) {
         let swap_d = |state: &mut State<'_>| state.swap_maps(CURRENT_D, OTHER_D);
         match step {
-            Step::Range | Step::Epi(Direction::Horizontal) => {}
+            // The fused start's choice is placed into the current maps; its plane sweep
+            // leaves the refined EPI maps current for it.
+            Step::Range | Step::Epi(Direction::Horizontal) | Step::Fuse => {}
+            Step::PlaneSweep if self.plan.params().fused => {}
             // Both directions are in: the one fusion of every driver (a column of
             // cameras has no horizontal estimates to fuse with).
             Step::Epi(Direction::Vertical) => {

@@ -125,7 +125,7 @@ impl<'a> State<'a> {
     }
 
     /// The other disparity and confidence (after the vertical EPI step: its estimates,
-    /// transposed).
+    /// transposed; in the fused start, after the plane sweep: its maps).
     pub fn other(&self) -> (&[f32], &[f32]) {
         (self.map(OTHER_D), self.map(OTHER_C))
     }

@@ -96,7 +96,7 @@ fn bits(values: &[f32]) -> Vec<u32> {
     values.iter().map(|v| v.to_bits()).collect()
 }
 
-fn variants() -> [(&'static str, Params); 7] {
+fn variants() -> [(&'static str, Params); 8] {
     let small = Params {
         refine: RefineParams {
             band_rows: 10,
@@ -141,6 +141,17 @@ fn variants() -> [(&'static str, Params); 7] {
                     enabled: true,
                     ..Default::default()
                 },
+                ..small
+            },
+        ),
+        (
+            "fused start",
+            Params {
+                sweep: crate::planesweep::PlaneSweepParams {
+                    enabled: true,
+                    ..Default::default()
+                },
+                fused: true,
                 ..small
             },
         ),
@@ -228,6 +239,38 @@ fn the_steps_follow_the_enabled_stages() {
     assert_eq!(stages_of(params, Stages::Epi), half);
     half.extend(["refine", "geofill", "median", "tv"]);
     assert_eq!(stages_of(params, Stages::Full), half);
+    let params = Params {
+        fused: true,
+        ..Params::default()
+    };
+    let mut fused = epi.to_vec();
+    fused.extend(["refine", crate::planesweep::STAGE, "fused start"]);
+    assert_eq!(stages_of(params, Stages::Epi), fused);
+    fused.extend(["geofill", "median", "tv"]);
+    assert_eq!(stages_of(params, Stages::Full), fused);
+    // The fused start chooses by the refinement's residual: it needs the refinement
+    // and the full-resolution EPI, and says so.
+    let mut params = Params {
+        fused: true,
+        ..Params::default()
+    };
+    params.refine.enabled = false;
+    assert!(matches!(
+        Plan::new(layout, params),
+        Err(Error::InvalidParameter {
+            name: "initial",
+            ..
+        })
+    ));
+    params.refine.enabled = true;
+    params.epi.half_resolution = true;
+    assert!(matches!(
+        Plan::new(layout, params),
+        Err(Error::InvalidParameter {
+            name: "initial",
+            ..
+        })
+    ));
 }
 
 #[test]
@@ -322,7 +365,7 @@ fn a_linear_array_runs_its_one_direction_by_parts_as_serially() {
             let plan = Plan::new(layout, params).unwrap();
             let schedule = Schedule::new(&plan, Stages::Full, 2).unwrap();
             let stages: Vec<_> = schedule.steps().iter().map(|s| s.stage()).collect();
-            let first = if params.sweep.enabled {
+            let first = if params.sweep.enabled && !params.fused {
                 crate::planesweep::STAGE
             } else {
                 epi(direction)
