@@ -39,6 +39,14 @@ fn report_scratch() {
     }
 }
 
+/// The default parameters with the EPI start (the default starts from the plane sweep).
+fn epi_start() -> Params {
+    Params {
+        sweep: lfdepth::planesweep::PlaneSweepParams::off(),
+        ..Params::default()
+    }
+}
+
 fn bench(c: &mut Criterion) {
     report_scratch();
     let (spec, views) = scene();
@@ -47,7 +55,7 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     for threads in [1usize, 2] {
         let options = EstimateOptions {
-            params: Params::default(),
+            params: epi_start(),
             stage: Stages::Epi,
             threads: Some(threads),
         };
@@ -61,7 +69,7 @@ fn bench(c: &mut Criterion) {
                 search: Search::Exhaustive,
                 ..EpiParams::default()
             },
-            ..Params::default()
+            ..epi_start()
         },
         stage: Stages::Epi,
         threads: Some(1),
@@ -69,7 +77,7 @@ fn bench(c: &mut Criterion) {
     group.bench_function("engine_9x9x512x512_1_thread_exhaustive", |b| {
         b.iter(|| estimate(&lf, &exhaustive, &mut |_, _, _| {}).unwrap())
     });
-    let plan = Plan::new(spec.layout(), Params::default()).unwrap();
+    let plan = Plan::new(spec.layout(), epi_start()).unwrap();
     // The automatic range alone (`lfdepth estimate` prints it as `epi range`), f32.
     let mut range_scratch = vec![0.0f32; epi::scratch_len(plan.epi())];
     group.bench_function("range_9x9x512x512", |b| {

@@ -62,6 +62,7 @@ fn options(threads: usize, epi: EpiParams) -> EstimateOptions {
     EstimateOptions {
         params: Params {
             epi,
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
             ..Params::default()
         },
         stage: Stages::Epi,

@@ -13,6 +13,7 @@ fn options(threads: usize, epi: EpiParams) -> EstimateOptions {
     EstimateOptions {
         params: Params {
             epi,
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
             ..Params::default()
         },
         stage: Stages::Epi,
@@ -29,6 +30,7 @@ fn any_thread_count_gives_the_serial_core_result_bit_for_bit() {
         layout,
         Params {
             epi,
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
             ..Params::default()
         },
     )

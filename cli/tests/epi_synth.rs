@@ -53,7 +53,10 @@ fn release_only() -> bool {
 fn run_default(spec: &SynthSpec, views: &[u8]) -> Vec<f32> {
     let lf = LightField::new(views, spec.layout()).unwrap();
     let options = EstimateOptions {
-        params: Params::default(),
+        params: Params {
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
+            ..Params::default()
+        },
         stage: Stages::Epi,
         threads: None,
     };
@@ -165,6 +168,7 @@ fn fixed_point_is_within_a_hundredth_of_f32_on_99_percent() {
             spec.layout(),
             Params {
                 epi,
+                sweep: lfdepth::planesweep::PlaneSweepParams::off(),
                 ..Params::default()
             },
         )

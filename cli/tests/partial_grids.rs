@@ -94,7 +94,7 @@ fn views_no_stage_reads_may_be_absent() {
 fn an_absent_view_a_stage_reads_is_named() {
     let dir = common::temp();
     let full = synth(dir.path(), "full", 32, &[]);
-    // Row 4, column 2: on the centre row the EPI stage reads.
+    // Row 4, column 2: on the centre row the plane sweep (and the EPI stage) reads.
     std::fs::remove_file(full.join("input_Cam038.png")).unwrap();
     let out = dir.path().join("out.pfm");
     assert_fails(

@@ -10,7 +10,9 @@ use std::path::Path;
 use common::lfdepth;
 
 /// What `fast` sets, spelled out as the flags that set each knob.
-const FAST_KNOBS: [&str; 10] = [
+const FAST_KNOBS: [&str; 12] = [
+    "--initial",
+    "epi",
     "--refine-iterations",
     "1",
     "--refine-propagation",
@@ -27,7 +29,9 @@ const FAST_KNOBS: [&str; 10] = [
 /// change of a default does not leave this test comparing against a stale value.
 fn default_knobs() -> Vec<String> {
     let p = lfdepth::Params::default();
+    let initial = if p.sweep.enabled { "sweep" } else { "epi" };
     [
+        ("--initial", initial.to_string()),
         ("--refine-iterations", p.refine.iterations.to_string()),
         ("--refine-propagation", p.refine.propagation.to_string()),
         ("--median-gate", p.median.gate.to_string()),

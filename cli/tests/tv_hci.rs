@@ -14,7 +14,10 @@ fn engine_epi(dir: &std::path::Path) -> (usize, usize, Vec<f32>, Vec<f32>) {
     let (views, layout) = load_hci(dir);
     let lf = lfdepth::LightField::new(&views, layout).unwrap();
     let options = EstimateOptions {
-        params: Params::default(),
+        params: Params {
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
+            ..Params::default()
+        },
         stage: Stages::Epi,
         threads: None,
     };

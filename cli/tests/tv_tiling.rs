@@ -242,7 +242,10 @@ fn hci_inputs(dir: &std::path::Path) -> Scene {
     let (views, layout) = load_hci(dir);
     let lf = lfdepth::LightField::new(&views, layout).unwrap();
     let options = EstimateOptions {
-        params: Params::default(),
+        params: Params {
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
+            ..Params::default()
+        },
         stage: Stages::Epi,
         threads: None,
     };

@@ -59,6 +59,7 @@ fn stream_params(layout: Layout, min: f32, max: f32, halo: usize) -> (Params, St
                 halo,
                 ..TvParams::default()
             },
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
             ..Params::default()
         };
         let Ok(plan) = StreamPlan::new(layout, params) else {

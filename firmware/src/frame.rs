@@ -2,7 +2,9 @@
 //! refill → weighted median → TV) on a small synthetic frame held in fixed memory. The stream is
 //! the firmware's way to process a large frame in bounded memory; this entry exists so
 //! that the panic-free link check (`--features panic-free,whole-frame`) also covers every
-//! whole-frame public entry point, with the default parameters (every stage on).
+//! whole-frame public entry point, with the default parameters (every stage on) but the
+//! EPI start: the stream cannot run the plane sweep, so both images start alike, and the
+//! buffers below are sized for the EPI start.
 // A device image runs either this or the stream (feature `whole-frame`); the host runs both.
 #![cfg_attr(
     all(target_os = "none", not(feature = "whole-frame")),
@@ -14,6 +16,7 @@ use core::ops::ControlFlow;
 use lfdepth::align::AlignReport;
 use lfdepth::geometry::Homography;
 use lfdepth::pipeline::{self, AlignBuffers, Stages};
+use lfdepth::planesweep::PlaneSweepParams;
 use lfdepth::{Error, Grid, Layout, LightField, Params, Plan, Result, Scalar};
 
 use crate::sensor;
@@ -25,7 +28,8 @@ const GRID: Grid = Grid::new(9, 9);
 const VIEWS: usize = 81 * WIDTH * HEIGHT;
 const KERNEL_ELEMENTS: usize = 48 * 1024;
 // The map scratch: the run's state (four maps and the TV history), one part's outputs
-// and the weighted median's three maps (14,772 at 32×32 with `Params::default()`).
+// and the weighted median's three maps (14,772 at 32×32 with `Params::default()` and
+// the EPI start).
 const MAP_ELEMENTS: usize = 16 * 1024;
 const ALIGN_ELEMENTS: usize = 128 * 1024;
 const HISTORY: usize = 300;
@@ -78,7 +82,11 @@ pub fn run(
 ) -> Result<Summary> {
     mark("sensor");
     let layout = Layout::packed(GRID, WIDTH, HEIGHT, 1);
-    let plan = Plan::new(layout, Params::default())?;
+    let params = Params {
+        sweep: PlaneSweepParams::off(),
+        ..Params::default()
+    };
+    let plan = Plan::new(layout, params)?;
     let (r0, c0) = GRID.center();
     for (v, view) in memory.views.chunks_exact_mut(WIDTH * HEIGHT).enumerate() {
         let (r, c) = (v / GRID.cols, v % GRID.cols);

@@ -6,6 +6,7 @@
 #![cfg_attr(all(target_os = "none", feature = "whole-frame"), allow(dead_code))]
 
 use lfdepth::epi::{ColorMode, DisparityRange, EpiParams};
+use lfdepth::planesweep::PlaneSweepParams;
 use lfdepth::refine::RefineParams;
 use lfdepth::stream::{CrossBand, StreamPlan};
 use lfdepth::tv::TvParams;
@@ -124,6 +125,8 @@ pub fn run(memory: &mut Memory, mark: &mut impl FnMut(&'static str)) -> Result<S
             },
             ..TvParams::default()
         },
+        // The stream runs the EPI start: the plane sweep is not streamed.
+        sweep: PlaneSweepParams::off(),
         ..Params::default()
     };
     let plan = StreamPlan::new(layout, params)?;

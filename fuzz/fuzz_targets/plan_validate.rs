@@ -150,9 +150,11 @@ fuzz_target!(|input: Input| {
             layout.view_stride = view.get();
         }
     }
-    // Only the EPI parameters are fuzzed; the other stages take their defaults.
+    // Only the EPI parameters are fuzzed, from the EPI start; the other stages take their
+    // defaults.
     let params = Params {
         epi: input.epi.params(),
+        sweep: lfdepth::planesweep::PlaneSweepParams::off(),
         ..Params::default()
     };
 

@@ -154,16 +154,16 @@ test("the maps after each stage, their errors, the EPI slope line and the 3D vie
   // Stages: the labels come from the wasm Run; the last map is the result.
   const labels = await page.$$eval("#snapshot option", (options) => options.map((o) => o.textContent));
   console.log("maps after:", labels.join(" | "));
-  assert.deepEqual(labels, ["EPI estimate", "refined", "refilled at depth steps", "edge-snapping median", "TV (final)"]);
+  assert.deepEqual(labels, ["plane-sweep estimate", "refined", "refilled at depth steps", "edge-snapping median", "TV (final)"]);
   assert.equal(await page.inputValue("#snapshot"), String(labels.length - 1));
   const rows = await page.$$eval("#stage-scores tbody tr", (trs) => trs.map((tr) => ({ text: tr.textContent, badpix: Number(tr.dataset.badpix007) })));
   console.log("per stage:", rows.map((r) => r.text).join("; "));
   assert.equal(rows.length, labels.length);
   assert.equal(rows.at(-1).badpix, Number(await page.getAttribute("#scores", "data-badpix007")));
-  // The stages improve on the EPI estimate on this scene.
+  // The stages improve on the plane sweep's estimate on this scene.
   assert.ok(rows.at(-1).badpix < rows[0].badpix, JSON.stringify(rows));
-  // The EPI snapshot is the EPI stage's result itself (bit for bit the estimator run
-  // with stage "epi"), and the last is the estimate.
+  // The first snapshot is the start's result itself (bit for bit the estimator run
+  // with stage "epi", the plane sweep by default), and the last is the estimate.
   const exact = await page.evaluate(async () => {
     const lf = await import("./pkg/lfdepth_wasm.js");
     const { WorkerPool } = await import("./pool.js");
@@ -185,8 +185,8 @@ test("the maps after each stage, their errors, the EPI slope line and the 3D vie
   // Choosing a stage redraws the disparity and the error map.
   const [finalMap, finalError] = [await pixels(page, "disparity"), await pixels(page, "error-map")];
   await page.selectOption("#snapshot", "0");
-  assert.equal(await page.getAttribute("#disparity", "data-snapshot"), "EPI estimate");
-  assert.equal(await page.textContent("#err-stage"), "EPI estimate");
+  assert.equal(await page.getAttribute("#disparity", "data-snapshot"), "plane-sweep estimate");
+  assert.equal(await page.textContent("#err-stage"), "plane-sweep estimate");
   assert.ok(changed(finalMap, await pixels(page, "disparity")) > 0.01);
   assert.ok(changed(finalError, await pixels(page, "error-map")) > 0.01);
   mkdirSync(artifacts, { recursive: true });

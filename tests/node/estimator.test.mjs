@@ -12,7 +12,7 @@ const scene = lf.synthesize(spec);
 const shape = { rows: 9, cols: 9, width: SIZE, height: SIZE, channels: 3 };
 
 test("the EPI stage alone is within its accuracy bound", () => {
-  const result = new lf.Estimator(scene.views, shape, { stage: "epi" }).estimate();
+  const result = new lf.Estimator(scene.views, shape, { stage: "epi", initial: "epi" }).estimate();
   assert.equal(result.disparity.length, SIZE * SIZE);
   assert.equal(result.confidence.length, SIZE * SIZE);
   const scores = lf.evaluate(result.disparity, scene.groundTruth, SIZE, SIZE);
@@ -26,13 +26,16 @@ test("the EPI stage alone is within its accuracy bound", () => {
   for (const c of result.confidence) assert.ok(c >= 0 && c <= 1);
   // Alignment (auto by default) checks the array, finds it rectified and skips the warp.
   assert.deepEqual(result.timings.map((t) => t.stage), ["align", ...lf.stageNames().filter((s) => s.startsWith("epi"))]);
+  // The default start, the plane sweep, in place of the two EPI directions.
+  const sweep = new lf.Estimator(scene.views, shape, { stage: "epi" }).estimate();
+  assert.deepEqual(sweep.timings.map((t) => t.stage), ["align", "epi range", "sweep"]);
   assert.equal(result.align.skipped, true);
   for (const t of result.timings) assert.ok(t.ms >= 0);
   assert.equal(result.residuals.length, 0, "no TV stage with stage: \"epi\"");
 });
 
-test("the full pipeline (EPI → refine → median → TV) beats the EPI stage alone", () => {
-  const epi = new lf.Estimator(scene.views, shape, { stage: "epi" }).estimate();
+test("the full pipeline (plane sweep → refine → refill → median → TV) beats the EPI stage alone", () => {
+  const epi = new lf.Estimator(scene.views, shape, { stage: "epi", initial: "epi" }).estimate();
   const full = new lf.Estimator(scene.views, shape).estimate();
   const epiScores = lf.evaluate(epi.disparity, scene.groundTruth, SIZE, SIZE);
   const scores = lf.evaluate(full.disparity, scene.groundTruth, SIZE, SIZE);
@@ -44,9 +47,9 @@ test("the full pipeline (EPI → refine → median → TV) beats the EPI stage a
   assert.ok(scores.mse100 <= epiScores.mse100, `MSE×100 ${scores.mse100} vs EPI ${epiScores.mse100}`);
   assert.equal(scores.invalidPct, 0);
   for (const c of full.confidence) assert.ok(c >= 0 && c <= 1);
-  // Every stage but the warp (the array is rectified) and the geodesic refill (off by
-  // default).
-  assert.deepEqual(full.timings.map((t) => t.stage), lf.stageNames().filter((s) => s !== "warp"));
+  // Every stage but the warp (the array is rectified) and the two EPI directions (the
+  // plane sweep runs in their place).
+  assert.deepEqual(full.timings.map((t) => t.stage), defaultStages());
   for (const t of full.timings) assert.ok(t.ms >= 0);
   const r = full.residuals;
   assert.ok(r.length > 1 && r.length <= 300, `${r.length} TV iterations`);
@@ -90,8 +93,16 @@ function byParts(params, workers) {
 
 const bytes = (a) => new Uint8Array(a.buffer, a.byteOffset, a.byteLength);
 
+/** The stages a default run reports on a rectified array: all but the warp and the EPI
+ * directions, which the plane sweep replaces. */
+function defaultStages() {
+  return lf.stageNames().filter((s) => !["warp", "epi horizontal", "epi vertical"].includes(s));
+}
+
 for (const [name, params] of [
-  ["the EPI stage, weighted fusion", { fusion: "weighted", stage: "epi" }],
+  ["the EPI stage, weighted fusion", { fusion: "weighted", stage: "epi", initial: "epi" }],
+  ["the plane sweep alone", { stage: "epi" }],
+  ["the EPI start", { initial: "epi", refineBandRows: 24, tvTile: 40 }],
   ["defaults (one band, one tile)", {}],
   ["small bands and tiles", { refineBandRows: 24, tvTile: 40 }],
   ["median after TV", { refineBandRows: 50, tvTile: 48, medianBeforeTv: false, iterations: 60 }],
@@ -114,11 +125,11 @@ for (const [name, params] of [
 test("a run lists its steps and parts, and bad requests say what to change", () => {
   const run = new lf.Run(shape, { refineBandRows: 24, tvTile: 40 }, 2);
   const stages = Array.from({ length: run.steps }, (_, k) => run.stage(k));
-  assert.deepEqual(stages, ["epi range", "epi horizontal", "epi vertical", "refine", "geofill", "median", "tv"]);
+  assert.deepEqual(stages, ["epi range", "sweep", "refine", "geofill", "median", "tv"]);
   assert.equal(run.parts(stages.indexOf("refine")), Math.ceil(SIZE / 24));
   assert.equal(run.parts(stages.indexOf("tv")), Math.ceil(SIZE / 40) ** 2);
   assert.equal(run.parts(0), 1);
-  assert.throws(() => run.stage(run.steps), /step 7 does not exist: the run has 7 steps/);
+  assert.throws(() => run.stage(run.steps), /step 6 does not exist: the run has 6 steps/);
   assert.throws(() => run.place(0, 0, new Float32Array(3)), /part 0 has 3 values but its step's parts have 2/);
   const estimator = new lf.Estimator(scene.views, shape, { refineBandRows: 24, tvTile: 40, align: "off" });
   // The refinement needs the range, which only the first step gives.
@@ -128,7 +139,7 @@ test("a run lists its steps and parts, and bad requests say what to change", () 
   assert.throws(() => estimator.setInputs(2, { disparity: new Float32Array(5) }), /map of the run/);
   assert.throws(() => estimator.setInputs(2, { range: [1] }), /\[min, max\]/);
   const sweeps = new lf.Run(shape, { median: false, refine: false }, 1);
-  assert.deepEqual(Array.from({ length: sweeps.steps }, (_, k) => sweeps.stage(k)), ["epi range", "epi horizontal", "epi vertical", "geofill", "tv"]);
+  assert.deepEqual(Array.from({ length: sweeps.steps }, (_, k) => sweeps.stage(k)), ["epi range", "sweep", "geofill", "tv"]);
   assert.throws(() => new lf.Estimator(scene.views, shape, { tvTile: 4 }), /`tvTile` must be in 8\.\.=4096/);
   assert.throws(() => new lf.Estimator(scene.views, shape, { preset: "quick" }), /params.preset `quick` is unknown: use one of "default", "fast"/);
   run.free();
@@ -136,14 +147,15 @@ test("a run lists its steps and parts, and bad requests say what to change", () 
   estimator.free();
 });
 
-test("params.preset: \"default\" is the defaults, \"fast\" changes the later stages, other keys override it", () => {
+test("params.preset: \"default\" is the defaults, \"fast\" starts from the EPI stage and changes the later stages, other keys override it", () => {
   const bytes = (params) => new Uint8Array(new lf.Estimator(scene.views, shape, params).estimate().disparity.buffer);
   const defaults = bytes({});
   assert.deepEqual(bytes({ preset: "default" }), defaults);
   const fast = bytes({ preset: "fast" });
   assert.notDeepEqual(fast, defaults);
-  // The EPI stage is the same in both presets.
-  assert.deepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi" }));
+  // The fast preset starts from the EPI stage, the default from the plane sweep.
+  assert.deepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi", initial: "epi" }));
+  assert.notDeepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi" }));
   // An explicit key wins over the preset: the fast preset without its median.
   const stages = (params) => {
     const run = new lf.Run(shape, params, 1);
@@ -169,9 +181,9 @@ test("progress reaches the end of every stage, and returning false cancels", () 
     assert.ok(p.done <= p.total);
     last.set(p.stage, p);
   });
-  // Every stage but the warp (alignment, auto, finds this array rectified) and the
-  // geodesic refill (off by default).
-  for (const stage of lf.stageNames().filter((s) => s !== "warp")) {
+  // Every stage but the warp (alignment, auto, finds this array rectified) and the EPI
+  // directions (the plane sweep runs in their place).
+  for (const stage of defaultStages()) {
     const p = last.get(stage);
     assert.ok(p, `no report for ${stage}`);
     assert.equal(p.done, p.total, stage);

@@ -1,6 +1,7 @@
 // A linear array (one row or one column of cameras) through the wasm package: the
-// Estimator takes a 1×N or N×1 shape, runs the one EPI direction it has and every later
-// stage, scores near the CLI's rail, and the schedule by parts equals estimate().
+// Estimator takes a 1×N or N×1 shape, runs the one EPI direction it has (the EPI start,
+// `initial: "epi"`) and every later stage, scores near the CLI's rail, and the schedule by
+// parts equals estimate(); the default start, the plane sweep, estimates a rail too.
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import lf from "./pkg.mjs";
@@ -15,7 +16,7 @@ for (const [rows, cols, present, absent] of [
   test(`a ${rows}x${cols} rail estimates from its one direction, by parts as serially`, () => {
     const scene = lf.synthesize({ scene: "planes", rows, cols, width: SIZE, height: SIZE, seed: 3 });
     const shape = { rows, cols, width: SIZE, height: SIZE, channels: 3 };
-    const serial = new lf.Estimator(scene.views, shape, { align: "off" }).estimate();
+    const serial = new lf.Estimator(scene.views, shape, { align: "off", initial: "epi" }).estimate();
     const stages = serial.timings.map((t) => t.stage);
     assert.ok(stages.includes(present) && !stages.includes(absent), stages.join(", "));
     const scores = lf.evaluate(serial.disparity, scene.groundTruth, SIZE, SIZE);
@@ -24,7 +25,12 @@ for (const [rows, cols, present, absent] of [
     assert.ok(scores.badpix007 < 3, `BadPix(0.07) ${scores.badpix007}`);
     assert.equal(scores.invalidPct, 0);
 
-    const params = { refineBandRows: 24, tvTile: 40 };
+    const sweep = new lf.Estimator(scene.views, shape, { align: "off" }).estimate();
+    assert.ok(sweep.timings.some((t) => t.stage === "sweep"));
+    const sweepScores = lf.evaluate(sweep.disparity, scene.groundTruth, SIZE, SIZE);
+    assert.ok(sweepScores.badpix007 < 10, `plane sweep: BadPix(0.07) ${sweepScores.badpix007}`);
+
+    const params = { refineBandRows: 24, tvTile: 40, initial: "epi" };
     const reference = new lf.Estimator(scene.views, shape, { ...params, align: "off" }).estimate();
     const run = new lf.Run(shape, params, 2);
     const workers = [0, 1].map(() => new lf.Estimator(scene.views, shape, { ...params, align: "off" }));

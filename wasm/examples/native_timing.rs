@@ -6,8 +6,8 @@
 //! cargo run --release -p lfdepth-wasm --example native_timing -- planes 512 9 3 epi
 //! ```
 //! Arguments: scene, size (px), grid (views per side), repetitions, stages ("epi": the
-//! EPI stage alone, as `{ stage: "epi" }`; "full": EPI → refine → median → TV, as
-//! `{ align: "off" }`). Prints one JSON line.
+//! start alone, the plane sweep by default, as `{ stage: "epi" }`; "full": the start →
+//! refine → refill → median → TV, as `{ align: "off" }`). Prints one JSON line.
 
 use std::ops::ControlFlow;
 use std::time::Instant;

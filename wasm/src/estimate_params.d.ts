@@ -3,10 +3,12 @@
 /** Estimation parameters; every key is optional and defaults to the core's default. */
 export interface EstimateParams {
   /** Named settings the other keys then override (as the CLI's `--preset`): "default"
-   * (the most accurate settings), or "fast" (about 1.3× less CPU: one Gauss–Newton
-   * step, three median passes gated at 0.3 px, TV stopping earlier). */
+   * (the most accurate settings), or "fast" (less CPU: the EPI start instead of the plane
+   * sweep, one Gauss–Newton step, three median passes gated at 0.3 px, TV stopping
+   * earlier). */
   preset?: "default" | "fast";
-  /** How far `estimate` goes: "full" (every stage, the default) or "epi" alone. */
+  /** How far `estimate` goes: "full" (every stage, the default) or "epi" (the initial
+   * disparity alone: the plane sweep, or the EPI stage with `initial: "epi"`). */
   stage?: "epi" | "full";
   /** The views were warped (rectified by an alignment elsewhere, e.g. another estimator's
    * `readViews` after `align()`): the refinement compares them with its sampling slack,
@@ -70,7 +72,7 @@ export interface EstimateParams {
   range?: "auto" | [number, number];
   /** Initial disparity: epi (the structure tensor on sheared EPIs) or sweep (a plane
    * sweep over the EPI stage's range with window-aggregated truncated differences to the
-   * centre row and column of views) (default "epi"). CLI: `--initial`. */
+   * centre row and column of views) (default "sweep"). CLI: `--initial`. */
   initial?: "epi" | "sweep";
   /** Plane sweep: largest distance between hypotheses (px) (0.05…1; default 0.25). CLI:
    * `--sweep-step`. */

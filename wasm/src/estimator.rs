@@ -14,13 +14,15 @@ use crate::js::{self, error, message};
 use crate::params;
 use crate::samples::{with_light_field, Samples};
 
-/// The progress stage names of the core pipeline, in the order they run.
+/// The progress stage names of the core pipeline, in the order they run (the plane sweep,
+/// the default start, in place of the two EPI directions).
 #[wasm_bindgen(js_name = stageNames)]
 pub fn stage_names() -> Vec<String> {
     [
         pipeline::STAGE_ALIGN,
         pipeline::STAGE_WARP,
         epi::STAGE_RANGE,
+        lfdepth::planesweep::STAGE,
         epi::STAGE_HORIZONTAL,
         epi::STAGE_VERTICAL,
         refine::STAGE,
@@ -301,8 +303,9 @@ impl Estimator {
         self.layout.height
     }
 
-    /// Runs the pipeline on this thread: EPI → refine (unless `params.refine` is false)
-    /// → TV, or the EPI stage alone with `params.stage: "epi"`. `onProgress` is called as
+    /// Runs the pipeline on this thread: the start (the plane sweep, or the EPI stage with
+    /// `params.initial: "epi"`) → refine (unless `params.refine` is false) → refill →
+    /// median → TV, or the start alone with `params.stage: "epi"`. `onProgress` is called as
     /// work completes with `{ stage, done, total }`; returning `false` cancels (the call
     /// then throws an `Error` "cancelled by the caller"); an exception it throws is
     /// rethrown.

@@ -23,7 +23,7 @@ const LAYER_KEYS: [(&str, &str, &str); 3] = [
     (
         "stage",
         "\"epi\" | \"full\"",
-        "How far `estimate` goes: \"full\" (every stage, the default) or \"epi\" alone",
+        "How far `estimate` goes: \"full\" (every stage, the default) or \"epi\" (the initial disparity alone: the plane sweep, or the EPI stage with `initial: \"epi\"`)",
     ),
     (
         "resampled",
@@ -148,8 +148,8 @@ pub fn checked_plan(layout: Layout, params: Params) -> Result<Plan, JsError> {
     Plan::new(layout, params).map_err(|e| error(options::rename(e, Front::Js)))
 }
 
-/// How far `Estimator.estimate` goes: `params.stage`, "full" (EPI → refine → TV) when
-/// absent.
+/// How far `Estimator.estimate` goes: `params.stage`, "full" (the start → refine → refill
+/// → median → TV) when absent.
 pub fn stages(object: &JsValue) -> Result<Stages, JsError> {
     let keys = param_keys();
     let f = Fields::new(object, "params", &keys, true)?;

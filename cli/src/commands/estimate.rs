@@ -47,7 +47,8 @@ pub struct EstimateArgs {
     /// Also write the per-pixel confidence in [0, 1] (PFM; float TIFF for .tif, OpenEXR for .exr).
     #[arg(long, value_name = "CONF.pfm")]
     pub confidence: Option<PathBuf>,
-    /// How far to run: `epi` (initial estimate) or `full` (with TV refinement).
+    /// How far to run: `epi` (the initial disparity, from the start `--initial` chooses)
+    /// or `full` (through every later stage down to TV).
     #[arg(long, value_enum, default_value_t = Stage::Full)]
     pub stage: Stage,
     /// Number type of every stage: `f32` or `q16` (Q16.16 fixed point).

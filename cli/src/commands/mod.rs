@@ -118,9 +118,9 @@ pub fn parse_threads(text: &str) -> Result<u16, String> {
 /// How far the pipeline runs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum Stage {
-    /// Initial disparity from EPIs only.
+    /// The initial disparity only (the plane sweep, or the EPI stage with `--initial epi`).
     Epi,
-    /// EPI disparity refined by total variation.
+    /// The initial disparity refined through every later stage down to TV.
     #[default]
     Full,
 }

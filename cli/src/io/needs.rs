@@ -76,8 +76,13 @@ fn absent_view_error(files: &ViewFiles, params: &Params, v: usize) -> IoError {
     let grid = files.grid;
     let (r, c) = (v / grid.cols, v % grid.cols);
     let why = if pipeline::stages_read_view(grid, params, Stages::Epi, v) {
+        let start = if params.sweep.enabled {
+            "the plane sweep"
+        } else {
+            "the EPI stage"
+        };
         format!(
-            "the EPI stage reads every view of the centre row and column of the {}x{} grid (this is row {}, column {}, counted from 0): add the view, or pass --grid RxC if that is not the grid",
+            "{start} reads every view of the centre row and column of the {}x{} grid (this is row {}, column {}, counted from 0): add the view, or pass --grid RxC if that is not the grid",
             grid.rows, grid.cols, r, c
         )
     } else {

@@ -15,7 +15,10 @@ use lfdepth_cli::io::scene::{self, LoadOptions, Views};
 pub fn epi<S: Sample + Sync>(data: &[S], spec: &SynthSpec) -> Vec<f32> {
     let lf = LightField::new(data, spec.layout()).unwrap();
     let options = EstimateOptions {
-        params: Params::default(),
+        params: Params {
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
+            ..Params::default()
+        },
         stage: Stages::Epi,
         threads: None,
     };

@@ -163,6 +163,7 @@ pub fn epi_on_hci_scene(who: &str, scene: &str, epi: EpiParams) -> Option<(Score
     let options = EstimateOptions {
         params: Params {
             epi,
+            sweep: lfdepth::planesweep::PlaneSweepParams::off(),
             ..Params::default()
         },
         stage: Stages::Epi,

@@ -163,11 +163,12 @@ impl Tunable {
     }
 
     /// Checks one value on its own: applied to [`base`]`(Preset::Default)`, does every
-    /// stage accept it? The error names the tunable as `front` knows it.
+    /// stage accept it? Combinations with other tunables (the half-resolution EPI needs
+    /// the EPI start) are [`validate`]'s. The error names the tunable as `front` knows it.
     pub fn check(&self, value: Value, front: Front) -> Result<()> {
         let mut params = base(Preset::Default);
         self.apply(&mut params, value)
-            .and_then(|()| validate(&params, front))
+            .and_then(|()| validate_stages(&params))
             .map_err(|e| rename(e, front))
     }
 
@@ -295,6 +296,13 @@ pub fn base(preset: Preset) -> Params {
 /// Every stage's `validate` on `params`, with the failing tunable named as `front` knows
 /// it ([`rename`]).
 pub fn validate(params: &Params, front: Front) -> Result<()> {
+    validate_stages(params)
+        .and_then(|()| crate::plan::check_initial(params))
+        .map_err(|e| rename(e, front))
+}
+
+/// Every stage's `validate` on its own parameters.
+fn validate_stages(params: &Params) -> Result<()> {
     params
         .align
         .validate()
@@ -304,8 +312,6 @@ pub fn validate(params: &Params, front: Front) -> Result<()> {
         .and_then(|()| params.median.validate())
         .and_then(|()| params.geofill.validate())
         .and_then(|()| params.sweep.validate())
-        .and_then(|()| crate::plan::check_initial(params))
-        .map_err(|e| rename(e, front))
 }
 
 /// `error` with an internal parameter name (`tv.lambda`) replaced by the name `front`
@@ -342,7 +348,7 @@ pub fn preset_doc(preset: Preset) -> &'static str {
     match preset {
         Preset::Default => "the most accurate settings",
         Preset::Fast => {
-            "about 1.3× less CPU: one Gauss–Newton step, three median passes gated at 0.3 px, TV stopping earlier"
+            "less CPU: the EPI start instead of the plane sweep, one Gauss–Newton step, three median passes gated at 0.3 px, TV stopping earlier"
         }
     }
 }

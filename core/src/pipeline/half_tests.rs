@@ -31,6 +31,7 @@ fn params(half: bool) -> Params {
             },
             ..EpiParams::default()
         },
+        sweep: crate::planesweep::PlaneSweepParams::off(),
         ..Params::default()
     }
 }

@@ -135,12 +135,9 @@ fn variants() -> [(&'static str, Params); 8] {
         ),
         ("the paper's pipeline", Params::paper()),
         (
-            "plane sweep",
+            "EPI start",
             Params {
-                sweep: crate::planesweep::PlaneSweepParams {
-                    enabled: true,
-                    ..Default::default()
-                },
+                sweep: crate::planesweep::PlaneSweepParams::off(),
                 ..small
             },
         ),
@@ -162,6 +159,7 @@ fn variants() -> [(&'static str, Params); 8] {
                     half_resolution: true,
                     ..Params::default().epi
                 },
+                sweep: crate::planesweep::PlaneSweepParams::off(),
                 ..small
             },
         ),
@@ -219,20 +217,29 @@ fn the_steps_follow_the_enabled_stages() {
         crate::epi::STAGE_HORIZONTAL,
         crate::epi::STAGE_VERTICAL,
     ];
-    assert_eq!(stages_of(Params::default(), Stages::Epi), epi);
-    let mut full = epi.to_vec();
+    let sweep = [crate::epi::STAGE_RANGE, crate::planesweep::STAGE];
+    let epi_start = Params {
+        sweep: crate::planesweep::PlaneSweepParams::off(),
+        ..Params::default()
+    };
+    assert_eq!(stages_of(Params::default(), Stages::Epi), sweep);
+    assert_eq!(stages_of(epi_start, Stages::Epi), epi);
+    let mut full = sweep.to_vec();
     full.extend(["refine", "geofill", "median", "tv"]);
     assert_eq!(stages_of(Params::default(), Stages::Full), full);
+    let mut full = epi.to_vec();
+    full.extend(["refine", "geofill", "median", "tv"]);
+    assert_eq!(stages_of(epi_start, Stages::Full), full);
     let mut paper = epi.to_vec();
     paper.push("tv");
     assert_eq!(stages_of(Params::paper(), Stages::Full), paper);
     let mut params = Params::default();
     params.tv.sweeps = 2;
     params.median.before_tv = false;
-    let mut swept = epi.to_vec();
+    let mut swept = sweep.to_vec();
     swept.extend(["refine", "geofill", "tv", "tv", "tv", "median"]);
     assert_eq!(stages_of(params, Stages::Full), swept);
-    let mut params = Params::default();
+    let mut params = epi_start;
     params.epi.half_resolution = true;
     let mut half = epi.to_vec();
     half.push(crate::epi::STAGE_UPSAMPLE);
@@ -390,7 +397,11 @@ fn a_linear_array_runs_its_one_direction_by_parts_as_serially() {
             }
         }
         // The EPI stage's own serial entry point gives the schedule's EPI maps.
-        let plan = Plan::new(layout, Params::default()).unwrap();
+        let epi_start = Params {
+            sweep: crate::planesweep::PlaneSweepParams::off(),
+            ..Params::default()
+        };
+        let plan = Plan::new(layout, epi_start).unwrap();
         let (d, c, _) = serial::<f32>(&plan, &lf, Stages::Epi);
         let mut ed = vec![0.0; plan.pixels()];
         let mut ec = vec![0.0; plan.pixels()];

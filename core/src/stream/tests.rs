@@ -30,6 +30,7 @@ fn params(tile: usize, halo: usize, min: f32, max: f32) -> Params {
             max_iterations: 60,
             ..TvParams::default()
         },
+        sweep: crate::planesweep::PlaneSweepParams::off(),
         ..Params::default()
     }
 }
@@ -292,6 +293,7 @@ fn bad_streams_are_refused_with_errors() {
         refine: RefineParams::off(),
         median: crate::median::MedianParams::off(),
         geofill: crate::geofill::GeoFillParams::off(),
+        sweep: crate::planesweep::PlaneSweepParams::off(),
         ..Params::default()
     };
     assert!(matches!(
@@ -392,6 +394,7 @@ fn a_stream_refuses_the_refill() {
             enabled: true,
             ..crate::geofill::GeoFillParams::default()
         },
+        sweep: crate::planesweep::PlaneSweepParams::off(),
         ..Params::default()
     };
     let params = Params {
