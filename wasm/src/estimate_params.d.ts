@@ -70,10 +70,11 @@ export interface EstimateParams {
   /** Disparity search range in px between adjacent views: auto (estimated from the views)
    * or fixed from a minimum to a maximum (default "auto"). CLI: `--disparity-range`. */
   range?: "auto" | [number, number];
-  /** Initial disparity: epi (the structure tensor on sheared EPIs) or sweep (a plane
-   * sweep over the EPI stage's range with window-aggregated truncated differences to the
-   * centre row and column of views) (default "sweep"). CLI: `--initial`. */
-  initial?: "epi" | "sweep";
+  /** Initial disparity: epi (the structure tensor on sheared EPIs), sweep (a plane sweep
+   * over the EPI stage's range with window-aggregated truncated differences to the centre
+   * row and column of views) or fused (both, each refined, per pixel the one with the
+   * lower photometric cost over a 3×3 window) (default "sweep"). CLI: `--initial`. */
+  initial?: "epi" | "sweep" | "fused";
   /** Plane sweep: largest distance between hypotheses (px) (0.05…1; default 0.25). CLI:
    * `--sweep-step`. */
   sweepStep?: number;
