@@ -91,6 +91,10 @@ export interface EstimateParams {
   /** Plane sweep: the one-axis volumes' windows are lines this many times the radius long
    * on each side (1…4; default 2). CLI: `--sweep-line`. */
   sweepLine?: number;
+  /** Plane sweep: below this sweep confidence the refined confidence is scaled by the
+   * square of the sweep's over this, so TV weighs such starts less (0: off) (0…1;
+   * default 0). CLI: `--sweep-trust`. */
+  sweepTrust?: number;
   /** Photometric refinement of the EPI disparity over many views (default true). CLI:
    * `--refine`. */
   refine?: boolean;

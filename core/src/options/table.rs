@@ -398,6 +398,18 @@ pub static TUNABLES: &[Tunable] = &[
             Some(())
         },
     },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-trust")),
+        key: Some("sweepTrust"),
+        doc: "Plane sweep: below this sweep confidence the refined confidence is scaled by the square of the sweep's over this, so TV weighs such starts less (0: off)",
+        kind: closed(0.0, 1.0),
+        path: "sweep.trust",
+        get: |p| Value::Float(p.sweep.trust),
+        set: |p, v| {
+            p.sweep.trust = float(v)?;
+            Some(())
+        },
+    },
     // Photometric refinement.
     Tunable {
         flag: Some(Flag::Value("--refine")),

@@ -25,6 +25,14 @@ pub struct PlaneSweepParams {
     pub select: f32,
     /// Line windows of the one-axis volumes: this many times the radius on each side, 1…4.
     pub line: usize,
+    /// Sweep confidence (0…1) below which the refinement's confidence of a pixel is
+    /// scaled by `(sweep confidence / trust)²`, so that TV weighs a start the sweep was
+    /// unsure of (a flat cost curve whose window-wide winner a whole patch shares) less
+    /// than its neighbours. 0 (the default): the refinement's confidence as it is.
+    /// Measured in docs/stages/sweep.md ("Distrusting flat cost curves"): it fixes the
+    /// 256² dusk poster and lowers the 512² suite's mean, but worsens 256² hall and six
+    /// of the seven synthetic demo scenes, so it is off.
+    pub trust: f32,
 }
 
 impl Default for PlaneSweepParams {
@@ -36,6 +44,7 @@ impl Default for PlaneSweepParams {
             truncate: 0.1,
             select: 1.0,
             line: 2,
+            trust: 0.0,
         }
     }
 }
@@ -72,6 +81,9 @@ impl PlaneSweepParams {
         }
         if !(1..=4).contains(&self.line) {
             return bad("sweep.line", "must be in 1..=4");
+        }
+        if !(self.trust.is_finite() && (0.0..=1.0).contains(&self.trust)) {
+            return bad("sweep.trust", "must be in [0, 1] (0: off)");
         }
         Ok(())
     }

@@ -187,6 +187,20 @@ fn bad_parameters_are_named() {
                 ..enabled()
             },
         ),
+        (
+            "sweep.trust",
+            PlaneSweepParams {
+                trust: 1.5,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.trust",
+            PlaneSweepParams {
+                trust: f32::NAN,
+                ..enabled()
+            },
+        ),
     ];
     for (name, params) in bad {
         match params.validate() {

@@ -506,13 +506,25 @@ impl Schedule {
                     lf,
                     (h.min(), h.max()),
                     state.disparity(),
-                    lines,
+                    lines.clone(),
                     DisparityOut {
                         disparity: &mut *out.disparity,
                         confidence: &mut *out.confidence,
                     },
                     scratch.kernel,
-                )
+                )?;
+                let sweep = plan.params().sweep;
+                if sweep.enabled && !plan.params().fused && sweep.trust > 0.0 {
+                    // The start's confidence is still the current one.
+                    let own = lines.start * width..lines.end * width;
+                    let start = state.confidence().get(own).ok_or(Error::OutputSize {
+                        what: "the plane sweep's confidence",
+                        needed: lines.end * width,
+                        got: state.confidence().len(),
+                    })?;
+                    distrust(sweep.trust, start, &mut *out.confidence);
+                }
+                Ok(())
             }),
             Step::Fuse => alone(|| {
                 let h = range()?;
@@ -706,6 +718,19 @@ impl Schedule {
 
 #[cfg(test)]
 mod tests;
+
+/// Scales each refined confidence in `refined` by `(start / trust)²` where the plane
+/// sweep's confidence `start` of the same pixel is below `trust` (> 0): a pixel whose
+/// cost curve was flat took its window's winner, which a whole patch shares, and TV
+/// should lean on its neighbours there rather than keep the patch as a surface.
+fn distrust(trust: f32, start: &[f32], refined: &mut [f32]) {
+    for (c, &s) in refined.iter_mut().zip(start) {
+        if s < trust {
+            let r = s.max(0.0) / trust;
+            *c *= r * r;
+        }
+    }
+}
 
 /// Runs one step's part in a frame of its own: the stages' locals (the EPI line
 /// estimator, the refinement's per-view tables, the median's windows) never share one

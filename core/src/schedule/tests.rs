@@ -26,6 +26,25 @@ fn by_parts<T: Scalar>(
     schedule: &Schedule,
     lf: &LightField<'_, u8>,
 ) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    by_parts_through::<T>(schedule, lf, None)
+}
+
+/// The current disparity and confidence once `last` has finished.
+fn by_parts_until<T: Scalar>(
+    schedule: &Schedule,
+    lf: &LightField<'_, u8>,
+    last: Step,
+) -> (Vec<f32>, Vec<f32>) {
+    let (d, c, _) = by_parts_through::<T>(schedule, lf, Some(last));
+    (d, c)
+}
+
+/// Runs `schedule`'s steps by parts (all of them, or through `last`).
+fn by_parts_through<T: Scalar>(
+    schedule: &Schedule,
+    lf: &LightField<'_, u8>,
+    last: Option<Step>,
+) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
     let mut buffer = vec![0.0f32; schedule.state_len()];
     let mut state = State::new(schedule, &mut buffer).unwrap();
     for &step in schedule.steps() {
@@ -54,6 +73,9 @@ fn by_parts<T: Scalar>(
             schedule.place(step, index, &out, &mut state).unwrap();
         }
         schedule.finish(step, &mut state);
+        if last == Some(step) {
+            break;
+        }
     }
     (
         state.disparity().to_vec(),
@@ -96,7 +118,7 @@ fn bits(values: &[f32]) -> Vec<u32> {
     values.iter().map(|v| v.to_bits()).collect()
 }
 
-fn variants() -> [(&'static str, Params); 8] {
+fn variants() -> [(&'static str, Params); 9] {
     let small = Params {
         refine: RefineParams {
             band_rows: 10,
@@ -149,6 +171,16 @@ fn variants() -> [(&'static str, Params); 8] {
                     ..Default::default()
                 },
                 fused: true,
+                ..small
+            },
+        ),
+        (
+            "sweep start distrusting flat cost curves",
+            Params {
+                sweep: crate::planesweep::PlaneSweepParams {
+                    trust: 0.6,
+                    ..Params::default().sweep
+                },
                 ..small
             },
         ),
@@ -447,4 +479,52 @@ fn a_row_and_a_column_agree_with_the_grid_they_come_from() {
             d.len()
         );
     }
+}
+
+#[test]
+fn distrust_scales_only_the_confidence_of_flat_sweep_pixels() {
+    let start = [0.0, 0.15, 0.3, 0.6, 0.9, -0.2];
+    let mut refined = [0.8; 6];
+    distrust(0.6, &start, &mut refined);
+    let want = [0.0, 0.8 / 16.0, 0.8 / 4.0, 0.8, 0.8, 0.0];
+    for (k, (&got, &want)) in refined.iter().zip(&want).enumerate() {
+        assert!((got - want).abs() < 1e-6, "pixel {k}: {got} against {want}");
+    }
+}
+
+#[test]
+fn trusting_the_sweep_lowers_the_refined_confidence_where_the_sweep_was_unsure() {
+    let (data, layout) = scene();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let run = |trust| {
+        let params = Params {
+            sweep: crate::planesweep::PlaneSweepParams {
+                trust,
+                ..Params::default().sweep
+            },
+            ..Params::default()
+        };
+        let plan = Plan::new(layout, params).unwrap();
+        let schedule = Schedule::new(&plan, Stages::Full, 1).unwrap();
+        // The maps after the sweep and after the refinement.
+        let sweep = by_parts_until::<f32>(&schedule, &lf, Step::PlaneSweep);
+        let refined = by_parts_until::<f32>(&schedule, &lf, Step::Refine);
+        (sweep, refined)
+    };
+    let ((_, sweep_c), (off_d, off_c)) = run(0.0);
+    let (_, (on_d, on_c)) = run(0.6);
+    // The refinement's disparity does not depend on it; its confidence is scaled exactly
+    // where the sweep's confidence is below the threshold.
+    assert_eq!(bits(&on_d), bits(&off_d));
+    let mut lowered = 0;
+    for ((&s, &off), &on) in sweep_c.iter().zip(&off_c).zip(&on_c) {
+        if s < 0.6 {
+            let r = s.max(0.0) / 0.6;
+            assert!((on - off * r * r).abs() <= 1e-6 * off.abs().max(1.0));
+            lowered += usize::from(off > 0.0 && on < off);
+        } else {
+            assert_eq!(on.to_bits(), off.to_bits());
+        }
+    }
+    assert!(lowered > 0, "no pixel of the scene had an unsure sweep");
 }
