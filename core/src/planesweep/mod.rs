@@ -411,7 +411,13 @@ impl<'a> Volume<'a> {
             .ok_or(Error::SizeOverflow { what: "a cost row" })?;
         // The first tap initialises the sum (bit-identical to adding it to zero: costs are
         // never −0).
-        sum_taps(row, self.padded, 2 * r + 1, |j| j);
+        copy(row, self.padded.get(..width).unwrap_or(&[]));
+        for j in 1..=2 * r {
+            let src = self.padded.get(j..j + width).unwrap_or(&[]);
+            for (c, s) in row.iter_mut().zip(src) {
+                *c += s;
+            }
+        }
         Ok(())
     }
 
@@ -425,17 +431,23 @@ impl<'a> Volume<'a> {
         first: usize,
     ) -> Result<()> {
         let r = self.ry;
-        let row = |j: usize| {
-            (y + j)
+        for j in 0..=2 * r {
+            let yy = (y + j)
                 .saturating_sub(r)
-                .min(height.saturating_sub(1))
-                .saturating_sub(first)
-                .saturating_mul(width)
-        };
-        if row(2 * r).saturating_add(width) > self.costs.len() {
-            return Err(Error::SizeOverflow { what: "a cost row" });
+                .min(height - 1)
+                .saturating_sub(first);
+            let src = self
+                .costs
+                .get(yy * width..(yy + 1) * width)
+                .ok_or(Error::SizeOverflow { what: "a cost row" })?;
+            if j == 0 {
+                copy(agg, src);
+            } else {
+                for (a, s) in agg.iter_mut().zip(src) {
+                    *a += s;
+                }
+            }
         }
-        sum_taps(agg, self.costs, 2 * r + 1, row);
         Ok(())
     }
 
@@ -527,46 +539,6 @@ fn channel_sums(sum: &mut [f32], costs: &[f32], channels: usize, used: usize) {
         _ => {
             for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels.max(1))) {
                 *s = px.iter().take(used).sum();
-            }
-        }
-    }
-}
-
-/// Lanes of [`sum_taps`]'s register-held partial sums.
-const CHUNK: usize = 32;
-
-/// `out[i] = src[at(0) + i] + src[at(1) + i] + …` over `taps` taps, added in tap order
-/// (the first tap stores); a tap that runs past `src` adds nothing. Works through `out` in
-/// chunks of [`CHUNK`] that stay in registers over all the taps.
-fn sum_taps(out: &mut [f32], src: &[f32], taps: usize, at: impl Fn(usize) -> usize) {
-    let mut base = 0;
-    let mut chunks = out.chunks_exact_mut(CHUNK);
-    let tap = |j: usize, base: usize| {
-        let from = at(j).saturating_add(base);
-        src.get(from..from.saturating_add(CHUNK))
-            .and_then(|s| <&[f32; CHUNK]>::try_from(s).ok())
-    };
-    for chunk in &mut chunks {
-        let mut sum = tap(0, base).copied().unwrap_or([0.0; CHUNK]);
-        for j in 1..taps {
-            if let Some(tap) = tap(j, base) {
-                for (s, &t) in sum.iter_mut().zip(tap) {
-                    *s += t;
-                }
-            }
-        }
-        copy(chunk, &sum);
-        base += CHUNK;
-    }
-    let rest = chunks.into_remainder();
-    for j in 0..taps {
-        let from = at(j).saturating_add(base);
-        let tap = src.get(from..).unwrap_or(&[]);
-        if j == 0 {
-            copy(rest, tap);
-        } else {
-            for (s, &t) in rest.iter_mut().zip(tap) {
-                *s += t;
             }
         }
     }
