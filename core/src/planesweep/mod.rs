@@ -260,9 +260,7 @@ pub fn estimate_rows<S: Sample>(
             let (across, along) = acc.split_at_checked(row_len).unwrap_or((&[], &[]));
             let (h_sum, v_sum) = take(sums, width)?;
             for (sum, costs) in [(&mut *h_sum, across), (&mut *v_sum, along)] {
-                for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels.max(1))) {
-                    *s = px.iter().take(used).sum();
-                }
+                channel_sums(sum, costs, channels, used);
             }
             for volume in volumes.iter_mut() {
                 let source = volume.source;
@@ -282,8 +280,15 @@ pub fn estimate_rows<S: Sample>(
         let at = i as f32;
         for (b, y) in rows.clone().enumerate() {
             for volume in volumes.iter_mut() {
-                volume.aggregate(agg, width, height, y, region.start)?;
-                volume.update(agg, b * width..(b + 1) * width, at);
+                let band = b * width..(b + 1) * width;
+                if volume.ry == 0 {
+                    // A window one row tall: the filtered row itself.
+                    let yy = y.saturating_sub(region.start);
+                    volume.update_from_row(yy * width..(yy + 1) * width, band, at)?;
+                } else {
+                    volume.aggregate(agg, width, height, y, region.start)?;
+                    volume.update(agg, band, at);
+                }
             }
         }
     }
@@ -446,6 +451,21 @@ impl<'a> Volume<'a> {
         Ok(())
     }
 
+    /// Takes hypothesis `at`'s costs of band row `band` from the filtered rows `row`
+    /// (a window one row tall).
+    fn update_from_row(&mut self, row: Range<usize>, band: Range<usize>, at: f32) -> Result<()> {
+        let costs = core::mem::take(&mut self.costs);
+        let result = match costs.get(row) {
+            Some(row) => {
+                self.update(row, band, at);
+                Ok(())
+            }
+            None => Err(Error::SizeOverflow { what: "a cost row" }),
+        };
+        self.costs = costs;
+        result
+    }
+
     /// Takes hypothesis `at`'s aggregated costs `agg` of band row `band`.
     fn update(&mut self, agg: &[f32], band: Range<usize>, at: f32) {
         let best = self.best.get_mut(band.clone()).unwrap_or(&mut []);
@@ -504,6 +524,26 @@ impl<'a> Volume<'a> {
     }
 }
 
+/// Per pixel, the sum of the first `used` of its `channels` interleaved samples, in
+/// channel order (the common layouts unrolled).
+fn channel_sums(sum: &mut [f32], costs: &[f32], channels: usize, used: usize) {
+    match (channels, used) {
+        (3, 3) => {
+            for (s, px) in sum.iter_mut().zip(costs.chunks_exact(3)) {
+                if let [a, b, c] = *px {
+                    *s = a + b + c;
+                }
+            }
+        }
+        (1, 1) => copy(sum, costs),
+        _ => {
+            for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels.max(1))) {
+                *s = px.iter().take(used).sum();
+            }
+        }
+    }
+}
+
 /// Copies what `from` and `to` have in common (no length check that could panic).
 fn copy(to: &mut [f32], from: &[f32]) {
     for (t, &f) in to.iter_mut().zip(from) {
@@ -535,16 +575,17 @@ fn pixel_costs<S: Sample>(
     };
     let width = centre.width();
     let channels = centre.channels();
-    let height = centre.height();
     let c_row = centre.row(y).ok_or(missing)?;
     let row_len = width * channels;
     let (acc, cen) = take(acc, GROUPS * row_len)?;
-    acc.fill(0.0);
     // The centre row in unit intensity, converted once for every view.
     for (c, s) in cen.iter_mut().zip(c_row) {
         *c = s.to_unit();
     }
     let cen = &*cen;
+    // The first view of a group stores its terms, the others add theirs (bit-identical
+    // to adding to zero: the terms are never −0); a group without views is zeroed.
+    let mut seen = [false; GROUPS];
     for sv in views {
         let acc = acc
             .get_mut(sv.group * row_len..(sv.group + 1) * row_len)
@@ -552,64 +593,105 @@ fn pixel_costs<S: Sample>(
                 needed: GROUPS * row_len,
                 got: 0,
             })?;
-        if sv.v == 0.0 {
-            // Source x = x + t, t = −d·u: the row shifted by k = ⌊t⌋ and blended by f.
-            let t = -d * sv.u;
-            let kf = libm::floorf(t);
-            let f = t - kf;
-            let g = 1.0 - f;
-            let src = sv.view.row(y).ok_or(missing)?;
-            // Under i.i.d. noise of deviation σ the residual's deviation is
-            // σ·√(1 + g² + f²): linear interpolation averages noise away at half-pixel
-            // shifts, which would pull faint texture towards those hypotheses.
-            let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
-            let k = kf as isize;
-            // Pixels whose two taps x + k and x + k + 1 lie inside the row.
-            let lo = (-k).max(0).min(width as isize) as usize;
-            let hi = (width as isize - 1 - k)
-                .min(width as isize)
-                .max(lo as isize) as usize;
-            let shift = |x: usize| (x as isize + k).min(width as isize - 1).max(0) as usize;
-            let inner = lo * channels..hi * channels;
-            let from = (lo as isize + k).max(0) as usize * channels;
-            let s0 = src.get(from..from + inner.len()).unwrap_or(&[]);
-            let s1 = src
-                .get(from + channels..from + channels + inner.len())
-                .unwrap_or(&[]);
-            let c_in = cen.get(inner.clone()).unwrap_or(&[]);
-            let a = acc.get_mut(inner).unwrap_or(&mut []);
-            for (((a, &p0), &p1), &c) in a.iter_mut().zip(s0).zip(s1).zip(c_in) {
-                let value = g * p0.to_unit() + f * p1.to_unit();
-                *a += (w * libm::fabsf(value - c)).min(tau);
-            }
-            // The edges, with the taps clamped to the row.
-            for x in (0..lo).chain(hi..width) {
-                let (x0, x1) = (shift(x), (shift(x) + 1).min(width - 1));
-                for ch in 0..channels {
-                    let p0 = src.get(x0 * channels + ch).map_or(0.0, |s| s.to_unit());
-                    let p1 = src.get(x1 * channels + ch).map_or(0.0, |s| s.to_unit());
-                    let c = cen.get(x * channels + ch).copied().unwrap_or(0.0);
-                    if let Some(a) = acc.get_mut(x * channels + ch) {
-                        *a += (w * libm::fabsf(g * p0 + f * p1 - c)).min(tau);
-                    }
+        let first = match seen.get_mut(sv.group) {
+            Some(seen) => !core::mem::replace(seen, true),
+            None => false,
+        };
+        if first {
+            view_costs::<S, true>(sv, cen, y, d, tau, acc, missing)?;
+        } else {
+            view_costs::<S, false>(sv, cen, y, d, tau, acc, missing)?;
+        }
+    }
+    for (group, seen) in acc.chunks_mut(row_len.max(1)).zip(seen) {
+        if !seen {
+            group.fill(0.0);
+        }
+    }
+    Ok(())
+}
+
+/// Adds `term` to `a`, or stores it for a group's first view.
+#[inline(always)]
+fn put<const FIRST: bool>(a: &mut f32, term: f32) {
+    if FIRST {
+        *a = term;
+    } else {
+        *a += term;
+    }
+}
+
+/// One view's weighted, truncated absolute differences to the centre row `cen` at
+/// hypothesis `d` into its group's row `acc` (stored if `FIRST`, else added).
+fn view_costs<S: Sample, const FIRST: bool>(
+    sv: &SweepView<'_, S>,
+    cen: &[f32],
+    y: usize,
+    d: f32,
+    tau: f32,
+    acc: &mut [f32],
+    missing: Error,
+) -> Result<()> {
+    let width = sv.view.width();
+    let channels = sv.view.channels();
+    let height = sv.view.height();
+    if sv.v == 0.0 {
+        // Source x = x + t, t = −d·u: the row shifted by k = ⌊t⌋ and blended by f.
+        let t = -d * sv.u;
+        let kf = libm::floorf(t);
+        let f = t - kf;
+        let g = 1.0 - f;
+        let src = sv.view.row(y).ok_or(missing)?;
+        // Under i.i.d. noise of deviation σ the residual's deviation is
+        // σ·√(1 + g² + f²): linear interpolation averages noise away at half-pixel
+        // shifts, which would pull faint texture towards those hypotheses.
+        let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
+        let k = kf as isize;
+        // Pixels whose two taps x + k and x + k + 1 lie inside the row.
+        let lo = (-k).max(0).min(width as isize) as usize;
+        let hi = (width as isize - 1 - k)
+            .min(width as isize)
+            .max(lo as isize) as usize;
+        let shift = |x: usize| (x as isize + k).min(width as isize - 1).max(0) as usize;
+        let inner = lo * channels..hi * channels;
+        let from = (lo as isize + k).max(0) as usize * channels;
+        let s0 = src.get(from..from + inner.len()).unwrap_or(&[]);
+        let s1 = src
+            .get(from + channels..from + channels + inner.len())
+            .unwrap_or(&[]);
+        let c_in = cen.get(inner.clone()).unwrap_or(&[]);
+        let a = acc.get_mut(inner).unwrap_or(&mut []);
+        for (((a, &p0), &p1), &c) in a.iter_mut().zip(s0).zip(s1).zip(c_in) {
+            let value = g * p0.to_unit() + f * p1.to_unit();
+            put::<FIRST>(a, (w * libm::fabsf(value - c)).min(tau));
+        }
+        // The edges, with the taps clamped to the row.
+        for x in (0..lo).chain(hi..width) {
+            let (x0, x1) = (shift(x), (shift(x) + 1).min(width - 1));
+            for ch in 0..channels {
+                let p0 = src.get(x0 * channels + ch).map_or(0.0, |s| s.to_unit());
+                let p1 = src.get(x1 * channels + ch).map_or(0.0, |s| s.to_unit());
+                let c = cen.get(x * channels + ch).copied().unwrap_or(0.0);
+                if let Some(a) = acc.get_mut(x * channels + ch) {
+                    put::<FIRST>(a, (w * libm::fabsf(g * p0 + f * p1 - c)).min(tau));
                 }
             }
-        } else {
-            // Source y + t, t = −d·v: a blend of two rows (clamped to the image).
-            let t = -d * sv.v;
-            let kf = libm::floorf(t);
-            let f = t - kf;
-            let g = 1.0 - f;
-            let row = |dy: f32| {
-                let yy = (y as f32 + kf + dy).min(height as f32 - 1.0).max(0.0) as usize;
-                sv.view.row(yy).ok_or(missing)
-            };
-            let (s0, s1) = (row(0.0)?, row(1.0)?);
-            let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
-            for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(cen) {
-                let value = g * p0.to_unit() + f * p1.to_unit();
-                *a += (w * libm::fabsf(value - c)).min(tau);
-            }
+        }
+    } else {
+        // Source y + t, t = −d·v: a blend of two rows (clamped to the image).
+        let t = -d * sv.v;
+        let kf = libm::floorf(t);
+        let f = t - kf;
+        let g = 1.0 - f;
+        let row = |dy: f32| {
+            let yy = (y as f32 + kf + dy).min(height as f32 - 1.0).max(0.0) as usize;
+            sv.view.row(yy).ok_or(missing)
+        };
+        let (s0, s1) = (row(0.0)?, row(1.0)?);
+        let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
+        for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(cen) {
+            let value = g * p0.to_unit() + f * p1.to_unit();
+            put::<FIRST>(a, (w * libm::fabsf(value - c)).min(tau));
         }
     }
     Ok(())
