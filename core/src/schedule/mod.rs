@@ -501,16 +501,13 @@ impl Schedule {
             }),
             Step::Refine => alone(|| {
                 let h = range()?;
-                refine::refine_band(
-                    plan.refine(),
+                refine_rows(
+                    plan,
                     lf,
-                    (h.min(), h.max()),
+                    &h,
                     state.disparity(),
                     lines.clone(),
-                    DisparityOut {
-                        disparity: &mut *out.disparity,
-                        confidence: &mut *out.confidence,
-                    },
+                    out,
                     scratch.kernel,
                 )?;
                 let sweep = plan.params().sweep;
@@ -528,16 +525,13 @@ impl Schedule {
             }),
             Step::Fuse => alone(|| {
                 let h = range()?;
-                refine::refine_band(
-                    plan.refine(),
+                refine_rows(
+                    plan,
                     lf,
-                    (h.min(), h.max()),
+                    &h,
                     state.other().0,
                     lines.clone(),
-                    DisparityOut {
-                        disparity: &mut *out.disparity,
-                        confidence: &mut *out.confidence,
-                    },
+                    out,
                     scratch.kernel,
                 )?;
                 let own = lines.start * width..lines.end * width;
@@ -718,6 +712,31 @@ impl Schedule {
 
 #[cfg(test)]
 mod tests;
+
+/// Refines the rows `lines` of the start map `start` into the part's output: the
+/// refinement of the chosen start and, for the fused start, of the plane sweep's map.
+fn refine_rows<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    h: &Hypotheses,
+    start: &[f32],
+    lines: core::ops::Range<usize>,
+    out: &mut PartOutput<'_>,
+    kernel: &mut [T],
+) -> Result<()> {
+    refine::refine_band(
+        plan.refine(),
+        lf,
+        (h.min(), h.max()),
+        start,
+        lines,
+        DisparityOut {
+            disparity: &mut *out.disparity,
+            confidence: &mut *out.confidence,
+        },
+        kernel,
+    )
+}
 
 /// Scales each refined confidence in `refined` by `(start / trust)²` where the plane
 /// sweep's confidence `start` of the same pixel is below `trust` (> 0): a pixel whose
