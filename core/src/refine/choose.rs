@@ -29,6 +29,11 @@ pub(crate) const RADIUS: usize = 1;
 /// window's pixels, each at `d`: one scale for both starts, which their own
 /// confidences (the tensor's coherence, the sweep's cost contrast) are not. The chosen
 /// start's refinement confidence goes with it.
+///
+/// Never inlined: its view tables would otherwise share the schedule's frame with the
+/// refinement's that is called beside it, and the two frames together take the
+/// firmware's whole-frame image past its 16 KiB stack.
+#[inline(never)]
 pub fn choose<T: Scalar, S: Sample>(
     setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
