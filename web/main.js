@@ -53,21 +53,56 @@ async function pool() {
   return state.pool;
 }
 
+/** The estimation parameters the form shows: a control the chosen start hides is not
+ * sent (the EPI scales for the plane sweep, the sweep trust for the EPI start), so the
+ * preset's value holds there. */
 function params() {
   const manual = document.querySelector("input[name=range]:checked").value === "manual";
+  const initial = $("initial").value;
   const p = {
     preset: $("preset").value,
-    innerSigma: Number($("inner-sigma").value),
-    outerSigma: Number($("outer-sigma").value),
-    shearStep: Number($("shear-step").value),
-    fusion: $("fusion").value,
+    initial,
     lambda: Number($("tv-lambda").value),
     iterations: Number($("tv-iterations").value),
     median: $("median").checked,
     align: $("align").value,
   };
+  if (usesEpi(initial)) {
+    p.innerSigma = Number($("inner-sigma").value);
+    p.outerSigma = Number($("outer-sigma").value);
+    p.shearStep = Number($("shear-step").value);
+    p.fusion = $("fusion").value;
+  }
+  if (usesSweep(initial)) p.sweepTrust = Number($("sweep-trust").value);
   if (manual) p.range = [Number($("range-min").value), Number($("range-max").value)];
   return p;
+}
+
+/** Whether the start `initial` runs the EPI stage (the EPI start, and the fused one). */
+const usesEpi = (initial) => initial !== "sweep";
+/** Whether the start `initial` runs the plane sweep (the sweep start, and the fused one). */
+const usesSweep = (initial) => initial !== "epi";
+
+/** Why the form cannot run as it is (a message naming the control and what to enter),
+ * or null. The other fields are checked by the estimator, whose message names its key. */
+function refusal() {
+  const trust = $("sweep-trust");
+  if ($("sweep-trust-label").hidden) return null;
+  const value = trust.valueAsNumber;
+  const bad = trust.validity.badInput || trust.value.trim() === "" || !(value >= 0 && value <= 1);
+  trust.setAttribute("aria-invalid", String(bad));
+  if (!bad) return null;
+  const got = trust.value.trim() === "" ? "it is empty" : `not ${trust.value}`;
+  return `Sweep trust must be a number from 0 (off) to 1, ${got}.`;
+}
+
+/** Shows the controls of the chosen start only: the sweep trust where the plane sweep
+ * runs, the EPI scales where the EPI stage runs. */
+function showStart() {
+  const initial = $("initial").value;
+  $("sweep-trust-label").hidden = !usesSweep(initial);
+  $("epi-fields").hidden = !usesEpi(initial);
+  $("start-note").textContent = usesEpi(initial) ? "" : "The plane sweep reads no EPI scales: they show for the EPI and fused starts.";
 }
 
 // ---------------------------------------------------------------- loading
@@ -271,7 +306,13 @@ function prepareWorkers() {
 
 async function run() {
   if (!state.lightField) return;
-  showError(null);
+  const refused = refusal();
+  showError(refused);
+  if (refused) {
+    setStatus("error");
+    $("sweep-trust").focus();
+    return;
+  }
   setStatus("running");
   $("run").disabled = true;
   $("cancel").disabled = false;
@@ -559,6 +600,14 @@ function wire() {
       $("range-min").disabled = $("range-max").disabled = !manual;
     });
   }
+  $("initial").addEventListener("change", showStart);
+  // The fast preset is the EPI start's: choosing a preset shows its start, which a start
+  // chosen afterwards overrides (what the form shows is what runs).
+  $("preset").addEventListener("change", () => {
+    $("initial").value = $("preset").value === "fast" ? "epi" : "sweep";
+    showStart();
+  });
+  $("sweep-trust").addEventListener("input", () => $("sweep-trust").removeAttribute("aria-invalid"));
   $("run").addEventListener("click", run);
   $("cancel").addEventListener("click", () => state.controller?.abort());
   for (const b of document.querySelectorAll("[data-download]")) b.addEventListener("click", () => download(b.dataset.download).catch((e) => showError(e.message)));
@@ -586,6 +635,7 @@ function wire() {
 async function main() {
   setStatus("starting");
   wire();
+  showStart();
   drawLegend($("legend"), viridis);
   drawResiduals($("residuals"), []);
   $("workers").value = Math.min(32, navigator.hardwareConcurrency || 4);

@@ -11,9 +11,9 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use common::{arg, assert_fails, lfdepth};
-use lfdepth_cli::io::pfm;
 use lfdepth_cli::io::png::{self, Image, Samples};
 use lfdepth_cli::io::scene::{self, LoadOptions, Views};
+use lfdepth_cli::io::{formats, pfm};
 use tiff::encoder::{colortype, TiffEncoder};
 
 /// The `mixed` scene of 48² PNG views in `dir/png`.
@@ -226,31 +226,12 @@ fn maps_as_float_tiff() {
     assert!(read(&conf_out).iter().all(|c| (0.0..=1.0).contains(c)));
 }
 
-/// The one float channel of an OpenEXR file, its size and the channel's name, read
-/// with the `exr` crate.
+/// The one float channel of an OpenEXR file, its size and the channel's name.
 fn read_exr(path: &Path) -> ((usize, usize), String, Vec<f32>) {
-    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .non_parallel()
-        .from_file(path)
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let layer = image.layer_data;
-    let [channel] = layer.channel_data.list.as_slice() else {
-        panic!("{} has not one channel", path.display());
-    };
-    let FlatSamples::F32(values) = &channel.sample_data else {
-        panic!("{} is not 32-bit float", path.display());
-    };
-    (
-        (layer.size.0, layer.size.1),
-        channel.name.to_string(),
-        values.clone(),
-    )
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let channel =
+        formats::decode_float_exr(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    (channel.size, channel.name, channel.values)
 }
 
 fn same_bits(a: &[f32], b: &[f32]) -> bool {

@@ -24,6 +24,7 @@ mod common;
 use core::ops::ControlFlow;
 
 use common::Setting;
+use lfdepth::align::testscene::bilinear_noise;
 use lfdepth::align::{
     self, AlignMode, AlignModel, AlignParams, AlignReport, AlignedViews, Interpolation, Reference,
     ViewMap, ViewTask,
@@ -247,27 +248,6 @@ impl Rng {
     }
 }
 
-fn hash(x: i32, y: i32, seed: u32) -> f32 {
-    let mut h = (x as u32).wrapping_mul(0x8da6_b343)
-        ^ (y as u32).wrapping_mul(0xd816_3841)
-        ^ seed.wrapping_mul(0xcb1a_b31f);
-    h ^= h >> 13;
-    h = h.wrapping_mul(0x5bd1_e995);
-    h ^= h >> 15;
-    (h & 0xffff) as f32 / 65535.0
-}
-
-/// Bilinear value noise of cell `cell` px at `(x, y)`, in [0, 1].
-fn noise(x: f32, y: f32, cell: f32, seed: u32) -> f32 {
-    let (x, y) = (x / cell, y / cell);
-    let (fx, fy) = (x.floor(), y.floor());
-    let (ix, iy) = (fx as i32, fy as i32);
-    let (tx, ty) = (x - fx, y - fy);
-    let a = hash(ix, iy, seed) + tx * (hash(ix + 1, iy, seed) - hash(ix, iy, seed));
-    let b = hash(ix, iy + 1, seed) + tx * (hash(ix + 1, iy + 1, seed) - hash(ix, iy + 1, seed));
-    a + ty * (b - a)
-}
-
 impl Scene {
     fn layout(&self) -> Layout {
         let n = 3 + usize::from(self.rail % 7);
@@ -294,7 +274,7 @@ impl Scene {
     /// two planes apart).
     fn intensity(&self, x: f32, y: f32, seed: u32) -> f32 {
         match self.picture {
-            Picture::Texture(cell) => noise(x, y, 1.0 + f32::from(cell % 8), seed),
+            Picture::Texture(cell) => bilinear_noise(x, y, 1.0 + f32::from(cell % 8), seed),
             Picture::Flat(level) => f32::from(level) / 255.0,
             Picture::Stripes(vertical, period) => {
                 let t = if vertical { x } else { y };
@@ -302,7 +282,7 @@ impl Scene {
                 0.5 + 0.5 * (t * core::f32::consts::TAU / p + seed as f32).sin()
             }
             Picture::TwoLevels(cell, threshold) => {
-                let v = noise(x, y, 1.0 + f32::from(cell % 8), seed);
+                let v = bilinear_noise(x, y, 1.0 + f32::from(cell % 8), seed);
                 if v * 255.0 > f32::from(threshold) {
                     1.0
                 } else {

@@ -3,7 +3,7 @@
 // 100 %, cancel, no console errors, no request beyond the page's own files, a screenshot.
 import { test, before, after } from "node:test";
 import assert from "node:assert/strict";
-import { mkdtempSync, mkdirSync, existsSync, rmSync } from "node:fs";
+import { mkdtempSync, mkdirSync, existsSync, readFileSync, rmSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { dirname, join, resolve } from "node:path";
 import { fileURLToPath } from "node:url";
@@ -388,6 +388,181 @@ test("the median control exists, is on by default and reaches the workers", asyn
   // The median is a stage of its own only when it ran.
   assert.ok(on.timings.some((t) => t.startsWith("median")), on.timings.join("; "));
   assert.ok(!off.timings.some((t) => t.startsWith("median")), off.timings.join("; "));
+  await page.close();
+});
+
+test("the start control: its fields follow the choice, it reaches the workers, and the EPI start's map is the estimator's", async () => {
+  const page = await context.newPage();
+  page.on("pageerror", (e) => consoleErrors.push(e.message));
+  // Record the parameters the page sends its workers, and every part it dispatches.
+  await page.addInitScript(() => {
+    window.__params = [];
+    window.__parts = 0;
+    const post = Worker.prototype.postMessage;
+    Worker.prototype.postMessage = function (message, ...rest) {
+      if (message?.op === "load" || message?.op === "setParams") window.__params.push(message.params);
+      if (message?.op === "part") window.__parts++;
+      return post.call(this, message, ...rest);
+    };
+  });
+  await page.goto(`${server.origin}/?scene=planes&size=96&grid=5&workers=2`);
+  await page.waitForFunction(() => document.body.dataset.state === "idle" && document.getElementById("load-info").dataset.prepared === "done", null, { timeout: 120_000 });
+  const shown = () =>
+    page.evaluate(() => ({
+      initial: document.getElementById("initial").value,
+      epiFields: !document.getElementById("epi-fields").hidden,
+      trust: !document.getElementById("sweep-trust-label").hidden,
+      note: document.getElementById("start-note").textContent,
+    }));
+  // The control is labelled, its choices explained, the plane sweep first and chosen.
+  assert.equal(await page.getByLabel("start").getAttribute("id"), "initial");
+  assert.equal(await page.getByLabel("sweep trust").getAttribute("id"), "sweep-trust");
+  const options = await page.$$eval("#initial option", (o) => o.map((x) => [x.value, x.textContent, x.title]));
+  assert.deepEqual(options.map((o) => o[0]), ["sweep", "epi", "fused"]);
+  assert.ok(options.every((o) => o[2].length > 20), JSON.stringify(options));
+  assert.match(await page.getAttribute("label:has(#initial)", "title"), /plane sweep: .*\nEPI structure tensor: .*\nfused: /);
+  // Plane sweep: the trust field, no EPI scales (a note says where they are).
+  assert.deepEqual(await shown(), { initial: "sweep", epiFields: false, trust: true, note: "The plane sweep reads no EPI scales: they show for the EPI and fused starts." });
+  await page.selectOption("#initial", "epi");
+  assert.deepEqual(await shown(), { initial: "epi", epiFields: true, trust: false, note: "" });
+  await page.selectOption("#initial", "fused");
+  assert.deepEqual(await shown(), { initial: "fused", epiFields: true, trust: true, note: "" });
+  // The fast preset is the EPI start's; accurate is the plane sweep's.
+  await page.selectOption("#preset", "fast");
+  assert.deepEqual(await shown(), { initial: "epi", epiFields: true, trust: false, note: "" });
+  await page.selectOption("#preset", "default");
+  assert.deepEqual(await shown(), { initial: "sweep", epiFields: false, trust: true, note: "The plane sweep reads no EPI scales: they show for the EPI and fused starts." });
+
+  const runWith = async (initial) => {
+    await page.selectOption("#initial", initial);
+    // A small scene may finish before a poll sees "running": mark the state first.
+    await page.evaluate(() => {
+      window.__params = [];
+      document.body.dataset.state = "clicked";
+    });
+    await page.click("#run");
+    await settled(page);
+    const report = await page.evaluate(() => ({
+      state: document.body.dataset.state,
+      error: document.getElementById("error").textContent,
+      params: window.__params,
+      snapshots: [...document.querySelectorAll("#snapshot option")].map((o) => o.textContent),
+      scored: [...document.querySelectorAll("#stage-scores tbody tr")].map((r) => r.cells[0].textContent),
+      shown: document.getElementById("disparity").dataset.snapshot,
+      timings: [...document.querySelectorAll("#timings tr")].map((r) => r.cells[0].textContent),
+      badpix: Number(document.getElementById("scores").dataset.badpix007),
+    }));
+    assert.equal(report.state, "done", report.error);
+    assert.ok(report.params.length > 0 && report.params.every((p) => p.initial === initial), JSON.stringify(report.params));
+    const [download] = await Promise.all([page.waitForEvent("download"), page.click("[data-download=pfm]")]);
+    report.pfm = [...readFileSync(await download.path())];
+    return report;
+  };
+  const sweep = await runWith("sweep");
+  const epi = await runWith("epi");
+  mkdirSync(artifacts, { recursive: true });
+  await page.screenshot({ path: join(artifacts, "page-start.png"), fullPage: true });
+  console.log("sweep start:", JSON.stringify({ ...sweep, pfm: undefined }), "\nEPI start:", JSON.stringify({ ...epi, pfm: undefined }));
+  // What each start sends: the EPI scales only to the EPI stage, the trust only to the sweep.
+  assert.ok(sweep.params.every((p) => p.sweepTrust === 0 && !("innerSigma" in p)), JSON.stringify(sweep.params));
+  assert.ok(epi.params.every((p) => !("sweepTrust" in p) && p.innerSigma === 0.5 && p.fusion === "coherence"), JSON.stringify(epi.params));
+  // Each start's maps, labelled by the wasm side, in the snapshot select and the table.
+  const after = ["refined", "refilled at depth steps", "edge-snapping median", "TV (final)"];
+  assert.deepEqual(sweep.snapshots, ["plane-sweep estimate", ...after]);
+  assert.deepEqual(epi.snapshots, ["EPI estimate", ...after]);
+  assert.deepEqual(epi.scored, epi.snapshots);
+  assert.equal(epi.shown, "TV (final)");
+  assert.ok(sweep.timings.includes("sweep") && !sweep.timings.includes("epi horizontal"), sweep.timings.join("; "));
+  assert.ok(epi.timings.includes("epi horizontal") && epi.timings.includes("epi vertical") && !epi.timings.includes("sweep"), epi.timings.join("; "));
+  // Both accurate on this scene (measured: BadPix(0.07) 1.06 % from the sweep, 1.45 % from
+  // the EPI start; an all-zero map scores about 100 %).
+  assert.ok(sweep.badpix < 10 && epi.badpix < 10, `sweep ${sweep.badpix}, EPI ${epi.badpix}`);
+  // The page's maps are the serial estimator's with only `initial` set, bit for bit
+  // (the page's other fields hold the core's defaults), and the two starts differ.
+  const equal = await page.evaluate(
+    async ({ sweepPfm, epiPfm }) => {
+      const lf = await import("./pkg/lfdepth_wasm.js");
+      const { parsePfm } = await import("./formats.js");
+      const spec = { scene: "planes", rows: 5, cols: 5, width: 96, height: 96, channels: 3, disparityMin: -1.5, disparityMax: 1.5, seed: 1 };
+      const views = lf.synthesize(spec).views;
+      const shape = { rows: 5, cols: 5, width: 96, height: 96, channels: 3 };
+      const same = (a, b) => a.length === b.length && a.every((v, i) => Object.is(v, b[i]));
+      const page = { sweep: parsePfm(new Uint8Array(sweepPfm).buffer).data, epi: parsePfm(new Uint8Array(epiPfm).buffer).data };
+      const serial = (initial) => new lf.Estimator(views, shape, { initial }).estimate().disparity;
+      return { sweep: same(page.sweep, serial("sweep")), epi: same(page.epi, serial("epi")), differ: !same(page.sweep, page.epi) };
+    },
+    { sweepPfm: sweep.pfm, epiPfm: epi.pfm },
+  );
+  assert.deepEqual(equal, { sweep: true, epi: true, differ: true });
+
+  // The fused start: the EPI estimate, refined, then the choice.
+  const fused = await runWith("fused");
+  assert.deepEqual(fused.snapshots, ["EPI estimate", "refined", "fused start", ...after.slice(1)]);
+  assert.ok(fused.params.every((p) => p.sweepTrust === 0 && p.innerSigma === 0.5), JSON.stringify(fused.params));
+
+  // A sweep trust out of 0..1 (or none) is refused with a message naming the field, and
+  // nothing runs; a good one reaches the workers.
+  await page.selectOption("#initial", "sweep");
+  for (const bad of ["2", "-0.5", ""]) {
+    await page.fill("#sweep-trust", bad);
+    await page.evaluate(() => {
+      window.__parts = 0;
+      document.body.dataset.state = "clicked";
+    });
+    await page.click("#run");
+    await settled(page, 10_000);
+    const refused = await page.evaluate(() => ({
+      state: document.body.dataset.state,
+      error: document.getElementById("error").textContent,
+      visible: !document.getElementById("error").hidden,
+      invalid: document.getElementById("sweep-trust").getAttribute("aria-invalid"),
+      focused: document.activeElement?.id,
+      parts: window.__parts,
+      run: document.getElementById("run").disabled,
+    }));
+    assert.deepEqual(refused, {
+      state: "error",
+      error: `Sweep trust must be a number from 0 (off) to 1, ${bad === "" ? "it is empty" : `not ${bad}`}.`,
+      visible: true,
+      invalid: "true",
+      focused: "sweep-trust",
+      parts: 0,
+      run: false,
+    });
+  }
+  // The EPI start does not read the trust: a bad one hidden there stops nothing.
+  await page.selectOption("#initial", "epi");
+  await page.evaluate(() => (document.body.dataset.state = "clicked"));
+  await page.click("#run");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done", await page.textContent("#error"));
+  await page.selectOption("#initial", "sweep");
+  await page.fill("#sweep-trust", "0.5");
+  await page.evaluate(() => {
+    window.__params = [];
+    document.body.dataset.state = "clicked";
+  });
+  await page.click("#run");
+  await settled(page);
+  assert.equal(await page.evaluate(() => document.body.dataset.state), "done", await page.textContent("#error"));
+  const sent = await page.evaluate(() => window.__params);
+  assert.ok(sent.length > 0 && sent.every((p) => p.sweepTrust === 0.5), JSON.stringify(sent));
+  // The trust scales the refinement's confidence by the sweep's, which the workers then
+  // get with the refinement's inputs: the page's map is still the serial estimator's.
+  const [trustedPfm] = await Promise.all([page.waitForEvent("download"), page.click("[data-download=pfm]")]);
+  const trusted = [...readFileSync(await trustedPfm.path())];
+  const sameTrusted = await page.evaluate(async (pfm) => {
+    const lf = await import("./pkg/lfdepth_wasm.js");
+    const { parsePfm } = await import("./formats.js");
+    const spec = { scene: "planes", rows: 5, cols: 5, width: 96, height: 96, channels: 3, disparityMin: -1.5, disparityMax: 1.5, seed: 1 };
+    const shape = { rows: 5, cols: 5, width: 96, height: 96, channels: 3 };
+    const serial = new lf.Estimator(lf.synthesize(spec).views, shape, { sweepTrust: 0.5 }).estimate().disparity;
+    const page = parsePfm(new Uint8Array(pfm).buffer).data;
+    return page.length === serial.length && page.every((v, i) => Object.is(v, serial[i]));
+  }, trusted);
+  assert.ok(sameTrusted, "the page's map with sweep trust 0.5 differs from the serial estimator's");
+  assert.equal(await page.getAttribute("#sweep-trust", "aria-invalid"), "false");
+  assert.equal(await page.isHidden("#error"), true);
   await page.close();
 });
 

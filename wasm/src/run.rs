@@ -396,73 +396,102 @@ mod tests {
 
     #[test]
     fn a_snapshot_after_each_stage_and_the_last_marked_final() {
-        let steps = [
-            Step::Range,
-            Step::Epi(Direction::Horizontal),
-            Step::Epi(Direction::Vertical),
-            Step::Refine,
-            Step::Refill,
-            Step::Median,
-            Step::Tv { sweep: 0 },
-            Step::Tv { sweep: 1 },
+        use Direction::{Horizontal, Vertical};
+        // (what, the steps, the label after each step: "" for none).
+        let cases: &[(&str, &[Step], &[&str])] = &[
+            (
+                "the EPI start's full pipeline",
+                &[
+                    Step::Range,
+                    Step::Epi(Horizontal),
+                    Step::Epi(Vertical),
+                    Step::Refine,
+                    Step::Refill,
+                    Step::Median,
+                    Step::Tv { sweep: 0 },
+                    Step::Tv { sweep: 1 },
+                ],
+                &[
+                    "",
+                    "",
+                    "EPI estimate",
+                    "refined",
+                    "refilled at depth steps",
+                    "edge-snapping median",
+                    "",
+                    "TV (final)",
+                ],
+            ),
+            (
+                "the EPI stage alone: its estimate is the result",
+                &[Step::Range, Step::Epi(Horizontal), Step::Epi(Vertical)],
+                &["", "", "EPI estimate (final)"],
+            ),
+            (
+                "the median after TV",
+                &[Step::Epi(Vertical), Step::Tv { sweep: 0 }, Step::Median],
+                &["EPI estimate", "TV", "edge-snapping median (final)"],
+            ),
+            (
+                "the plane-sweep start",
+                &[Step::Range, Step::PlaneSweep, Step::Refine, Step::Median],
+                &[
+                    "",
+                    "plane-sweep estimate",
+                    "refined",
+                    "edge-snapping median (final)",
+                ],
+            ),
+            (
+                "the fused start: the plane sweep's map is not shown before the choice",
+                &[
+                    Step::Range,
+                    Step::Epi(Horizontal),
+                    Step::Epi(Vertical),
+                    Step::Refine,
+                    Step::PlaneSweep,
+                    Step::Fuse,
+                    Step::Refill,
+                ],
+                &[
+                    "",
+                    "",
+                    "EPI estimate",
+                    "refined",
+                    "",
+                    "fused start",
+                    "refilled at depth steps (final)",
+                ],
+            ),
+            (
+                "the half-resolution EPI: complete once upsampled",
+                &[
+                    Step::Range,
+                    Step::Epi(Horizontal),
+                    Step::Epi(Vertical),
+                    Step::Upsample,
+                    Step::Refine,
+                ],
+                &["", "", "", "EPI estimate", "refined (final)"],
+            ),
+            (
+                "a row of cameras: its horizontal step is the EPI estimate",
+                &[Step::Range, Step::Epi(Horizontal), Step::Refine],
+                &["", "EPI estimate", "refined (final)"],
+            ),
         ];
-        let labels: Vec<_> = (0..steps.len())
-            .map(|k| snapshot_label(&steps, k))
-            .collect();
-        let expected = [
-            None,
-            None,
-            Some("EPI estimate"),
-            Some("refined"),
-            Some("refilled at depth steps"),
-            Some("edge-snapping median"),
-            None,
-            Some("TV (final)"),
-        ];
-        assert_eq!(labels, expected.map(|l| l.map(String::from)));
-        // The EPI stage alone: its estimate is the result.
-        let epi = &steps[..3];
-        assert_eq!(
-            snapshot_label(epi, 2).as_deref(),
-            Some("EPI estimate (final)")
-        );
-        // The median after TV.
-        let late = [
-            Step::Epi(Direction::Vertical),
-            Step::Tv { sweep: 0 },
-            Step::Median,
-        ];
-        assert_eq!(snapshot_label(&late, 1).as_deref(), Some("TV"));
-        assert_eq!(
-            snapshot_label(&late, 2).as_deref(),
-            Some("edge-snapping median (final)")
-        );
-        assert_eq!(snapshot_label(&late, 3), None);
-        // The fused start: the plane sweep's map is not shown before the choice.
-        let fused = [
-            Step::Range,
-            Step::Epi(Direction::Horizontal),
-            Step::Epi(Direction::Vertical),
-            Step::Refine,
-            Step::PlaneSweep,
-            Step::Fuse,
-            Step::Refill,
-        ];
-        let labels: Vec<_> = (0..fused.len())
-            .map(|k| snapshot_label(&fused, k))
-            .collect();
-        let expected = [
-            None,
-            None,
-            Some("EPI estimate"),
-            Some("refined"),
-            None,
-            Some("fused start"),
-            Some("refilled at depth steps (final)"),
-        ];
-        assert_eq!(labels, expected.map(|l| l.map(String::from)));
-        // A row of cameras: its horizontal step is the EPI estimate.
-        let row = [Step::Range, Step::Epi(Direction::Horizontal), Step::Refine];
-        assert_eq!(snapshot_label(&row, 1).as_deref(), Some("EPI estimate"));
+        for &(what, steps, expected) in cases {
+            assert_eq!(steps.len(), expected.len(), "{what}: one label per step");
+            // One index past the last step has no map.
+            let labels: Vec<_> = (0..=steps.len())
+                .map(|k| snapshot_label(steps, k))
+                .collect();
+            let expected: Vec<_> = expected
+                .iter()
+                .map(|l| (!l.is_empty()).then(|| l.to_string()))
+                .chain([None])
+                .collect();
+            assert_eq!(labels, expected, "{what}");
+        }
     }
 }

@@ -388,6 +388,50 @@ pub fn encode_float_exr(width: usize, height: usize, values: &[f32]) -> Result<V
     Ok(out.into_inner())
 }
 
+/// A one-channel float map read from OpenEXR ([`decode_float_exr`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FloatChannel {
+    /// Width and height in pixels.
+    pub size: (usize, usize),
+    /// The channel's name ([`EXR_CHANNEL`] in the maps `estimate` writes).
+    pub name: String,
+    /// The values, row-major, top row first.
+    pub values: Vec<f32>,
+}
+
+/// Decodes an OpenEXR image of one 32-bit float channel, as [`encode_float_exr`] writes
+/// the maps; any other layout is an error saying what the file holds.
+pub fn decode_float_exr(bytes: &[u8]) -> Result<FloatChannel, IoError> {
+    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .non_parallel()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| IoError::format(format!("OpenEXR decoding failed: {e}")))?;
+    let layer = image.layer_data;
+    let [channel] = layer.channel_data.list.as_slice() else {
+        return Err(IoError::format(format!(
+            "an OpenEXR map must hold one channel, this one holds {}",
+            layer.channel_data.list.len()
+        )));
+    };
+    let FlatSamples::F32(values) = &channel.sample_data else {
+        return Err(IoError::format(format!(
+            "the OpenEXR channel `{}` must hold 32-bit float samples",
+            channel.name
+        )));
+    };
+    Ok(FloatChannel {
+        size: (layer.size.0, layer.size.1),
+        name: channel.name.to_string(),
+        values: values.clone(),
+    })
+}
+
 /// Encodes a one-channel float map (row-major, top row first) as a 32-bit float TIFF.
 pub fn encode_float_tiff(width: usize, height: usize, values: &[f32]) -> Result<Vec<u8>, IoError> {
     let too_large = || IoError::format(format!("a {width}x{height} map is too large for TIFF"));
@@ -454,32 +498,19 @@ mod tests {
 
     #[test]
     fn float_exr_round_trips() {
-        use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
         let values = [0.5f32, -1.25, f32::NAN, 3.0, f32::INFINITY, 7.5];
         let bytes = encode_float_exr(3, 2, &values).unwrap();
-        let image = exr::prelude::read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .non_parallel()
-            .from_buffered(Cursor::new(bytes))
-            .unwrap();
-        let layer = &image.layer_data;
-        assert_eq!((layer.size.0, layer.size.1), (3, 2));
-        let [channel] = layer.channel_data.list.as_slice() else {
-            panic!("not one channel");
-        };
-        assert_eq!(channel.name.to_string(), EXR_CHANNEL);
-        let FlatSamples::F32(back) = &channel.sample_data else {
-            panic!("not f32");
-        };
+        let back = decode_float_exr(&bytes).unwrap();
+        assert_eq!(back.size, (3, 2));
+        assert_eq!(back.name, EXR_CHANNEL);
+        assert_eq!(back.values.len(), values.len());
         assert!(back
+            .values
             .iter()
             .zip(values)
             .all(|(a, b)| a.to_bits() == b.to_bits()));
         assert!(encode_float_exr(3, 3, &values).is_err());
+        assert!(decode_float_exr(&bytes[..bytes.len() / 2]).is_err());
     }
 
     #[test]

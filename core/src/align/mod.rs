@@ -668,8 +668,8 @@ fn anchor_on_centre(
     true
 }
 
-#[cfg(test)]
-pub(crate) mod testscene;
+#[cfg(any(test, feature = "testscene"))]
+pub mod testscene;
 
 #[cfg(test)]
 mod anchor_tests;

@@ -1,6 +1,7 @@
-//! Test-only light fields with exact parallax and known misalignment: textured planes
+//! Test light fields with exact parallax and known misalignment: textured planes
 //! rendered by solving the rectified-array equation exactly, then warped by per-view
-//! homographies.
+//! homographies. The core's tests use them, and the fuzz targets through the
+//! `testscene` feature (host only: it needs the standard library).
 
 extern crate std;
 use std::vec::Vec;
@@ -21,7 +22,8 @@ pub fn texture(x: f32, y: f32, seed: u32) -> f32 {
     v / 0.875
 }
 
-fn hash(x: i32, y: i32, seed: u32) -> f32 {
+/// A pseudo-random value in [0, 1] of the lattice point `(x, y)` for `seed`.
+pub fn hash(x: i32, y: i32, seed: u32) -> f32 {
     let mut h = (x as u32).wrapping_mul(0x8da6_b343)
         ^ (y as u32).wrapping_mul(0xd816_3841)
         ^ seed.wrapping_mul(0xcb1a_b31f);
@@ -31,14 +33,25 @@ fn hash(x: i32, y: i32, seed: u32) -> f32 {
     (h & 0xffff) as f32 / 65535.0
 }
 
-fn value_noise(x: f32, y: f32, seed: u32) -> f32 {
+/// The lattice's [`hash`] values interpolated at `(x, y)` (lattice units), each axis's
+/// fraction `t` weighted by `weight(t)`.
+fn lattice_noise(x: f32, y: f32, seed: u32, weight: impl Fn(f32) -> f32) -> f32 {
     let (fx, fy) = (libm::floorf(x), libm::floorf(y));
     let (ix, iy) = (fx as i32, fy as i32);
-    let s = |t: f32| t * t * (3.0 - 2.0 * t);
-    let (tx, ty) = (s(x - fx), s(y - fy));
+    let (tx, ty) = (weight(x - fx), weight(y - fy));
     let a = hash(ix, iy, seed) + tx * (hash(ix + 1, iy, seed) - hash(ix, iy, seed));
     let b = hash(ix, iy + 1, seed) + tx * (hash(ix + 1, iy + 1, seed) - hash(ix, iy + 1, seed));
     a + ty * (b - a)
+}
+
+/// Value noise with smoothstep weights (continuous slopes), in [0, 1].
+fn value_noise(x: f32, y: f32, seed: u32) -> f32 {
+    lattice_noise(x, y, seed, |t| t * t * (3.0 - 2.0 * t))
+}
+
+/// Bilinear value noise of cell `cell` px at `(x, y)`, in [0, 1].
+pub fn bilinear_noise(x: f32, y: f32, cell: f32, seed: u32) -> f32 {
+    lattice_noise(x / cell, y / cell, seed, |t| t)
 }
 
 /// A plane of disparity `d(X) = a·(X − o) + c` over the centre-view region `support`.

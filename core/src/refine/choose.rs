@@ -3,7 +3,7 @@
 
 use core::ops::Range;
 
-use super::photo::{cost_scale, Photometric, Rectified, Views, INTENSITY_SCALE};
+use super::photo::{cost_scale, Photometric, Rectified, INTENSITY_SCALE};
 use super::RefineParams;
 use crate::error::{Error, Result};
 use crate::lightfield::{LightField, Sample};
@@ -57,43 +57,38 @@ pub fn choose<T: Scalar, S: Sample>(
         });
     }
     let p = setup.params();
-    let mut views = Views::<T>::empty();
-    views.init(setup.layout(), p.views);
-    views.set_slack(p.sampling_slack);
-    let photo = Rectified {
-        views: &views,
-        data: lf.data(),
-    };
-    // The robust scale of the refinement's candidate costs (`refine::band`).
-    let used = setup.layout().channels.min(3) as f32;
-    let memberships = photo.views().terms.iter().sum::<f32>() / used;
-    let robust = p.robust_scale * p.robust_scale * used * INTENSITY_SCALE * INTENSITY_SCALE;
-    let (robust, scale) = if p.robust_scale > 0.0 {
-        (T::from_f32(robust), cost_scale(robust, memberships))
-    } else {
-        (T::MAX, 1.0)
-    };
-    let cost_robust = (robust, robust * T::from_f32(scale));
-    // Summed in f32: the window's sum may exceed Q16.16's range.
-    let window_cost = |x: usize, y: usize, d: f32| {
-        let d = T::from_f32(d);
-        let mut sum = 0.0f32;
-        for yy in y.saturating_sub(RADIUS)..(y + RADIUS + 1).min(height) {
-            for xx in x.saturating_sub(RADIUS)..(x + RADIUS + 1).min(width) {
-                sum += photo
-                    .cost(xx, yy, d, cost_robust, None)
-                    .map_or(f32::INFINITY, |c| c.to_f32());
+    super::with_rectified(setup, lf, |photo: &Rectified<'_, T, S>| {
+        // The robust scale of the refinement's candidate costs (`refine::band`).
+        let used = setup.layout().channels.min(3) as f32;
+        let memberships = photo.views().terms.iter().sum::<f32>() / used;
+        let robust = p.robust_scale * p.robust_scale * used * INTENSITY_SCALE * INTENSITY_SCALE;
+        let (robust, scale) = if p.robust_scale > 0.0 {
+            (T::from_f32(robust), cost_scale(robust, memberships))
+        } else {
+            (T::MAX, 1.0)
+        };
+        let cost_robust = (robust, robust * T::from_f32(scale));
+        // Summed in f32: the window's sum may exceed Q16.16's range.
+        let window_cost = |x: usize, y: usize, d: f32| {
+            let d = T::from_f32(d);
+            let mut sum = 0.0f32;
+            for yy in y.saturating_sub(RADIUS)..(y + RADIUS + 1).min(height) {
+                for xx in x.saturating_sub(RADIUS)..(x + RADIUS + 1).min(width) {
+                    sum += photo
+                        .cost(xx, yy, d, cost_robust, None)
+                        .map_or(f32::INFINITY, |c| c.to_f32());
+                }
+            }
+            sum
+        };
+        let outputs = out.disparity.iter_mut().zip(out.confidence.iter_mut());
+        let pixels = rows.flat_map(|y| (0..width).map(move |x| (x, y)));
+        for (((d, c), (&k, &ck)), (x, y)) in outputs.zip(kd.iter().zip(kc)).zip(pixels) {
+            if (*d - k).abs() <= AGREE || window_cost(x, y, *d) >= window_cost(x, y, k) {
+                *d = k;
+                *c = ck;
             }
         }
-        sum
-    };
-    let outputs = out.disparity.iter_mut().zip(out.confidence.iter_mut());
-    let pixels = rows.flat_map(|y| (0..width).map(move |x| (x, y)));
-    for (((d, c), (&k, &ck)), (x, y)) in outputs.zip(kd.iter().zip(kc)).zip(pixels) {
-        if (*d - k).abs() <= AGREE || window_cost(x, y, *d) >= window_cost(x, y, k) {
-            *d = k;
-            *c = ck;
-        }
-    }
-    Ok(())
+        Ok(())
+    })
 }

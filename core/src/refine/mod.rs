@@ -389,15 +389,29 @@ pub fn refine_band<T: Scalar, S: Sample>(
     scratch: &mut [T],
 ) -> Result<()> {
     check_inputs(setup, lf, range, disparity)?;
+    with_rectified(setup, lf, |photo| {
+        band(setup, photo, range, disparity, rows, out, scratch)
+    })
+}
+
+/// Hands `body` the views of a rectified array as the refinement compares them: the
+/// tables of the views `setup` selects, with its sampling slack, over `lf`'s samples.
+/// The tables are built in place in this frame (inlined into the caller's), never
+/// moved: they are large, and a firmware's stack is small.
+#[inline(always)]
+fn with_rectified<T: Scalar, S: Sample, R>(
+    setup: Setup<'_, RefineParams>,
+    lf: &LightField<'_, S>,
+    body: impl FnOnce(&Rectified<'_, T, S>) -> R,
+) -> R {
     let p = setup.params();
     let mut views = Views::<T>::empty();
     views.init(setup.layout(), p.views);
     views.set_slack(p.sampling_slack);
-    let photo = Rectified {
+    body(&Rectified {
         views: &views,
         data: lf.data(),
-    };
-    band(setup, &photo, range, disparity, rows, out, scratch)
+    })
 }
 
 /// An array that is not rectified: its input views, one homography per view

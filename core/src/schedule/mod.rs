@@ -301,7 +301,13 @@ impl Schedule {
         let none = Reads::default();
         match step {
             Step::Range | Step::Epi(_) | Step::PlaneSweep => none,
-            Step::Refine | Step::Refill | Step::Median => Reads {
+            // Distrusting the sweep scales the refined confidence by the start's.
+            Step::Refine => Reads {
+                disparity: true,
+                confidence: distrusts_sweep(self.plan.params()),
+                ..none
+            },
+            Step::Refill | Step::Median => Reads {
                 disparity: true,
                 ..none
             },
@@ -510,16 +516,15 @@ impl Schedule {
                     out,
                     scratch.kernel,
                 )?;
-                let sweep = plan.params().sweep;
-                if sweep.enabled && !plan.params().fused && sweep.trust > 0.0 {
+                if distrusts_sweep(plan.params()) {
                     // The start's confidence is still the current one.
-                    let own = lines.start * width..lines.end * width;
-                    let start = state.confidence().get(own).ok_or(Error::OutputSize {
-                        what: "the plane sweep's confidence",
-                        needed: lines.end * width,
-                        got: state.confidence().len(),
-                    })?;
-                    distrust(sweep.trust, start, &mut *out.confidence);
+                    let start = band_of(
+                        state.confidence(),
+                        &lines,
+                        width,
+                        "the plane sweep's confidence",
+                    )?;
+                    distrust(plan.params().sweep.trust, start, &mut *out.confidence);
                 }
                 Ok(())
             }),
@@ -534,20 +539,16 @@ impl Schedule {
                     out,
                     scratch.kernel,
                 )?;
-                let own = lines.start * width..lines.end * width;
-                let short = Error::OutputSize {
-                    what: "the refined EPI maps",
-                    needed: own.end,
-                    got: state.disparity().len(),
-                };
+                let what = "the refined EPI maps";
+                let kept = (
+                    band_of(state.disparity(), &lines, width, what)?,
+                    band_of(state.confidence(), &lines, width, what)?,
+                );
                 refine::choose::<T, S>(
                     plan.refine(),
                     lf,
                     lines,
-                    (
-                        state.disparity().get(own.clone()).ok_or(short)?,
-                        state.confidence().get(own).ok_or(short)?,
-                    ),
+                    kept,
                     DisparityOut {
                         disparity: &mut *out.disparity,
                         confidence: &mut *out.confidence,
@@ -736,6 +737,29 @@ fn refine_rows<T: Scalar, S: Sample>(
         },
         kernel,
     )
+}
+
+/// The rows `lines` of the row-major map `map` (`width` per row); `what` names the map
+/// in the error when it is shorter.
+fn band_of<'m>(
+    map: &'m [f32],
+    lines: &core::ops::Range<usize>,
+    width: usize,
+    what: &'static str,
+) -> Result<&'m [f32]> {
+    let own = lines.start * width..lines.end * width;
+    let needed = own.end;
+    map.get(own).ok_or(Error::OutputSize {
+        what,
+        needed,
+        got: map.len(),
+    })
+}
+
+/// Whether the refinement scales its confidence by the plane sweep's ([`distrust`]):
+/// the sweep starts the pipeline alone and its trust is on.
+fn distrusts_sweep(params: &crate::plan::Params) -> bool {
+    params.sweep.enabled && !params.fused && params.sweep.trust > 0.0
 }
 
 /// Scales each refined confidence in `refined` by `(start / trust)²` where the plane

@@ -39,7 +39,10 @@ fn by_parts_until<T: Scalar>(
     (d, c)
 }
 
-/// Runs `schedule`'s steps by parts (all of them, or through `last`).
+/// Runs `schedule`'s steps by parts (all of them, or through `last`). As the page's
+/// workers, every part runs from a state of its own that holds only the maps
+/// [`Schedule::reads`] declares for its step (the rest NaN), so a map a step reads
+/// without declaring it fails the comparison with the serial run.
 fn by_parts_through<T: Scalar>(
     schedule: &Schedule,
     lf: &LightField<'_, u8>,
@@ -50,6 +53,23 @@ fn by_parts_through<T: Scalar>(
     for &step in schedule.steps() {
         let parts = schedule.parts(step);
         let lens = schedule.scratch_len(step);
+        let reads = schedule.reads(step);
+        let mut inputs = vec![f32::NAN; schedule.state_len()];
+        let mut worker = State::new(schedule, &mut inputs).unwrap();
+        let (other_disparity, other_confidence) = state.other();
+        worker
+            .set(
+                schedule.plan(),
+                StateMaps {
+                    disparity: reads.disparity.then_some(state.disparity()),
+                    confidence: reads.confidence.then_some(state.confidence()),
+                    other_disparity: reads.other.then_some(other_disparity),
+                    other_confidence: reads.other.then_some(other_confidence),
+                    dual: reads.dual.then_some(state.dual()),
+                },
+                state.range(),
+            )
+            .unwrap();
         let mut outputs: Vec<Vec<f32>> = vec![Vec::new(); parts];
         for index in (0..parts).rev() {
             let len = schedule.part_len(step, index).unwrap();
@@ -64,7 +84,7 @@ fn by_parts_through<T: Scalar>(
                 flags: &mut flags,
             };
             schedule
-                .run_part(step, index, lf, &state, &mut out, scratch)
+                .run_part(step, index, lf, &worker, &mut out, scratch)
                 .unwrap();
             outputs[index] = output;
         }
