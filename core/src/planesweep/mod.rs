@@ -47,7 +47,11 @@
 //! # Bands
 //! The stage runs over bands of [`BAND_ROWS`] rows; a band computes the costs of its
 //! rows and `ℓ` rows on each side (clamped to the image), and every sum runs in one
-//! order, so the map is bit-identical for any banding and thread count.
+//! order, so the map is bit-identical for any banding and thread count. Before the
+//! hypotheses a band converts the view rows it reads to unit intensity once (the
+//! centre's and the row views' rows of the band and its halo, each column view's rows
+//! that those reach at any hypothesis), so the per-hypothesis pass over a row reads
+//! `f32` values: the same bits as converting the taps per hypothesis.
 //!
 //! # Numbers
 //! The stage computes in `f32` whatever the pipeline's scalar type: its scratch is the
@@ -89,8 +93,9 @@ const VOLUMES: usize = 5;
 /// Scratch (`f32` elements) of [`estimate_rows`] for a band of up to [`BAND_ROWS`] rows:
 /// two interleaved rows of matching costs (row and column views) and the centre row,
 /// one aggregated row,
-/// and per volume a padded row of pixel costs, the filtered rows of the band and its halo
-/// and six values per pixel of the band.
+/// per volume a padded row of pixel costs, the filtered rows of the band and its halo
+/// and six values per pixel of the band, and the views' rows in unit intensity that a
+/// band keeps (`cache_rows` rows of interleaved samples).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
@@ -107,8 +112,37 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
         width.saturating_mul(channels).saturating_mul(GROUPS + 1),
         width.saturating_mul(3),
         volume.saturating_mul(VOLUMES),
+        cache_rows(layout.grid, height_rows(layout.height, line), layout.height)
+            .saturating_mul(width.saturating_mul(channels)),
     ];
     parts.iter().fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// Rows a band computes costs for, halo included: at most [`BAND_ROWS`] `+ 2·line`,
+/// at most the image.
+fn height_rows(height: usize, line: usize) -> usize {
+    BAND_ROWS.saturating_add(line.saturating_mul(2)).min(height)
+}
+
+/// Rows of the views in unit intensity that a band keeps ([`RowCache`]) when the
+/// disparity range lies within ±[`crate::epi::MAX_DISPARITY`]: the centre view's and
+/// each row view's rows of the band and its halo (`region` rows), and each column view's
+/// rows that those rows reach at any hypothesis (`region + 2·⌈8·|v|⌉ + 2`, at most the
+/// image).
+fn cache_rows(grid: crate::lightfield::Grid, region: usize, height: usize) -> usize {
+    let (r0, _) = grid.center();
+    let reach = |r: usize| {
+        let v = r.abs_diff(r0) as f32;
+        let shift = libm::ceilf(crate::epi::MAX_DISPARITY * v) as usize;
+        region
+            .saturating_add(shift.saturating_mul(2))
+            .saturating_add(2)
+            .min(height)
+    };
+    let vertical = (0..grid.rows)
+        .filter(|&r| r != r0)
+        .fold(0usize, |a, r| a.saturating_add(reach(r)));
+    region.saturating_mul(grid.cols).saturating_add(vertical)
 }
 
 /// Number of bands of [`BAND_ROWS`] rows.
@@ -128,7 +162,8 @@ fn hypotheses(step: f32, min: f32, max: f32) -> (usize, f32) {
     (intervals + 1, span / intervals as f32)
 }
 
-/// One view of the sweep: its image and camera offset from the centre.
+/// One view of the sweep: its image and camera offset from the centre, the current
+/// hypothesis's shift and where the band keeps its rows in unit intensity.
 #[derive(Clone, Copy)]
 struct SweepView<'a, S: Sample> {
     view: View<'a, S>,
@@ -136,6 +171,91 @@ struct SweepView<'a, S: Sample> {
     v: f32,
     /// 0 for the centre row's views, 1 for the centre column's.
     group: usize,
+    /// The current hypothesis's shift ([`Shift::at`]).
+    shift: Shift,
+    /// The view's rows the band converted ([`RowCache`]).
+    rows: RowCache,
+}
+
+/// A view's shift `t = −d·u` (row views) or `−d·v` (column views) at hypothesis `d`,
+/// split into `⌊t⌋` and the blend weights `f = t − ⌊t⌋`, `g = 1 − f`, and the noise
+/// weight `w = √2 / √(1 + g² + f²)`.
+#[derive(Clone, Copy, Default)]
+struct Shift {
+    floor: f32,
+    f: f32,
+    g: f32,
+    w: f32,
+}
+
+impl Shift {
+    fn at(d: f32, offset: f32) -> Self {
+        let t = -d * offset;
+        let floor = libm::floorf(t);
+        let f = t - floor;
+        let g = 1.0 - f;
+        // Under i.i.d. noise of deviation σ the residual's deviation is
+        // σ·√(1 + g² + f²): linear interpolation averages noise away at half-pixel
+        // shifts, which would pull faint texture towards those hypotheses.
+        let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
+        Shift { floor, f, g, w }
+    }
+}
+
+/// Rows `first..first + rows` of a view in unit intensity ([`Sample::to_unit`]), kept
+/// for a band at `start` of the cache (`row_len` values a row); `rows` 0 where the
+/// cache had no room: that view is read and converted per hypothesis, to the same bits.
+#[derive(Clone, Copy, Default)]
+struct RowCache {
+    start: usize,
+    first: usize,
+    rows: usize,
+}
+
+impl RowCache {
+    /// Row `y` from `cache`, if kept.
+    fn row<'c>(&self, cache: &'c [f32], y: usize, row_len: usize) -> Option<&'c [f32]> {
+        let k = y.checked_sub(self.first).filter(|&k| k < self.rows)?;
+        let at = self.start.checked_add(k.checked_mul(row_len)?)?;
+        cache.get(at..at.checked_add(row_len)?)
+    }
+
+    /// Takes room for rows `rows` of `view` from `cache[*used..]` and converts them;
+    /// no room leaves the view uncached.
+    fn fill<S: Sample>(
+        view: &View<'_, S>,
+        rows: Range<usize>,
+        cache: &mut [f32],
+        used: &mut usize,
+        row_len: usize,
+    ) -> Self {
+        let Some(len) = rows.len().checked_mul(row_len) else {
+            return RowCache::default();
+        };
+        let start = *used;
+        let Some(room) = start
+            .checked_add(len)
+            .and_then(|end| cache.get_mut(start..end))
+        else {
+            return RowCache::default();
+        };
+        for (to, y) in room.chunks_exact_mut(row_len.max(1)).zip(rows.clone()) {
+            match view.row(y) {
+                Some(from) => {
+                    for (t, s) in to.iter_mut().zip(from) {
+                        *t = s.to_unit();
+                    }
+                }
+                None => return RowCache::default(),
+            }
+        }
+        *used = start + len;
+        RowCache {
+            start,
+            first: rows.start,
+            rows: rows.len(),
+        }
+    }
 }
 
 /// Estimates rows `rows` (at most [`BAND_ROWS`]) of the disparity of `lf`'s centre view
@@ -148,6 +268,20 @@ pub fn estimate_rows<S: Sample>(
     rows: Range<usize>,
     out: DisparityOut<'_>,
     scratch: &mut [f32],
+) -> Result<()> {
+    estimate_band(setup, range, lf, rows, out, scratch, true)
+}
+
+/// [`estimate_rows`], converting the views' rows once for the band into the scratch
+/// (`keep_rows`) or per hypothesis as they are read: the same bits either way.
+fn estimate_band<S: Sample>(
+    setup: Setup<'_, PlaneSweepParams>,
+    range: (f32, f32),
+    lf: &LightField<'_, S>,
+    rows: Range<usize>,
+    out: DisparityOut<'_>,
+    scratch: &mut [f32],
+    keep_rows: bool,
 ) -> Result<()> {
     let layout = setup.layout();
     if lf.layout() != layout {
@@ -203,6 +337,8 @@ pub fn estimate_rows<S: Sample>(
                 u,
                 v: 0.0,
                 group: 0,
+                shift: Shift::default(),
+                rows: RowCache::default(),
             })
             .map_err(|_| Error::SizeOverflow { what: "the views" })?;
     }
@@ -215,6 +351,8 @@ pub fn estimate_rows<S: Sample>(
                 u: 0.0,
                 v,
                 group: 1,
+                shift: Shift::default(),
+                rows: RowCache::default(),
             })
             .map_err(|_| Error::SizeOverflow { what: "the views" })?;
     }
@@ -253,10 +391,38 @@ pub fn estimate_rows<S: Sample>(
 
     let used = channels.min(3);
     let (count, spacing) = hypotheses(params.step, min, max);
+
+    // The band's rows of every view in unit intensity, converted once for all
+    // hypotheses: the centre's and the row views' rows of the region, each column
+    // view's rows that the region reaches at any hypothesis.
+    let cache: &mut [f32] = if keep_rows { rest } else { &mut [] };
+    let mut used_cache = 0;
+    let centre_rows = RowCache::fill(&centre, region.clone(), cache, &mut used_cache, row_len);
+    for sv in views.iter_mut() {
+        let reach = if sv.v == 0.0 {
+            region.clone()
+        } else {
+            let (mut lo, mut hi) = (height, 0);
+            let last = region.end.saturating_sub(1);
+            for i in 0..count {
+                let d = min + i as f32 * spacing;
+                let floor = libm::floorf(-d * sv.v);
+                lo = lo.min(source_row(region.start, floor, 0.0, height));
+                hi = hi.max(source_row(last, floor, 1.0, height));
+            }
+            lo..(hi + 1).max(lo)
+        };
+        sv.rows = RowCache::fill(&sv.view, reach, cache, &mut used_cache, row_len);
+    }
+    let cache = &*cache;
+
     for i in 0..count {
         let d = min + i as f32 * spacing;
+        for sv in views.iter_mut() {
+            sv.shift = Shift::at(d, if sv.v == 0.0 { sv.u } else { sv.v });
+        }
         for (k, y) in region.clone().enumerate() {
-            pixel_costs(&centre, &views, y, d, tau, acc)?;
+            pixel_costs(&centre, centre_rows, cache, &views, y, tau, acc)?;
             let (across, along) = acc.split_at_checked(row_len).unwrap_or((&[], &[]));
             let (h_sum, v_sum) = take(sums, width)?;
             for (sum, costs) in [(&mut *h_sum, across), (&mut *v_sum, along)] {
@@ -558,14 +724,23 @@ fn take(s: &mut [f32], n: usize) -> Result<(&mut [f32], &mut [f32])> {
         .ok_or(Error::ScratchTooSmall { needed: n, got })
 }
 
+/// Row `y + floor + dy` of a view `height` rows tall, clamped to the image: the first
+/// (`dy` 0) and second (`dy` 1) row a column view blends for row `y`.
+fn source_row(y: usize, floor: f32, dy: f32, height: usize) -> usize {
+    (y as f32 + floor + dy).min(height as f32 - 1.0).max(0.0) as usize
+}
+
 /// The weighted, truncated absolute differences of row `y` of the centre view to every
-/// view at hypothesis `d`, per interleaved sample, summed over the centre row's views
-/// into the first row of `acc` and over the centre column's into the second.
+/// view at the current hypothesis (each view's [`SweepView::shift`]), per interleaved
+/// sample, summed over the centre row's views into the first row of `acc` and over the
+/// centre column's into the second. Rows the band kept in `cache` are read from there,
+/// the others converted here.
 fn pixel_costs<S: Sample>(
     centre: &View<'_, S>,
+    centre_rows: RowCache,
+    cache: &[f32],
     views: &[SweepView<'_, S>],
     y: usize,
-    d: f32,
     tau: f32,
     acc: &mut [f32],
 ) -> Result<()> {
@@ -575,14 +750,19 @@ fn pixel_costs<S: Sample>(
     };
     let width = centre.width();
     let channels = centre.channels();
-    let c_row = centre.row(y).ok_or(missing)?;
     let row_len = width * channels;
     let (acc, cen) = take(acc, GROUPS * row_len)?;
-    // The centre row in unit intensity, converted once for every view.
-    for (c, s) in cen.iter_mut().zip(c_row) {
-        *c = s.to_unit();
-    }
-    let cen = &*cen;
+    let cen = match centre_rows.row(cache, y, row_len) {
+        Some(row) => row,
+        None => {
+            // The centre row in unit intensity, converted once for every view.
+            let c_row = centre.row(y).ok_or(missing)?;
+            for (c, s) in cen.iter_mut().zip(c_row) {
+                *c = s.to_unit();
+            }
+            &*cen
+        }
+    };
     // The first view of a group stores its terms, the others add theirs (bit-identical
     // to adding to zero: the terms are never −0); a group without views is zeroed.
     let mut seen = [false; GROUPS];
@@ -598,9 +778,9 @@ fn pixel_costs<S: Sample>(
             None => false,
         };
         if first {
-            view_costs::<S, true>(sv, cen, y, d, tau, acc, missing)?;
+            view_costs::<S, true>(sv, cache, cen, y, tau, acc, missing)?;
         } else {
-            view_costs::<S, false>(sv, cen, y, d, tau, acc, missing)?;
+            view_costs::<S, false>(sv, cache, cen, y, tau, acc, missing)?;
         }
     }
     for (group, seen) in acc.chunks_mut(row_len.max(1)).zip(seen) {
@@ -609,6 +789,18 @@ fn pixel_costs<S: Sample>(
         }
     }
     Ok(())
+}
+
+/// `x.min(tau)` as one `minps`: `x` when below `tau`, else `tau` (also for a NaN `x`,
+/// as `f32::min` gives), the same bits as `f32::min` for the non-negative `x` and
+/// positive `tau` here without its extra NaN test.
+#[inline(always)]
+fn truncated(x: f32, tau: f32) -> f32 {
+    if x < tau {
+        x
+    } else {
+        tau
+    }
 }
 
 /// Adds `term` to `a`, or stores it for a group's first view.
@@ -621,78 +813,121 @@ fn put<const FIRST: bool>(a: &mut f32, term: f32) {
     }
 }
 
-/// One view's weighted, truncated absolute differences to the centre row `cen` at
-/// hypothesis `d` into its group's row `acc` (stored if `FIRST`, else added).
+/// One view's weighted, truncated absolute differences to the centre row `cen` at its
+/// current shift into its group's row `acc` (stored if `FIRST`, else added), from the
+/// band's converted rows in `cache` where kept, else from the view.
 fn view_costs<S: Sample, const FIRST: bool>(
     sv: &SweepView<'_, S>,
+    cache: &[f32],
     cen: &[f32],
     y: usize,
-    d: f32,
     tau: f32,
     acc: &mut [f32],
     missing: Error,
 ) -> Result<()> {
-    let width = sv.view.width();
-    let channels = sv.view.channels();
-    let height = sv.view.height();
+    let row_len = sv.view.width() * sv.view.channels();
+    let shift = sv.shift;
     if sv.v == 0.0 {
-        // Source x = x + t, t = −d·u: the row shifted by k = ⌊t⌋ and blended by f.
-        let t = -d * sv.u;
-        let kf = libm::floorf(t);
-        let f = t - kf;
-        let g = 1.0 - f;
-        let src = sv.view.row(y).ok_or(missing)?;
-        // Under i.i.d. noise of deviation σ the residual's deviation is
-        // σ·√(1 + g² + f²): linear interpolation averages noise away at half-pixel
-        // shifts, which would pull faint texture towards those hypotheses.
-        let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
-        let k = kf as isize;
-        // Pixels whose two taps x + k and x + k + 1 lie inside the row.
-        let lo = (-k).max(0).min(width as isize) as usize;
-        let hi = (width as isize - 1 - k)
-            .min(width as isize)
-            .max(lo as isize) as usize;
-        let shift = |x: usize| (x as isize + k).min(width as isize - 1).max(0) as usize;
-        let inner = lo * channels..hi * channels;
-        let from = (lo as isize + k).max(0) as usize * channels;
-        let s0 = src.get(from..from + inner.len()).unwrap_or(&[]);
-        let s1 = src
-            .get(from + channels..from + channels + inner.len())
-            .unwrap_or(&[]);
-        let c_in = cen.get(inner.clone()).unwrap_or(&[]);
-        let a = acc.get_mut(inner).unwrap_or(&mut []);
-        for (((a, &p0), &p1), &c) in a.iter_mut().zip(s0).zip(s1).zip(c_in) {
-            let value = g * p0.to_unit() + f * p1.to_unit();
-            put::<FIRST>(a, (w * libm::fabsf(value - c)).min(tau));
-        }
-        // The edges, with the taps clamped to the row.
-        for x in (0..lo).chain(hi..width) {
-            let (x0, x1) = (shift(x), (shift(x) + 1).min(width - 1));
-            for ch in 0..channels {
-                let p0 = src.get(x0 * channels + ch).map_or(0.0, |s| s.to_unit());
-                let p1 = src.get(x1 * channels + ch).map_or(0.0, |s| s.to_unit());
-                let c = cen.get(x * channels + ch).copied().unwrap_or(0.0);
-                if let Some(a) = acc.get_mut(x * channels + ch) {
-                    put::<FIRST>(a, (w * libm::fabsf(g * p0 + f * p1 - c)).min(tau));
-                }
+        // Source x = x + t, t = −d·u: the row shifted by ⌊t⌋ and blended by f.
+        match sv.rows.row(cache, y, row_len) {
+            Some(src) => shifted::<f32, FIRST>(src, sv.view.width(), shift, cen, tau, acc),
+            None => {
+                let src = sv.view.row(y).ok_or(missing)?;
+                shifted::<S, FIRST>(src, sv.view.width(), shift, cen, tau, acc);
             }
         }
     } else {
         // Source y + t, t = −d·v: a blend of two rows (clamped to the image).
-        let t = -d * sv.v;
-        let kf = libm::floorf(t);
-        let f = t - kf;
-        let g = 1.0 - f;
-        let row = |dy: f32| {
-            let yy = (y as f32 + kf + dy).min(height as f32 - 1.0).max(0.0) as usize;
-            sv.view.row(yy).ok_or(missing)
-        };
-        let (s0, s1) = (row(0.0)?, row(1.0)?);
-        let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
-        for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(cen) {
-            let value = g * p0.to_unit() + f * p1.to_unit();
-            put::<FIRST>(a, (w * libm::fabsf(value - c)).min(tau));
+        let height = sv.view.height();
+        let (y0, y1) = (
+            source_row(y, shift.floor, 0.0, height),
+            source_row(y, shift.floor, 1.0, height),
+        );
+        match (
+            sv.rows.row(cache, y0, row_len),
+            sv.rows.row(cache, y1, row_len),
+        ) {
+            (Some(s0), Some(s1)) => blend::<f32, FIRST>(s0, s1, shift, cen, tau, acc),
+            _ => {
+                let s0 = sv.view.row(y0).ok_or(missing)?;
+                let s1 = sv.view.row(y1).ok_or(missing)?;
+                blend::<S, FIRST>(s0, s1, shift, cen, tau, acc);
+            }
         }
     }
     Ok(())
+}
+
+/// `min(w·|g·s0 + f·s1 − c|, τ)` per sample into `acc` (stored if `FIRST`, else added):
+/// the kernel of every view, on rows in unit intensity (`T = f32`) or converted here.
+#[inline(always)]
+fn blend<T: Sample, const FIRST: bool>(
+    s0: &[T],
+    s1: &[T],
+    shift: Shift,
+    cen: &[f32],
+    tau: f32,
+    acc: &mut [f32],
+) {
+    let Shift { f, g, w, .. } = shift;
+    for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(cen) {
+        let value = g * p0.to_unit() + f * p1.to_unit();
+        put::<FIRST>(a, truncated(w * libm::fabsf(value - c), tau));
+    }
+}
+
+/// A row view's costs: its row `src` (`width` pixels) shifted by `⌊t⌋` pixels and
+/// blended by `f`, the taps clamped to the row at its ends.
+fn shifted<T: Sample, const FIRST: bool>(
+    src: &[T],
+    width: usize,
+    shift: Shift,
+    cen: &[f32],
+    tau: f32,
+    acc: &mut [f32],
+) {
+    let channels = src.len() / width.max(1);
+    let k = shift.floor as isize;
+    // Pixels whose two taps x + k and x + k + 1 lie inside the row.
+    let lo = (-k).max(0).min(width as isize) as usize;
+    let hi = (width as isize - 1 - k)
+        .min(width as isize)
+        .max(lo as isize) as usize;
+    let inner = lo * channels..hi * channels;
+    let from = (lo as isize + k).max(0) as usize * channels;
+    let s0 = src.get(from..from + inner.len()).unwrap_or(&[]);
+    let s1 = src
+        .get(from + channels..from + channels + inner.len())
+        .unwrap_or(&[]);
+    let c_in = cen.get(inner.clone()).unwrap_or(&[]);
+    blend::<T, FIRST>(
+        s0,
+        s1,
+        shift,
+        c_in,
+        tau,
+        acc.get_mut(inner).unwrap_or(&mut []),
+    );
+    // The edges, with the taps clamped to the row: left of `lo` they are the row's first
+    // two pixels, from `hi` on its last pixel twice, so per channel one blended value.
+    let Shift { f, g, w, .. } = shift;
+    let last = width.saturating_sub(1);
+    for (edge, (x0, x1)) in [(0..lo, (0, last.min(1))), (hi..width, (last, last))] {
+        let mut values = [0.0f32; 4];
+        for (ch, value) in values.iter_mut().enumerate().take(channels) {
+            let p0 = src.get(x0 * channels + ch).map_or(0.0, |s| s.to_unit());
+            let p1 = src.get(x1 * channels + ch).map_or(0.0, |s| s.to_unit());
+            *value = g * p0 + f * p1;
+        }
+        let span = edge.start * channels..edge.end * channels;
+        let (Some(a), Some(c)) = (acc.get_mut(span.clone()), cen.get(span)) else {
+            continue;
+        };
+        let n = channels.max(1);
+        for (a, c) in a.chunks_exact_mut(n).zip(c.chunks_exact(n)) {
+            for ((a, &c), &value) in a.iter_mut().zip(c).zip(&values) {
+                put::<FIRST>(a, truncated(w * libm::fabsf(value - c), tau));
+            }
+        }
+    }
 }

@@ -50,6 +50,18 @@ fn estimate(
     range: (f32, f32),
     band: usize,
 ) -> (Vec<f32>, Vec<f32>) {
+    estimate_with(setup, lf, range, band, true)
+}
+
+/// [`estimate`] of any sample type, the views' rows kept per band or converted per
+/// hypothesis.
+fn estimate_with<S: Sample>(
+    setup: &TestSetup<PlaneSweepParams>,
+    lf: &LightField<'_, S>,
+    range: (f32, f32),
+    band: usize,
+    keep_rows: bool,
+) -> (Vec<f32>, Vec<f32>) {
     let (width, height) = (setup.layout().width, setup.layout().height);
     let mut d = vec![f32::NAN; width * height];
     let mut c = vec![f32::NAN; width * height];
@@ -57,7 +69,7 @@ fn estimate(
     let mut start = 0;
     while start < height {
         let end = (start + band).min(height);
-        estimate_rows(
+        estimate_band(
             setup.setup(),
             range,
             lf,
@@ -67,6 +79,7 @@ fn estimate(
                 confidence: &mut c[start * width..end * width],
             },
             &mut scratch,
+            keep_rows,
         )
         .unwrap();
         start = end;
@@ -132,6 +145,35 @@ fn any_banding_gives_the_same_bits() {
         let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&bd), bits(&d), "bands of {band} rows");
         assert_eq!(bits(&bc), bits(&c), "bands of {band} rows");
+    }
+}
+
+#[test]
+fn kept_rows_give_the_bits_of_converting_per_hypothesis() {
+    // 200 rows: at ±9 px the outer column views reach beyond the rows the scratch keeps
+    // for them (sized for ±8 px), so those views are read from the light field.
+    let (data, layout, _) = plane(24, 200, -0.4, 0.015);
+    let levels: Vec<u8> = data
+        .iter()
+        .map(|&v| libm::roundf(v * 255.0).clamp(0.0, 255.0) as u8)
+        .collect();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let lf8 = LightField::new(&levels[..], layout).unwrap();
+    let setup = TestSetup::new(layout, enabled());
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for range in [(-1.5, 1.5), (-9.0, 9.0)] {
+        let kept = estimate_with(&setup, &lf, range, BAND_ROWS, true);
+        let converted = estimate_with(&setup, &lf, range, BAND_ROWS, false);
+        assert_eq!(bits(&kept.0), bits(&converted.0), "f32, {range:?}");
+        assert_eq!(bits(&kept.1), bits(&converted.1), "f32, {range:?}");
+        let kept = estimate_with(&setup, &lf8, range, BAND_ROWS, true);
+        let converted = estimate_with(&setup, &lf8, range, BAND_ROWS, false);
+        assert_eq!(bits(&kept.0), bits(&converted.0), "u8, {range:?}");
+        assert_eq!(bits(&kept.1), bits(&converted.1), "u8, {range:?}");
+        // The 8-bit map differs from the f32 one (the kept rows are the samples'
+        // own values, not one type's).
+        let f32_map = estimate_with(&setup, &lf, range, BAND_ROWS, true);
+        assert_ne!(bits(&kept.0), bits(&f32_map.0), "{range:?}");
     }
 }
 
