@@ -347,11 +347,15 @@ impl<T: Scalar> Workspace<T> {
         flags: Vec::new(),
     };
 
-    /// The first `lens` of each buffer, grown first where they are shorter.
+    /// The first `lens` of each buffer, each replaced by a longer one where it is
+    /// shorter.
     fn take(&mut self, lens: lfdepth::schedule::ScratchLen) -> PartScratch<'_, T> {
         fn grown<V: Copy>(buffer: &mut Vec<V>, len: usize, zero: V) -> &mut [V] {
             if buffer.len() < len {
-                buffer.resize(len, zero);
+                // A fresh zeroed allocation, not `resize`: its pages stay untouched
+                // until a kernel writes them (the median's scratch spans three maps,
+                // of which a band writes its own rows).
+                *buffer = vec![zero; len];
             }
             &mut buffer[..len]
         }
