@@ -214,26 +214,34 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
 ) -> Result<Estimate, lfdepth::Error> {
     let params = &pipeline::align_params(plan, stages);
     if params.mode == AlignMode::Off {
-        return run_schedule::<T, S>(plan, lf, stages, tracker);
+        return run_schedule::<T, S>(plan, lf, stages, tracker, None);
     }
     let start = Instant::now();
     tracker.start(pipeline::STAGE_ALIGN, 1);
     let layout = *plan.layout();
     let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
-    let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
-    let report = align::estimate_present(
-        lf,
-        params,
-        &|v| present.get(v).copied().unwrap_or(present.is_empty()),
-        &mut homographies,
-        &mut scratch,
-        &mut ParallelViews,
-    )?;
-    drop(scratch);
+    // The run's first step (the EPI range) reads only the views: it runs beside the
+    // alignment, on a thread the alignment's serial parts leave idle, and is used when
+    // the alignment leaves the views as they are (a rectified array).
+    let (report, ahead) = rayon::join(
+        || {
+            let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
+            align::estimate_present(
+                lf,
+                params,
+                &|v| present.get(v).copied().unwrap_or(present.is_empty()),
+                &mut homographies,
+                &mut scratch,
+                &mut ParallelViews,
+            )
+        },
+        || first_part_ahead::<T, S>(plan, lf, stages),
+    );
+    let report = report?;
     tracker.add(1);
     let mut timings = vec![(pipeline::STAGE_ALIGN, start.elapsed())];
     let mut estimate = if report.skipped {
-        run_schedule::<T, S>(plan, lf, stages, tracker)?
+        run_schedule::<T, S>(plan, lf, stages, tracker, ahead)?
     } else {
         let start = Instant::now();
         // Zeroed pages that are never written (views no stage reads) cost no memory.
@@ -242,7 +250,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
         timings.push((pipeline::STAGE_WARP, start.elapsed()));
         let rectified = LightField::new(&aligned[..], layout)?;
         let plan = &pipeline::resampled_plan(plan)?;
-        run_schedule::<T, f32>(plan, &rectified, stages, tracker)?
+        run_schedule::<T, f32>(plan, &rectified, stages, tracker, None)?
     };
     timings.append(&mut estimate.timings);
     estimate.timings = timings;
@@ -367,6 +375,67 @@ impl<T: Scalar> Workspace<T> {
     }
 }
 
+/// Runs every part of `step` on rayon's threads into `outputs` (one buffer per part),
+/// each with its thread's workspace.
+fn run_parts<T: Scalar, S: Sample + Sync>(
+    schedule: &Schedule,
+    step: Step,
+    lf: &LightField<'_, S>,
+    state: &State<'_>,
+    workspaces: &[Mutex<Workspace<T>>],
+    outputs: &mut [Vec<f32>],
+    tracker: &Tracker<'_>,
+) -> Result<(), lfdepth::Error> {
+    let lens = schedule.scratch_len(step);
+    outputs
+        .par_iter_mut()
+        .enumerate()
+        .try_for_each(|(index, buffer)| {
+            let len = schedule.part_len(step, index)?;
+            buffer.resize(len.total(), 0.0);
+            let mut out = PartOutput::split(buffer, len)?;
+            // A part runs no rayon work, so its thread's workspace is free; any other
+            // thread (or a busy workspace) gets buffers of its own.
+            let slot = rayon::current_thread_index().and_then(|i| workspaces.get(i));
+            let mut guard = slot.and_then(|w| w.try_lock().ok());
+            let mut own = Workspace::EMPTY;
+            let workspace = match guard.as_deref_mut() {
+                Some(workspace) => workspace,
+                None => &mut own,
+            };
+            schedule.run_part(step, index, lf, state, &mut out, workspace.take(lens))?;
+            tracker.add(1);
+            Ok(())
+        })
+}
+
+/// The output of the first step of `plan`'s schedule over `lf`, when that step is one
+/// part: nothing is placed before it, so it reads only the views and can run before the
+/// schedule does. `None` otherwise, or when it fails (the schedule then runs it again
+/// and reports the error in its place).
+fn first_part_ahead<T: Scalar, S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+) -> Option<Vec<f32>> {
+    let schedule = Schedule::new(plan, stages, rayon::current_num_threads()).ok()?;
+    let &step = schedule.steps().first()?;
+    if schedule.parts(step) != 1 {
+        return None;
+    }
+    let len = schedule.part_len(step, 0).ok()?;
+    let mut buffer = vec![0.0f32; schedule.state_len()];
+    let state = State::new(&schedule, &mut buffer).ok()?;
+    let mut output = vec![0.0f32; len.total()];
+    let mut out = PartOutput::split(&mut output, len).ok()?;
+    let mut workspace = Workspace::<T>::EMPTY;
+    let scratch = workspace.take(schedule.scratch_len(step));
+    schedule
+        .run_part(step, 0, lf, &state, &mut out, scratch)
+        .ok()?;
+    Some(output)
+}
+
 /// Walks the plan's schedule: every step's parts in parallel on rayon's threads, each
 /// into its own output buffer, then placed in part order (so the result does not
 /// depend on the threads), each step timed under its stage's name. Scratch is one
@@ -376,6 +445,7 @@ fn run_schedule<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
     stages: Stages,
     tracker: &Tracker<'_>,
+    mut ahead: Option<Vec<f32>>,
 ) -> Result<Estimate, lfdepth::Error> {
     let threads = rayon::current_num_threads();
     let schedule = Schedule::new(plan, stages, threads)?;
@@ -394,30 +464,24 @@ fn run_schedule<T: Scalar, S: Sample + Sync>(
         let start = Instant::now();
         let parts = schedule.parts(step);
         tracker.start(step.stage(), parts as u64);
-        let lens = schedule.scratch_len(step);
         if outputs.len() < parts {
             outputs.resize_with(parts, Vec::new);
         }
-        outputs[..parts]
-            .par_iter_mut()
-            .enumerate()
-            .try_for_each(|(index, buffer)| {
-                let len = schedule.part_len(step, index)?;
-                buffer.resize(len.total(), 0.0);
-                let mut out = PartOutput::split(buffer, len)?;
-                // A part runs no rayon work, so its thread's workspace is free; any
-                // other thread (or a busy workspace) gets buffers of its own.
-                let slot = rayon::current_thread_index().and_then(|i| workspaces.get(i));
-                let mut guard = slot.and_then(|w| w.try_lock().ok());
-                let mut own = Workspace::EMPTY;
-                let workspace = match guard.as_deref_mut() {
-                    Some(workspace) => workspace,
-                    None => &mut own,
-                };
-                schedule.run_part(step, index, lf, &state, &mut out, workspace.take(lens))?;
-                tracker.add(1);
-                Ok::<(), lfdepth::Error>(())
-            })?;
+        // The first step's one part may have run already ([`first_part_ahead`]).
+        if let (Some(output), Some(slot)) = (ahead.take(), outputs.first_mut()) {
+            *slot = output;
+            tracker.add(1);
+        } else {
+            run_parts(
+                &schedule,
+                step,
+                lf,
+                &state,
+                &workspaces,
+                &mut outputs[..parts],
+                tracker,
+            )?;
+        }
         for (index, buffer) in outputs[..parts].iter_mut().enumerate() {
             let out = PartOutput::split(buffer, schedule.part_len(step, index)?)?;
             schedule.place(step, index, &out, &mut state)?;
