@@ -220,9 +220,11 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     tracker.start(pipeline::STAGE_ALIGN, 1);
     let layout = *plan.layout();
     let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
-    // The run's first step (the EPI range) reads only the views: it runs beside the
-    // alignment, on a thread the alignment's serial parts leave idle, and is used when
-    // the alignment leaves the views as they are (a rectified array).
+    // The run's first step (the EPI range) reads only the views: in auto mode it runs
+    // beside the alignment, on a thread the alignment's serial parts leave idle, and is
+    // used when the rectified check leaves the views as they are. On one thread, or
+    // when the views are warped anyway (mode on), it would only add work.
+    let beside = params.mode == AlignMode::Auto && rayon::current_num_threads() > 1;
     let (report, ahead) = rayon::join(
         || {
             let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
@@ -235,7 +237,11 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
                 &mut ParallelViews,
             )
         },
-        || first_part_ahead::<T, S>(plan, lf, stages),
+        || {
+            beside
+                .then(|| first_part_ahead::<T, S>(plan, lf, stages))
+                .flatten()
+        },
     );
     let report = report?;
     tracker.add(1);
