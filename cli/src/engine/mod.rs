@@ -473,8 +473,10 @@ fn run_schedule<T: Scalar, S: Sample + Sync>(
         if outputs.len() < parts {
             outputs.resize_with(parts, Vec::new);
         }
-        // The first step's one part may have run already ([`first_part_ahead`]).
-        if let (Some(output), Some(slot)) = (ahead.take(), outputs.first_mut()) {
+        // The first step's one part may have run already ([`first_part_ahead`], on
+        // the same schedule).
+        let done = ahead.take().filter(|_| parts == 1);
+        if let (Some(output), Some(slot)) = (done, outputs.first_mut()) {
             *slot = output;
             tracker.add(1);
         } else {
