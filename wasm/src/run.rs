@@ -77,8 +77,8 @@ fn array(values: &[f32]) -> JsValue {
 impl Run {
     /// A run of `params` (as `Estimator` takes them; `stage` says how far) over a light
     /// field of `shape`, for a driver that runs `workers` parts at once (this sets the
-    /// median's row bands, never the result). Workers must run parts with the same
-    /// `workers` and parameters.
+    /// median's row bands and the refinement's with many workers, never the result).
+    /// Workers must run parts with the same `workers` and parameters.
     #[wasm_bindgen(constructor)]
     pub fn new(
         #[wasm_bindgen(unchecked_param_type = "Shape")] shape: JsValue,

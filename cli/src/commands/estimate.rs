@@ -176,7 +176,14 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     }
     let needs = needs::views_to_read(&files, &params, args.stage.into())?;
     let summary = needs.summary(&files);
-    let scene = scene::read_selected(files, &args.limits.limits(), &needs.wanted)?;
+    // The views are decoded on as many threads as the stages run on.
+    let pool = engine::thread_pool(args.threads.map(usize::from))
+        .map_err(|e| CliError::core("starting the worker threads", e))?;
+    let read = || scene::read_selected(files, &args.limits.limits(), &needs.wanted);
+    let scene = match &pool {
+        Some(pool) => pool.install(read),
+        None => read(),
+    }?;
     let load_time = start.elapsed();
     let l = scene.layout;
     eprintln!(

@@ -118,18 +118,7 @@ fn estimate_among<T: Scalar, S: Sample + Sync>(
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, lfdepth::Error> {
     let plan = Plan::new(*lf.layout(), options.params)?;
-    let pool = match options.threads {
-        None => None,
-        Some(threads) => Some(
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads.max(1))
-                .build()
-                .map_err(|_| lfdepth::Error::InvalidParameter {
-                    name: "threads",
-                    reason: "could not start that many threads: use fewer",
-                })?,
-        ),
-    };
+    let pool = thread_pool(options.threads)?;
     // The work runs on its own thread; this one forwards progress, so the callback
     // needs neither `Send` nor `Sync`.
     let done = AtomicU64::new(0);
@@ -176,6 +165,23 @@ fn estimate_among<T: Scalar, S: Sample + Sync>(
     })
 }
 
+/// A pool of `threads` worker threads (at least one); `None` (every core) is rayon's
+/// global pool. The loader decodes the views in the same pool as the stages run, so
+/// `--threads` bounds the whole run.
+pub fn thread_pool(threads: Option<usize>) -> Result<Option<rayon::ThreadPool>, lfdepth::Error> {
+    threads
+        .map(|threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads.max(1))
+                .build()
+                .map_err(|_| lfdepth::Error::InvalidParameter {
+                    name: "threads",
+                    reason: "could not start that many threads: use fewer",
+                })
+        })
+        .transpose()
+}
+
 /// Progress shared between the workers and the reporting thread.
 struct Tracker<'a> {
     done: &'a AtomicU64,
@@ -208,26 +214,40 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
 ) -> Result<Estimate, lfdepth::Error> {
     let params = &pipeline::align_params(plan, stages);
     if params.mode == AlignMode::Off {
-        return run_schedule::<T, S>(plan, lf, stages, tracker);
+        return run_schedule::<T, S>(plan, lf, stages, tracker, None);
     }
     let start = Instant::now();
     tracker.start(pipeline::STAGE_ALIGN, 1);
     let layout = *plan.layout();
     let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
-    let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
-    let report = align::estimate_present(
-        lf,
-        params,
-        &|v| present.get(v).copied().unwrap_or(present.is_empty()),
-        &mut homographies,
-        &mut scratch,
-        &mut ParallelViews,
-    )?;
-    drop(scratch);
+    // The run's first step (the EPI range) reads only the views: in auto mode it runs
+    // beside the alignment, on a thread the alignment's serial parts leave idle, and is
+    // used when the rectified check leaves the views as they are. On one thread, or
+    // when the views are warped anyway (mode on), it would only add work.
+    let beside = params.mode == AlignMode::Auto && rayon::current_num_threads() > 1;
+    let (report, ahead) = rayon::join(
+        || {
+            let mut scratch = vec![0.0f32; align::scratch_len(&layout, params)?];
+            align::estimate_present(
+                lf,
+                params,
+                &|v| present.get(v).copied().unwrap_or(present.is_empty()),
+                &mut homographies,
+                &mut scratch,
+                &mut ParallelViews,
+            )
+        },
+        || {
+            beside
+                .then(|| first_part_ahead::<T, S>(plan, lf, stages))
+                .flatten()
+        },
+    );
+    let report = report?;
     tracker.add(1);
     let mut timings = vec![(pipeline::STAGE_ALIGN, start.elapsed())];
     let mut estimate = if report.skipped {
-        run_schedule::<T, S>(plan, lf, stages, tracker)?
+        run_schedule::<T, S>(plan, lf, stages, tracker, ahead)?
     } else {
         let start = Instant::now();
         // Zeroed pages that are never written (views no stage reads) cost no memory.
@@ -236,7 +256,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
         timings.push((pipeline::STAGE_WARP, start.elapsed()));
         let rectified = LightField::new(&aligned[..], layout)?;
         let plan = &pipeline::resampled_plan(plan)?;
-        run_schedule::<T, f32>(plan, &rectified, stages, tracker)?
+        run_schedule::<T, f32>(plan, &rectified, stages, tracker, None)?
     };
     timings.append(&mut estimate.timings);
     estimate.timings = timings;
@@ -323,51 +343,155 @@ fn warp_parallel<S: Sample + Sync>(
         })
 }
 
+/// One worker thread's scratch, kept for the whole run and grown to the largest step's
+/// need. Fresh zeroed buffers per part (or per rayon split) cost a page fault per 4 KiB
+/// touched and an unmap whose TLB shootdown interrupts every other thread: serial work
+/// in the kernel that grew with the thread count. Reuse does not change a bit, as in
+/// core's serial driver, which runs every part in one dirty scratch.
+struct Workspace<T> {
+    kernel: Vec<T>,
+    maps: Vec<f32>,
+    flags: Vec<u8>,
+}
+
+impl<T: Scalar> Workspace<T> {
+    const EMPTY: Self = Workspace {
+        kernel: Vec::new(),
+        maps: Vec::new(),
+        flags: Vec::new(),
+    };
+
+    /// The first `lens` of each buffer, each replaced by a longer one where it is
+    /// shorter.
+    fn take(&mut self, lens: lfdepth::schedule::ScratchLen) -> PartScratch<'_, T> {
+        fn grown<V: Copy>(buffer: &mut Vec<V>, len: usize, zero: V) -> &mut [V] {
+            if buffer.len() < len {
+                // A fresh zeroed allocation, not `resize`: its pages stay untouched
+                // until a kernel writes them (the median's scratch spans three maps,
+                // of which a band writes its own rows).
+                *buffer = vec![zero; len];
+            }
+            &mut buffer[..len]
+        }
+        PartScratch {
+            kernel: grown(&mut self.kernel, lens.kernel, T::ZERO),
+            maps: grown(&mut self.maps, lens.maps, 0.0),
+            flags: grown(&mut self.flags, lens.flags, 0),
+        }
+    }
+}
+
+/// Runs every part of `step` on rayon's threads into `outputs` (one buffer per part),
+/// each with its thread's workspace.
+fn run_parts<T: Scalar, S: Sample + Sync>(
+    schedule: &Schedule,
+    step: Step,
+    lf: &LightField<'_, S>,
+    state: &State<'_>,
+    workspaces: &[Mutex<Workspace<T>>],
+    outputs: &mut [Vec<f32>],
+    tracker: &Tracker<'_>,
+) -> Result<(), lfdepth::Error> {
+    let lens = schedule.scratch_len(step);
+    outputs
+        .par_iter_mut()
+        .enumerate()
+        .try_for_each(|(index, buffer)| {
+            let len = schedule.part_len(step, index)?;
+            buffer.resize(len.total(), 0.0);
+            let mut out = PartOutput::split(buffer, len)?;
+            // A part runs no rayon work, so its thread's workspace is free; any other
+            // thread (or a busy workspace) gets buffers of its own.
+            let slot = rayon::current_thread_index().and_then(|i| workspaces.get(i));
+            let mut guard = slot.and_then(|w| w.try_lock().ok());
+            let mut own = Workspace::EMPTY;
+            let workspace = match guard.as_deref_mut() {
+                Some(workspace) => workspace,
+                None => &mut own,
+            };
+            schedule.run_part(step, index, lf, state, &mut out, workspace.take(lens))?;
+            tracker.add(1);
+            Ok(())
+        })
+}
+
+/// The output of the first step of `plan`'s schedule over `lf`, when that step is one
+/// part: nothing is placed before it, so it reads only the views and can run before the
+/// schedule does. `None` otherwise, or when it fails (the schedule then runs it again
+/// and reports the error in its place).
+fn first_part_ahead<T: Scalar, S: Sample + Sync>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    stages: Stages,
+) -> Option<Vec<f32>> {
+    let schedule = Schedule::new(plan, stages, rayon::current_num_threads()).ok()?;
+    let &step = schedule.steps().first()?;
+    if schedule.parts(step) != 1 {
+        return None;
+    }
+    let len = schedule.part_len(step, 0).ok()?;
+    let mut buffer = vec![0.0f32; schedule.state_len()];
+    let state = State::new(&schedule, &mut buffer).ok()?;
+    let mut output = vec![0.0f32; len.total()];
+    let mut out = PartOutput::split(&mut output, len).ok()?;
+    let mut workspace = Workspace::<T>::EMPTY;
+    let scratch = workspace.take(schedule.scratch_len(step));
+    schedule
+        .run_part(step, 0, lf, &state, &mut out, scratch)
+        .ok()?;
+    Some(output)
+}
+
 /// Walks the plan's schedule: every step's parts in parallel on rayon's threads, each
-/// into its own output buffers, then placed in part order (so the result does not
-/// depend on the threads), each step timed under its stage's name.
+/// into its own output buffer, then placed in part order (so the result does not
+/// depend on the threads), each step timed under its stage's name. Scratch is one
+/// [`Workspace`] per thread and the output buffers are kept from step to step.
 fn run_schedule<T: Scalar, S: Sample + Sync>(
     plan: &Plan,
     lf: &LightField<'_, S>,
     stages: Stages,
     tracker: &Tracker<'_>,
+    mut ahead: Option<Vec<f32>>,
 ) -> Result<Estimate, lfdepth::Error> {
-    let schedule = Schedule::new(plan, stages, rayon::current_num_threads())?;
+    let threads = rayon::current_num_threads();
+    let schedule = Schedule::new(plan, stages, threads)?;
     let mut buffer = vec![0.0f32; schedule.state_len()];
+    // The first touch of a page faults; the state's maps would first be touched by the
+    // placing thread, one page after the other. Touch them on every thread instead.
+    buffer
+        .par_chunks_mut(1 << 16)
+        .for_each(|chunk| chunk.fill(0.0));
     let mut state = State::new(&schedule, &mut buffer)?;
     let mut timings: Vec<(&'static str, Duration)> = Vec::new();
+    let workspaces: Vec<Mutex<Workspace<T>>> =
+        (0..threads).map(|_| Mutex::new(Workspace::EMPTY)).collect();
+    let mut outputs: Vec<Vec<f32>> = Vec::new();
     for &step in schedule.steps() {
         let start = Instant::now();
         let parts = schedule.parts(step);
         tracker.start(step.stage(), parts as u64);
-        let lens = schedule.scratch_len(step);
-        let outputs: Vec<Vec<f32>> = (0..parts)
-            .into_par_iter()
-            .map_init(
-                || {
-                    (
-                        vec![T::ZERO; lens.kernel],
-                        vec![0.0f32; lens.maps],
-                        vec![0u8; lens.flags],
-                    )
-                },
-                |(kernel, maps, flags), index| {
-                    let len = schedule.part_len(step, index)?;
-                    let mut buffer = vec![0.0f32; len.total()];
-                    let mut out = PartOutput::split(&mut buffer, len)?;
-                    let scratch = PartScratch {
-                        kernel,
-                        maps,
-                        flags,
-                    };
-                    schedule.run_part(step, index, lf, &state, &mut out, scratch)?;
-                    tracker.add(1);
-                    Ok(buffer)
-                },
-            )
-            .collect::<Result<_, lfdepth::Error>>()?;
-        for (index, mut buffer) in outputs.into_iter().enumerate() {
-            let out = PartOutput::split(&mut buffer, schedule.part_len(step, index)?)?;
+        if outputs.len() < parts {
+            outputs.resize_with(parts, Vec::new);
+        }
+        // The first step's one part may have run already ([`first_part_ahead`], on
+        // the same schedule).
+        let done = ahead.take().filter(|_| parts == 1);
+        if let (Some(output), Some(slot)) = (done, outputs.first_mut()) {
+            *slot = output;
+            tracker.add(1);
+        } else {
+            run_parts(
+                &schedule,
+                step,
+                lf,
+                &state,
+                &workspaces,
+                &mut outputs[..parts],
+                tracker,
+            )?;
+        }
+        for (index, buffer) in outputs[..parts].iter_mut().enumerate() {
+            let out = PartOutput::split(buffer, schedule.part_len(step, index)?)?;
             schedule.place(step, index, &out, &mut state)?;
         }
         schedule.finish(step, &mut state);

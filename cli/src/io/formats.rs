@@ -99,6 +99,21 @@ pub fn read_limited(path: &Path, max_pixels: u64) -> Result<Image, IoError> {
     .map_err(|e| e.in_file(path))
 }
 
+/// Decodes an 8-bit PNG view whose header is `expected` straight into `out` (exactly
+/// its samples); `Ok(false)`, with nothing read, for any other view, which
+/// [`read_limited`] decodes.
+pub fn read_eight_into(
+    path: &Path,
+    max_pixels: u64,
+    expected: Header,
+    out: &mut [u8],
+) -> Result<bool, IoError> {
+    match open(path)? {
+        (_, Format::Png) => pngio::read_eight_into(path, max_pixels, expected, out),
+        _ => Ok(false),
+    }
+}
+
 /// Decodes a view held in memory (PNG, JPEG or TIFF, told by its first bytes) whose
 /// header declares at most `max_pixels` pixels, as [`read_limited`] decodes a file.
 pub fn decode_limited(bytes: &[u8], max_pixels: u64) -> Result<Image, IoError> {

@@ -187,6 +187,40 @@ pub fn read_limited(path: &Path, max_pixels: u64) -> Result<Image, IoError> {
         .map_err(|e| e.in_file(path))
 }
 
+/// Decodes an 8-bit PNG file whose header is `expected` straight into `out`, which
+/// holds exactly its samples: no image buffer of its own, so no page of memory is
+/// touched twice. `Ok(false)` (nothing read into `out`) when the file is not such an
+/// image, for the caller to decode it through [`read_limited`] (whose errors say why).
+pub fn read_eight_into(
+    path: &Path,
+    max_pixels: u64,
+    expected: Header,
+    out: &mut [u8],
+) -> Result<bool, IoError> {
+    let (source, len) = open(path)?;
+    let Ok((mut reader, header)) = start(source, len, max_pixels) else {
+        return Ok(false);
+    };
+    if header != expected || header.bit_depth != 8 || reader.output_buffer_size() != out.len() {
+        return Ok(false);
+    }
+    let frame = reader
+        .next_frame(out)
+        .map_err(|e| IoError::format(decode::DecodeError::Png(e).to_string()).in_file(path))?;
+    if frame.buffer_size() != out.len() {
+        return Err(IoError::format(format!(
+            "a {}x{}x{} image needs {} samples but has {}",
+            header.width,
+            header.height,
+            header.channels,
+            out.len(),
+            frame.buffer_size()
+        ))
+        .in_file(path));
+    }
+    Ok(true)
+}
+
 /// Writes an image as PNG; errors name the file.
 pub fn write(path: &Path, image: &Image) -> Result<(), IoError> {
     let bytes = encode(image, &[]).map_err(|e| e.in_file(path))?;

@@ -680,29 +680,19 @@ pub fn read_selected(files: ViewFiles, limits: &Limits, wanted: &[bool]) -> Resu
     let channels = if in_channels == 2 { 1 } else { in_channels };
     let layout = Layout::packed(files.grid, width, height, channels);
     let total = layout.validate().map_err(|e| IoError::core(&dir, e))?;
-    let decoded: Vec<Result<Image, IoError>> = selected
-        .par_iter()
-        .map(|&i| formats::read_limited(&files.paths[i], limits.max_view_pixels))
-        .collect();
-    let mut images = Vec::with_capacity(decoded.len());
-    for ((image, header), &i) in decoded.into_iter().zip(&headers).zip(&selected) {
-        let image = image?;
-        if (image.width, image.height, image.channels, image.bit_depth())
-            != (
-                header.width,
-                header.height,
-                header.channels,
-                header.bit_depth,
-            )
-        {
-            return Err(
-                IoError::format("changed while it was being read: try again")
-                    .in_file(&files.paths[i]),
-            );
-        }
-        images.push((i, image));
+    let mut header_of: Vec<Option<pngio::Header>> = vec![None; files.paths.len()];
+    for (header, &i) in headers.iter().zip(&selected) {
+        header_of[i] = Some(*header);
     }
-    let views = pack(&layout, total, in_channels, depth, &images);
+    let views = decode_into(
+        &files,
+        limits,
+        &layout,
+        total,
+        &header_of,
+        in_channels,
+        depth,
+    )?;
     let mut decoded = vec![false; files.paths.len()];
     for &i in &selected {
         decoded[i] = true;
@@ -715,41 +705,91 @@ pub fn read_selected(files: ViewFiles, limits: &Limits, wanted: &[bool]) -> Resu
     })
 }
 
-/// Packs decoded `(view index, image)` pairs into a zeroed light field of `total`
-/// samples: 8-bit images as `u8`, 16-bit ones as `f32` in `[0, 1]`; gray+alpha
-/// (`in_channels` 2) keeps its gray channel.
-fn pack(
+/// Decodes each view with a header in `header_of` (row-major) on rayon's threads,
+/// straight into its place in a zeroed light field of `total` samples: 8-bit images as
+/// `u8` (a PNG with the light field's channels without a buffer of its own), 16-bit
+/// ones as `f32` in `[0, 1]`; gray+alpha (`in_channels` 2) keeps its gray channel.
+/// Nothing is packed on one thread afterwards, and the pages of views not decoded are
+/// never touched (the allocation is zeroed lazily). The first failing view in grid
+/// order is the error, whatever the threads' timing.
+fn decode_into(
+    files: &ViewFiles,
+    limits: &Limits,
     layout: &Layout,
     total: usize,
+    header_of: &[Option<pngio::Header>],
     in_channels: usize,
     depth: u8,
-    images: &[(usize, Image)],
-) -> Views {
+) -> Result<Views, IoError> {
     let step = if in_channels == 2 { 2 } else { 1 };
+    let max_pixels = limits.max_view_pixels;
+    let decode = |i: usize, header: pngio::Header| -> Result<Image, IoError> {
+        let path = &files.paths[i];
+        let image = formats::read_limited(path, max_pixels)?;
+        if (image.width, image.height, image.channels, image.bit_depth())
+            != (
+                header.width,
+                header.height,
+                header.channels,
+                header.bit_depth,
+            )
+        {
+            return Err(
+                IoError::format("changed while it was being read: try again").in_file(path),
+            );
+        }
+        Ok(image)
+    };
+    let stride = layout.view_stride.max(1);
     match depth {
         8 => {
             let mut out = vec![0u8; total];
-            for (i, image) in images {
-                if let Samples::Eight(s) = &image.samples {
-                    let at = i * layout.view_stride;
-                    for (o, &v) in out[at..].iter_mut().zip(s.iter().step_by(step)) {
-                        *o = v;
+            let results: Vec<Result<(), IoError>> = out
+                .par_chunks_mut(stride)
+                .zip(header_of.par_iter())
+                .enumerate()
+                .with_max_len(1)
+                .map(|(i, (slot, header))| {
+                    let Some(header) = *header else {
+                        return Ok(());
+                    };
+                    if step == 1
+                        && formats::read_eight_into(&files.paths[i], max_pixels, header, slot)?
+                    {
+                        return Ok(());
                     }
-                }
-            }
-            Views::U8(out)
+                    if let Samples::Eight(s) = &decode(i, header)?.samples {
+                        for (o, &v) in slot.iter_mut().zip(s.iter().step_by(step)) {
+                            *o = v;
+                        }
+                    }
+                    Ok(())
+                })
+                .collect();
+            results.into_iter().collect::<Result<(), _>>()?;
+            Ok(Views::U8(out))
         }
         _ => {
             let mut out = vec![0.0f32; total];
-            for (i, image) in images {
-                if let Samples::Sixteen(s) = &image.samples {
-                    let at = i * layout.view_stride;
-                    for (o, &v) in out[at..].iter_mut().zip(s.iter().step_by(step)) {
-                        *o = f32::from(v) / 65535.0;
+            let results: Vec<Result<(), IoError>> = out
+                .par_chunks_mut(stride)
+                .zip(header_of.par_iter())
+                .enumerate()
+                .with_max_len(1)
+                .map(|(i, (slot, header))| {
+                    let Some(header) = *header else {
+                        return Ok(());
+                    };
+                    if let Samples::Sixteen(s) = &decode(i, header)?.samples {
+                        for (o, &v) in slot.iter_mut().zip(s.iter().step_by(step)) {
+                            *o = f32::from(v) / 65535.0;
+                        }
                     }
-                }
-            }
-            Views::F32(out)
+                    Ok(())
+                })
+                .collect();
+            results.into_iter().collect::<Result<(), _>>()?;
+            Ok(Views::F32(out))
         }
     }
 }

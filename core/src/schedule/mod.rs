@@ -31,8 +31,9 @@ use crate::median;
 use crate::plan::Plan;
 use crate::planesweep;
 use crate::refine;
+use crate::refine::RefineParams;
 use crate::scalar::Scalar;
-use crate::setup::DisparityOut;
+use crate::setup::{DisparityOut, Setup};
 use crate::tv::{self, Guide, Maps, SolveOutput};
 
 mod part;
@@ -146,12 +147,15 @@ pub struct Schedule {
     plan: Plan,
     steps: heapless::Vec<Step, MAX_STEPS>,
     median_rows: usize,
+    /// The refinement's parameters with the band rows for the workers.
+    refine: RefineParams,
 }
 
 impl Schedule {
     /// The steps of `stages` for `plan`. `workers` (≥ 1) is how many parts of a step the
     /// driver runs at once: it sets the weighted median's row bands (one per worker, at
-    /// least [`BAND_LINES`] rows: each band re-filters the rows its later passes read),
+    /// least [`BAND_LINES`] rows: each band re-filters the rows its later passes read)
+    /// and thins the refinement's bands where the plan's would leave workers idle,
     /// never the result.
     pub fn new(plan: &Plan, stages: Stages, workers: usize) -> Result<Self> {
         let mut steps = heapless::Vec::new();
@@ -206,16 +210,32 @@ impl Schedule {
             .div_ceil(workers.max(1))
             .max(BAND_LINES)
             .min(height.max(1));
+        // The plan's refinement bands (128 rows) leave all but four workers idle on a
+        // 512-row frame: with more workers, one band per worker, but none thinner than
+        // its two halos, below which recomputing the halo costs more than a worker
+        // gains. The bands do not change a bit (each is computed with its halo).
+        let mut refine_params = params.refine;
+        let per_worker = height.div_ceil(workers.max(1));
+        let thinnest = refine::halo(plan.refine())
+            .saturating_mul(2)
+            .max(BAND_LINES);
+        refine_params.band_rows = refine_params.band_rows.min(per_worker.max(thinnest)).max(1);
         Ok(Schedule {
             plan: *plan,
             steps,
             median_rows,
+            refine: refine_params,
         })
     }
 
     /// The plan.
     pub fn plan(&self) -> &Plan {
         &self.plan
+    }
+
+    /// The refinement's setup with this schedule's band rows.
+    fn refine(&self) -> Setup<'_, RefineParams> {
+        self.plan.refine().with_params(&self.refine)
     }
 
     /// The steps, in the order they run.
@@ -253,7 +273,7 @@ impl Schedule {
             Step::Epi(direction) => epi::lines(self.plan.epi(), direction).div_ceil(BAND_LINES),
             Step::Upsample => layout.height.div_ceil(UPSAMPLE_ROWS),
             Step::PlaneSweep => planesweep::band_count(self.plan.sweep()),
-            Step::Refine | Step::Fuse => refine::band_count(self.plan.refine()),
+            Step::Refine | Step::Fuse => refine::band_count(self.refine()),
             Step::Median => layout
                 .height
                 .checked_add(self.median_rows.saturating_sub(1))
@@ -287,7 +307,7 @@ impl Schedule {
             Step::Upsample => lines(UPSAMPLE_ROWS, height),
             Step::PlaneSweep => lines(planesweep::BAND_ROWS, height),
             Step::Refine | Step::Fuse => {
-                let rows = refine::band_rows(self.plan.refine(), index)?;
+                let rows = refine::band_rows(self.refine(), index)?;
                 Region::Lines(rows.start, rows.end)
             }
             Step::Refill => Region::Lines(0, height),
@@ -403,7 +423,7 @@ impl Schedule {
                 ..none
             },
             Step::Refine | Step::Fuse => ScratchLen {
-                kernel: refine::scratch_len(plan.refine()),
+                kernel: refine::scratch_len(self.refine()),
                 ..none
             },
             Step::Refill => ScratchLen {
@@ -508,7 +528,7 @@ impl Schedule {
             Step::Refine => alone(|| {
                 let h = range()?;
                 refine_rows(
-                    plan,
+                    self.refine(),
                     lf,
                     &h,
                     state.disparity(),
@@ -531,7 +551,7 @@ impl Schedule {
             Step::Fuse => alone(|| {
                 let h = range()?;
                 refine_rows(
-                    plan,
+                    self.refine(),
                     lf,
                     &h,
                     state.other().0,
@@ -545,7 +565,7 @@ impl Schedule {
                     band_of(state.confidence(), &lines, width, what)?,
                 );
                 refine::choose::<T, S>(
-                    plan.refine(),
+                    self.refine(),
                     lf,
                     lines,
                     kept,
@@ -717,7 +737,7 @@ mod tests;
 /// Refines the rows `lines` of the start map `start` into the part's output: the
 /// refinement of the chosen start and, for the fused start, of the plane sweep's map.
 fn refine_rows<T: Scalar, S: Sample>(
-    plan: &Plan,
+    setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     h: &Hypotheses,
     start: &[f32],
@@ -726,7 +746,7 @@ fn refine_rows<T: Scalar, S: Sample>(
     kernel: &mut [T],
 ) -> Result<()> {
     refine::refine_band(
-        plan.refine(),
+        setup,
         lf,
         (h.min(), h.max()),
         start,

@@ -358,6 +358,31 @@ fn the_median_bands_follow_the_workers_and_every_part_has_a_region() {
 }
 
 #[test]
+fn the_refinement_bands_thin_for_more_workers_but_not_below_two_halos() {
+    let layout = Layout::packed(Grid::new(5, 5), 64, 300, 1);
+    let plan = Plan::new(layout, Params::default()).unwrap();
+    let halo = crate::refine::halo(plan.refine());
+    // The plan's 128 rows while they keep every worker busy, one band per worker after
+    // that, never thinner than two halos.
+    for (workers, parts) in [(1, 3), (2, 3), (4, 4), (64, 300usize.div_ceil(2 * halo))] {
+        let schedule = Schedule::new(&plan, Stages::Full, workers).unwrap();
+        assert_eq!(schedule.parts(Step::Refine), parts, "{workers} workers");
+        let mut covered = 0;
+        for index in 0..parts {
+            match schedule.region(Step::Refine, index).unwrap() {
+                Region::Lines(start, end) => {
+                    assert_eq!(start, covered);
+                    assert!(end - start <= 128);
+                    covered = end;
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+        assert_eq!(covered, 300);
+    }
+}
+
+#[test]
 fn misuse_is_an_error_not_a_panic() {
     let (data, layout) = scene();
     let lf = LightField::new(&data[..], layout).unwrap();
