@@ -173,6 +173,8 @@ impl<T: Scalar> Views<T> {
             Some(u32::from_le_bytes(*bytes))
         };
         let (row, column, rs) = (y * self.row_stride, x * CH, self.row_stride);
+        // A column tap's span: from its first word to the end of its last.
+        let span = rs.checked_mul(J.saturating_sub(1))?.checked_add(4)?;
         for v in 0..CHUNK {
             // Cells are non-negative (`regular_cells`).
             let k = cells[v] as usize;
@@ -188,12 +190,9 @@ impl<T: Scalar> Views<T> {
                 // the end of the last (the sums do not wrap, so the nearer words lie
                 // inside it).
                 let first = self.regular_start[v] + column + k * rs;
-                let last = rs.checked_mul(J.saturating_sub(1))?.checked_add(4)?;
-                let run = data.get(first..first.checked_add(last)?)?;
-                let mut at = 0usize;
-                for words in words.iter_mut() {
-                    words[v] = word(run.get(at..).and_then(|s| s.first_chunk::<4>()))?;
-                    at = at.checked_add(rs)?;
+                let run = data.get(first..first.checked_add(span)?)?;
+                for (j, words) in words.iter_mut().enumerate() {
+                    words[v] = word(run.get(j * rs..).and_then(|s| s.first_chunk::<4>()))?;
                 }
             }
         }
