@@ -743,53 +743,58 @@ fn decode_into(
     let stride = layout.view_stride.max(1);
     match depth {
         8 => {
-            let mut out = vec![0u8; total];
-            let results: Vec<Result<(), IoError>> = out
-                .par_chunks_mut(stride)
-                .zip(header_of.par_iter())
-                .enumerate()
-                .with_max_len(1)
-                .map(|(i, (slot, header))| {
-                    let Some(header) = *header else {
-                        return Ok(());
-                    };
-                    if step == 1
-                        && formats::read_eight_into(&files.paths[i], max_pixels, header, slot)?
-                    {
-                        return Ok(());
+            let out = fill_views(total, stride, header_of, |i, header, slot: &mut [u8]| {
+                if step == 1 && formats::read_eight_into(&files.paths[i], max_pixels, header, slot)?
+                {
+                    return Ok(());
+                }
+                if let Samples::Eight(s) = &decode(i, header)?.samples {
+                    for (o, &v) in slot.iter_mut().zip(s.iter().step_by(step)) {
+                        *o = v;
                     }
-                    if let Samples::Eight(s) = &decode(i, header)?.samples {
-                        for (o, &v) in slot.iter_mut().zip(s.iter().step_by(step)) {
-                            *o = v;
-                        }
-                    }
-                    Ok(())
-                })
-                .collect();
-            results.into_iter().collect::<Result<(), _>>()?;
+                }
+                Ok(())
+            })?;
             Ok(Views::U8(out))
         }
         _ => {
-            let mut out = vec![0.0f32; total];
-            let results: Vec<Result<(), IoError>> = out
-                .par_chunks_mut(stride)
-                .zip(header_of.par_iter())
-                .enumerate()
-                .with_max_len(1)
-                .map(|(i, (slot, header))| {
-                    let Some(header) = *header else {
-                        return Ok(());
-                    };
-                    if let Samples::Sixteen(s) = &decode(i, header)?.samples {
-                        for (o, &v) in slot.iter_mut().zip(s.iter().step_by(step)) {
-                            *o = f32::from(v) / 65535.0;
-                        }
+            let out = fill_views(total, stride, header_of, |i, header, slot: &mut [f32]| {
+                if let Samples::Sixteen(s) = &decode(i, header)?.samples {
+                    for (o, &v) in slot.iter_mut().zip(s.iter().step_by(step)) {
+                        *o = f32::from(v) / 65535.0;
                     }
-                    Ok(())
-                })
-                .collect();
-            results.into_iter().collect::<Result<(), _>>()?;
+                }
+                Ok(())
+            })?;
             Ok(Views::F32(out))
         }
     }
+}
+
+/// A zeroed light field of `total` samples whose views (`stride` samples each, row-major)
+/// with a header in `header_of` are written by `fill` in parallel, one view per task;
+/// the first failing view in grid order is the error.
+fn fill_views<T, F>(
+    total: usize,
+    stride: usize,
+    header_of: &[Option<pngio::Header>],
+    fill: F,
+) -> Result<Vec<T>, IoError>
+where
+    T: Copy + Default + Send,
+    F: Fn(usize, pngio::Header, &mut [T]) -> Result<(), IoError> + Sync,
+{
+    let mut out = vec![T::default(); total];
+    let results: Vec<Result<(), IoError>> = out
+        .par_chunks_mut(stride)
+        .zip(header_of.par_iter())
+        .enumerate()
+        .with_max_len(1)
+        .map(|(i, (slot, header))| match *header {
+            Some(header) => fill(i, header, slot),
+            None => Ok(()),
+        })
+        .collect();
+    results.into_iter().collect::<Result<(), _>>()?;
+    Ok(out)
 }
