@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use lfdepth::align::{self, AlignMode, AlignReport};
 use lfdepth::pipeline;
-use lfdepth::schedule::{PartOutput, PartScratch, Schedule, State, Step};
+use lfdepth::schedule::{self, PartOutput, PartScratch, Schedule, State, Step};
 use lfdepth::{Homography, LightField, Params, Plan, Sample, Scalar, Q16};
 use rayon::prelude::*;
 
@@ -253,7 +253,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     tracker.start(pipeline::STAGE_ALIGN, 1);
     let layout = *plan.layout();
     let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
-    // The run's first step (the EPI range) reads only the views: in auto mode it runs
+    // The run's first step (the range) reads only the views: in auto mode it runs
     // beside the alignment, on a thread the alignment's serial parts leave idle, and is
     // used when the rectified check leaves the views as they are. On one thread, or
     // when the views are warped anyway (mode on), it would only add work.
@@ -270,11 +270,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
                 &mut ParallelViews,
             )
         },
-        || {
-            beside
-                .then(|| first_part_ahead::<T, S>(plan, lf, stages))
-                .flatten()
-        },
+        || beside.then(|| range_ahead::<T, S>(plan, lf)).flatten(),
     );
     let report = report?;
     tracker.add(1);
@@ -448,31 +444,12 @@ fn run_parts<T: Scalar, S: Sample + Sync>(
         })
 }
 
-/// The output of the first step of `plan`'s schedule over `lf`, when that step is one
-/// part: nothing is placed before it, so it reads only the views and can run before the
-/// schedule does. `None` otherwise, or when it fails (the schedule then runs it again
-/// and reports the error in its place).
-fn first_part_ahead<T: Scalar, S: Sample + Sync>(
-    plan: &Plan,
-    lf: &LightField<'_, S>,
-    stages: Stages,
-) -> Option<Vec<f32>> {
-    let schedule = Schedule::new(plan, stages, rayon::current_num_threads()).ok()?;
-    let &step = schedule.steps().first()?;
-    if schedule.parts(step) != 1 {
-        return None;
-    }
-    let len = schedule.part_len(step, 0).ok()?;
-    let mut buffer = vec![0.0f32; schedule.state_len()];
-    let state = State::new(&schedule, &mut buffer).ok()?;
-    let mut output = vec![0.0f32; len.total()];
-    let mut out = PartOutput::split(&mut output, len).ok()?;
-    let mut workspace = Workspace::<T>::EMPTY;
-    let scratch = workspace.take(schedule.scratch_len(step));
-    schedule
-        .run_part(step, 0, lf, &state, &mut out, scratch)
-        .ok()?;
-    Some(output)
+/// The disparity range of `plan` over `lf` (the schedule's first step, [`Step::Range`],
+/// which reads only the views), computed ahead of the schedule. `None` when it fails:
+/// the schedule then runs the step and reports the error in its place.
+fn range_ahead<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Option<(f32, f32)> {
+    let mut kernel = vec![T::ZERO; schedule::range_scratch_len(plan)];
+    schedule::range(plan, lf, &mut kernel).ok()
 }
 
 /// Walks the plan's schedule: every step's parts in parallel on rayon's threads, each
@@ -484,7 +461,7 @@ fn run_schedule<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
     stages: Stages,
     tracker: &Tracker<'_>,
-    mut ahead: Option<Vec<f32>>,
+    mut ahead: Option<(f32, f32)>,
 ) -> Result<Estimate, lfdepth::Error> {
     let threads = rayon::current_num_threads();
     let schedule = Schedule::new(plan, stages, threads)?;
@@ -506,11 +483,11 @@ fn run_schedule<T: Scalar, S: Sample + Sync>(
         if outputs.len() < parts {
             outputs.resize_with(parts, Vec::new);
         }
-        // The first step's one part may have run already ([`first_part_ahead`], on
-        // the same schedule).
-        let done = ahead.take().filter(|_| parts == 1);
-        if let (Some(output), Some(slot)) = (done, outputs.first_mut()) {
-            *slot = output;
+        // The range may have been computed already ([`range_ahead`]): it is the range
+        // step's one part, `[min, max]`.
+        let done = ahead.take().filter(|_| step == Step::Range);
+        if let (Some((min, max)), Some(slot)) = (done, outputs.first_mut()) {
+            *slot = vec![min, max];
             tracker.add(1);
         } else {
             run_parts(
