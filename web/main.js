@@ -73,7 +73,8 @@ function params() {
     p.shearStep = Number($("shear-step").value);
     p.fusion = $("fusion").value;
   }
-  if (usesSweep(initial)) p.sweepTrust = Number($("sweep-trust").value);
+  // An empty or unreadable field is NaN, which the estimator refuses with the range.
+  if (usesSweep(initial)) p.sweepTrust = $("sweep-trust").valueAsNumber;
   if (manual) p.range = [Number($("range-min").value), Number($("range-max").value)];
   return p;
 }
@@ -83,17 +84,22 @@ const usesEpi = (initial) => initial !== "sweep";
 /** Whether the start `initial` runs the plane sweep (the sweep start, and the fused one). */
 const usesSweep = (initial) => initial !== "epi";
 
-/** Why the form cannot run as it is (a message naming the control and what to enter),
- * or null. The other fields are checked by the estimator, whose message names its key. */
-function refusal() {
-  const trust = $("sweep-trust");
-  if ($("sweep-trust-label").hidden) return null;
-  const value = trust.valueAsNumber;
-  const bad = trust.validity.badInput || trust.value.trim() === "" || !(value >= 0 && value <= 1);
-  trust.setAttribute("aria-invalid", String(bad));
-  if (!bad) return null;
-  const got = trust.value.trim() === "" ? "it is empty" : `not ${trust.value}`;
-  return `Sweep trust must be a number from 0 (off) to 1, ${got}.`;
+/** The form's control of each estimator key whose refusal the page shows at the control
+ * (the estimator checks every value; its message names the key). */
+const CONTROLS = { sweepTrust: "sweep-trust" };
+
+/** The estimator's `message`, reworded to name the form's control when it refuses the
+ * value of one (`parameter \`KEY\` must be …`): that control is marked invalid and
+ * focused. Other messages as they are. */
+function atControl(message) {
+  const [, key, reason] = /^parameter `(\w+)` (.*)$/.exec(message) ?? [];
+  if (!key || !Object.hasOwn(CONTROLS, key)) return message;
+  const control = $(CONTROLS[key]);
+  control.setAttribute("aria-invalid", "true");
+  control.focus();
+  const label = control.labels[0].textContent.trim();
+  const got = control.value.trim() === "" ? "it is empty" : `not ${control.value}`;
+  return `${label[0].toUpperCase()}${label.slice(1)} ${reason}, ${got}.`;
 }
 
 /** Shows the controls of the chosen start only: the sweep trust where the plane sweep
@@ -306,13 +312,8 @@ function prepareWorkers() {
 
 async function run() {
   if (!state.lightField) return;
-  const refused = refusal();
-  showError(refused);
-  if (refused) {
-    setStatus("error");
-    $("sweep-trust").focus();
-    return;
-  }
+  showError(null);
+  for (const id of Object.values(CONTROLS)) $(id).setAttribute("aria-invalid", "false");
   setStatus("running");
   $("run").disabled = true;
   $("cancel").disabled = false;
@@ -354,7 +355,7 @@ async function run() {
       setProgress(0, "cancelled");
       setStatus("cancelled");
     } else {
-      showError(e.message);
+      showError(atControl(e.message));
       setProgress(0, "failed");
       setStatus("error");
     }

@@ -500,8 +500,9 @@ test("the start control: its fields follow the choice, it reaches the workers, a
   assert.deepEqual(fused.snapshots, ["EPI estimate", "refined", "fused start", ...after.slice(1)]);
   assert.ok(fused.params.every((p) => p.sweepTrust === 0 && p.innerSigma === 0.5), JSON.stringify(fused.params));
 
-  // A sweep trust out of 0..1 (or none) is refused with a message naming the field, and
-  // nothing runs; a good one reaches the workers.
+  // A sweep trust out of 0..1 (or none: the page sends NaN) is refused by the estimator's
+  // check of the parameter, in words naming the page's field, and no part runs; a good
+  // one reaches the workers.
   await page.selectOption("#initial", "sweep");
   for (const bad of ["2", "-0.5", ""]) {
     await page.fill("#sweep-trust", bad);
@@ -522,7 +523,7 @@ test("the start control: its fields follow the choice, it reaches the workers, a
     }));
     assert.deepEqual(refused, {
       state: "error",
-      error: `Sweep trust must be a number from 0 (off) to 1, ${bad === "" ? "it is empty" : `not ${bad}`}.`,
+      error: `Sweep trust must be in [0, 1] (0: off), ${bad === "" ? "it is empty" : `not ${bad}`}.`,
       visible: true,
       invalid: "true",
       focused: "sweep-trust",

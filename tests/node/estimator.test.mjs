@@ -213,6 +213,10 @@ test("bad input throws an Error whose message says what to change", () => {
     [() => new lf.Estimator(scene.views, shape, { alignInterp: "cubic" }), /params\.alignInterp `cubic` is unknown: use "bilinear", "sharpened-bilinear" or "catmull-rom"/],
     [() => new lf.Estimator(scene.views, shape, { iterations: 0 }), /parameter `iterations` must be in 1\.\.=100000/],
     [() => new lf.Estimator(scene.views, shape, { innerSigma: 9 }), /parameter `innerSigma` must be between 0 and 4/],
+    // NaN (an empty number field of a form) reaches the core's check of the parameter.
+    [() => new lf.Estimator(scene.views, shape, { sweepTrust: NaN }), /^parameter `sweepTrust` must be in \[0, 1\] \(0: off\)$/],
+    [() => lf.readViews(shape, { sweepTrust: 2 }), /^parameter `sweepTrust` must be in \[0, 1\] \(0: off\)$/],
+    [() => new lf.Estimator(scene.views, shape, { lambda: Infinity }), /params\.lambda must be a finite number/],
     [() => new lf.Estimator(scene.views, shape, { range: [3, -3] }), /parameter `range` must be finite with min <= max/],
     [() => new lf.Estimator(scene.views, shape, { range: "wide" }), /"auto" or \[min, max\]/],
     [() => new lf.Estimator(scene.views, shape, { fusion: "max" }), /"coherence" or "weighted"/],

@@ -53,7 +53,12 @@ fn quoted_choices(names: &[&str]) -> String {
 /// The value of `key` in `f` as a tunable of `kind` takes it, `None` when absent.
 fn value(f: &Fields<'_>, key: &str, kind: Kind) -> Result<Option<Value>, JsError> {
     Ok(match kind {
-        Kind::Float { .. } => f.number(key)?.map(|v| Value::Float(v as f32)),
+        // NaN (what an empty number field of a form reads as) goes to the stage's check,
+        // which refuses it with the tunable's range; other numbers must be finite here.
+        Kind::Float { .. } => match f.get(key).as_f64() {
+            Some(v) if v.is_nan() => Some(Value::Float(f32::NAN)),
+            _ => f.number(key)?.map(|v| Value::Float(v as f32)),
+        },
         Kind::Int { .. } => f.count(key)?.map(Value::Int),
         Kind::Bool => f.boolean(key)?.map(Value::Bool),
         Kind::Choice(names) => match f.string(key)? {

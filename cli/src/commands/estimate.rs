@@ -10,7 +10,7 @@ use super::outputs::Outputs;
 use super::params::ParamArgs;
 use super::{CliError, LimitArgs, ScalarArg, Stage, ViewArgs};
 use crate::colormap;
-use crate::engine::{self, Estimate, EstimateOptions, Precision};
+use crate::engine::{Estimate, EstimateOptions, Precision, Runner};
 use crate::io::scene::{self, Scene, Views};
 use crate::io::{formats, needs, pfm, png};
 use crate::progress::StageProgress;
@@ -71,10 +71,11 @@ pub struct EstimateArgs {
     pub quiet: bool,
 }
 
-/// Runs the engine on a loaded scene, whatever its sample type, computing in `precision`.
+/// Runs the engine on a loaded scene, whatever its sample type, computing in `precision`
+/// on `runner`'s threads.
 pub fn estimate_scene(
     scene: &Scene,
-    options: &EstimateOptions,
+    runner: &Runner,
     precision: Precision,
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, CliError> {
@@ -82,9 +83,9 @@ pub fn estimate_scene(
     let present = &scene.decoded;
     let result = match &scene.views {
         Views::U8(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate_present(&lf, options, precision, present, progress)),
+            .and_then(|lf| runner.estimate(&lf, precision, present, progress)),
         Views::F32(data) => LightField::new(data, scene.layout)
-            .and_then(|lf| engine::estimate_present(&lf, options, precision, present, progress)),
+            .and_then(|lf| runner.estimate(&lf, precision, present, progress)),
     };
     result.map_err(|e| CliError::core(context(), e))
 }
@@ -176,14 +177,15 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     }
     let needs = needs::views_to_read(&files, &params, args.stage.into())?;
     let summary = needs.summary(&files);
-    // The views are decoded on as many threads as the stages run on.
-    let pool = engine::thread_pool(args.threads.map(usize::from))
-        .map_err(|e| CliError::core("starting the worker threads", e))?;
-    let read = || scene::read_selected(files, &args.limits.limits(), &needs.wanted);
-    let scene = match &pool {
-        Some(pool) => pool.install(read),
-        None => read(),
-    }?;
+    // One pool for the whole run: the views are decoded on the threads the stages run on.
+    let runner = Runner::new(EstimateOptions {
+        params,
+        stage: args.stage.into(),
+        threads: args.threads.map(usize::from),
+    })
+    .map_err(|e| CliError::core("starting the worker threads", e))?;
+    let scene =
+        runner.install(|| scene::read_selected(files, &args.limits.limits(), &needs.wanted))?;
     let load_time = start.elapsed();
     let l = scene.layout;
     eprintln!(
@@ -203,13 +205,8 @@ pub fn run(args: &EstimateArgs) -> Result<(), CliError> {
     if let Some(config) = config {
         check_config_resolution(config, &args.input, l.width, l.height, args.depth.is_some())?;
     }
-    let options = EstimateOptions {
-        params,
-        stage: args.stage.into(),
-        threads: args.threads.map(usize::from),
-    };
     let mut bar = StageProgress::new(args.quiet);
-    let result = estimate_scene(&scene, &options, args.scalar.into(), &mut |s, d, t| {
+    let result = estimate_scene(&scene, &runner, args.scalar.into(), &mut |s, d, t| {
         bar.update(s, d, t)
     });
     bar.finish();

@@ -9,7 +9,7 @@ use lfdepth::metrics::{self, EvalOptions, Scores};
 use super::estimate::estimate_scene;
 use super::params::ParamArgs;
 use super::{CliError, LimitArgs, ScalarArg, Stage, ViewArgs};
-use crate::engine::EstimateOptions;
+use crate::engine::{EstimateOptions, Runner};
 use crate::io::pfm::{self, Pfm};
 use crate::io::png::{self, Samples};
 use crate::io::scene::{self, GROUND_TRUTH_FILE};
@@ -285,14 +285,16 @@ fn score_scene(args: &EvalArgs, dir: &Path, name: &str) -> Result<Scores, CliErr
     let files = scene::locate(dir, &args.views.load_options())?;
     let params = args.params.params(files.config.as_ref())?;
     let wanted = needs::views_to_read(&files, &params, args.stage.into())?.wanted;
-    let loaded = scene::read_selected(files, &args.limits.limits(), &wanted)?;
-    let options = EstimateOptions {
+    // The views are decoded on the threads the stages run on.
+    let runner = Runner::new(EstimateOptions {
         params,
         stage: args.stage.into(),
         threads: args.threads.map(usize::from),
-    };
+    })
+    .map_err(|e| CliError::core("starting the worker threads", e))?;
+    let loaded = runner.install(|| scene::read_selected(files, &args.limits.limits(), &wanted))?;
     let mut bar = StageProgress::new(false);
-    let result = estimate_scene(&loaded, &options, args.scalar.into(), &mut |s, d, t| {
+    let result = estimate_scene(&loaded, &runner, args.scalar.into(), &mut |s, d, t| {
         bar.update(s, d, t)
     });
     bar.finish();

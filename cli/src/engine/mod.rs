@@ -6,13 +6,13 @@
 //! code whatever the banding and the number of threads, so the result is bit-identical
 //! for any `threads`, in either type.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use lfdepth::align::{self, AlignMode, AlignReport};
 use lfdepth::pipeline;
-use lfdepth::schedule::{PartOutput, PartScratch, Schedule, State, Step};
+use lfdepth::schedule::{self, PartOutput, PartScratch, Schedule, State, Step};
 use lfdepth::{Homography, LightField, Params, Plan, Sample, Scalar, Q16};
 use rayon::prelude::*;
 
@@ -79,26 +79,7 @@ pub fn estimate_with<S: Sample + Sync>(
     precision: Precision,
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, lfdepth::Error> {
-    match precision {
-        Precision::F32 => estimate_in::<f32, S>(lf, options, progress),
-        Precision::Q16 => estimate_in::<Q16, S>(lf, options, progress),
-    }
-}
-
-/// [`estimate_with`] on a light field of which only the views `present` marks
-/// (row-major; an empty slice marks every view) hold data: the alignment reads no other
-/// view, and the stages must read none (the loader checks, `io::needs`).
-pub fn estimate_present<S: Sample + Sync>(
-    lf: &LightField<'_, S>,
-    options: &EstimateOptions,
-    precision: Precision,
-    present: &[bool],
-    progress: &mut dyn FnMut(&str, u64, u64),
-) -> Result<Estimate, lfdepth::Error> {
-    match precision {
-        Precision::F32 => estimate_among::<f32, S>(lf, options, present, progress),
-        Precision::Q16 => estimate_among::<Q16, S>(lf, options, present, progress),
-    }
+    Runner::new(*options)?.estimate(lf, precision, &[], progress)
 }
 
 /// [`estimate`] with every stage (EPI, refinement, TV) computing in `T`.
@@ -107,18 +88,91 @@ pub fn estimate_in<T: Scalar, S: Sample + Sync>(
     options: &EstimateOptions,
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, lfdepth::Error> {
-    estimate_among::<T, S>(lf, options, &[], progress)
+    let runner = Runner::new(*options)?;
+    estimate_among::<T, S>(lf, &runner, &[], progress)
 }
 
-/// [`estimate_in`] with the views `present` marks (see [`estimate_present`]).
+/// The worker threads of one run with what they run: a command builds one, decodes the
+/// views in it ([`Runner::install`]) and estimates in it ([`Runner::estimate`]), so a
+/// run starts `options.threads` threads once and `--threads` bounds all of its work.
+pub struct Runner {
+    options: EstimateOptions,
+    /// `None` when `options.threads` is `None`: rayon's global pool, every core.
+    pool: Option<rayon::ThreadPool>,
+}
+
+/// Worker threads the engine's pools have started in this process (rayon's global pool
+/// is not counted).
+static THREADS_STARTED: AtomicUsize = AtomicUsize::new(0);
+
+impl Runner {
+    /// Starts the pool of `options.threads` threads (at least one); `None` runs in
+    /// rayon's global pool of every core.
+    pub fn new(options: EstimateOptions) -> Result<Self, lfdepth::Error> {
+        let pool = options
+            .threads
+            .map(|threads| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads.max(1))
+                    .start_handler(|_| {
+                        THREADS_STARTED.fetch_add(1, Ordering::Relaxed);
+                    })
+                    .build()
+                    .map_err(|_| lfdepth::Error::InvalidParameter {
+                        name: "threads",
+                        reason: "could not start that many threads: use fewer",
+                    })
+            })
+            .transpose()?;
+        Ok(Runner { options, pool })
+    }
+
+    /// What the runner runs.
+    pub fn options(&self) -> &EstimateOptions {
+        &self.options
+    }
+
+    /// Runs `work` on the runner's threads (its parallel iterators and joins use them).
+    pub fn install<R: Send>(&self, work: impl FnOnce() -> R + Send) -> R {
+        match &self.pool {
+            Some(pool) => pool.install(work),
+            None => work(),
+        }
+    }
+
+    /// Estimates the disparity of `lf`'s centre view on the runner's threads, every
+    /// stage computing in `precision`. Only the views `present` marks (row-major; an
+    /// empty slice marks every view) hold data: the alignment reads no other view, and
+    /// the stages must read none (the loader checks, `io::needs`).
+    pub fn estimate<S: Sample + Sync>(
+        &self,
+        lf: &LightField<'_, S>,
+        precision: Precision,
+        present: &[bool],
+        progress: &mut dyn FnMut(&str, u64, u64),
+    ) -> Result<Estimate, lfdepth::Error> {
+        match precision {
+            Precision::F32 => estimate_among::<f32, S>(lf, self, present, progress),
+            Precision::Q16 => estimate_among::<Q16, S>(lf, self, present, progress),
+        }
+    }
+}
+
+/// Worker threads every [`Runner`] of this process has started, for checking that a
+/// run starts its threads once.
+pub fn threads_started() -> usize {
+    THREADS_STARTED.load(Ordering::Relaxed)
+}
+
+/// [`Runner::estimate`] computing in `T`.
 fn estimate_among<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
-    options: &EstimateOptions,
+    runner: &Runner,
     present: &[bool],
     progress: &mut dyn FnMut(&str, u64, u64),
 ) -> Result<Estimate, lfdepth::Error> {
+    let options = runner.options();
     let plan = Plan::new(*lf.layout(), options.params)?;
-    let pool = thread_pool(options.threads)?;
     // The work runs on its own thread; this one forwards progress, so the callback
     // needs neither `Send` nor `Sync`.
     let done = AtomicU64::new(0);
@@ -133,12 +187,8 @@ fn estimate_among<T: Scalar, S: Sample + Sync>(
     };
     std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
-            let result = match &pool {
-                Some(pool) => pool.install(|| {
-                    align_then_run::<T, S>(&plan, lf, options.stage, present, &tracker)
-                }),
-                None => align_then_run::<T, S>(&plan, lf, options.stage, present, &tracker),
-            };
+            let result = runner
+                .install(|| align_then_run::<T, S>(&plan, lf, options.stage, present, &tracker));
             finished.store(true, Ordering::Release);
             result
         });
@@ -163,23 +213,6 @@ fn estimate_among<T: Scalar, S: Sample + Sync>(
                 reason: "a worker thread failed: run with fewer threads",
             }))
     })
-}
-
-/// A pool of `threads` worker threads (at least one); `None` (every core) is rayon's
-/// global pool. The loader decodes the views in the same pool as the stages run, so
-/// `--threads` bounds the whole run.
-pub fn thread_pool(threads: Option<usize>) -> Result<Option<rayon::ThreadPool>, lfdepth::Error> {
-    threads
-        .map(|threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads.max(1))
-                .build()
-                .map_err(|_| lfdepth::Error::InvalidParameter {
-                    name: "threads",
-                    reason: "could not start that many threads: use fewer",
-                })
-        })
-        .transpose()
 }
 
 /// Progress shared between the workers and the reporting thread.
@@ -220,7 +253,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
     tracker.start(pipeline::STAGE_ALIGN, 1);
     let layout = *plan.layout();
     let mut homographies = vec![Homography::IDENTITY; layout.grid.len()];
-    // The run's first step (the EPI range) reads only the views: in auto mode it runs
+    // The run's first step (the range) reads only the views: in auto mode it runs
     // beside the alignment, on a thread the alignment's serial parts leave idle, and is
     // used when the rectified check leaves the views as they are. On one thread, or
     // when the views are warped anyway (mode on), it would only add work.
@@ -237,11 +270,7 @@ fn align_then_run<T: Scalar, S: Sample + Sync>(
                 &mut ParallelViews,
             )
         },
-        || {
-            beside
-                .then(|| first_part_ahead::<T, S>(plan, lf, stages))
-                .flatten()
-        },
+        || beside.then(|| range_ahead::<T, S>(plan, lf)).flatten(),
     );
     let report = report?;
     tracker.add(1);
@@ -415,31 +444,12 @@ fn run_parts<T: Scalar, S: Sample + Sync>(
         })
 }
 
-/// The output of the first step of `plan`'s schedule over `lf`, when that step is one
-/// part: nothing is placed before it, so it reads only the views and can run before the
-/// schedule does. `None` otherwise, or when it fails (the schedule then runs it again
-/// and reports the error in its place).
-fn first_part_ahead<T: Scalar, S: Sample + Sync>(
-    plan: &Plan,
-    lf: &LightField<'_, S>,
-    stages: Stages,
-) -> Option<Vec<f32>> {
-    let schedule = Schedule::new(plan, stages, rayon::current_num_threads()).ok()?;
-    let &step = schedule.steps().first()?;
-    if schedule.parts(step) != 1 {
-        return None;
-    }
-    let len = schedule.part_len(step, 0).ok()?;
-    let mut buffer = vec![0.0f32; schedule.state_len()];
-    let state = State::new(&schedule, &mut buffer).ok()?;
-    let mut output = vec![0.0f32; len.total()];
-    let mut out = PartOutput::split(&mut output, len).ok()?;
-    let mut workspace = Workspace::<T>::EMPTY;
-    let scratch = workspace.take(schedule.scratch_len(step));
-    schedule
-        .run_part(step, 0, lf, &state, &mut out, scratch)
-        .ok()?;
-    Some(output)
+/// The disparity range of `plan` over `lf` (the schedule's first step, [`Step::Range`],
+/// which reads only the views), computed ahead of the schedule. `None` when it fails:
+/// the schedule then runs the step and reports the error in its place.
+fn range_ahead<T: Scalar, S: Sample>(plan: &Plan, lf: &LightField<'_, S>) -> Option<(f32, f32)> {
+    let mut kernel = vec![T::ZERO; schedule::range_scratch_len(plan)];
+    schedule::range(plan, lf, &mut kernel).ok()
 }
 
 /// Walks the plan's schedule: every step's parts in parallel on rayon's threads, each
@@ -451,7 +461,7 @@ fn run_schedule<T: Scalar, S: Sample + Sync>(
     lf: &LightField<'_, S>,
     stages: Stages,
     tracker: &Tracker<'_>,
-    mut ahead: Option<Vec<f32>>,
+    mut ahead: Option<(f32, f32)>,
 ) -> Result<Estimate, lfdepth::Error> {
     let threads = rayon::current_num_threads();
     let schedule = Schedule::new(plan, stages, threads)?;
@@ -473,11 +483,11 @@ fn run_schedule<T: Scalar, S: Sample + Sync>(
         if outputs.len() < parts {
             outputs.resize_with(parts, Vec::new);
         }
-        // The first step's one part may have run already ([`first_part_ahead`], on
-        // the same schedule).
-        let done = ahead.take().filter(|_| parts == 1);
-        if let (Some(output), Some(slot)) = (done, outputs.first_mut()) {
-            *slot = output;
+        // The range may have been computed already ([`range_ahead`]): it is the range
+        // step's one part, `[min, max]`.
+        let done = ahead.take().filter(|_| step == Step::Range);
+        if let (Some((min, max)), Some(slot)) = (done, outputs.first_mut()) {
+            *slot = vec![min, max];
             tracker.add(1);
         } else {
             run_parts(

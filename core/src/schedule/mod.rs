@@ -65,6 +65,24 @@ pub const MAX_STEPS: usize = 10 + tv::MAX_SWEEPS + 1;
 /// Full-resolution rows per part of the upsampling step.
 pub const UPSAMPLE_ROWS: usize = 64;
 
+/// The disparity range a run of `plan` tests (the ends of its EPI hypotheses), as its
+/// first step, [`Step::Range`], computes it: a function of the plan and the views alone,
+/// so a driver may compute it before the schedule runs (beside other work) and place it
+/// as that step's one part, `[min, max]`. `kernel` holds [`range_scratch_len`] scalars.
+pub fn range<T: Scalar, S: Sample>(
+    plan: &Plan,
+    lf: &LightField<'_, S>,
+    kernel: &mut [T],
+) -> Result<(f32, f32)> {
+    let hypotheses = epi::hypotheses(plan.epi(), lf, kernel)?;
+    Ok((hypotheses.min(), hypotheses.max()))
+}
+
+/// Scratch (elements of `T`) of [`range`].
+pub fn range_scratch_len(plan: &Plan) -> usize {
+    epi::scratch_len(plan.epi())
+}
+
 /// One step of a run: a stage over independent parts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Step {
@@ -407,7 +425,7 @@ impl Schedule {
         let none = ScratchLen::default();
         match step {
             Step::Range => ScratchLen {
-                kernel: epi::scratch_len(plan.epi()),
+                kernel: range_scratch_len(plan),
                 ..none
             },
             Step::Epi(direction) => ScratchLen {
@@ -466,7 +484,7 @@ impl Schedule {
     ) -> Result<()> {
         let plan = &self.plan;
         let region = self.region(step, index)?;
-        let range = || {
+        let hypotheses = || {
             state.hypotheses().ok_or(Error::InvalidParameter {
                 name: "schedule",
                 reason: "a step after the range ran before it: run the steps in order",
@@ -479,14 +497,13 @@ impl Schedule {
             _ => 0..0,
         };
         match step {
-            Step::Range => alone(|| {
-                let hypotheses = epi::hypotheses(plan.epi(), lf, scratch.kernel)?;
-                write_range(&mut *out.disparity, (hypotheses.min(), hypotheses.max()))
-            }),
+            Step::Range => {
+                alone(|| write_range(&mut *out.disparity, range(plan, lf, scratch.kernel)?))
+            }
             Step::Epi(direction) => alone(|| {
                 epi::estimate_band(
                     plan.epi(),
-                    &range()?,
+                    &hypotheses()?,
                     lf,
                     direction,
                     lines,
@@ -512,7 +529,7 @@ impl Schedule {
                 )
             }),
             Step::PlaneSweep => alone(|| {
-                let h = range()?;
+                let h = hypotheses()?;
                 planesweep::estimate_rows(
                     plan.sweep(),
                     (h.min(), h.max()),
@@ -526,7 +543,7 @@ impl Schedule {
                 )
             }),
             Step::Refine => alone(|| {
-                let h = range()?;
+                let h = hypotheses()?;
                 refine_rows(
                     self.refine(),
                     lf,
@@ -549,7 +566,7 @@ impl Schedule {
                 Ok(())
             }),
             Step::Fuse => alone(|| {
-                let h = range()?;
+                let h = hypotheses()?;
                 refine_rows(
                     self.refine(),
                     lf,

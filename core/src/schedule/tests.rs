@@ -430,6 +430,58 @@ fn misuse_is_an_error_not_a_panic() {
         .is_err());
 }
 
+/// [`range`], the function of the plan a driver may run ahead, is the range step's part
+/// (`[min, max]`), in `f32` and Q16.16; with too little scratch it is an error.
+#[test]
+fn the_range_of_the_plan_is_the_range_step() {
+    fn check<T: Scalar>(plan: &Plan, lf: &LightField<'_, u8>, name: &str) {
+        let schedule = Schedule::new(plan, Stages::Full, 2).unwrap();
+        let len = schedule.part_len(Step::Range, 0).unwrap();
+        let mut output = vec![f32::NAN; len.total()];
+        let mut out = PartOutput::split(&mut output, len).unwrap();
+        let mut kernel = vec![T::ZERO; schedule.scratch_len(Step::Range).kernel];
+        let mut buffer = vec![0.0f32; schedule.state_len()];
+        let state = State::new(&schedule, &mut buffer).unwrap();
+        let scratch = PartScratch {
+            kernel: &mut kernel,
+            maps: &mut [],
+            flags: &mut [],
+        };
+        schedule
+            .run_part(Step::Range, 0, lf, &state, &mut out, scratch)
+            .unwrap();
+        assert_eq!(
+            range_scratch_len(plan),
+            schedule.scratch_len(Step::Range).kernel
+        );
+        let mut kernel = vec![T::ZERO; range_scratch_len(plan)];
+        let (min, max) = range(plan, lf, &mut kernel).unwrap();
+        assert!(min < max, "{name}: range {min}..{max}");
+        assert_eq!(bits(&[min, max]), bits(&output), "{name}");
+        let epi = plan.params().epi;
+        if epi.range == crate::epi::DisparityRange::Auto && epi.shear {
+            assert!(range(plan, lf, &mut [T::ZERO; 3]).is_err(), "{name}");
+        }
+    }
+    let (data, layout) = scene();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let fixed = Params {
+        epi: crate::epi::EpiParams {
+            range: crate::epi::DisparityRange::Fixed {
+                min: -1.5,
+                max: 2.0,
+            },
+            ..Params::default().epi
+        },
+        ..Params::default()
+    };
+    for (name, params) in variants().into_iter().chain([("fixed range", fixed)]) {
+        let plan = Plan::new(layout, params).unwrap();
+        check::<f32>(&plan, &lf, name);
+        check::<Q16>(&plan, &lf, name);
+    }
+}
+
 /// A linear array (one row or one column of cameras) runs the EPI direction it has and
 /// every later stage; by parts equals the serial run, in `f32` and Q16.16, and the EPI
 /// stage's serial `epi::estimate` equals the schedule's EPI steps.
