@@ -323,7 +323,7 @@ fn one_hypothesis_is_its_value() {
 
 #[test]
 fn window_sums_by_doubling_are_the_sums_of_their_taps() {
-    let a: Vec<i32> = (0..120).map(|i| (i * 7919 % 1013) as i32).collect();
+    let a: Vec<i32> = (0..120).map(|i| i * 7919 % 1013).collect();
     for n in [1usize, 2, 3, 5, 9, 16, 17, 33, 65] {
         let width = a.len() + 1 - n;
         let mut out = vec![-1; width];
