@@ -46,16 +46,22 @@
 //!
 //! # Bands
 //! The stage runs over bands of [`BAND_ROWS`] rows; a band computes the costs of its
-//! rows and `ℓ` rows on each side (clamped to the image), and every sum runs in one
-//! order, so the map is bit-identical for any banding and thread count. Before the
+//! rows and `ℓ` rows on each side (clamped to the image). Each pixel's summed cost is
+//! rounded once to fixed point (a scale at which a window of the largest costs cannot
+//! overflow `i32`), and the windows are summed in integers, which is exact: along x by
+//! doubling (sums of 2, 4, 8, … taps), along y as a running sum per band row (the
+//! entering row added, the leaving one subtracted). So the map is bit-identical for any
+//! banding and thread count whatever order the taps are added in. Before the
 //! hypotheses a band converts the view rows it reads to unit intensity once (the
 //! centre's and the row views' rows of the band and its halo, each column view's rows
 //! that those reach at any hypothesis), so the per-hypothesis pass over a row reads
 //! `f32` values: the same bits as converting the taps per hypothesis.
 //!
 //! # Numbers
-//! The stage computes in `f32` whatever the pipeline's scalar type: its scratch is the
-//! run's `f32` map scratch.
+//! The stage matches in `f32` and sums the windows in `i32` fixed point whatever the
+//! pipeline's scalar type; the winners are kept in `f32` (the window sums converted,
+//! exactly up to 2²⁴ and rounded beyond). Its scratch is the run's `f32` map scratch,
+//! the integer rows reinterpreted in place.
 
 mod params;
 #[cfg(test)]

@@ -366,3 +366,23 @@ fn the_largest_windows_of_the_largest_costs_fit_in_i32() {
         }
     }
 }
+
+#[test]
+fn fixed_point_costs_round_to_the_nearest_unit() {
+    for (cost, units) in [
+        (0.0f32, 0),
+        (0.4, 0),
+        (0.6, 1),
+        (1.5, 2),
+        (2.5, 2),
+        (1234.49, 1234),
+        (4_194_303.0, 4_194_303),
+        (8_388_607.0, 8_388_607),
+    ] {
+        assert_eq!(fixed(cost, 1.0), units, "{cost}");
+    }
+    // The scale keeps the largest pixel cost below 2²², where the rounding is exact.
+    let scale = fixed_scale(1, 48, 0.1);
+    assert!(fixed(4.8, scale) <= 1 << 22);
+    assert_eq!(fixed(2.4, scale), 1 << 21);
+}
