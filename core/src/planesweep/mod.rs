@@ -98,10 +98,10 @@ const VOLUMES: usize = 5;
 
 /// Scratch (`f32` elements) of [`estimate_rows`] for a band of up to [`BAND_ROWS`] rows:
 /// two interleaved rows of matching costs (row and column views) and the centre row,
-/// the two groups' fixed-point pixel costs of a row, per volume three padded rows (the
-/// pixel costs and two of partial window sums), the filtered rows of the band and its
-/// halo, the running window sum of a row and six values per pixel of the band, and the
-/// views' rows in unit intensity that a band keeps (`cache_rows` rows of interleaved
+/// the two groups' fixed-point pixel costs of a row, per volume four padded rows (the
+/// pixel costs, two of partial window sums along x and the running window sum along y),
+/// the filtered rows of the band and its halo and six values per pixel of the band, and
+/// the views' rows in unit intensity that a band keeps (`cache_rows` rows of interleaved
 /// samples).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
@@ -109,9 +109,8 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let line = setup.params().line * setup.params().radius;
     let rows = BAND_ROWS.min(layout.height);
     let volume = [
-        width.saturating_add(2 * line).saturating_mul(3),
+        width.saturating_add(2 * line).saturating_mul(4),
         rows.saturating_add(2 * line).saturating_mul(width),
-        width,
         rows.saturating_mul(width).saturating_mul(STATE),
     ]
     .iter()
@@ -525,7 +524,8 @@ struct Volume<'a> {
     partial: [&'a mut [i32]; 2],
     /// Horizontally filtered cost rows of the band and its halo.
     costs: &'a mut [i32],
-    /// The window sum of the band row last aggregated ([`Volume::aggregate`]).
+    /// The window sum of the band row last aggregated ([`Volume::aggregate`]), in its
+    /// first `width` values (a padded row's room).
     column: &'a mut [i32],
     best: &'a mut [f32],
     best_at: &'a mut [f32],
@@ -545,12 +545,11 @@ impl<'a> Volume<'a> {
         costs: usize,
         len: usize,
     ) -> Result<(Self, &'a mut [f32])> {
-        let width = padded.saturating_sub(2 * rx);
         let (padded, s) = take(s, padded)?;
         let (partial0, s) = take(s, padded.len())?;
         let (partial1, s) = take(s, padded.len())?;
         let (costs, s) = take(s, costs)?;
-        let (column, s) = take(s, width)?;
+        let (column, s) = take(s, padded.len())?;
         let (best, s) = take(s, len)?;
         let (best_at, s) = take(s, len)?;
         let (before, s) = take(s, len)?;
