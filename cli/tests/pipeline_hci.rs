@@ -43,7 +43,7 @@ fn full_pipeline_accuracy_on_both_hci_scenes() {
         return;
     };
     // The goal: beat SPO (2.55 / 3.24 and 2.59 / 1.31) on both scenes. Measured
-    // 2.447 / 2.877 and 2.131 / 0.996; the floors add a margin that stays below SPO.
+    // 2.447 / 2.877 and 2.130 / 0.996; the floors add a margin that stays below SPO.
     for (scene, bad_max, mse_max) in [
         ("stratified/backgammon", 2.52, 2.95),
         ("training/cotton", 2.2, 1.05),

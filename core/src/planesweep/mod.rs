@@ -46,16 +46,22 @@
 //!
 //! # Bands
 //! The stage runs over bands of [`BAND_ROWS`] rows; a band computes the costs of its
-//! rows and `ℓ` rows on each side (clamped to the image), and every sum runs in one
-//! order, so the map is bit-identical for any banding and thread count. Before the
+//! rows and `ℓ` rows on each side (clamped to the image). Each pixel's summed cost is
+//! rounded once to fixed point (a scale at which a window of the largest costs cannot
+//! overflow `i32`), and the windows are summed in integers, which is exact: along x by
+//! doubling (sums of 2, 4, 8, … taps), along y as a running sum per band row (the
+//! entering row added, the leaving one subtracted). So the map is bit-identical for any
+//! banding and thread count whatever order the taps are added in. Before the
 //! hypotheses a band converts the view rows it reads to unit intensity once (the
 //! centre's and the row views' rows of the band and its halo, each column view's rows
 //! that those reach at any hypothesis), so the per-hypothesis pass over a row reads
 //! `f32` values: the same bits as converting the taps per hypothesis.
 //!
 //! # Numbers
-//! The stage computes in `f32` whatever the pipeline's scalar type: its scratch is the
-//! run's `f32` map scratch.
+//! The stage matches in `f32` and sums the windows in `i32` fixed point whatever the
+//! pipeline's scalar type; the winners are kept in `f32` (the window sums converted,
+//! exactly up to 2²⁴ and rounded beyond). Its scratch is the run's `f32` map scratch,
+//! the integer rows reinterpreted in place.
 
 mod params;
 #[cfg(test)]
@@ -92,17 +98,18 @@ const VOLUMES: usize = 5;
 
 /// Scratch (`f32` elements) of [`estimate_rows`] for a band of up to [`BAND_ROWS`] rows:
 /// two interleaved rows of matching costs (row and column views) and the centre row,
-/// one aggregated row,
-/// per volume a padded row of pixel costs, the filtered rows of the band and its halo
-/// and six values per pixel of the band, and the views' rows in unit intensity that a
-/// band keeps (`cache_rows` rows of interleaved samples).
+/// the two groups' fixed-point pixel costs of a row, per volume four padded rows (the
+/// pixel costs, two of partial window sums along x and the running window sum along y),
+/// the filtered rows of the band and its halo and six values per pixel of the band, and
+/// the views' rows in unit intensity that a band keeps (`cache_rows` rows of interleaved
+/// samples).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
     let line = setup.params().line * setup.params().radius;
     let rows = BAND_ROWS.min(layout.height);
     let volume = [
-        width.saturating_add(2 * line),
+        width.saturating_add(2 * line).saturating_mul(4),
         rows.saturating_add(2 * line).saturating_mul(width),
         rows.saturating_mul(width).saturating_mul(STATE),
     ]
@@ -110,7 +117,7 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     .fold(0usize, |a, &b| a.saturating_add(b));
     let parts = [
         width.saturating_mul(channels).saturating_mul(GROUPS + 1),
-        width.saturating_mul(3),
+        width.saturating_mul(GROUPS),
         volume.saturating_mul(VOLUMES),
         cache_rows(layout.grid, height_rows(layout.height, line), layout.height)
             .saturating_mul(width.saturating_mul(channels)),
@@ -361,8 +368,8 @@ fn estimate_band<S: Sample>(
     let tau = params.truncate;
     let row_len = width * channels;
     let (acc, rest) = take(scratch, (GROUPS + 1) * row_len)?;
-    let (agg, rest) = take(rest, width)?;
-    let (sums, rest) = take(rest, 2 * width)?;
+    let (sums, rest) = take(rest, GROUPS * width)?;
+    let sums = ints(sums)?;
     let line = params.line * r;
     let region = rows.start.saturating_sub(line)..(rows.end + line).min(height);
     let mut rest = rest;
@@ -374,6 +381,13 @@ fn estimate_band<S: Sample>(
         (Source::Horizontal, (0, line)),
         (Source::Vertical, (line, 0)),
     ];
+    let used = channels.min(3);
+    let taps = kinds
+        .iter()
+        .map(|&(_, (rx, ry))| (2 * rx + 1) * (2 * ry + 1))
+        .max()
+        .unwrap_or(1);
+    let scale = fixed_scale(taps, views.len() * used, tau);
     for (source, radii) in kinds {
         let (volume, tail) = Volume::take(
             rest,
@@ -389,7 +403,6 @@ fn estimate_band<S: Sample>(
         })?;
     }
 
-    let used = channels.min(3);
     let (count, spacing) = hypotheses(params.step, min, max);
 
     // The band's rows of every view in unit intensity, converted once for all
@@ -424,17 +437,17 @@ fn estimate_band<S: Sample>(
         for (k, y) in region.clone().enumerate() {
             pixel_costs(&centre, centre_rows, cache, &views, y, tau, acc)?;
             let (across, along) = acc.split_at_checked(row_len).unwrap_or((&[], &[]));
-            let (h_sum, v_sum) = take(sums, width)?;
+            let (h_sum, v_sum) = take_ints(sums, width)?;
             for (sum, costs) in [(&mut *h_sum, across), (&mut *v_sum, along)] {
-                channel_sums(sum, costs, channels, used);
+                channel_sums(sum, costs, channels, used, scale);
             }
             for volume in volumes.iter_mut() {
                 let source = volume.source;
-                let body = volume.body_mut(width);
+                let body = volume.body_mut(width, k);
                 match source {
                     Source::All => {
                         for ((p, &h), &v) in body.iter_mut().zip(h_sum.iter()).zip(v_sum.iter()) {
-                            *p = h + v;
+                            *p = h.wrapping_add(v);
                         }
                     }
                     Source::Horizontal => copy(body, h_sum),
@@ -452,8 +465,8 @@ fn estimate_band<S: Sample>(
                     let yy = y.saturating_sub(region.start);
                     volume.update_from_row(yy * width..(yy + 1) * width, band, at)?;
                 } else {
-                    volume.aggregate(agg, width, height, y, region.start)?;
-                    volume.update(agg, band, at);
+                    volume.aggregate(width, height, y, region.start, b > 0)?;
+                    volume.update_from_column(band, at);
                 }
             }
         }
@@ -504,10 +517,16 @@ struct Volume<'a> {
     /// Window radii along x and y.
     rx: usize,
     ry: usize,
-    /// One row of pixel costs, padded by the radius on each side.
-    padded: &'a mut [f32],
-    /// Horizontally box-filtered cost rows of the band and its halo.
-    costs: &'a mut [f32],
+    /// One row of fixed-point pixel costs, padded by the radius on each side (unused
+    /// when `rx` is 0: the costs go straight into their filtered row).
+    padded: &'a mut [i32],
+    /// Two rows of partial window sums along x ([`window_sum`]).
+    partial: [&'a mut [i32]; 2],
+    /// Horizontally filtered cost rows of the band and its halo.
+    costs: &'a mut [i32],
+    /// The window sum of the band row last aggregated ([`Volume::aggregate`]), in its
+    /// first `width` values (a padded row's room).
+    column: &'a mut [i32],
     best: &'a mut [f32],
     best_at: &'a mut [f32],
     before: &'a mut [f32],
@@ -527,7 +546,10 @@ impl<'a> Volume<'a> {
         len: usize,
     ) -> Result<(Self, &'a mut [f32])> {
         let (padded, s) = take(s, padded)?;
+        let (partial0, s) = take(s, padded.len())?;
+        let (partial1, s) = take(s, padded.len())?;
         let (costs, s) = take(s, costs)?;
+        let (column, s) = take(s, padded.len())?;
         let (best, s) = take(s, len)?;
         let (best_at, s) = take(s, len)?;
         let (before, s) = take(s, len)?;
@@ -545,8 +567,10 @@ impl<'a> Volume<'a> {
                 source,
                 rx,
                 ry,
-                padded,
-                costs,
+                padded: ints(padded)?,
+                partial: [ints(partial0)?, ints(partial1)?],
+                costs: ints(costs)?,
+                column: ints(column)?,
                 best,
                 best_at,
                 before,
@@ -558,59 +582,75 @@ impl<'a> Volume<'a> {
         ))
     }
 
-    /// The unpadded part of the pixel-cost row.
-    fn body_mut(&mut self, width: usize) -> &mut [f32] {
+    /// Where the fixed-point pixel costs of region row `k` go: the unpadded part of the
+    /// padded row, or for a window one pixel wide (`rx` 0) the filtered row `k` itself.
+    fn body_mut(&mut self, width: usize, k: usize) -> &mut [i32] {
         let r = self.rx;
-        self.padded.get_mut(r..r + width).unwrap_or(&mut [])
+        if r == 0 {
+            let at = k.saturating_mul(width);
+            self.costs
+                .get_mut(at..at.saturating_add(width))
+                .unwrap_or(&mut [])
+        } else {
+            self.padded.get_mut(r..r + width).unwrap_or(&mut [])
+        }
     }
 
-    /// Pads the pixel-cost row with its end values and box-filters it into cost row `k`.
+    /// Pads the pixel-cost row with its end values and sums its windows along x into
+    /// cost row `k` (a window one pixel wide is already there).
     fn filter_row(&mut self, width: usize, k: usize) -> Result<()> {
         let r = self.rx;
-        let (lead, tail) = take(self.padded, r)?;
-        let (body, trail) = take(tail, width)?;
-        lead.fill(body.first().copied().unwrap_or(0.0));
-        trail.fill(body.last().copied().unwrap_or(0.0));
+        if r == 0 {
+            return Ok(());
+        }
+        let (lead, tail) = take_ints(self.padded, r)?;
+        let (body, trail) = take_ints(tail, width)?;
+        lead.fill(body.first().copied().unwrap_or(0));
+        trail.fill(body.last().copied().unwrap_or(0));
         let row = self
             .costs
             .get_mut(k * width..(k + 1) * width)
             .ok_or(Error::SizeOverflow { what: "a cost row" })?;
-        // The first tap initialises the sum (bit-identical to adding it to zero: costs are
-        // never −0).
-        copy(row, self.padded.get(..width).unwrap_or(&[]));
-        for j in 1..=2 * r {
-            let src = self.padded.get(j..j + width).unwrap_or(&[]);
-            for (c, s) in row.iter_mut().zip(src) {
-                *c += s;
-            }
-        }
+        let [p0, p1] = &mut self.partial;
+        window_sum(self.padded, 2 * r + 1, row, p0, p1);
         Ok(())
     }
 
-    /// The box sum over rows `y − r ..= y + r` (clamped to the image) into `agg`.
+    /// The window sum over rows `y − r ..= y + r` (clamped to the image) into
+    /// `column`: from the previous row's sum (`next`, the band row above `y` was the last
+    /// aggregated) by adding the entering row and subtracting the leaving one, else tap
+    /// by tap. The sums are exact in integers, so both give the same value.
     fn aggregate(
-        &self,
-        agg: &mut [f32],
+        &mut self,
         width: usize,
         height: usize,
         y: usize,
         first: usize,
+        next: bool,
     ) -> Result<()> {
         let r = self.ry;
-        for j in 0..=2 * r {
-            let yy = (y + j)
-                .saturating_sub(r)
-                .min(height - 1)
-                .saturating_sub(first);
-            let src = self
-                .costs
-                .get(yy * width..(yy + 1) * width)
-                .ok_or(Error::SizeOverflow { what: "a cost row" })?;
-            if j == 0 {
-                copy(agg, src);
-            } else {
-                for (a, s) in agg.iter_mut().zip(src) {
-                    *a += s;
+        let costs = &*self.costs;
+        let row = |yy: usize| {
+            let k = yy.min(height.saturating_sub(1)).saturating_sub(first);
+            costs
+                .get(k * width..(k + 1) * width)
+                .ok_or(Error::SizeOverflow { what: "a cost row" })
+        };
+        if next {
+            let enter = row(y + r)?;
+            let leave = row(y.saturating_sub(1).saturating_sub(r))?;
+            for ((c, &e), &l) in self.column.iter_mut().zip(enter).zip(leave) {
+                *c = c.wrapping_sub(l).wrapping_add(e);
+            }
+        } else {
+            for j in 0..=2 * r {
+                let src = row((y + j).saturating_sub(r))?;
+                if j == 0 {
+                    copy(self.column, src);
+                } else {
+                    for (c, &s) in self.column.iter_mut().zip(src) {
+                        *c = c.wrapping_add(s);
+                    }
                 }
             }
         }
@@ -632,8 +672,15 @@ impl<'a> Volume<'a> {
         result
     }
 
-    /// Takes hypothesis `at`'s aggregated costs `agg` of band row `band`.
-    fn update(&mut self, agg: &[f32], band: Range<usize>, at: f32) {
+    /// Takes hypothesis `at`'s window sums of band row `band` from `column`.
+    fn update_from_column(&mut self, band: Range<usize>, at: f32) {
+        let column = core::mem::take(&mut self.column);
+        self.update(column, band, at);
+        self.column = column;
+    }
+
+    /// Takes hypothesis `at`'s window sums `agg` (fixed point) of band row `band`.
+    fn update(&mut self, agg: &[i32], band: Range<usize>, at: f32) {
         let best = self.best.get_mut(band.clone()).unwrap_or(&mut []);
         let best_at = self.best_at.get_mut(band.clone()).unwrap_or(&mut []);
         let before = self.before.get_mut(band.clone()).unwrap_or(&mut []);
@@ -648,6 +695,8 @@ impl<'a> Volume<'a> {
             .zip(last.iter_mut())
             .zip(sum.iter_mut());
         for ((((((b, bi), be), af), l), s), &a) in state.zip(agg.iter()) {
+            // Window sums are below 2³¹ ([`fixed_scale`]): one conversion per lane.
+            let a = a as f32;
             let better = a < *b;
             let next = *bi + 1.0 == at;
             *af = if better {
@@ -690,28 +739,115 @@ impl<'a> Volume<'a> {
     }
 }
 
+/// Largest window sum of fixed-point costs ([`fixed_scale`]): half the range of `i32`,
+/// leaving room for the rounding of each pixel's cost.
+const WINDOW_LIMIT: f32 = (1u32 << 30) as f32;
+
+/// Largest fixed-point cost of a pixel ([`fixed_scale`]): half of `2²³`, below which
+/// [`fixed`] rounds exactly.
+const PIXEL_LIMIT: f32 = (1u32 << 22) as f32;
+
+/// `2²³`: an `f32` in `[2²³, 2²⁴)` holds whole numbers, its low mantissa bits the
+/// integer.
+const ROUNDING: f32 = (1u32 << 23) as f32;
+
+/// The fixed-point scale of the pixel costs: a pixel's cost, the sum of `terms`
+/// truncated differences (every view and channel, each at most `tau`), stays below
+/// [`PIXEL_LIMIT`], and a window of `taps` such pixels below [`WINDOW_LIMIT`], so the
+/// window sums never overflow `i32` and convert to `f32` in one instruction. For the
+/// defaults (9×9 views, RGB, `τ` 0.1) one unit is 1.1·10⁻⁶ of a pixel's cost (whose
+/// typical values are 0.1–2).
+fn fixed_scale(taps: usize, terms: usize, tau: f32) -> f32 {
+    let per_pixel = (WINDOW_LIMIT / taps.max(1) as f32).min(PIXEL_LIMIT);
+    per_pixel / (terms.max(1) as f32 * tau)
+}
+
+/// A pixel's summed cost in fixed point, rounded to the nearest unit (ties to even):
+/// `cost · scale` lies in `[0, 2²³)` ([`fixed_scale`]; the differences are truncated,
+/// so `cost` is finite and ≥ 0), where adding `2²³` leaves the rounded integer in the
+/// mantissa. Three vector instructions per eight lanes, where `as i32` (saturating) is
+/// not vectorised.
+#[inline(always)]
+fn fixed(cost: f32, scale: f32) -> i32 {
+    ((cost * scale + ROUNDING).to_bits() as i32).wrapping_sub(ROUNDING.to_bits() as i32)
+}
+
 /// Per pixel, the sum of the first `used` of its `channels` interleaved samples, in
-/// channel order (the common layouts unrolled).
-fn channel_sums(sum: &mut [f32], costs: &[f32], channels: usize, used: usize) {
+/// channel order (the common layouts unrolled), in fixed point at `scale`.
+fn channel_sums(sum: &mut [i32], costs: &[f32], channels: usize, used: usize, scale: f32) {
     match (channels, used) {
         (3, 3) => {
             for (s, px) in sum.iter_mut().zip(costs.chunks_exact(3)) {
                 if let [a, b, c] = *px {
-                    *s = a + b + c;
+                    *s = fixed(a + b + c, scale);
                 }
             }
         }
-        (1, 1) => copy(sum, costs),
+        (1, 1) => {
+            for (s, &c) in sum.iter_mut().zip(costs) {
+                *s = fixed(c, scale);
+            }
+        }
         _ => {
             for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels.max(1))) {
-                *s = px.iter().take(used).sum();
+                *s = fixed(px.iter().take(used).sum(), scale);
             }
         }
     }
 }
 
+/// `out[x] = Σ a[x + j]` over `j < n` (`a` at least `out.len() + n − 1` long): by
+/// doubling, the sums of 2, 4, 8, … taps each one pass over the previous (in `p0`, `p1`
+/// in turn), and per set bit of `n` one pass adding that many taps to `out` (the first
+/// two in one pass). Integer sums are exact, so the order of the taps does not matter.
+fn window_sum(a: &[i32], n: usize, out: &mut [i32], p0: &mut [i32], p1: &mut [i32]) {
+    let (mut current, mut spare) = (p0, p1);
+    // `span` taps per sum; the sums start at `a` itself.
+    let mut span = 1;
+    let mut from_a = true;
+    let mut offset = 0;
+    // `out` holds nothing yet; `a` is its first term, still to be added (bit 0).
+    let (mut empty, mut a_pending) = (true, false);
+    loop {
+        let sums: &[i32] = if from_a { a } else { current };
+        if n & span != 0 {
+            let src = sums.get(offset..).unwrap_or(&[]);
+            if from_a {
+                a_pending = true;
+            } else if a_pending {
+                for ((o, &x), &s) in out.iter_mut().zip(a).zip(src) {
+                    *o = x.wrapping_add(s);
+                }
+                a_pending = false;
+                empty = false;
+            } else if empty {
+                copy(out, src);
+                empty = false;
+            } else {
+                for (o, &s) in out.iter_mut().zip(src) {
+                    *o = o.wrapping_add(s);
+                }
+            }
+            offset += span;
+        }
+        if span > n / 2 {
+            break;
+        }
+        let ahead = sums.get(span..).unwrap_or(&[]);
+        for ((t, &l), &h) in spare.iter_mut().zip(sums).zip(ahead) {
+            *t = l.wrapping_add(h);
+        }
+        core::mem::swap(&mut current, &mut spare);
+        from_a = false;
+        span *= 2;
+    }
+    if a_pending {
+        copy(out, a);
+    }
+}
+
 /// Copies what `from` and `to` have in common (no length check that could panic).
-fn copy(to: &mut [f32], from: &[f32]) {
+fn copy<T: Copy>(to: &mut [T], from: &[T]) {
     for (t, &f) in to.iter_mut().zip(from) {
         *t = f;
     }
@@ -722,6 +858,20 @@ fn take(s: &mut [f32], n: usize) -> Result<(&mut [f32], &mut [f32])> {
     let got = s.len();
     s.split_at_mut_checked(n)
         .ok_or(Error::ScratchTooSmall { needed: n, got })
+}
+
+/// [`take`] of integer rows.
+fn take_ints(s: &mut [i32], n: usize) -> Result<(&mut [i32], &mut [i32])> {
+    let got = s.len();
+    s.split_at_mut_checked(n)
+        .ok_or(Error::ScratchTooSmall { needed: n, got })
+}
+
+/// `f32` scratch as integer rows (the same size and alignment: never an error).
+fn ints(s: &mut [f32]) -> Result<&mut [i32]> {
+    bytemuck::try_cast_slice_mut(s).map_err(|_| Error::SizeOverflow {
+        what: "the plane sweep's integer rows",
+    })
 }
 
 /// Row `y + floor + dy` of a view `height` rows tall, clamped to the image: the first

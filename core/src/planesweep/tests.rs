@@ -320,3 +320,69 @@ fn one_hypothesis_is_its_value() {
     assert!(d.iter().all(|&d| d == 0.5));
     assert!(c.iter().all(|c| c.is_finite()));
 }
+
+#[test]
+fn window_sums_by_doubling_are_the_sums_of_their_taps() {
+    let a: Vec<i32> = (0..120).map(|i| i * 7919 % 1013).collect();
+    for n in [1usize, 2, 3, 5, 9, 16, 17, 33, 65] {
+        let width = a.len() + 1 - n;
+        let mut out = vec![-1; width];
+        let (mut p0, mut p1) = (vec![-1; a.len()], vec![-1; a.len()]);
+        window_sum(&a, n, &mut out, &mut p0, &mut p1);
+        for (x, &o) in out.iter().enumerate() {
+            assert_eq!(o, a[x..x + n].iter().sum::<i32>(), "{n} taps at {x}");
+        }
+    }
+}
+
+#[test]
+fn the_largest_windows_of_the_largest_costs_fit_in_i32() {
+    // Every view of the largest grid, three channels, each difference at the truncation:
+    // the largest pixel cost, summed over the largest window the parameters allow.
+    let views = 2 * (crate::lightfield::GRID_MAX - 1);
+    for tau in [0.001f32, 0.1, 1.0] {
+        for (radius, line) in [
+            (MAX_RADIUS, MAX_LINE),
+            (MAX_RADIUS, 1),
+            (1, MAX_LINE),
+            (0, 1),
+        ] {
+            let (rx, ry) = (radius, radius);
+            let taps = ((2 * rx + 1) * (2 * ry + 1)).max(2 * line * radius + 1);
+            let terms = views * 3;
+            let scale = fixed_scale(taps, terms, tau);
+            // The f32 sum of the terms may round up a little.
+            let pixel = fixed(terms as f32 * tau * (1.0 + 1.0e-5), scale) as i64;
+            let window = pixel * taps as i64;
+            assert!(
+                window < i32::MAX as i64,
+                "τ {tau}, r {radius}, line {line}: {window}"
+            );
+            // And the unit stays far below the cost of one difference.
+            assert!(
+                scale * tau > 1.0e3,
+                "τ {tau}, r {radius}, line {line}: {scale}"
+            );
+        }
+    }
+}
+
+#[test]
+fn fixed_point_costs_round_to_the_nearest_unit() {
+    for (cost, units) in [
+        (0.0f32, 0),
+        (0.4, 0),
+        (0.6, 1),
+        (1.5, 2),
+        (2.5, 2),
+        (1234.49, 1234),
+        (4_194_303.0, 4_194_303),
+        (8_388_607.0, 8_388_607),
+    ] {
+        assert_eq!(fixed(cost, 1.0), units, "{cost}");
+    }
+    // The scale keeps the largest pixel cost below 2²², where the rounding is exact.
+    let scale = fixed_scale(1, 48, 0.1);
+    assert!(fixed(4.8, scale) <= 1 << 22);
+    assert_eq!(fixed(2.4, scale), 1 << 21);
+}
