@@ -59,7 +59,7 @@
 
 mod params;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 use core::ops::Range;
 
@@ -67,7 +67,7 @@ use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::{LightField, Sample, View};
 use crate::setup::{DisparityOut, Setup};
 
-pub use params::{PlaneSweepParams, MAX_LINE, MAX_RADIUS};
+pub use params::{PlaneSweepParams, MAX_CANDIDATE, MAX_LINE, MAX_RADIUS};
 
 /// Progress and timing stage name.
 pub const STAGE: &str = "sweep";
@@ -90,19 +90,48 @@ const STATE: usize = 6;
 /// window along and across its axis.
 const VOLUMES: usize = 5;
 
+/// Most cost volumes a band keeps: [`VOLUMES`] and the per-pixel candidate's
+/// ([`PlaneSweepParams::candidate`]).
+const MOST_VOLUMES: usize = VOLUMES + 1;
+
+/// Volumes a band keeps: the candidate's besides the others when it is on.
+fn volume_count(params: &PlaneSweepParams) -> usize {
+    if params.candidate > 0 {
+        MOST_VOLUMES
+    } else {
+        VOLUMES
+    }
+}
+
+/// Padding (px) of a volume's pixel-cost row: the widest window along x.
+fn padding(params: &PlaneSweepParams) -> usize {
+    (params.line * params.radius).max(params.candidate / 2)
+}
+
+/// Where the stage writes a band: its map and, with [`PlaneSweepParams::candidate`],
+/// the per-pixel candidate (the winner of the candidate's small window, refined as the
+/// map's), one value per pixel of the band each.
+#[derive(Debug)]
+pub struct SweepOut<'a> {
+    /// The disparity and confidence of the band.
+    pub map: DisparityOut<'a>,
+    /// The per-pixel candidate of the band (`None` when the candidate is off).
+    pub candidate: Option<&'a mut [f32]>,
+}
+
 /// Scratch (`f32` elements) of [`estimate_rows`] for a band of up to [`BAND_ROWS`] rows:
 /// two interleaved rows of matching costs (row and column views) and the centre row,
 /// one aggregated row,
-/// per volume a padded row of pixel costs, the filtered rows of the band and its halo
-/// and six values per pixel of the band, and the views' rows in unit intensity that a
-/// band keeps (`cache_rows` rows of interleaved samples).
+/// per volume (with the candidate's, when on) a padded row of pixel costs, the filtered
+/// rows of the band and its halo and six values per pixel of the band, and the views'
+/// rows in unit intensity that a band keeps (`cache_rows` rows of interleaved samples).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
     let line = setup.params().line * setup.params().radius;
     let rows = BAND_ROWS.min(layout.height);
     let volume = [
-        width.saturating_add(2 * line),
+        width.saturating_add(2 * padding(setup.params())),
         rows.saturating_add(2 * line).saturating_mul(width),
         rows.saturating_mul(width).saturating_mul(STATE),
     ]
@@ -111,7 +140,7 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let parts = [
         width.saturating_mul(channels).saturating_mul(GROUPS + 1),
         width.saturating_mul(3),
-        volume.saturating_mul(VOLUMES),
+        volume.saturating_mul(volume_count(setup.params())),
         cache_rows(layout.grid, height_rows(layout.height, line), layout.height)
             .saturating_mul(width.saturating_mul(channels)),
     ];
@@ -260,7 +289,8 @@ impl RowCache {
 
 /// Estimates rows `rows` (at most [`BAND_ROWS`]) of the disparity of `lf`'s centre view
 /// over the hypotheses of `range` (`(min, max)`, px) into `out` (one value per pixel of
-/// the rows), with `scratch` ([`scratch_len`] `f32` elements).
+/// the rows), with `scratch` ([`scratch_len`] `f32` elements). The per-pixel candidate
+/// is not computed: [`estimate_rows_with_candidate`] writes it too.
 pub fn estimate_rows<S: Sample>(
     setup: Setup<'_, PlaneSweepParams>,
     range: (f32, f32),
@@ -269,6 +299,30 @@ pub fn estimate_rows<S: Sample>(
     out: DisparityOut<'_>,
     scratch: &mut [f32],
 ) -> Result<()> {
+    let out = SweepOut {
+        map: out,
+        candidate: None,
+    };
+    estimate_band(setup, range, lf, rows, out, scratch, true)
+}
+
+/// [`estimate_rows`] that also writes the per-pixel candidate
+/// ([`PlaneSweepParams::candidate`], which must be on) into `out.candidate`. The map is
+/// the same bits as without it.
+pub fn estimate_rows_with_candidate<S: Sample>(
+    setup: Setup<'_, PlaneSweepParams>,
+    range: (f32, f32),
+    lf: &LightField<'_, S>,
+    rows: Range<usize>,
+    out: SweepOut<'_>,
+    scratch: &mut [f32],
+) -> Result<()> {
+    if setup.params().candidate == 0 || out.candidate.is_none() {
+        return Err(Error::InvalidParameter {
+            name: "sweep.candidate",
+            reason: "is off (0) or has no output: set a window side (1, 3, …) and give the candidate's rows",
+        });
+    }
     estimate_band(setup, range, lf, rows, out, scratch, true)
 }
 
@@ -279,10 +333,14 @@ fn estimate_band<S: Sample>(
     range: (f32, f32),
     lf: &LightField<'_, S>,
     rows: Range<usize>,
-    out: DisparityOut<'_>,
+    out: SweepOut<'_>,
     scratch: &mut [f32],
     keep_rows: bool,
 ) -> Result<()> {
+    let SweepOut {
+        map: out,
+        mut candidate,
+    } = out;
     let layout = setup.layout();
     if lf.layout() != layout {
         return Err(Error::InvalidParameter {
@@ -299,9 +357,16 @@ fn estimate_band<S: Sample>(
         });
     }
     let len = checked_product(&[rows.len(), width], "a band of the plane sweep")?;
+    if params.candidate == 0 {
+        candidate = None;
+    }
     for (what, got) in [
         ("the plane sweep's disparity", out.disparity.len()),
         ("the plane sweep's confidence", out.confidence.len()),
+        (
+            "the plane sweep's candidate",
+            candidate.as_deref().map_or(len, <[f32]>::len),
+        ),
     ] {
         if got != len {
             return Err(Error::OutputSize {
@@ -311,6 +376,8 @@ fn estimate_band<S: Sample>(
             });
         }
     }
+    // Without an output for it the candidate's volume is not computed (its scratch is
+    // left unused).
     check_scratch(scratch_len(setup), scratch.len())?;
     let (min, max) = range;
     if !(min.is_finite() && max.is_finite() && min <= max) {
@@ -366,20 +433,29 @@ fn estimate_band<S: Sample>(
     let line = params.line * r;
     let region = rows.start.saturating_sub(line)..(rows.end + line).min(height);
     let mut rest = rest;
-    let mut volumes: heapless::Vec<Volume<'_>, VOLUMES> = heapless::Vec::new();
+    let mut volumes: heapless::Vec<Volume<'_>, MOST_VOLUMES> = heapless::Vec::new();
+    let small = params.candidate / 2;
     let kinds = [
         (Source::All, (r, r)),
         (Source::Horizontal, (line, 0)),
         (Source::Vertical, (0, line)),
         (Source::Horizontal, (0, line)),
         (Source::Vertical, (line, 0)),
+        // The per-pixel candidate: every view in a small square (last).
+        (Source::All, (small, small)),
     ];
-    for (source, radii) in kinds {
+    let kept = if candidate.is_some() {
+        MOST_VOLUMES
+    } else {
+        VOLUMES
+    };
+    let pad = padding(params);
+    for (source, radii) in kinds.into_iter().take(kept) {
         let (volume, tail) = Volume::take(
             rest,
             source,
             radii,
-            width + 2 * line,
+            width + 2 * pad,
             region.len() * width,
             len,
         )?;
@@ -465,7 +541,13 @@ fn estimate_band<S: Sample>(
     for volume in volumes.iter_mut() {
         volume.finish(mean_scale, min, max, spacing);
     }
-    let Some((all, axes)) = volumes.split_first() else {
+    let (winners, extra) = volumes
+        .split_at_checked(VOLUMES.min(volumes.len()))
+        .unwrap_or((&[], &[]));
+    if let (Some(candidate), Some(volume)) = (candidate, extra.first()) {
+        copy(candidate, volume.best_at);
+    }
+    let Some((all, axes)) = winners.split_first() else {
         return Err(Error::SizeOverflow {
             what: "the volumes",
         });
