@@ -19,6 +19,9 @@
 //! (0.05 px) of one tried this round, or of the last `REMEMBERED` ones the pixel
 //! rejected in earlier rounds, is not tried again (an equal one could not pass the
 //! bar, which only falls; a nearly equal one rarely does).
+//! With a candidate map ([`Start::candidate`], the plane sweep's per-pixel winners) the
+//! first round also offers each pixel its own candidate, by the same rule, where the
+//! candidates of two opposite neighbours lie within 0.125 px of it (a line of them).
 //!
 //! **Gauss–Newton** ([`RefineParams::iterations`]): for view `v` at camera offset
 //! `(u, v)` the residual `r = I_v(x − d·u, y − d·v) − I_c(x, y)` per colour channel

@@ -138,7 +138,7 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
                     (candidates[0] + candidates[1] - own - own).abs() > k.offer,
                     (candidates[2] + candidates[3] - own - own).abs() > k.offer,
                 );
-                let mut offers = [false; 5];
+                let mut offers = [false; 4];
                 for (n, (offer, &d)) in offers.iter_mut().zip(&candidates).enumerate() {
                     let pair_bent = if n < 2 { bent.0 } else { bent.1 };
                     *offer = pair_bent && (d - own).abs() > k.offer;
@@ -146,15 +146,18 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
                 // The pixel's own candidate, offered as a neighbour's disparity is
                 // where a line of candidates runs through it (no line test of
                 // neighbours: it is no neighbour's).
-                let extra = own_candidate
-                    .and_then(|c| supported(c, width, region_rows, x, y))
-                    .map_or(own, T::from_f32);
-                offers[4] = (extra - own).abs() > k.offer;
-                if offers == [false; 5] {
+                let extra = match own_candidate {
+                    Some(c) => supported(c, width, region_rows, x, y)
+                        .map(T::from_f32)
+                        .filter(|&e| (e - own).abs() > k.offer),
+                    None => None,
+                };
+                if offers == [false; 4] && extra.is_none() {
                     continue;
                 }
-                let [left, right, above, below] = candidates;
-                let candidates = [left, right, above, below, extra];
+                let ([left, right, above, below], [l, r, a, b]) = (candidates, offers);
+                let candidates = [left, right, above, below, extra.unwrap_or(own)];
+                let offers = [l, r, a, b, extra.is_some()];
                 let (Some(kept), Some(stat)) = (
                     memory
                         .get_mut(i * MEMORY..)

@@ -17,6 +17,12 @@
 //! contract, `docs/ARCHITECTURE.md`), as long as parts are placed in index order (the
 //! TV residual histories are summed in tile order).
 //!
+//! With the plane sweep's per-pixel candidate (`PlaneSweepParams::candidate`) the sweep
+//! places the candidate into the current disparity (the other one once the step
+//! finishes), and the refinement, which reads the start and the candidate with a halo,
+//! places its disparity into the other confidence and its confidence into the current
+//! one; its `finish` makes its disparity current.
+//!
 //! # Scratch
 //! Each step states its per-part scratch ([`Schedule::scratch_len`]): kernel scalars
 //! (`T`), `f32` maps and optional flag bytes. A driver gives each concurrent part its
