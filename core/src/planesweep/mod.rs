@@ -90,6 +90,12 @@ const STATE: usize = 6;
 /// window along and across its axis.
 const VOLUMES: usize = 5;
 
+/// The per-pixel candidate's confidence (`1 − c₀ / c̄` of its window's cost curve)
+/// below which the map's disparity is written in its place: the winner of a flat
+/// curve is noise (docs/stages/sweep.md, "A per-pixel candidate": 512² hall, corridor
+/// and every other scene better with it than without).
+const CANDIDATE_CONFIDENCE: f32 = 0.5;
+
 /// Most cost volumes a band keeps: [`VOLUMES`] and the per-pixel candidate's
 /// ([`PlaneSweepParams::candidate`]).
 const MOST_VOLUMES: usize = VOLUMES + 1;
@@ -110,7 +116,8 @@ fn padding(params: &PlaneSweepParams) -> usize {
 
 /// Where the stage writes a band: its map and, with [`PlaneSweepParams::candidate`],
 /// the per-pixel candidate (the winner of the candidate's small window, refined as the
-/// map's), one value per pixel of the band each.
+/// map's, where that window's confidence reaches `CANDIDATE_CONFIDENCE`; the map's
+/// disparity elsewhere), one value per pixel of the band each.
 #[derive(Debug)]
 pub struct SweepOut<'a> {
     /// The disparity and confidence of the band.
@@ -544,9 +551,6 @@ fn estimate_band<S: Sample>(
     let (winners, extra) = volumes
         .split_at_checked(VOLUMES.min(volumes.len()))
         .unwrap_or((&[], &[]));
-    if let (Some(candidate), Some(volume)) = (candidate, extra.first()) {
-        copy(candidate, volume.best_at);
-    }
     let Some((all, axes)) = winners.split_first() else {
         return Err(Error::SizeOverflow {
             what: "the volumes",
@@ -566,6 +570,17 @@ fn estimate_band<S: Sample>(
                 *d = dv;
                 *c = cv;
             }
+        }
+    }
+    if let (Some(candidate), Some(volume)) = (candidate, extra.first()) {
+        // The winner of a flat cost curve is noise: the map's own disparity in its place
+        // (which the refinement does not offer).
+        let pixels = candidate
+            .iter_mut()
+            .zip(volume.best_at.iter().zip(volume.sum.iter()))
+            .zip(out.disparity.iter());
+        for ((k, (&d, &c)), &map) in pixels {
+            *k = if c >= CANDIDATE_CONFIDENCE { d } else { map };
         }
     }
     Ok(())

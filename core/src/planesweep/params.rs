@@ -42,9 +42,11 @@ pub struct PlaneSweepParams {
     /// (a line of them): structures narrower than every window of the sweep are lost
     /// to its map and held by no neighbour. 1: the per-pixel cost `e_h + e_v` alone.
     /// 0: off. Only when the sweep alone starts the pipeline and the refinement
-    /// propagates. Measured in docs/stages/sweep.md ("A per-pixel candidate"): it
-    /// improves both HCI scenes and the 512² suite's mean, but not every scene of the
-    /// 256² suite, so it is off.
+    /// propagates. Where the small window's cost curve is flat (confidence below 0.5)
+    /// the map's own disparity stands in (no offer). Measured in docs/stages/sweep.md
+    /// ("A per-pixel candidate"): it improves both HCI scenes and every scene of the
+    /// 512² suite, but not demo `thin` or the 256² dusk, and 256² hall, relief and
+    /// tabletop get worse, so it is off.
     pub candidate: usize,
 }
 
