@@ -30,6 +30,34 @@ fn plane_sweep_maps_are_the_same_for_any_thread_count() {
     }
 }
 
+/// `--sweep-candidate N` (the sweep's per-pixel candidate, offered to the refinement):
+/// the same bits for any thread count, a different map from the default's, and no change
+/// to the start's own map (`--stage epi`).
+#[test]
+fn the_sweep_candidate_flag_changes_the_refined_map_alike_on_any_thread_count() {
+    let dir = common::temp();
+    let scene = common::synth_scene(&dir.path().join("thin"), "thin", 64, &[]);
+    let out = dir.path().join("est.pfm");
+    let default = common::estimate_bits(&scene, &out, &["--threads", "1"]);
+    for side in ["1", "3"] {
+        let flags = ["--sweep-candidate", side];
+        let one = common::estimate_bits(&scene, &out, &[&flags[..], &["--threads", "1"]].concat());
+        let three =
+            common::estimate_bits(&scene, &out, &[&flags[..], &["--threads", "3"]].concat());
+        assert_eq!(one, three, "{side}: 1 and 3 threads give the same bits");
+        assert_ne!(
+            one, default,
+            "{side}: the candidate changes the refined map"
+        );
+        let start = ["--threads", "2", "--stage", "epi"];
+        assert_eq!(
+            common::estimate_bits(&scene, &out, &[&flags[..], &start[..]].concat()),
+            common::estimate_bits(&scene, &out, &start),
+            "{side}: the sweep's own map does not change"
+        );
+    }
+}
+
 #[test]
 fn bad_sweep_flags_are_refused_with_their_range() {
     let dir = common::temp();
@@ -40,6 +68,8 @@ fn bad_sweep_flags_are_refused_with_their_range() {
         (&["--sweep-radius", "9"], "--sweep-radius"),
         (&["--sweep-truncate", "2"], "--sweep-truncate"),
         (&["--sweep-line", "0"], "--sweep-line"),
+        (&["--sweep-candidate", "2"], "--sweep-candidate"),
+        (&["--sweep-candidate", "11"], "--sweep-candidate"),
         (&["--initial", "tensor"], "--initial"),
         (&["--initial", "sweep", "--epi-half", "1"], "--initial"),
         (&["--epi-half", "1"], "--initial"),

@@ -95,6 +95,11 @@ export interface EstimateParams {
    * square of the sweep's over this, so TV weighs such starts less (0: off) (0…1;
    * default 0). CLI: `--sweep-trust`. */
   sweepTrust?: number;
+  /** Plane sweep: side (px, odd) of a small square window whose confident winner per
+   * pixel the refinement's first propagation round tries as one more candidate where two
+   * opposite neighbours' winners agree with it, for structures narrower than the sweep's
+   * windows (1: the pixel alone; 0: off) (0…9; default 0). CLI: `--sweep-candidate`. */
+  sweepCandidate?: number;
   /** Photometric refinement of the EPI disparity over many views (default true). CLI:
    * `--refine`. */
   refine?: boolean;

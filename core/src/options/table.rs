@@ -410,6 +410,18 @@ pub static TUNABLES: &[Tunable] = &[
             Some(())
         },
     },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-candidate")),
+        key: Some("sweepCandidate"),
+        doc: "Plane sweep: side (px, odd) of a small square window whose confident winner per pixel the refinement's first propagation round tries as one more candidate where two opposite neighbours' winners agree with it, for structures narrower than the sweep's windows (1: the pixel alone; 0: off)",
+        kind: ints(0, crate::planesweep::MAX_CANDIDATE),
+        path: "sweep.candidate",
+        get: |p| Value::Int(p.sweep.candidate),
+        set: |p, v| {
+            p.sweep.candidate = int(v)?;
+            Some(())
+        },
+    },
     // Photometric refinement.
     Tunable {
         flag: Some(Flag::Value("--refine")),

@@ -65,7 +65,7 @@
 
 mod params;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 use core::ops::Range;
 
@@ -73,7 +73,7 @@ use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::{LightField, Sample, View};
 use crate::setup::{DisparityOut, Setup};
 
-pub use params::{PlaneSweepParams, MAX_LINE, MAX_RADIUS};
+pub use params::{PlaneSweepParams, MAX_CANDIDATE, MAX_LINE, MAX_RADIUS};
 
 /// Progress and timing stage name.
 pub const STAGE: &str = "sweep";
@@ -96,20 +96,58 @@ const STATE: usize = 6;
 /// window along and across its axis.
 const VOLUMES: usize = 5;
 
+/// The per-pixel candidate's confidence (`1 − c₀ / c̄` of its window's cost curve)
+/// below which the map's disparity is written in its place: the winner of a flat
+/// curve is noise (docs/stages/sweep.md, "A per-pixel candidate": 512² hall, corridor
+/// and every other scene better with it than without).
+const CANDIDATE_CONFIDENCE: f32 = 0.5;
+
+/// Most cost volumes a band keeps: [`VOLUMES`] and the per-pixel candidate's
+/// ([`PlaneSweepParams::candidate`]).
+const MOST_VOLUMES: usize = VOLUMES + 1;
+
+/// Volumes a band keeps: the candidate's besides the others when it is on.
+fn volume_count(params: &PlaneSweepParams) -> usize {
+    if params.candidate > 0 {
+        MOST_VOLUMES
+    } else {
+        VOLUMES
+    }
+}
+
+/// Padding (px) of a volume's pixel-cost row: the widest window along x.
+fn padding(params: &PlaneSweepParams) -> usize {
+    (params.line * params.radius).max(params.candidate / 2)
+}
+
+/// Where the stage writes a band: its map and, with [`PlaneSweepParams::candidate`],
+/// the per-pixel candidate (the winner of the candidate's small window, refined as the
+/// map's, where that window's confidence reaches `CANDIDATE_CONFIDENCE`; the map's
+/// disparity elsewhere), one value per pixel of the band each.
+#[derive(Debug)]
+pub struct SweepOut<'a> {
+    /// The disparity and confidence of the band.
+    pub map: DisparityOut<'a>,
+    /// The per-pixel candidate of the band (`None` when the candidate is off).
+    pub candidate: Option<&'a mut [f32]>,
+}
+
 /// Scratch (`f32` elements) of [`estimate_rows`] for a band of up to [`BAND_ROWS`] rows:
 /// two interleaved rows of matching costs (row and column views) and the centre row,
-/// the two groups' fixed-point pixel costs of a row, per volume four padded rows (the
-/// pixel costs, two of partial window sums along x and the running window sum along y),
-/// the filtered rows of the band and its halo and six values per pixel of the band, and
-/// the views' rows in unit intensity that a band keeps (`cache_rows` rows of interleaved
-/// samples).
+/// the two groups' fixed-point pixel costs of a row, per volume (with the candidate's,
+/// when on) four padded rows (the pixel costs, two of partial window sums along x and
+/// the running window sum along y), the filtered rows of the band and its halo and six
+/// values per pixel of the band, and the views' rows in unit intensity that a band keeps
+/// (`cache_rows` rows of interleaved samples).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
     let line = setup.params().line * setup.params().radius;
     let rows = BAND_ROWS.min(layout.height);
     let volume = [
-        width.saturating_add(2 * line).saturating_mul(4),
+        width
+            .saturating_add(2 * padding(setup.params()))
+            .saturating_mul(4),
         rows.saturating_add(2 * line).saturating_mul(width),
         rows.saturating_mul(width).saturating_mul(STATE),
     ]
@@ -118,7 +156,7 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let parts = [
         width.saturating_mul(channels).saturating_mul(GROUPS + 1),
         width.saturating_mul(GROUPS),
-        volume.saturating_mul(VOLUMES),
+        volume.saturating_mul(volume_count(setup.params())),
         cache_rows(layout.grid, height_rows(layout.height, line), layout.height)
             .saturating_mul(width.saturating_mul(channels)),
     ];
@@ -267,7 +305,8 @@ impl RowCache {
 
 /// Estimates rows `rows` (at most [`BAND_ROWS`]) of the disparity of `lf`'s centre view
 /// over the hypotheses of `range` (`(min, max)`, px) into `out` (one value per pixel of
-/// the rows), with `scratch` ([`scratch_len`] `f32` elements).
+/// the rows), with `scratch` ([`scratch_len`] `f32` elements). The per-pixel candidate
+/// is not computed: [`estimate_rows_with_candidate`] writes it too.
 pub fn estimate_rows<S: Sample>(
     setup: Setup<'_, PlaneSweepParams>,
     range: (f32, f32),
@@ -276,6 +315,30 @@ pub fn estimate_rows<S: Sample>(
     out: DisparityOut<'_>,
     scratch: &mut [f32],
 ) -> Result<()> {
+    let out = SweepOut {
+        map: out,
+        candidate: None,
+    };
+    estimate_band(setup, range, lf, rows, out, scratch, true)
+}
+
+/// [`estimate_rows`] that also writes the per-pixel candidate
+/// ([`PlaneSweepParams::candidate`], which must be on) into `out.candidate`. The map is
+/// the same bits as without it.
+pub fn estimate_rows_with_candidate<S: Sample>(
+    setup: Setup<'_, PlaneSweepParams>,
+    range: (f32, f32),
+    lf: &LightField<'_, S>,
+    rows: Range<usize>,
+    out: SweepOut<'_>,
+    scratch: &mut [f32],
+) -> Result<()> {
+    if setup.params().candidate == 0 || out.candidate.is_none() {
+        return Err(Error::InvalidParameter {
+            name: "sweep.candidate",
+            reason: "is off (0) or has no output: set a window side (1, 3, …) and give the candidate's rows",
+        });
+    }
     estimate_band(setup, range, lf, rows, out, scratch, true)
 }
 
@@ -286,10 +349,14 @@ fn estimate_band<S: Sample>(
     range: (f32, f32),
     lf: &LightField<'_, S>,
     rows: Range<usize>,
-    out: DisparityOut<'_>,
+    out: SweepOut<'_>,
     scratch: &mut [f32],
     keep_rows: bool,
 ) -> Result<()> {
+    let SweepOut {
+        map: out,
+        mut candidate,
+    } = out;
     let layout = setup.layout();
     if lf.layout() != layout {
         return Err(Error::InvalidParameter {
@@ -306,9 +373,16 @@ fn estimate_band<S: Sample>(
         });
     }
     let len = checked_product(&[rows.len(), width], "a band of the plane sweep")?;
+    if params.candidate == 0 {
+        candidate = None;
+    }
     for (what, got) in [
         ("the plane sweep's disparity", out.disparity.len()),
         ("the plane sweep's confidence", out.confidence.len()),
+        (
+            "the plane sweep's candidate",
+            candidate.as_deref().map_or(len, <[f32]>::len),
+        ),
     ] {
         if got != len {
             return Err(Error::OutputSize {
@@ -318,6 +392,8 @@ fn estimate_band<S: Sample>(
             });
         }
     }
+    // Without an output for it the candidate's volume is not computed (its scratch is
+    // left unused).
     check_scratch(scratch_len(setup), scratch.len())?;
     let (min, max) = range;
     if !(min.is_finite() && max.is_finite() && min <= max) {
@@ -373,13 +449,16 @@ fn estimate_band<S: Sample>(
     let line = params.line * r;
     let region = rows.start.saturating_sub(line)..(rows.end + line).min(height);
     let mut rest = rest;
-    let mut volumes: heapless::Vec<Volume<'_>, VOLUMES> = heapless::Vec::new();
+    let mut volumes: heapless::Vec<Volume<'_>, MOST_VOLUMES> = heapless::Vec::new();
+    let small = params.candidate / 2;
     let kinds = [
         (Source::All, (r, r)),
         (Source::Horizontal, (line, 0)),
         (Source::Vertical, (0, line)),
         (Source::Horizontal, (0, line)),
         (Source::Vertical, (line, 0)),
+        // The per-pixel candidate: every view in a small square (last).
+        (Source::All, (small, small)),
     ];
     let used = channels.min(3);
     let taps = kinds
@@ -388,12 +467,18 @@ fn estimate_band<S: Sample>(
         .max()
         .unwrap_or(1);
     let scale = fixed_scale(taps, views.len() * used, tau);
-    for (source, radii) in kinds {
+    let kept = if candidate.is_some() {
+        MOST_VOLUMES
+    } else {
+        VOLUMES
+    };
+    let pad = padding(params);
+    for (source, radii) in kinds.into_iter().take(kept) {
         let (volume, tail) = Volume::take(
             rest,
             source,
             radii,
-            width + 2 * line,
+            width + 2 * pad,
             region.len() * width,
             len,
         )?;
@@ -478,7 +563,10 @@ fn estimate_band<S: Sample>(
     for volume in volumes.iter_mut() {
         volume.finish(mean_scale, min, max, spacing);
     }
-    let Some((all, axes)) = volumes.split_first() else {
+    let (winners, extra) = volumes
+        .split_at_checked(VOLUMES.min(volumes.len()))
+        .unwrap_or((&[], &[]));
+    let Some((all, axes)) = winners.split_first() else {
         return Err(Error::SizeOverflow {
             what: "the volumes",
         });
@@ -497,6 +585,17 @@ fn estimate_band<S: Sample>(
                 *d = dv;
                 *c = cv;
             }
+        }
+    }
+    if let (Some(candidate), Some(volume)) = (candidate, extra.first()) {
+        // The winner of a flat cost curve is noise: the map's own disparity in its place
+        // (which the refinement does not offer).
+        let pixels = candidate
+            .iter_mut()
+            .zip(volume.best_at.iter().zip(volume.sum.iter()))
+            .zip(out.disparity.iter());
+        for ((k, (&d, &c)), &map) in pixels {
+            *k = if c >= CANDIDATE_CONFIDENCE { d } else { map };
         }
     }
     Ok(())

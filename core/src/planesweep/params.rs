@@ -7,6 +7,8 @@ use crate::setup::StageParams;
 pub const MAX_RADIUS: usize = 8;
 /// Longest line window factor.
 pub const MAX_LINE: usize = 4;
+/// Widest window (px) of the per-pixel candidate ([`PlaneSweepParams::candidate`]).
+pub const MAX_CANDIDATE: usize = 9;
 
 /// Parameters of the plane-sweep start.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,6 +35,19 @@ pub struct PlaneSweepParams {
     /// 256² dusk poster and lowers the 512² suite's mean, but worsens 256² hall and six
     /// of the seven synthetic demo scenes, so it is off.
     pub trust: f32,
+    /// Side (px, odd, at most [`MAX_CANDIDATE`]) of a small square window whose winner
+    /// the sweep keeps per pixel beside its map, and which the refinement's first
+    /// propagation round offers each pixel as one more candidate (accepted by the rule
+    /// of a neighbour's) where the candidates of two opposite neighbours agree with it
+    /// (a line of them): structures narrower than every window of the sweep are lost
+    /// to its map and held by no neighbour. 1: the per-pixel cost `e_h + e_v` alone.
+    /// 0: off. Only when the sweep alone starts the pipeline and the refinement
+    /// propagates. Where the small window's cost curve is flat (confidence below 0.5)
+    /// the map's own disparity stands in (no offer). Measured in docs/stages/sweep.md
+    /// ("A per-pixel candidate"): it improves both HCI scenes and every scene of the
+    /// 512² suite, but not demo `thin` or the 256² dusk, and 256² hall, relief and
+    /// tabletop get worse, so it is off.
+    pub candidate: usize,
 }
 
 impl Default for PlaneSweepParams {
@@ -45,6 +60,7 @@ impl Default for PlaneSweepParams {
             select: 1.0,
             line: 2,
             trust: 0.0,
+            candidate: 0,
         }
     }
 }
@@ -84,6 +100,12 @@ impl PlaneSweepParams {
         }
         if !(self.trust.is_finite() && (0.0..=1.0).contains(&self.trust)) {
             return bad("sweep.trust", "must be in [0, 1] (0: off)");
+        }
+        if self.candidate > MAX_CANDIDATE || (self.candidate > 0 && self.candidate % 2 == 0) {
+            return bad(
+                "sweep.candidate",
+                "must be 0 (off) or an odd window side of at most 9 pixels (1, 3, …)",
+            );
         }
         Ok(())
     }

@@ -74,9 +74,12 @@ fn estimate_with<S: Sample>(
             range,
             lf,
             start..end,
-            DisparityOut {
-                disparity: &mut d[start * width..end * width],
-                confidence: &mut c[start * width..end * width],
+            SweepOut {
+                map: DisparityOut {
+                    disparity: &mut d[start * width..end * width],
+                    confidence: &mut c[start * width..end * width],
+                },
+                candidate: None,
             },
             &mut scratch,
             keep_rows,
@@ -243,6 +246,20 @@ fn bad_parameters_are_named() {
                 ..enabled()
             },
         ),
+        (
+            "sweep.candidate",
+            PlaneSweepParams {
+                candidate: 2,
+                ..enabled()
+            },
+        ),
+        (
+            "sweep.candidate",
+            PlaneSweepParams {
+                candidate: MAX_CANDIDATE + 2,
+                ..enabled()
+            },
+        ),
     ];
     for (name, params) in bad {
         match params.validate() {
@@ -385,4 +402,233 @@ fn fixed_point_costs_round_to_the_nearest_unit() {
     let scale = fixed_scale(1, 48, 0.1);
     assert!(fixed(4.8, scale) <= 1 << 22);
     assert_eq!(fixed(2.4, scale), 1 << 21);
+}
+
+/// A textured bar `width` px wide (across it) running diagonally at disparity `bar` in
+/// front of a textured plane at `background`, rendered exactly on a 9×9 grid of
+/// `size`² views: view `(u, v)` shows at `(x', y')` the bar's point `(x' + bar·u,
+/// y' + bar·v)` where that lies on the bar, else the background's. Returns the views and
+/// the centre view's true disparity.
+pub(crate) fn diagonal_bar(
+    size: usize,
+    width: f32,
+    bar: f32,
+    background: f32,
+) -> (Vec<f32>, Layout, Vec<f32>) {
+    let grid = Grid::new(9, 9);
+    let layout = Layout::packed(grid, size, size, 3);
+    let (r0, c0) = grid.center();
+    // Across the bar: the distance from the diagonal through the view's centre.
+    let middle = size as f32 / 2.0;
+    let on_bar = move |x: f32, y: f32| {
+        ((x - middle) - (y - middle)).abs() * core::f32::consts::FRAC_1_SQRT_2 <= width / 2.0
+    };
+    let mut data = Vec::with_capacity(grid.len() * size * size * 3);
+    for r in 0..grid.rows {
+        for c in 0..grid.cols {
+            let (v, u) = (r as f32 - r0 as f32, c as f32 - c0 as f32);
+            for y in 0..size {
+                for x in 0..size {
+                    let (fx, fy) = (x as f32 + bar * u, y as f32 + bar * v);
+                    for ch in 0..3 {
+                        data.push(if on_bar(fx, fy) {
+                            // Its own texture, darker than the background.
+                            0.6 * texture(fx + 37.0, fy - 11.0, 2 - ch)
+                        } else {
+                            texture(x as f32 + background * u, y as f32 + background * v, ch)
+                        });
+                    }
+                }
+            }
+        }
+    }
+    let gt = (0..size)
+        .flat_map(|y| {
+            (0..size).map(move |x| {
+                if on_bar(x as f32, y as f32) {
+                    bar
+                } else {
+                    background
+                }
+            })
+        })
+        .collect();
+    (data, layout, gt)
+}
+
+/// The sweep's map and per-pixel candidate of the whole view, band by band.
+fn estimate_candidate(
+    setup: &TestSetup<PlaneSweepParams>,
+    lf: &LightField<'_, f32>,
+    range: (f32, f32),
+    band: usize,
+) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let (width, height) = (setup.layout().width, setup.layout().height);
+    let mut d = vec![f32::NAN; width * height];
+    let mut c = vec![f32::NAN; width * height];
+    let mut k = vec![f32::NAN; width * height];
+    let mut scratch = vec![f32::NAN; scratch_len(setup.setup())];
+    let mut start = 0;
+    while start < height {
+        let end = (start + band).min(height);
+        let span = start * width..end * width;
+        estimate_rows_with_candidate(
+            setup.setup(),
+            range,
+            lf,
+            start..end,
+            SweepOut {
+                map: DisparityOut {
+                    disparity: &mut d[span.clone()],
+                    confidence: &mut c[span.clone()],
+                },
+                candidate: Some(&mut k[span]),
+            },
+            &mut scratch,
+        )
+        .unwrap();
+        start = end;
+    }
+    (d, c, k)
+}
+
+/// Share of the bar's pixels (8 px from the border) within `tolerance` of the truth.
+fn on_bar_within(d: &[f32], gt: &[f32], size: usize, bar: f32, tolerance: f32) -> f32 {
+    let (mut good, mut all) = (0, 0);
+    for y in 8..size - 8 {
+        for x in 8..size - 8 {
+            let i = y * size + x;
+            if gt[i] == bar {
+                all += 1;
+                if (d[i] - bar).abs() <= tolerance {
+                    good += 1;
+                }
+            }
+        }
+    }
+    assert!(all > 0);
+    good as f32 / all as f32
+}
+
+#[test]
+fn a_thin_diagonal_bar_is_lost_by_the_windows_and_kept_by_the_candidate() {
+    let size = 48;
+    let (data, layout, gt) = diagonal_bar(size, 2.0, 1.2, -0.6);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    // The 1×1 candidate keeps the bar; a 3×3 window straddles it and the background
+    // (a flatter cost curve), whose confident winners keep less of it.
+    for (side, kept) in [(1, 0.8), (3, 0.2)] {
+        let setup = TestSetup::new(
+            layout,
+            PlaneSweepParams {
+                candidate: side,
+                ..enabled()
+            },
+        );
+        let (d, _, k) = estimate_candidate(&setup, &lf, (-1.5, 1.5), BAND_ROWS);
+        let map = on_bar_within(&d, &gt, size, 1.2, 0.25);
+        let candidate = on_bar_within(&k, &gt, size, 1.2, 0.25);
+        assert!(map < 0.5, "{side}: the map keeps {map} of the bar");
+        assert!(candidate > kept, "{side}: the candidate keeps {candidate}");
+        assert!(
+            candidate > map + 0.15,
+            "{side}: {candidate} against the map's {map}"
+        );
+        // The map is the one without the candidate, bit for bit.
+        let plain = TestSetup::new(layout, enabled());
+        let (pd, _) = estimate(&plain, &lf, (-1.5, 1.5), BAND_ROWS);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&pd), bits(&d), "{side}");
+    }
+}
+
+#[test]
+fn the_candidate_is_the_same_bits_for_any_banding() {
+    let (data, layout, _) = diagonal_bar(40, 2.0, 0.9, -0.4);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let setup = TestSetup::new(
+        layout,
+        PlaneSweepParams {
+            candidate: 3,
+            ..enabled()
+        },
+    );
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let (d, c, k) = estimate_candidate(&setup, &lf, (-1.5, 1.5), BAND_ROWS);
+    assert!(k.iter().all(|v| (-1.5..=1.5).contains(v)));
+    for band in [1, 7, 13] {
+        let (bd, bc, bk) = estimate_candidate(&setup, &lf, (-1.5, 1.5), band);
+        assert_eq!(bits(&bd), bits(&d), "bands of {band} rows");
+        assert_eq!(bits(&bc), bits(&c), "bands of {band} rows");
+        assert_eq!(bits(&bk), bits(&k), "bands of {band} rows");
+    }
+}
+
+#[test]
+fn a_candidate_needs_its_window_and_its_output() {
+    let (data, layout, _) = plane(32, 16, 0.5, 0.0);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let mut d = vec![0.0; 32 * 16];
+    let mut c = vec![0.0; 32 * 16];
+    let mut k = vec![0.0; 32 * 16];
+    for (side, with_output) in [(0, true), (3, false)] {
+        let setup = TestSetup::new(
+            layout,
+            PlaneSweepParams {
+                candidate: side,
+                ..enabled()
+            },
+        );
+        let out = SweepOut {
+            map: DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c,
+            },
+            candidate: with_output.then_some(&mut k[..]),
+        };
+        let result = estimate_rows_with_candidate(
+            setup.setup(),
+            (-1.0, 1.0),
+            &lf,
+            0..16,
+            out,
+            &mut vec![0.0; scratch_len(setup.setup())],
+        );
+        assert!(
+            matches!(
+                result,
+                Err(Error::InvalidParameter {
+                    name: "sweep.candidate",
+                    ..
+                })
+            ),
+            "{side}, {with_output}: {result:?}"
+        );
+    }
+    // A candidate row of the wrong length.
+    let setup = TestSetup::new(
+        layout,
+        PlaneSweepParams {
+            candidate: 1,
+            ..enabled()
+        },
+    );
+    let result = estimate_rows_with_candidate(
+        setup.setup(),
+        (-1.0, 1.0),
+        &lf,
+        0..16,
+        SweepOut {
+            map: DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c,
+            },
+            candidate: Some(&mut k[..10]),
+        },
+        &mut vec![0.0; scratch_len(setup.setup())],
+    );
+    assert!(
+        matches!(result, Err(Error::OutputSize { .. })),
+        "{result:?}"
+    );
 }

@@ -19,6 +19,9 @@
 //! (0.05 px) of one tried this round, or of the last `REMEMBERED` ones the pixel
 //! rejected in earlier rounds, is not tried again (an equal one could not pass the
 //! bar, which only falls; a nearly equal one rarely does).
+//! With a candidate map ([`Start::candidate`], the plane sweep's per-pixel winners) the
+//! first round also offers each pixel its own candidate, by the same rule, where the
+//! candidates of two opposite neighbours lie within 0.125 px of it (a line of them).
 //!
 //! **Gauss–Newton** ([`RefineParams::iterations`]): for view `v` at camera offset
 //! `(u, v)` the residual `r = I_v(x − d·u, y − d·v) − I_c(x, y)` per colour channel
@@ -375,6 +378,18 @@ struct Measure<'a, T, P> {
     range: (f32, f32),
 }
 
+/// What a band refines: the start's disparity (the whole map, row-major) and,
+/// optionally, a per-pixel candidate map of the same size (the plane sweep's, see
+/// `PlaneSweepParams::candidate`) that the first propagation round offers each pixel
+/// as it offers a neighbour's disparity.
+#[derive(Clone, Copy, Debug)]
+pub struct Start<'a> {
+    /// The start's disparity.
+    pub disparity: &'a [f32],
+    /// The per-pixel candidates, or `None`.
+    pub candidate: Option<&'a [f32]>,
+}
+
 /// Refines the rows `rows` of `disparity` (the whole EPI map, row-major) into `out`
 /// (`rows.len() · width` values each, first row of the band first), keeping the result
 /// in `range` (the EPI stage's output range), computing in `T`. `scratch` needs
@@ -388,9 +403,36 @@ pub fn refine_band<T: Scalar, S: Sample>(
     out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
-    check_inputs(setup, lf, range, disparity)?;
+    let start = Start {
+        disparity,
+        candidate: None,
+    };
+    refine_band_from(setup, lf, range, start, rows, out, scratch)
+}
+
+/// [`refine_band`] from a [`Start`]: with a candidate map, the first propagation round
+/// also tries each pixel's candidate.
+pub fn refine_band_from<T: Scalar, S: Sample>(
+    setup: Setup<'_, RefineParams>,
+    lf: &LightField<'_, S>,
+    range: (f32, f32),
+    start: Start<'_>,
+    rows: Range<usize>,
+    out: DisparityOut<'_>,
+    scratch: &mut [T],
+) -> Result<()> {
+    check_inputs(setup, lf, range, start.disparity)?;
+    if let Some(candidate) = start.candidate {
+        if candidate.len() != setup.pixels() {
+            return Err(Error::OutputSize {
+                what: "the candidate disparity",
+                needed: setup.pixels(),
+                got: candidate.len(),
+            });
+        }
+    }
     with_rectified(setup, lf, |photo| {
-        band(setup, photo, range, disparity, rows, out, scratch)
+        band(setup, photo, range, start, rows, out, scratch)
     })
 }
 
@@ -458,7 +500,11 @@ pub fn refine_band_mapped<T: Scalar, S: Sample>(
         maps: homographies,
         interpolation,
     };
-    band(setup, &photo, range, disparity, rows, out, scratch)
+    let start = Start {
+        disparity,
+        candidate: None,
+    };
+    band(setup, &photo, range, start, rows, out, scratch)
 }
 
 fn check_homographies(setup: Setup<'_, RefineParams>, homographies: &[Homography]) -> Result<()> {
@@ -489,11 +535,15 @@ fn band<T: Scalar, P: Photometric<T>>(
     setup: Setup<'_, RefineParams>,
     photo: &P,
     range: (f32, f32),
-    disparity: &[f32],
+    start: Start<'_>,
     rows: Range<usize>,
     out: DisparityOut<'_>,
     scratch: &mut [T],
 ) -> Result<()> {
+    let Start {
+        disparity,
+        candidate,
+    } = start;
     let DisparityOut {
         disparity: out,
         confidence,
@@ -550,6 +600,24 @@ fn band<T: Scalar, P: Photometric<T>>(
             what: "the input disparity",
         });
     }
+    let candidate = match candidate {
+        Some(map) => {
+            let rows = map
+                .get(first * width..last * width)
+                .ok_or(Error::OutputSize {
+                    what: "the candidate disparity",
+                    needed: last * width,
+                    got: map.len(),
+                })?;
+            if rows.iter().any(|v| !v.is_finite()) {
+                return Err(Error::NonFinite {
+                    what: "the candidate disparity",
+                });
+            }
+            Some(rows)
+        }
+        None => None,
+    };
     let too_small = Error::ScratchTooSmall {
         needed,
         got: scratch.len(),
@@ -597,6 +665,7 @@ fn band<T: Scalar, P: Photometric<T>>(
         &mut planes,
         jumps,
         p.iterations * p.radius,
+        candidate,
     );
     gauss_newton::iterate(
         &measure,

@@ -25,6 +25,9 @@ use super::{Measure, MEMORY};
 /// first iteration needs them at that disparity unless a candidate wins (HCI
 /// backgammon: 154 k of its 271 k measurements), and they cost about 1.5 times a cost.
 /// Always, whatever row the pixel is in, so that every band decides alike.
+/// `candidate` (the region's rows of a map, as `current`): in the first round each
+/// pixel also tries its own value there (the plane sweep's per-pixel candidate), by the
+/// rule of a neighbour's offer.
 /// The rejected candidates (`MAX` for none) are kept across rounds: a round visits a
 /// subset of the rows the round before visited, so every band sees the same history
 /// for the rows it keeps.
@@ -34,6 +37,7 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
     planes: &mut Planes<'_, T>,
     jumps: &[usize],
     settle: usize,
+    candidate: Option<&[f32]>,
 ) {
     let (photo, k) = (measure.photo, &measure.k);
     let (stat_robust, cost_robust) = (measure.stat_robust, measure.cost_robust);
@@ -71,6 +75,7 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
         }
         let rows = region.near(reach_after(round));
         let previous = &*previous;
+        let own_candidate = if round == 0 { candidate } else { None };
         for y in rows {
             // `near` rows lie within the region, which `previous` covers; a missing
             // neighbour (past the region) offers the pixel's own value, which the gate
@@ -138,9 +143,21 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
                     let pair_bent = if n < 2 { bent.0 } else { bent.1 };
                     *offer = pair_bent && (d - own).abs() > k.offer;
                 }
-                if offers == [false; 4] {
+                // The pixel's own candidate, offered as a neighbour's disparity is
+                // where a line of candidates runs through it (no line test of
+                // neighbours: it is no neighbour's).
+                let extra = match own_candidate {
+                    Some(c) => supported(c, width, region_rows, x, y)
+                        .map(T::from_f32)
+                        .filter(|&e| (e - own).abs() > k.offer),
+                    None => None,
+                };
+                if offers == [false; 4] && extra.is_none() {
                     continue;
                 }
+                let ([left, right, above, below], [l, r, a, b]) = (candidates, offers);
+                let candidates = [left, right, above, below, extra.unwrap_or(own)];
+                let offers = [l, r, a, b, extra.is_some()];
                 let (Some(kept), Some(stat)) = (
                     memory
                         .get_mut(i * MEMORY..)
@@ -155,7 +172,7 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
                 // earlier rounds: one within `SAME_CANDIDATE` of those is not tried (an
                 // equal one would give the same cost, which cannot pass the bar a second
                 // time: the bar only falls).
-                let mut tried = [own; 4];
+                let mut tried = [own; 5];
                 let mut bar = None;
                 for (n, (d, offer)) in candidates.into_iter().zip(offers).enumerate() {
                     let near = |t: &T| (*t - d).abs() <= k.same;
@@ -200,4 +217,36 @@ pub(super) fn propagate<T: Scalar, P: Photometric<T>>(
             }
         }
     }
+}
+
+/// How close (px) the candidates of two opposite neighbours must be to a pixel's
+/// own for it to be offered (half a hypothesis step of the plane sweep's default grid).
+const SUPPORT: f32 = 0.125;
+
+/// The candidate of pixel `(x, y)` of the region's rows `candidate` (`width` a row,
+/// `rows` rows) where both neighbours on one side of a line through it (left and
+/// right, above and below, or either diagonal's two) hold a candidate within
+/// [`SUPPORT`] of it: a wire or a bar runs through the pixel. The per-pixel winners of
+/// noise rarely line up. `None` elsewhere. In `f32` for every scalar type: the same
+/// decision in Q16.16.
+fn supported(candidate: &[f32], width: usize, rows: usize, x: usize, y: usize) -> Option<f32> {
+    let own = *candidate.get(y * width + x)?;
+    if x == 0 || y == 0 || x + 1 >= width || y + 1 >= rows {
+        return None;
+    }
+    let near = |xx: usize, yy: usize| {
+        candidate
+            .get(yy * width + xx)
+            .is_some_and(|&c| (c - own).abs() <= SUPPORT)
+    };
+    let lines = [
+        ((x - 1, y), (x + 1, y)),
+        ((x, y - 1), (x, y + 1)),
+        ((x - 1, y - 1), (x + 1, y + 1)),
+        ((x + 1, y - 1), (x - 1, y + 1)),
+    ];
+    lines
+        .iter()
+        .any(|&(a, b)| near(a.0, a.1) && near(b.0, b.1))
+        .then_some(own)
 }

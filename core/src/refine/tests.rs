@@ -581,3 +581,141 @@ fn the_fused_choice_keeps_each_start_where_it_is_right() {
         Err(Error::OutputSize { .. })
     ));
 }
+
+/// [`refine_band_from`] over every band of `band_rows` rows, from `start` with the
+/// per-pixel `candidate`.
+fn run_from(
+    data: &[f32],
+    layout: crate::lightfield::Layout,
+    band_rows: usize,
+    start: &[f32],
+    candidate: Option<&[f32]>,
+) -> Vec<f32> {
+    let stage = TestSetup::new(
+        layout,
+        RefineParams {
+            band_rows,
+            ..RefineParams::default()
+        },
+    );
+    let lf = LightField::new(data, layout).unwrap();
+    let mut d = vec![f32::NAN; stage.pixels()];
+    let mut c = vec![f32::NAN; stage.pixels()];
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    let width = layout.width;
+    for band in 0..band_count(stage.setup()) {
+        let rows = band_rows_of(&stage, band);
+        let span = rows.start * width..rows.end * width;
+        refine_band_from(
+            stage.setup(),
+            &lf,
+            (-1.5, 1.5),
+            Start {
+                disparity: start,
+                candidate,
+            },
+            rows,
+            DisparityOut {
+                disparity: &mut d[span.clone()],
+                confidence: &mut c[span],
+            },
+            &mut scratch,
+        )
+        .unwrap();
+    }
+    d
+}
+
+fn band_rows_of(stage: &TestSetup<RefineParams>, band: usize) -> Range<usize> {
+    super::band_rows(stage.setup(), band).unwrap()
+}
+
+/// A 2 px diagonal bar that the start lacks (the background's disparity everywhere) has
+/// no neighbour to take its disparity from; its pixels' own candidates, a line of them,
+/// bring it back in the first round. Isolated candidates (no neighbour's candidate
+/// agrees) are not offered, whatever they cost.
+#[test]
+fn a_line_of_candidates_brings_back_a_bar_that_no_neighbour_holds() {
+    let size = 48;
+    let (bar, background) = (1.2, -0.6);
+    let (data, layout, gt) = crate::planesweep::tests::diagonal_bar(size, 2.0, bar, background);
+    let start = vec![background; size * size];
+    let mut candidate = gt.clone();
+    // Isolated candidates on the background, every 7th pixel of every 5th row.
+    let mut isolated = Vec::new();
+    for y in (3..size - 3).step_by(5) {
+        for x in (3..size - 3).step_by(7) {
+            let i = y * size + x;
+            if gt[i] == background && gt[i - 1] == background && gt[i + 1] == background {
+                candidate[i] = 1.0;
+                isolated.push(i);
+            }
+        }
+    }
+    let share = |d: &[f32], pixels: &mut dyn Iterator<Item = usize>, value: f32| {
+        let (mut good, mut all) = (0, 0);
+        for i in pixels {
+            all += 1;
+            good += usize::from((d[i] - value).abs() <= 0.1);
+        }
+        good as f32 / all as f32
+    };
+    let bar_pixels = || {
+        (8 * size..(size - 8) * size)
+            .filter(|&i| gt[i] == bar && (8..size - 8).contains(&(i % size)))
+    };
+    let without = run_from(&data, layout, 128, &start, None);
+    let with = run_from(&data, layout, 128, &start, Some(&candidate));
+    let (a, b) = (
+        share(&without, &mut bar_pixels(), bar),
+        share(&with, &mut bar_pixels(), bar),
+    );
+    assert!(a < 0.3, "without the candidate {a} of the bar");
+    assert!(b > 0.8, "with the candidate {b} of the bar");
+    let kept = share(&with, &mut isolated.iter().copied(), background);
+    assert!(kept > 0.95, "{kept} of the isolated candidates left alone");
+    // Any banding: the same bits.
+    for band_rows in [5, 16] {
+        let banded = run_from(&data, layout, band_rows, &start, Some(&candidate));
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&banded), bits(&with), "bands of {band_rows} rows");
+    }
+}
+
+#[test]
+fn a_bad_candidate_map_is_an_error() {
+    let scene = strips(Grid::new(3, 3), 20, 18, 1, 0.0, &[]);
+    let stage = stage_for(&scene, RefineParams::default());
+    let lf = LightField::new(&scene.data, scene.layout).unwrap();
+    let input = vec![0.0; stage.pixels()];
+    let mut d = vec![0.0; 20 * 18];
+    let mut c = vec![0.0; 20 * 18];
+    let mut scratch = vec![0.0f32; scratch_len(stage.setup())];
+    let short = vec![0.0; stage.pixels() - 1];
+    let mut nan = vec![0.0; stage.pixels()];
+    nan[5] = f32::NAN;
+    for candidate in [&short, &nan] {
+        let result = refine_band_from(
+            stage.setup(),
+            &lf,
+            (-1.0, 1.0),
+            Start {
+                disparity: &input,
+                candidate: Some(candidate),
+            },
+            0..18,
+            DisparityOut {
+                disparity: &mut d,
+                confidence: &mut c,
+            },
+            &mut scratch,
+        );
+        assert!(
+            matches!(
+                result,
+                Err(Error::OutputSize { .. } | Error::NonFinite { .. })
+            ),
+            "{result:?}"
+        );
+    }
+}

@@ -17,6 +17,12 @@
 //! contract, `docs/ARCHITECTURE.md`), as long as parts are placed in index order (the
 //! TV residual histories are summed in tile order).
 //!
+//! With the plane sweep's per-pixel candidate (`PlaneSweepParams::candidate`) the sweep
+//! places the candidate into the current disparity (the other one once the step
+//! finishes), and the refinement, which reads the start and the candidate with a halo,
+//! places its disparity into the other confidence and its confidence into the current
+//! one; its `finish` makes its disparity current.
+//!
 //! # Scratch
 //! Each step states its per-part scratch ([`Schedule::scratch_len`]): kernel scalars
 //! (`T`), `f32` maps and optional flag bytes. A driver gives each concurrent part its
@@ -29,9 +35,9 @@ use crate::geofill;
 use crate::lightfield::{LightField, Sample};
 use crate::median;
 use crate::plan::Plan;
-use crate::planesweep;
+use crate::planesweep::{self, PlaneSweepParams};
 use crate::refine;
-use crate::refine::RefineParams;
+use crate::refine::{RefineParams, Start};
 use crate::scalar::Scalar;
 use crate::setup::{DisparityOut, Setup};
 use crate::tv::{self, Guide, Maps, SolveOutput};
@@ -167,6 +173,8 @@ pub struct Schedule {
     median_rows: usize,
     /// The refinement's parameters with the band rows for the workers.
     refine: RefineParams,
+    /// The plane sweep's parameters, its candidate off unless the refinement reads it.
+    sweep: PlaneSweepParams,
 }
 
 impl Schedule {
@@ -238,11 +246,20 @@ impl Schedule {
             .saturating_mul(2)
             .max(BAND_LINES);
         refine_params.band_rows = refine_params.band_rows.min(per_worker.max(thinnest)).max(1);
+        // The sweep's per-pixel candidate is computed only for a refinement that
+        // propagates from the sweep's map.
+        let mut sweep = params.sweep;
+        let offered =
+            steps.contains(&Step::Refine) && !params.fused && params.refine.propagation > 0;
+        if !offered {
+            sweep.candidate = 0;
+        }
         Ok(Schedule {
             plan: *plan,
             steps,
             median_rows,
             refine: refine_params,
+            sweep,
         })
     }
 
@@ -254,6 +271,18 @@ impl Schedule {
     /// The refinement's setup with this schedule's band rows.
     fn refine(&self) -> Setup<'_, RefineParams> {
         self.plan.refine().with_params(&self.refine)
+    }
+
+    /// The plane sweep's setup, its candidate on only where the refinement offers it.
+    fn sweep(&self) -> Setup<'_, PlaneSweepParams> {
+        self.plan.sweep().with_params(&self.sweep)
+    }
+
+    /// Whether the plane sweep writes its per-pixel candidate and the refinement offers
+    /// it ([`PlaneSweepParams::candidate`]): the candidate takes the other disparity,
+    /// so the refinement places its disparity elsewhere (see [`Schedule::place`]).
+    fn candidate(&self) -> bool {
+        self.sweep.candidate > 0 && self.steps.contains(&Step::PlaneSweep)
     }
 
     /// The steps, in the order they run.
@@ -290,7 +319,7 @@ impl Schedule {
             Step::Range | Step::Refill => 1,
             Step::Epi(direction) => epi::lines(self.plan.epi(), direction).div_ceil(BAND_LINES),
             Step::Upsample => layout.height.div_ceil(UPSAMPLE_ROWS),
-            Step::PlaneSweep => planesweep::band_count(self.plan.sweep()),
+            Step::PlaneSweep => planesweep::band_count(self.sweep()),
             Step::Refine | Step::Fuse => refine::band_count(self.refine()),
             Step::Median => layout
                 .height
@@ -339,10 +368,12 @@ impl Schedule {
         let none = Reads::default();
         match step {
             Step::Range | Step::Epi(_) | Step::PlaneSweep => none,
-            // Distrusting the sweep scales the refined confidence by the start's.
+            // Distrusting the sweep scales the refined confidence by the start's; the
+            // sweep's per-pixel candidate is the other disparity.
             Step::Refine => Reads {
                 disparity: true,
                 confidence: distrusts_sweep(self.plan.params()),
+                other: self.candidate(),
                 ..none
             },
             Step::Refill | Step::Median => Reads {
@@ -403,6 +434,10 @@ impl Schedule {
                 disparity: (end - start) * line_len,
                 ..PartLen::default()
             },
+            (Step::PlaneSweep, Region::Lines(start, end)) if self.candidate() => PartLen {
+                candidate: (end - start) * line_len,
+                ..both((end - start) * line_len)
+            },
             (_, Region::Lines(start, end)) => both((end - start) * line_len),
             (_, Region::Rect(core)) => both(core.width * core.height),
         })
@@ -437,7 +472,7 @@ impl Schedule {
                 ..none
             },
             Step::PlaneSweep => ScratchLen {
-                maps: planesweep::scratch_len(plan.sweep()),
+                maps: planesweep::scratch_len(self.sweep()),
                 ..none
             },
             Step::Refine | Step::Fuse => ScratchLen {
@@ -530,25 +565,44 @@ impl Schedule {
             }),
             Step::PlaneSweep => alone(|| {
                 let h = hypotheses()?;
-                planesweep::estimate_rows(
-                    plan.sweep(),
-                    (h.min(), h.max()),
-                    lf,
-                    lines,
-                    DisparityOut {
-                        disparity: &mut *out.disparity,
-                        confidence: &mut *out.confidence,
-                    },
-                    scratch.maps,
-                )
+                let map = DisparityOut {
+                    disparity: &mut *out.disparity,
+                    confidence: &mut *out.confidence,
+                };
+                if self.candidate() {
+                    planesweep::estimate_rows_with_candidate(
+                        self.sweep(),
+                        (h.min(), h.max()),
+                        lf,
+                        lines,
+                        planesweep::SweepOut {
+                            map,
+                            candidate: Some(&mut *out.candidate),
+                        },
+                        scratch.maps,
+                    )
+                } else {
+                    planesweep::estimate_rows(
+                        self.sweep(),
+                        (h.min(), h.max()),
+                        lf,
+                        lines,
+                        map,
+                        scratch.maps,
+                    )
+                }
             }),
             Step::Refine => alone(|| {
                 let h = hypotheses()?;
+                let start = Start {
+                    disparity: state.disparity(),
+                    candidate: self.candidate().then(|| state.other().0),
+                };
                 refine_rows(
                     self.refine(),
                     lf,
                     &h,
-                    state.disparity(),
+                    start,
                     lines.clone(),
                     out,
                     scratch.kernel,
@@ -567,11 +621,15 @@ impl Schedule {
             }),
             Step::Fuse => alone(|| {
                 let h = hypotheses()?;
+                let start = Start {
+                    disparity: state.other().0,
+                    candidate: None,
+                };
                 refine_rows(
                     self.refine(),
                     lf,
                     &h,
-                    state.other().0,
+                    start,
                     lines.clone(),
                     out,
                     scratch.kernel,
@@ -702,11 +760,21 @@ impl Schedule {
                 let at = start * line_len;
                 let (d, c) = match step {
                     Step::Epi(Direction::Horizontal) | Step::Fuse => (CURRENT_D, CURRENT_C),
+                    // The refinement reads the start (current) and the candidate (other)
+                    // disparities with a halo, which no place of its step may write:
+                    // its disparity goes to the free other confidence, its confidence
+                    // to the current one (read at a part's own rows only).
+                    Step::Refine if self.candidate() => (OTHER_C, CURRENT_C),
                     _ => (OTHER_D, OTHER_C),
                 };
                 put(state.map_mut(d), at, part.disparity)?;
                 if !part.confidence.is_empty() {
                     put(state.map_mut(c), at, part.confidence)?;
+                }
+                if !part.candidate.is_empty() {
+                    // The sweep's candidate: the current disparity until the step
+                    // finishes, then (swapped) the other one.
+                    put(state.map_mut(CURRENT_D), at, part.candidate)?;
                 }
                 Ok(())
             }
@@ -731,6 +799,8 @@ impl Schedule {
                     .then_some(self.plan.params().epi.fusion);
                 state.fuse(fusion, width, height);
             }
+            // The refined disparity is in the other confidence's map ([`Schedule::place`]).
+            Step::Refine if self.candidate() => state.swap_maps(CURRENT_D, OTHER_C),
             Step::Upsample | Step::PlaneSweep | Step::Refine => {
                 swap_d(state);
                 state.swap_maps(CURRENT_C, OTHER_C);
@@ -757,12 +827,12 @@ fn refine_rows<T: Scalar, S: Sample>(
     setup: Setup<'_, RefineParams>,
     lf: &LightField<'_, S>,
     h: &Hypotheses,
-    start: &[f32],
+    start: Start<'_>,
     lines: core::ops::Range<usize>,
     out: &mut PartOutput<'_>,
     kernel: &mut [T],
 ) -> Result<()> {
-    refine::refine_band(
+    refine::refine_band_from(
         setup,
         lf,
         (h.min(), h.max()),

@@ -15,15 +15,18 @@ pub struct PartLen {
     pub history: usize,
     /// TV dual for the next sweep (every sweep but the last).
     pub dual: usize,
+    /// The plane sweep's per-pixel candidate (with `PlaneSweepParams::candidate`).
+    pub candidate: usize,
 }
 
 impl PartLen {
-    /// All four together.
+    /// All of them together.
     pub fn total(&self) -> usize {
         self.disparity
             .saturating_add(self.confidence)
             .saturating_add(self.history)
             .saturating_add(self.dual)
+            .saturating_add(self.candidate)
     }
     pub(super) fn max(self, other: PartLen) -> PartLen {
         PartLen {
@@ -31,6 +34,7 @@ impl PartLen {
             confidence: self.confidence.max(other.confidence),
             history: self.history.max(other.history),
             dual: self.dual.max(other.dual),
+            candidate: self.candidate.max(other.candidate),
         }
     }
 }
@@ -78,6 +82,8 @@ pub struct PartOutput<'a> {
     pub history: &'a mut [f32],
     /// TV dual of the region for the next sweep.
     pub dual: &'a mut [f32],
+    /// The plane sweep's per-pixel candidate of the region.
+    pub candidate: &'a mut [f32],
 }
 
 impl<'a> PartOutput<'a> {
@@ -90,12 +96,14 @@ impl<'a> PartOutput<'a> {
         let (disparity, rest) = buffer.split_at_mut_checked(len.disparity).ok_or(short)?;
         let (confidence, rest) = rest.split_at_mut_checked(len.confidence).ok_or(short)?;
         let (history, rest) = rest.split_at_mut_checked(len.history).ok_or(short)?;
-        let (dual, _) = rest.split_at_mut_checked(len.dual).ok_or(short)?;
+        let (dual, rest) = rest.split_at_mut_checked(len.dual).ok_or(short)?;
+        let (candidate, _) = rest.split_at_mut_checked(len.candidate).ok_or(short)?;
         Ok(PartOutput {
             disparity,
             confidence,
             history,
             dual,
+            candidate,
         })
     }
 }

@@ -138,7 +138,7 @@ fn bits(values: &[f32]) -> Vec<u32> {
     values.iter().map(|v| v.to_bits()).collect()
 }
 
-fn variants() -> [(&'static str, Params); 9] {
+fn variants() -> [(&'static str, Params); 11] {
     let small = Params {
         refine: RefineParams {
             band_rows: 10,
@@ -198,6 +198,27 @@ fn variants() -> [(&'static str, Params); 9] {
             "sweep start distrusting flat cost curves",
             Params {
                 sweep: crate::planesweep::PlaneSweepParams {
+                    trust: 0.6,
+                    ..Params::default().sweep
+                },
+                ..small
+            },
+        ),
+        (
+            "sweep start with a per-pixel candidate",
+            Params {
+                sweep: crate::planesweep::PlaneSweepParams {
+                    candidate: 1,
+                    ..Params::default().sweep
+                },
+                ..small
+            },
+        ),
+        (
+            "sweep start with a 3×3 candidate, distrusting flat cost curves",
+            Params {
+                sweep: crate::planesweep::PlaneSweepParams {
+                    candidate: 3,
                     trust: 0.6,
                     ..Params::default().sweep
                 },
@@ -624,4 +645,88 @@ fn trusting_the_sweep_lowers_the_refined_confidence_where_the_sweep_was_unsure()
         }
     }
     assert!(lowered > 0, "no pixel of the scene had an unsure sweep");
+}
+
+/// The candidate's steps: only a refinement that propagates from the sweep alone reads
+/// it, and only then does the sweep write it.
+#[test]
+fn the_sweep_writes_its_candidate_only_for_a_refinement_that_reads_it() {
+    let layout = Layout::packed(Grid::new(5, 5), 64, 48, 1);
+    let with = |f: fn(&mut Params)| {
+        let mut params = Params::default();
+        params.sweep.candidate = 3;
+        f(&mut params);
+        Plan::new(layout, params).unwrap()
+    };
+    let reads = |plan: &Plan, stages| {
+        let schedule = Schedule::new(plan, stages, 1).unwrap();
+        let sweep = schedule.part_len(Step::PlaneSweep, 0).unwrap().candidate;
+        let refine = schedule
+            .steps()
+            .contains(&Step::Refine)
+            .then(|| schedule.reads(Step::Refine).other);
+        (sweep, refine)
+    };
+    assert_eq!(reads(&with(|_| {}), Stages::Full), (64 * 48, Some(true)));
+    assert_eq!(reads(&with(|_| {}), Stages::Epi), (0, None));
+    assert_eq!(
+        reads(&with(|p| p.refine.propagation = 0), Stages::Full),
+        (0, Some(false))
+    );
+    assert_eq!(
+        reads(&with(|p| p.sweep.candidate = 0), Stages::Full),
+        (0, Some(false))
+    );
+    let fused = with(|p| p.fused = true);
+    let schedule = Schedule::new(&fused, Stages::Full, 1).unwrap();
+    assert_eq!(schedule.part_len(Step::PlaneSweep, 0).unwrap().candidate, 0);
+    assert!(!schedule.reads(Step::Refine).other);
+}
+
+/// A 2 px diagonal bar in front of a textured plane: the sweep's windows give its pixels
+/// the background's disparity, which no neighbour of theirs can correct; the sweep's
+/// per-pixel candidate, offered in the first propagation round, brings them back.
+#[test]
+fn the_refinement_takes_a_thin_bar_back_from_the_sweeps_candidate() {
+    let size = 48;
+    let (bar, background) = (1.2, -0.6);
+    let (data, layout, gt) = crate::planesweep::tests::diagonal_bar(size, 2.0, bar, background);
+    let levels: Vec<u8> = data
+        .iter()
+        .map(|&v| libm::roundf(v * 255.0).clamp(0.0, 255.0) as u8)
+        .collect();
+    let lf = LightField::new(&levels[..], layout).unwrap();
+    let on_bar = |d: &[f32]| {
+        let (mut good, mut all) = (0, 0);
+        for y in 8..size - 8 {
+            for x in 8..size - 8 {
+                let i = y * size + x;
+                if gt[i] == bar {
+                    all += 1;
+                    good += usize::from((d[i] - bar).abs() <= 0.1);
+                }
+            }
+        }
+        good as f32 / all as f32
+    };
+    let refined = |candidate| {
+        let mut params = Params::default();
+        params.sweep.candidate = candidate;
+        // The automatic range, sampled every 16th line, need not see a thin bar: the
+        // hypotheses must reach it for any start to find it.
+        params.epi.range = crate::epi::DisparityRange::Fixed {
+            min: -1.5,
+            max: 1.5,
+        };
+        let plan = Plan::new(layout, params).unwrap();
+        let schedule = Schedule::new(&plan, Stages::Full, 2).unwrap();
+        by_parts_until::<f32>(&schedule, &lf, Step::Refine).0
+    };
+    let without = on_bar(&refined(0));
+    assert!(
+        without < 0.5,
+        "without the candidate {without} of the bar kept"
+    );
+    let with = on_bar(&refined(1));
+    assert!(with > 0.8, "{with} of the bar kept");
 }
