@@ -527,6 +527,20 @@ fn check_homographies(setup: Setup<'_, RefineParams>, homographies: &[Homography
     Ok(())
 }
 
+/// The values `span` of the whole-frame map `map` (`what` in errors), every one finite.
+fn finite_rows<'a>(map: &'a [f32], span: Range<usize>, what: &'static str) -> Result<&'a [f32]> {
+    let needed = span.end;
+    let values = map.get(span).ok_or(Error::OutputSize {
+        what,
+        needed,
+        got: map.len(),
+    })?;
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(Error::NonFinite { what });
+    }
+    Ok(values)
+}
+
 /// The body of [`refine_band`] over the views `photo` compares.
 // Not inlined: its locals and the compared views' tables of `refine_band` are not in one
 // frame (docs/EMBEDDED.md, "Stack").
@@ -588,36 +602,11 @@ fn band<T: Scalar, P: Photometric<T>>(
     let pixels = (last - first) * width;
     let needed = pixels * (2 + STATS + MEMORY);
     check_scratch(needed, scratch.len())?;
-    let input = disparity
-        .get(first * width..last * width)
-        .ok_or(Error::OutputSize {
-            what: "the input disparity",
-            needed: last * width,
-            got: disparity.len(),
-        })?;
-    if input.iter().any(|v| !v.is_finite()) {
-        return Err(Error::NonFinite {
-            what: "the input disparity",
-        });
-    }
-    let candidate = match candidate {
-        Some(map) => {
-            let rows = map
-                .get(first * width..last * width)
-                .ok_or(Error::OutputSize {
-                    what: "the candidate disparity",
-                    needed: last * width,
-                    got: map.len(),
-                })?;
-            if rows.iter().any(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    what: "the candidate disparity",
-                });
-            }
-            Some(rows)
-        }
-        None => None,
-    };
+    let region = first * width..last * width;
+    let input = finite_rows(disparity, region.clone(), "the input disparity")?;
+    let candidate = candidate
+        .map(|map| finite_rows(map, region.clone(), "the candidate disparity"))
+        .transpose()?;
     let too_small = Error::ScratchTooSmall {
         needed,
         got: scratch.len(),
