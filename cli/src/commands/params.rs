@@ -403,8 +403,10 @@ mod tests {
                     let v = (min + max.min(16.0)) / 2.0;
                     (vec![flag.name().into(), v.to_string()], Value::Float(v))
                 }
-                (_, Kind::Int { min, max }) => {
-                    let v = (min + max) / 2;
+                // The largest value: every whole-number tunable accepts it (the sweep's
+                // candidate window takes odd sides only, so a midpoint may be refused).
+                (_, Kind::Int { max, .. }) => {
+                    let v = max;
                     (vec![flag.name().into(), v.to_string()], Value::Int(v))
                 }
                 (_, Kind::Bool) => {
