@@ -59,6 +59,36 @@ fn the_sweep_candidate_flag_changes_the_refined_map_alike_on_any_thread_count() 
 }
 
 #[test]
+fn gray_matching_is_an_option_with_its_own_map_for_any_thread_count() {
+    let dir = common::temp();
+    let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 70, &[]);
+    let out = dir.path().join("est.pfm");
+    let stage = ["--stage", "epi"];
+    let gray = |threads: &str| {
+        common::estimate_bits(
+            &scene,
+            &out,
+            &[&stage[..], &["--sweep-color", "gray", "--threads", threads]].concat(),
+        )
+    };
+    let rgb = |flags: &[&str]| {
+        common::estimate_bits(
+            &scene,
+            &out,
+            &[&stage[..], flags, &["--threads", "1"]].concat(),
+        )
+    };
+    let one = gray("1");
+    assert_eq!(one, gray("3"), "1 and 3 threads give the same bits");
+    assert_eq!(
+        rgb(&[]),
+        rgb(&["--sweep-color", "rgb"]),
+        "rgb is the default"
+    );
+    assert_ne!(one, rgb(&[]), "--sweep-color gray changes the map");
+}
+
+#[test]
 fn bad_sweep_flags_are_refused_with_their_range() {
     let dir = common::temp();
     let scene = common::synth_scene(&dir.path().join("mixed"), "mixed", 32, &[]);
@@ -70,6 +100,7 @@ fn bad_sweep_flags_are_refused_with_their_range() {
         (&["--sweep-line", "0"], "--sweep-line"),
         (&["--sweep-candidate", "2"], "--sweep-candidate"),
         (&["--sweep-candidate", "11"], "--sweep-candidate"),
+        (&["--sweep-color", "luma"], "--sweep-color"),
         (&["--initial", "tensor"], "--initial"),
         (&["--initial", "sweep", "--epi-half", "1"], "--initial"),
         (&["--epi-half", "1"], "--initial"),

@@ -100,6 +100,10 @@ export interface EstimateParams {
    * opposite neighbours' winners agree with it, for structures narrower than the sweep's
    * windows (1: the pixel alone; 0: off) (0…9; default 0). CLI: `--sweep-candidate`. */
   sweepCandidate?: number;
+  /** Plane sweep: match each view on rgb (each colour channel's truncated difference) or
+   * gray (the channels' mean, converted once per band: a third of the matching's work)
+   * (default "rgb"). CLI: `--sweep-color`. */
+  sweepColor?: "rgb" | "gray";
   /** Photometric refinement of the EPI disparity over many views (default true). CLI:
    * `--refine`. */
   refine?: boolean;

@@ -4,6 +4,7 @@
 use super::{Flag, Kind, Tunable, Value};
 use crate::align::{AlignMode, AlignedViews, Interpolation};
 use crate::epi::{ColorMode, EpiParams, Fusion};
+use crate::planesweep::SweepColor;
 
 fn float(v: Value) -> Option<f32> {
     match v {
@@ -51,6 +52,7 @@ const ALIGNED_VIEWS: &[&str] = &["read", "cross", "all"];
 const FUSIONS: &[&str] = &["coherence", "weighted"];
 const COLORS: &[&str] = &["tensor", "gray"];
 const INITIALS: &[&str] = &["epi", "sweep", "fused"];
+const SWEEP_COLORS: &[&str] = &["rgb", "gray"];
 
 /// Every tunable, in the order the front ends apply them (a later one may build on an
 /// earlier one: `--no-shear` replaces the whole EPI stage's settings, so it comes first
@@ -419,6 +421,27 @@ pub static TUNABLES: &[Tunable] = &[
         get: |p| Value::Int(p.sweep.candidate),
         set: |p, v| {
             p.sweep.candidate = int(v)?;
+            Some(())
+        },
+    },
+    Tunable {
+        flag: Some(Flag::Value("--sweep-color")),
+        key: Some("sweepColor"),
+        doc: "Plane sweep: match each view on rgb (each colour channel's truncated difference) or gray (the channels' mean, converted once per band: a third of the matching's work)",
+        kind: Kind::Choice(SWEEP_COLORS),
+        path: "sweep.color",
+        get: |p| {
+            Value::Choice(match p.sweep.color {
+                SweepColor::Rgb => "rgb",
+                SweepColor::Gray => "gray",
+            })
+        },
+        set: |p, v| {
+            p.sweep.color = match choice(v)? {
+                "rgb" => SweepColor::Rgb,
+                "gray" => SweepColor::Gray,
+                _ => return None,
+            };
             Some(())
         },
     },

@@ -73,7 +73,7 @@ use crate::error::{check_scratch, checked_product, Error, Result};
 use crate::lightfield::{LightField, Sample, View};
 use crate::setup::{DisparityOut, Setup};
 
-pub use params::{PlaneSweepParams, MAX_CANDIDATE, MAX_LINE, MAX_RADIUS};
+pub use params::{PlaneSweepParams, SweepColor, MAX_CANDIDATE, MAX_LINE, MAX_RADIUS};
 
 /// Progress and timing stage name.
 pub const STAGE: &str = "sweep";
@@ -85,6 +85,10 @@ pub const BAND_ROWS: usize = 64;
 
 /// `√2`: the noise weight of a whole-pixel shift is 1.
 const NOISE_SCALE: f32 = core::f32::consts::SQRT_2;
+
+/// `1/√3`: the luminance difference's truncation relative to a channel's
+/// ([`SweepColor::Gray`]).
+const GRAY_TRUNCATE: f32 = 0.577_350_26;
 
 /// View groups: the centre row's views and the centre column's.
 const GROUPS: usize = 2;
@@ -138,10 +142,12 @@ pub struct SweepOut<'a> {
 /// when on) four padded rows (the pixel costs, two of partial window sums along x and
 /// the running window sum along y), the filtered rows of the band and its halo and six
 /// values per pixel of the band, and the views' rows in unit intensity that a band keeps
-/// (`cache_rows` rows of interleaved samples).
+/// (`cache_rows` rows of interleaved samples, one value per pixel with
+/// [`SweepColor::Gray`]).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
+    let matched = matched_channels(setup.params(), channels);
     let line = setup.params().line * setup.params().radius;
     let rows = BAND_ROWS.min(layout.height);
     let volume = [
@@ -158,9 +164,19 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
         width.saturating_mul(GROUPS),
         volume.saturating_mul(volume_count(setup.params())),
         cache_rows(layout.grid, height_rows(layout.height, line), layout.height)
-            .saturating_mul(width.saturating_mul(channels)),
+            .saturating_mul(width.saturating_mul(matched)),
     ];
     parts.iter().fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// Values per pixel that the sweep matches (and keeps in a band's rows) of views with
+/// `channels` interleaved samples: one with [`SweepColor::Gray`] (their mean), else
+/// every sample.
+fn matched_channels(params: &PlaneSweepParams, channels: usize) -> usize {
+    match params.color {
+        SweepColor::Gray => 1,
+        SweepColor::Rgb => channels,
+    }
 }
 
 /// Rows a band computes costs for, halo included: at most [`BAND_ROWS`] `+ 2·line`,
@@ -265,14 +281,15 @@ impl RowCache {
         cache.get(at..at.checked_add(row_len)?)
     }
 
-    /// Takes room for rows `rows` of `view` from `cache[*used..]` and converts them;
-    /// no room leaves the view uncached.
+    /// Takes room for rows `rows` of `view` from `cache[*used..]` and converts them
+    /// ([`unit_row`]); no room leaves the view uncached.
     fn fill<S: Sample>(
         view: &View<'_, S>,
         rows: Range<usize>,
         cache: &mut [f32],
         used: &mut usize,
         row_len: usize,
+        luma: Option<Luma>,
     ) -> Self {
         let Some(len) = rows.len().checked_mul(row_len) else {
             return RowCache::default();
@@ -286,11 +303,7 @@ impl RowCache {
         };
         for (to, y) in room.chunks_exact_mut(row_len.max(1)).zip(rows.clone()) {
             match view.row(y) {
-                Some(from) => {
-                    for (t, s) in to.iter_mut().zip(from) {
-                        *t = s.to_unit();
-                    }
-                }
+                Some(from) => unit_row(from, to, luma),
                 None => return RowCache::default(),
             }
         }
@@ -300,6 +313,72 @@ impl RowCache {
             first: rows.start,
             rows: rows.len(),
         }
+    }
+}
+
+/// Matching on luminance ([`SweepColor::Gray`]): the views' interleaved `channels`, of
+/// which the first `channels.min(3)` (the colour channels, as the RGB matching's) are
+/// averaged.
+#[derive(Clone, Copy)]
+struct Luma {
+    channels: usize,
+}
+
+/// A view's row `from` in unit intensity into `to` ([`Sample::to_unit`]): its samples as
+/// they are, or with `luma` one value per pixel, the mean of its colour channels (the
+/// same bits wherever a row is converted).
+fn unit_row<S: Sample>(from: &[S], to: &mut [f32], luma: Option<Luma>) {
+    match luma {
+        None => {
+            for (t, s) in to.iter_mut().zip(from) {
+                *t = s.to_unit();
+            }
+        }
+        // The usual channel counts with the pixel's width known to the compiler, so that
+        // the loop over a pixel's channels unrolls: the generic loop below costs more
+        // instructions than the one-channel matching it feeds (docs/stages/sweep.md).
+        Some(Luma { channels: 3 }) => luma_row::<S, 3>(from, to),
+        Some(Luma { channels: 4 }) => luma_row::<S, 4>(from, to),
+        Some(Luma { channels }) => {
+            let used = channels.min(3);
+            let scale = mean_scale::<S>(used);
+            for (t, px) in to.iter_mut().zip(from.chunks_exact(channels.max(1))) {
+                *t = pixel_mean(px.get(..used).unwrap_or(px), scale);
+            }
+        }
+    }
+}
+
+/// [`unit_row`]'s luminance for pixels of `C` channels.
+fn luma_row<S: Sample, const C: usize>(from: &[S], to: &mut [f32]) {
+    let used = C.min(3);
+    let scale = mean_scale::<S>(used);
+    for (t, px) in to.iter_mut().zip(from.chunks_exact(C)) {
+        *t = pixel_mean(px.get(..used).unwrap_or(px), scale);
+    }
+}
+
+/// What [`pixel_mean`] multiplies the sum of `used` samples by: `1/used`, and for 8-bit
+/// levels, summed as they are, `1/255` as well.
+fn mean_scale<S: Sample>(used: usize) -> f32 {
+    let used = used.max(1) as f32;
+    if S::IS_U8 {
+        1.0 / (255.0 * used)
+    } else {
+        1.0 / used
+    }
+}
+
+/// The mean of a pixel's colour `channels` in unit intensity (`scale` from
+/// [`mean_scale`]): 8-bit levels summed as integers (exact) and scaled once, other
+/// samples summed in unit intensity in channel order.
+#[inline(always)]
+fn pixel_mean<S: Sample>(channels: &[S], scale: f32) -> f32 {
+    if S::IS_U8 {
+        let sum = channels.iter().fold(0u32, |a, s| a + u32::from(s.level()));
+        sum as f32 * scale
+    } else {
+        channels.iter().fold(0.0f32, |a, s| a + s.to_unit()) * scale
     }
 }
 
@@ -442,8 +521,20 @@ fn estimate_band<S: Sample>(
 
     let r = params.radius;
     let tau = params.truncate;
-    let row_len = width * channels;
-    let (acc, rest) = take(scratch, (GROUPS + 1) * row_len)?;
+    // With luminance matching one value per pixel: the matched rows are a channel
+    // wide, and the per-hypothesis conversion of uncached views has room in the
+    // scratch of the interleaved rows (`(GROUPS + 1)·channels ≥ GROUPS + 3` rows).
+    let matched = matched_channels(params, channels);
+    let luma = (matched != channels).then_some(Luma { channels });
+    // The mean of three channels carries a third of the noise variance: its difference
+    // is truncated at `τ/√3`, the same multiple of its noise as a channel's at `τ`.
+    let tau = if luma.is_some() {
+        tau * GRAY_TRUNCATE
+    } else {
+        tau
+    };
+    let row_len = width * matched;
+    let (acc, rest) = take(scratch, (GROUPS + 1) * width * channels)?;
     let (sums, rest) = take(rest, GROUPS * width)?;
     let sums = ints(sums)?;
     let line = params.line * r;
@@ -460,7 +551,7 @@ fn estimate_band<S: Sample>(
         // The per-pixel candidate: every view in a small square (last).
         (Source::All, (small, small)),
     ];
-    let used = channels.min(3);
+    let used = if luma.is_some() { 1 } else { channels.min(3) };
     let taps = kinds
         .iter()
         .map(|&(_, (rx, ry))| (2 * rx + 1) * (2 * ry + 1))
@@ -495,7 +586,14 @@ fn estimate_band<S: Sample>(
     // view's rows that the region reaches at any hypothesis.
     let cache: &mut [f32] = if keep_rows { rest } else { &mut [] };
     let mut used_cache = 0;
-    let centre_rows = RowCache::fill(&centre, region.clone(), cache, &mut used_cache, row_len);
+    let centre_rows = RowCache::fill(
+        &centre,
+        region.clone(),
+        cache,
+        &mut used_cache,
+        row_len,
+        luma,
+    );
     for sv in views.iter_mut() {
         let reach = if sv.v == 0.0 {
             region.clone()
@@ -510,7 +608,7 @@ fn estimate_band<S: Sample>(
             }
             lo..(hi + 1).max(lo)
         };
-        sv.rows = RowCache::fill(&sv.view, reach, cache, &mut used_cache, row_len);
+        sv.rows = RowCache::fill(&sv.view, reach, cache, &mut used_cache, row_len, luma);
     }
     let cache = &*cache;
 
@@ -520,11 +618,11 @@ fn estimate_band<S: Sample>(
             sv.shift = Shift::at(d, if sv.v == 0.0 { sv.u } else { sv.v });
         }
         for (k, y) in region.clone().enumerate() {
-            pixel_costs(&centre, centre_rows, cache, &views, y, tau, acc)?;
+            pixel_costs(&centre, centre_rows, cache, &views, y, tau, luma, acc)?;
             let (across, along) = acc.split_at_checked(row_len).unwrap_or((&[], &[]));
             let (h_sum, v_sum) = take_ints(sums, width)?;
             for (sum, costs) in [(&mut *h_sum, across), (&mut *v_sum, along)] {
-                channel_sums(sum, costs, channels, used, scale);
+                channel_sums(sum, costs, matched, used, scale);
             }
             for volume in volumes.iter_mut() {
                 let source = volume.source;
@@ -982,8 +1080,10 @@ fn source_row(y: usize, floor: f32, dy: f32, height: usize) -> usize {
 /// The weighted, truncated absolute differences of row `y` of the centre view to every
 /// view at the current hypothesis (each view's [`SweepView::shift`]), per interleaved
 /// sample, summed over the centre row's views into the first row of `acc` and over the
-/// centre column's into the second. Rows the band kept in `cache` are read from there,
-/// the others converted here.
+/// centre column's into the second (one value per pixel with `luma`, else per sample).
+/// Rows the band kept in `cache` are read from there, the others converted here (with
+/// `luma` into two rows of `acc` after the centre row).
+#[allow(clippy::too_many_arguments)]
 fn pixel_costs<S: Sample>(
     centre: &View<'_, S>,
     centre_rows: RowCache,
@@ -991,6 +1091,7 @@ fn pixel_costs<S: Sample>(
     views: &[SweepView<'_, S>],
     y: usize,
     tau: f32,
+    luma: Option<Luma>,
     acc: &mut [f32],
 ) -> Result<()> {
     let missing = Error::InvalidParameter {
@@ -998,17 +1099,15 @@ fn pixel_costs<S: Sample>(
         reason: "holds fewer rows than its layout: build the light field from the whole frame",
     };
     let width = centre.width();
-    let channels = centre.channels();
-    let row_len = width * channels;
-    let (acc, cen) = take(acc, GROUPS * row_len)?;
+    let row_len = width * if luma.is_some() { 1 } else { centre.channels() };
+    let (acc, rest) = take(acc, GROUPS * row_len)?;
+    let (cen, spare) = take(rest, row_len)?;
     let cen = match centre_rows.row(cache, y, row_len) {
         Some(row) => row,
         None => {
             // The centre row in unit intensity, converted once for every view.
             let c_row = centre.row(y).ok_or(missing)?;
-            for (c, s) in cen.iter_mut().zip(c_row) {
-                *c = s.to_unit();
-            }
+            unit_row(c_row, cen, luma);
             &*cen
         }
     };
@@ -1026,10 +1125,15 @@ fn pixel_costs<S: Sample>(
             Some(seen) => !core::mem::replace(seen, true),
             None => false,
         };
+        let read = Read {
+            cache,
+            luma,
+            missing,
+        };
         if first {
-            view_costs::<S, true>(sv, cache, cen, y, tau, acc, missing)?;
+            view_costs::<S, true>(sv, read, cen, y, tau, acc, spare)?;
         } else {
-            view_costs::<S, false>(sv, cache, cen, y, tau, acc, missing)?;
+            view_costs::<S, false>(sv, read, cen, y, tau, acc, spare)?;
         }
     }
     for (group, seen) in acc.chunks_mut(row_len.max(1)).zip(seen) {
@@ -1062,27 +1166,55 @@ fn put<const FIRST: bool>(a: &mut f32, term: f32) {
     }
 }
 
+/// Where [`view_costs`] reads a view's rows: the band's converted rows, the
+/// luminance matching if on, the error for a row the view lacks.
+#[derive(Clone, Copy)]
+struct Read<'c> {
+    cache: &'c [f32],
+    luma: Option<Luma>,
+    missing: Error,
+}
+
 /// One view's weighted, truncated absolute differences to the centre row `cen` at its
 /// current shift into its group's row `acc` (stored if `FIRST`, else added), from the
-/// band's converted rows in `cache` where kept, else from the view.
+/// band's converted rows in `read.cache` where kept, else from the view: its samples
+/// converted as they are read, or with luminance matching its rows converted into
+/// `spare` first ([`unit_row`], the same bits as the kept rows).
 fn view_costs<S: Sample, const FIRST: bool>(
     sv: &SweepView<'_, S>,
-    cache: &[f32],
+    read: Read<'_>,
     cen: &[f32],
     y: usize,
     tau: f32,
     acc: &mut [f32],
-    missing: Error,
+    spare: &mut [f32],
 ) -> Result<()> {
-    let row_len = sv.view.width() * sv.view.channels();
+    let Read {
+        cache,
+        luma,
+        missing,
+    } = read;
+    let width = sv.view.width();
+    let row_len = width
+        * if luma.is_some() {
+            1
+        } else {
+            sv.view.channels()
+        };
     let shift = sv.shift;
     if sv.v == 0.0 {
         // Source x = x + t, t = −d·u: the row shifted by ⌊t⌋ and blended by f.
         match sv.rows.row(cache, y, row_len) {
-            Some(src) => shifted::<f32, FIRST>(src, sv.view.width(), shift, cen, tau, acc),
+            Some(src) => shifted::<f32, FIRST>(src, width, shift, cen, tau, acc),
             None => {
                 let src = sv.view.row(y).ok_or(missing)?;
-                shifted::<S, FIRST>(src, sv.view.width(), shift, cen, tau, acc);
+                if luma.is_some() {
+                    let (row, _) = take(spare, row_len)?;
+                    unit_row(src, row, luma);
+                    shifted::<f32, FIRST>(row, width, shift, cen, tau, acc);
+                } else {
+                    shifted::<S, FIRST>(src, width, shift, cen, tau, acc);
+                }
             }
         }
     } else {
@@ -1100,7 +1232,15 @@ fn view_costs<S: Sample, const FIRST: bool>(
             _ => {
                 let s0 = sv.view.row(y0).ok_or(missing)?;
                 let s1 = sv.view.row(y1).ok_or(missing)?;
-                blend::<S, FIRST>(s0, s1, shift, cen, tau, acc);
+                if luma.is_some() {
+                    let (r0, rest) = take(spare, row_len)?;
+                    let (r1, _) = take(rest, row_len)?;
+                    unit_row(s0, r0, luma);
+                    unit_row(s1, r1, luma);
+                    blend::<f32, FIRST>(r0, r1, shift, cen, tau, acc);
+                } else {
+                    blend::<S, FIRST>(s0, s1, shift, cen, tau, acc);
+                }
             }
         }
     }

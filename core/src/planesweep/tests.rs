@@ -632,3 +632,116 @@ fn a_candidate_needs_its_window_and_its_output() {
         "{result:?}"
     );
 }
+
+fn gray() -> PlaneSweepParams {
+    PlaneSweepParams {
+        color: SweepColor::Gray,
+        ..enabled()
+    }
+}
+
+#[test]
+fn gray_matching_recovers_fronto_parallel_planes() {
+    for a in [-1.3f32, 0.0, 0.8, 2.6] {
+        let (data, layout, gt) = plane(64, 48, a, 0.0);
+        let lf = LightField::new(&data[..], layout).unwrap();
+        let setup = TestSetup::new(layout, gray());
+        let (d, c) = estimate(&setup, &lf, (-3.0, 3.0), BAND_ROWS);
+        let share = within(&d, &gt, 64, 0.05);
+        assert!(share >= 0.99, "disparity {a}: {share} within 0.05 px");
+        assert!(c.iter().all(|c| (0.0..=1.0).contains(c)));
+    }
+}
+
+#[test]
+fn gray_matching_recovers_a_slanted_plane_from_other_costs_than_rgb() {
+    let (data, layout, gt) = plane(64, 48, -1.2, 0.02);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let (d, c) = estimate(&TestSetup::new(layout, gray()), &lf, (-2.0, 1.0), BAND_ROWS);
+    let share = within(&d, &gt, 64, 0.07);
+    assert!(share >= 0.95, "{share} within 0.07 px");
+    // One channel's costs, not three: the confidences differ from RGB matching's.
+    let rgb = estimate(
+        &TestSetup::new(layout, enabled()),
+        &lf,
+        (-2.0, 1.0),
+        BAND_ROWS,
+    );
+    assert_ne!(c, rgb.1);
+}
+
+#[test]
+fn gray_matching_gives_the_same_bits_for_any_banding_and_row_conversion() {
+    let (data, layout, _) = plane(40, 70, -0.4, 0.015);
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let setup = TestSetup::new(layout, gray());
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let (d, c) = estimate(&setup, &lf, (-1.5, 1.5), BAND_ROWS);
+    for band in [1, 7, 13] {
+        let (bd, bc) = estimate(&setup, &lf, (-1.5, 1.5), band);
+        assert_eq!(bits(&bd), bits(&d), "bands of {band} rows");
+        assert_eq!(bits(&bc), bits(&c), "bands of {band} rows");
+    }
+    // Beyond ±8 px the outer column views are converted per hypothesis (as in
+    // `kept_rows_give_the_bits_of_converting_per_hypothesis`), to luminance likewise.
+    let (data, layout, _) = plane(24, 200, -0.4, 0.015);
+    let levels: Vec<u8> = data
+        .iter()
+        .map(|&v| libm::roundf(v * 255.0).clamp(0.0, 255.0) as u8)
+        .collect();
+    let lf = LightField::new(&data[..], layout).unwrap();
+    let lf8 = LightField::new(&levels[..], layout).unwrap();
+    let setup = TestSetup::new(layout, gray());
+    for range in [(-1.5, 1.5), (-9.0, 9.0)] {
+        let kept = estimate_with(&setup, &lf, range, BAND_ROWS, true);
+        let converted = estimate_with(&setup, &lf, range, BAND_ROWS, false);
+        assert_eq!(bits(&kept.0), bits(&converted.0), "f32, {range:?}");
+        assert_eq!(bits(&kept.1), bits(&converted.1), "f32, {range:?}");
+        let kept = estimate_with(&setup, &lf8, range, BAND_ROWS, true);
+        let converted = estimate_with(&setup, &lf8, range, BAND_ROWS, false);
+        assert_eq!(bits(&kept.0), bits(&converted.0), "u8, {range:?}");
+        assert_eq!(bits(&kept.1), bits(&converted.1), "u8, {range:?}");
+    }
+}
+
+#[test]
+fn gray_matching_keeps_a_third_of_the_rows_scratch() {
+    // The kept rows hold one value per pixel, not three: the scratch shrinks by two
+    // thirds of theirs, and the estimates above ran in exactly this scratch.
+    let (_, layout, _) = plane(64, 48, 0.0, 0.0);
+    let rgb_len = scratch_len(TestSetup::new(layout, enabled()).setup());
+    let gray_len = scratch_len(TestSetup::new(layout, gray()).setup());
+    let grid = layout.grid;
+    let rows = cache_rows(grid, height_rows(48, 2 * 4), 48);
+    assert_eq!(rgb_len - gray_len, rows * 64 * 2);
+    // One channel: nothing to average, the same scratch.
+    let single = Layout::packed(grid, 64, 48, 1);
+    assert_eq!(
+        scratch_len(TestSetup::new(single, enabled()).setup()),
+        scratch_len(TestSetup::new(single, gray()).setup())
+    );
+}
+
+#[test]
+fn luminance_is_the_mean_of_the_colour_channels_for_any_channel_count() {
+    let levels: [u8; 8] = [255, 0, 0, 9, 30, 60, 90, 200];
+    let units = levels.map(|l| l as f32 / 255.0);
+    // Two channels: both averaged; four: the fourth (alpha) left out; five (the
+    // generic path): the first three of the one whole pixel.
+    for (channels, want) in [
+        (2, &[127.5, 4.5, 45.0, 145.0][..]),
+        (3, &[85.0, 33.0][..]),
+        (4, &[85.0, 60.0][..]),
+        (5, &[85.0][..]),
+    ] {
+        let mut from_u8 = vec![f32::NAN; want.len()];
+        let mut from_f32 = vec![f32::NAN; want.len()];
+        let luma = Some(Luma { channels });
+        unit_row(&levels[..], &mut from_u8, luma);
+        unit_row(&units[..], &mut from_f32, luma);
+        for ((&a, &b), &w) in from_u8.iter().zip(&from_f32).zip(want) {
+            assert!((a - w / 255.0).abs() < 1e-6, "{channels}: {a} for {w}/255");
+            assert!((b - w / 255.0).abs() < 1e-6, "{channels}: {b} for {w}/255");
+        }
+    }
+}
