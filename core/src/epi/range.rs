@@ -98,25 +98,36 @@ pub fn estimate_range<T: Scalar, S: Sample>(
 struct Histogram {
     /// Every confident estimate.
     all: [u32; BINS],
-    /// Those not shear-exact: an estimate bit-exactly on an integer shear comes from a
-    /// residual slope of exactly zero there (an exactly zero mixed term of the smoothed
-    /// tensor), not from the texture's own slope. Measured on the far
-    /// backgrounds of `thin`, the 512² `dusk` and `hall` and the Lytro capture: 0.3–0.6 %
-    /// of the samples, at integers where nothing lies (docs/stages/epi.md). They may
-    /// hold a surface's samples too (a noise-free plane at an integer disparity), so
-    /// only the thin-structure rule, which no surface needs, leaves them out.
-    resolved: [u32; BINS],
+    /// The shear-exact ones, per integer −REACH…REACH (they lie nowhere else): an
+    /// estimate bit-exactly on an integer shear comes from a residual slope of exactly
+    /// zero there (an exactly zero mixed term of the smoothed tensor), not from the
+    /// texture's own slope. Measured on the far backgrounds of `thin`, the 512² `dusk`
+    /// and `hall` and the Lytro capture: 0.3–0.6 % of the samples, at integers where
+    /// nothing lies (docs/stages/epi.md). They may hold a surface's samples too (a
+    /// noise-free plane at an integer disparity), so only the thin-structure rule, which
+    /// no surface needs, leaves them out. Kept per integer rather than as a second
+    /// histogram: the firmware's stack holds this.
+    exact: [u32; EXACT],
     total: u64,
-    resolved_total: u64,
+    exact_total: u64,
+}
+
+/// Integers within ±(PROBE_REACH + 1).
+const EXACT: usize = 2 * (PROBE_REACH as usize + 1) + 1;
+
+/// The bin of estimate `d` (px). Truncation toward zero and `min` keep it inside:
+/// estimates lie within ±(PROBE_REACH + 1) (integer shears ±PROBE_REACH, residuals ±1).
+fn bin(d: f32) -> usize {
+    (((d + PROBE_REACH + 1.0) / BIN) as usize).min(BINS - 1)
 }
 
 impl Default for Histogram {
     fn default() -> Self {
         Self {
             all: [0; BINS],
-            resolved: [0; BINS],
+            exact: [0; EXACT],
             total: 0,
-            resolved_total: 0,
+            exact_total: 0,
         }
     }
 }
@@ -124,21 +135,29 @@ impl Default for Histogram {
 impl Histogram {
     /// Adds one confident estimate (px).
     fn add(&mut self, d: f32) {
-        let reach = PROBE_REACH + 1.0;
-        // Truncation toward zero and `min` keep the bin inside: estimates lie within
-        // ±reach (integer shears ±PROBE_REACH, residuals ±1).
-        let bin = (((d + reach) / BIN) as usize).min(BINS - 1);
-        if let Some(h) = self.all.get_mut(bin) {
+        if let Some(h) = self.all.get_mut(bin(d)) {
             *h += 1;
         }
         self.total += 1;
-        // |d| ≤ reach: the cast is exact for every integer it can hold.
-        if d != (d as i32) as f32 {
-            if let Some(h) = self.resolved.get_mut(bin) {
+        // |d| ≤ PROBE_REACH + 1: the cast is exact for every integer it can hold.
+        let k = d as i32;
+        if d == k as f32 {
+            let slot = (k + PROBE_REACH as i32 + 1).clamp(0, EXACT as i32 - 1) as usize;
+            if let Some(h) = self.exact.get_mut(slot) {
                 *h += 1;
             }
-            self.resolved_total += 1;
+            self.exact_total += 1;
         }
+    }
+
+    /// The samples of bin `b` that are not shear-exact.
+    fn resolved(&self, b: usize) -> u32 {
+        let all = self.all.get(b).copied().unwrap_or(0);
+        let exact = (0..EXACT)
+            .filter(|&slot| bin(slot as f32 - PROBE_REACH - 1.0) == b)
+            .filter_map(|slot| self.exact.get(slot))
+            .sum::<u32>();
+        all.saturating_sub(exact)
     }
 
     /// The range's ends before padding (px), or `None` when too few samples are
@@ -159,16 +178,17 @@ impl Histogram {
         // SPREAD windows holding THIN_TAIL of the samples that are not shear-exact, counting
         // only samples outside the surfaces' range (a lone outlier beside a surface never
         // makes up such a window).
-        if self.resolved_total >= 64 {
-            let (surfaces, resolved) = (lo..hi, &self.resolved);
+        let resolved_total = self.total - self.exact_total;
+        if resolved_total >= 64 {
+            let surfaces = lo..hi;
             let beyond = |b: usize| -> u32 {
                 if surfaces.contains(&b) {
                     0
                 } else {
-                    resolved.get(b).copied().unwrap_or(0)
+                    self.resolved(b)
                 }
             };
-            let need = share(self.resolved_total, THIN_TAIL);
+            let need = share(resolved_total, THIN_TAIL);
             if let Some((first, last)) = outermost_windows(beyond, SPREAD, need) {
                 if let Some(b) = (first..first + SPREAD).find(|&b| beyond(b) > 0) {
                     lo = lo.min(b);
