@@ -108,6 +108,8 @@ struct Histogram {
     /// no surface needs, leaves them out. Kept per integer rather than as a second
     /// histogram: the firmware's stack holds this.
     exact: [u32; EXACT],
+    /// The bin of each integer of `exact`.
+    exact_bin: [usize; EXACT],
     total: u64,
     exact_total: u64,
 }
@@ -126,6 +128,7 @@ impl Default for Histogram {
         Self {
             all: [0; BINS],
             exact: [0; EXACT],
+            exact_bin: core::array::from_fn(|slot| bin(slot as f32 - PROBE_REACH - 1.0)),
             total: 0,
             exact_total: 0,
         }
@@ -153,9 +156,12 @@ impl Histogram {
     /// The samples of bin `b` that are not shear-exact.
     fn resolved(&self, b: usize) -> u32 {
         let all = self.all.get(b).copied().unwrap_or(0);
-        let exact = (0..EXACT)
-            .filter(|&slot| bin(slot as f32 - PROBE_REACH - 1.0) == b)
-            .filter_map(|slot| self.exact.get(slot))
+        let exact = self
+            .exact_bin
+            .iter()
+            .zip(&self.exact)
+            .filter(|&(&at, _)| at == b)
+            .map(|(_, &n)| n)
             .sum::<u32>();
         all.saturating_sub(exact)
     }
