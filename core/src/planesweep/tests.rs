@@ -66,18 +66,17 @@ fn estimate_with<S: Sample>(
     let mut d = vec![f32::NAN; width * height];
     let mut c = vec![f32::NAN; width * height];
     let mut scratch = vec![f32::NAN; scratch_len(setup.setup())];
-    let mut start = 0;
-    while start < height {
-        let end = (start + band).min(height);
+    for_each_band(height, band, |rows| {
+        let span = rows.start * width..rows.end * width;
         estimate_band(
             setup.setup(),
             range,
             lf,
-            start..end,
+            rows,
             SweepOut {
                 map: DisparityOut {
-                    disparity: &mut d[start * width..end * width],
-                    confidence: &mut c[start * width..end * width],
+                    disparity: &mut d[span.clone()],
+                    confidence: &mut c[span],
                 },
                 candidate: None,
             },
@@ -85,9 +84,19 @@ fn estimate_with<S: Sample>(
             keep_rows,
         )
         .unwrap();
+    });
+    (d, c)
+}
+
+/// Calls `band_rows` on each run of `band` rows of a `height`-row map, top to bottom
+/// (the last one shorter).
+fn for_each_band(height: usize, band: usize, mut band_rows: impl FnMut(core::ops::Range<usize>)) {
+    let mut start = 0;
+    while start < height {
+        let end = (start + band).min(height);
+        band_rows(start..end);
         start = end;
     }
-    (d, c)
 }
 
 /// Share of the pixels (8 px from the border) within `tolerance` of the truth.
@@ -468,15 +477,13 @@ fn estimate_candidate(
     let mut c = vec![f32::NAN; width * height];
     let mut k = vec![f32::NAN; width * height];
     let mut scratch = vec![f32::NAN; scratch_len(setup.setup())];
-    let mut start = 0;
-    while start < height {
-        let end = (start + band).min(height);
-        let span = start * width..end * width;
+    for_each_band(height, band, |rows| {
+        let span = rows.start * width..rows.end * width;
         estimate_rows_with_candidate(
             setup.setup(),
             range,
             lf,
-            start..end,
+            rows,
             SweepOut {
                 map: DisparityOut {
                     disparity: &mut d[span.clone()],
@@ -487,8 +494,7 @@ fn estimate_candidate(
             &mut scratch,
         )
         .unwrap();
-        start = end;
-    }
+    });
     (d, c, k)
 }
 
