@@ -602,12 +602,6 @@ function wire() {
     });
   }
   $("initial").addEventListener("change", showStart);
-  // The fast preset is the EPI start's: choosing a preset shows its start, which a start
-  // chosen afterwards overrides (what the form shows is what runs).
-  $("preset").addEventListener("change", () => {
-    $("initial").value = $("preset").value === "fast" ? "epi" : "sweep";
-    showStart();
-  });
   $("sweep-trust").addEventListener("input", () => $("sweep-trust").removeAttribute("aria-invalid"));
   $("run").addEventListener("click", run);
   $("cancel").addEventListener("click", () => state.controller?.abort());

@@ -1,7 +1,8 @@
 //! Criterion benchmarks of the whole pipeline (engine, `Stages::Full`) on a
 //! 9×9×512×512 light field: HCI cotton when `../shared/data` is present, else a synthetic
-//! Mixed scene; 1 and 2 threads; the default pipeline (EPI → refine → TV), the `fast`
-//! preset, the refinement without propagation, and the paper's pipeline (EPI → TV). Group `scalar`: the default
+//! Mixed scene; 1 and 2 threads; the default pipeline (plane sweep → refine → refill →
+//! median → TV), the `fast` preset, the refinement without propagation, and the paper's
+//! pipeline (EPI → TV). Group `scalar`: the default
 //! pipeline computing in `f32` and in Q16.16 fixed point, one thread, on a smaller
 //! synthetic scene (9×9×192×192 Mixed) so that the Q16.16 case stays under two minutes.
 

@@ -10,33 +10,27 @@ use std::path::Path;
 use common::lfdepth;
 
 /// What `fast` sets, spelled out as the flags that set each knob.
-const FAST_KNOBS: [&str; 12] = [
-    "--initial",
-    "epi",
+const FAST_KNOBS: [&str; 6] = [
+    "--sweep-color",
+    "gray",
     "--refine-iterations",
     "1",
-    "--refine-propagation",
-    "3",
-    "--median-gate",
-    "0.3",
     "--median-passes",
     "3",
-    "--tv-tolerance",
-    "2e-3",
 ];
 
 /// The default's values of the same knobs, read from `Params::default()` so that a
 /// change of a default does not leave this test comparing against a stale value.
 fn default_knobs() -> Vec<String> {
     let p = lfdepth::Params::default();
-    let initial = if p.sweep.enabled { "sweep" } else { "epi" };
+    let color = match p.sweep.color {
+        lfdepth::planesweep::SweepColor::Rgb => "rgb",
+        lfdepth::planesweep::SweepColor::Gray => "gray",
+    };
     [
-        ("--initial", initial.to_string()),
+        ("--sweep-color", color.to_string()),
         ("--refine-iterations", p.refine.iterations.to_string()),
-        ("--refine-propagation", p.refine.propagation.to_string()),
-        ("--median-gate", p.median.gate.to_string()),
         ("--median-passes", p.median.passes.to_string()),
-        ("--tv-tolerance", p.tv.tolerance.to_string()),
     ]
     .into_iter()
     .flat_map(|(flag, value)| [flag.to_string(), value])

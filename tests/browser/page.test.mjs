@@ -427,11 +427,14 @@ test("the start control: its fields follow the choice, it reaches the workers, a
   assert.deepEqual(await shown(), { initial: "epi", epiFields: true, trust: false, note: "" });
   await page.selectOption("#initial", "fused");
   assert.deepEqual(await shown(), { initial: "fused", epiFields: true, trust: true, note: "" });
-  // The fast preset is the EPI start's; accurate is the plane sweep's.
+  // Both settings start from the plane sweep: choosing one leaves the chosen start.
+  await page.selectOption("#initial", "sweep");
   await page.selectOption("#preset", "fast");
-  assert.deepEqual(await shown(), { initial: "epi", epiFields: true, trust: false, note: "" });
-  await page.selectOption("#preset", "default");
   assert.deepEqual(await shown(), { initial: "sweep", epiFields: false, trust: true, note: "The plane sweep reads no EPI scales: they show for the EPI and fused starts." });
+  await page.selectOption("#initial", "epi");
+  await page.selectOption("#preset", "default");
+  assert.deepEqual(await shown(), { initial: "epi", epiFields: true, trust: false, note: "" });
+  await page.selectOption("#initial", "sweep");
 
   const runWith = async (initial) => {
     await page.selectOption("#initial", initial);

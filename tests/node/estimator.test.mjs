@@ -147,15 +147,17 @@ test("a run lists its steps and parts, and bad requests say what to change", () 
   estimator.free();
 });
 
-test("params.preset: \"default\" is the defaults, \"fast\" starts from the EPI stage and changes the later stages, other keys override it", () => {
+test("params.preset: \"default\" is the defaults, \"fast\" sweeps on luminance and changes the later stages, other keys override it", () => {
   const bytes = (params) => new Uint8Array(new lf.Estimator(scene.views, shape, params).estimate().disparity.buffer);
   const defaults = bytes({});
   assert.deepEqual(bytes({ preset: "default" }), defaults);
   const fast = bytes({ preset: "fast" });
   assert.notDeepEqual(fast, defaults);
-  // The fast preset starts from the EPI stage, the default from the plane sweep.
-  assert.deepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi", initial: "epi" }));
+  // The fast preset's start is the plane sweep on luminance; its later stages differ too.
+  assert.deepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi", sweepColor: "gray" }));
   assert.notDeepEqual(bytes({ preset: "fast", stage: "epi" }), bytes({ stage: "epi" }));
+  assert.notDeepEqual(fast, bytes({ sweepColor: "gray" }));
+  assert.deepEqual(fast, bytes({ sweepColor: "gray", refineIterations: 1, medianPasses: 3 }));
   // An explicit key wins over the preset: the fast preset without its median.
   const stages = (params) => {
     const run = new lf.Run(shape, params, 1);

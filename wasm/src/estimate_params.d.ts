@@ -3,9 +3,8 @@
 /** Estimation parameters; every key is optional and defaults to the core's default. */
 export interface EstimateParams {
   /** Named settings the other keys then override (as the CLI's `--preset`): "default"
-   * (the most accurate settings), or "fast" (less CPU: the EPI start instead of the plane
-   * sweep, one Gauss–Newton step, three median passes gated at 0.3 px, TV stopping
-   * earlier). */
+   * (the most accurate settings), or "fast" (less CPU: the plane sweep on luminance, one
+   * Gauss–Newton step, three median passes). */
   preset?: "default" | "fast";
   /** How far `estimate` goes: "full" (every stage, the default) or "epi" (the initial
    * disparity alone: the plane sweep, or the EPI stage with `initial: "epi"`). */

@@ -348,7 +348,7 @@ pub fn preset_doc(preset: Preset) -> &'static str {
     match preset {
         Preset::Default => "the most accurate settings",
         Preset::Fast => {
-            "less CPU: the EPI start instead of the plane sweep, one Gauss–Newton step, three median passes gated at 0.3 px, TV stopping earlier"
+            "less CPU: the plane sweep on luminance, one Gauss–Newton step, three median passes"
         }
     }
 }
