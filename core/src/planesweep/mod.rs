@@ -147,7 +147,7 @@ pub struct SweepOut<'a> {
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
-    let matched = matched_channels(setup.params(), channels);
+    let matched = Luma::values(Luma::of(setup.params(), channels), channels);
     let line = setup.params().line * setup.params().radius;
     let rows = BAND_ROWS.min(layout.height);
     let volume = [
@@ -167,16 +167,6 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
             .saturating_mul(width.saturating_mul(matched)),
     ];
     parts.iter().fold(0usize, |a, &b| a.saturating_add(b))
-}
-
-/// Values per pixel that the sweep matches (and keeps in a band's rows) of views with
-/// `channels` interleaved samples: one with [`SweepColor::Gray`] (their mean), else
-/// every sample.
-fn matched_channels(params: &PlaneSweepParams, channels: usize) -> usize {
-    match params.color {
-        SweepColor::Gray => 1,
-        SweepColor::Rgb => channels,
-    }
 }
 
 /// Rows a band computes costs for, halo included: at most [`BAND_ROWS`] `+ 2·line`,
@@ -324,6 +314,25 @@ struct Luma {
     channels: usize,
 }
 
+impl Luma {
+    /// The luminance matching of views with `channels` interleaved samples under
+    /// `params`: with [`SweepColor::Gray`] and more than one channel (one channel is
+    /// matched as it is).
+    fn of(params: &PlaneSweepParams, channels: usize) -> Option<Luma> {
+        (params.color == SweepColor::Gray && channels != 1).then_some(Luma { channels })
+    }
+
+    /// Values per pixel that the sweep matches (and keeps in a band's converted rows)
+    /// of views with `channels` interleaved samples: one with `luma`, else every sample.
+    fn values(luma: Option<Luma>, channels: usize) -> usize {
+        if luma.is_some() {
+            1
+        } else {
+            channels
+        }
+    }
+}
+
 /// A view's row `from` in unit intensity into `to` ([`Sample::to_unit`]): its samples as
 /// they are, or with `luma` one value per pixel, the mean of its colour channels (the
 /// same bits wherever a row is converted).
@@ -334,26 +343,22 @@ fn unit_row<S: Sample>(from: &[S], to: &mut [f32], luma: Option<Luma>) {
                 *t = s.to_unit();
             }
         }
-        // The usual channel counts with the pixel's width known to the compiler, so that
-        // the loop over a pixel's channels unrolls: the generic loop below costs more
-        // instructions than the one-channel matching it feeds (docs/stages/sweep.md).
-        Some(Luma { channels: 3 }) => luma_row::<S, 3>(from, to),
-        Some(Luma { channels: 4 }) => luma_row::<S, 4>(from, to),
-        Some(Luma { channels }) => {
-            let used = channels.min(3);
-            let scale = mean_scale::<S>(used);
-            for (t, px) in to.iter_mut().zip(from.chunks_exact(channels.max(1))) {
-                *t = pixel_mean(px.get(..used).unwrap_or(px), scale);
-            }
-        }
+        // The usual channel counts as literals: `luma_row` is inlined, so the pixel's
+        // width is known to the compiler and the loop over its channels unrolls (the
+        // loop with a run-time width costs more instructions than the one-channel
+        // matching it feeds, docs/stages/sweep.md).
+        Some(Luma { channels: 3 }) => luma_row(from, to, 3),
+        Some(Luma { channels: 4 }) => luma_row(from, to, 4),
+        Some(Luma { channels }) => luma_row(from, to, channels),
     }
 }
 
-/// [`unit_row`]'s luminance for pixels of `C` channels.
-fn luma_row<S: Sample, const C: usize>(from: &[S], to: &mut [f32]) {
-    let used = C.min(3);
+/// [`unit_row`]'s luminance for pixels of `channels` interleaved samples.
+#[inline(always)]
+fn luma_row<S: Sample>(from: &[S], to: &mut [f32], channels: usize) {
+    let used = channels.min(3);
     let scale = mean_scale::<S>(used);
-    for (t, px) in to.iter_mut().zip(from.chunks_exact(C)) {
+    for (t, px) in to.iter_mut().zip(from.chunks_exact(channels.max(1))) {
         *t = pixel_mean(px.get(..used).unwrap_or(px), scale);
     }
 }
@@ -524,8 +529,8 @@ fn estimate_band<S: Sample>(
     // With luminance matching one value per pixel: the matched rows are a channel
     // wide, and the per-hypothesis conversion of uncached views has room in the
     // scratch of the interleaved rows (`(GROUPS + 1)·channels ≥ GROUPS + 3` rows).
-    let matched = matched_channels(params, channels);
-    let luma = (matched != channels).then_some(Luma { channels });
+    let luma = Luma::of(params, channels);
+    let matched = Luma::values(luma, channels);
     // The mean of three channels carries a third of the noise variance: its difference
     // is truncated at `τ/√3`, the same multiple of its noise as a channel's at `τ`.
     let tau = if luma.is_some() {
@@ -1099,7 +1104,7 @@ fn pixel_costs<S: Sample>(
         reason: "holds fewer rows than its layout: build the light field from the whole frame",
     };
     let width = centre.width();
-    let row_len = width * if luma.is_some() { 1 } else { centre.channels() };
+    let row_len = width * Luma::values(luma, centre.channels());
     let (acc, rest) = take(acc, GROUPS * row_len)?;
     let (cen, spare) = take(rest, row_len)?;
     let cen = match centre_rows.row(cache, y, row_len) {
@@ -1195,12 +1200,7 @@ fn view_costs<S: Sample, const FIRST: bool>(
         missing,
     } = read;
     let width = sv.view.width();
-    let row_len = width
-        * if luma.is_some() {
-            1
-        } else {
-            sv.view.channels()
-        };
+    let row_len = width * Luma::values(luma, sv.view.channels());
     let shift = sv.shift;
     if sv.v == 0.0 {
         // Source x = x + t, t = −d·u: the row shifted by ⌊t⌋ and blended by f.
