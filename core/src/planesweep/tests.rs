@@ -121,18 +121,24 @@ fn enabled() -> PlaneSweepParams {
     }
 }
 
-#[test]
-fn fronto_parallel_planes_are_recovered() {
+/// Fronto-parallel planes at −1.3, 0, 0.8 and 2.6 px, swept with `params` over ±3 px:
+/// ≥ 99 % of the pixels within 0.05 px, confidences in [0, 1], disparities in the range.
+fn assert_fronto_parallel_planes_recovered(params: PlaneSweepParams) {
     for a in [-1.3f32, 0.0, 0.8, 2.6] {
         let (data, layout, gt) = plane(64, 48, a, 0.0);
         let lf = LightField::new(&data[..], layout).unwrap();
-        let setup = TestSetup::new(layout, enabled());
+        let setup = TestSetup::new(layout, params);
         let (d, c) = estimate(&setup, &lf, (-3.0, 3.0), BAND_ROWS);
         let share = within(&d, &gt, 64, 0.05);
         assert!(share >= 0.99, "disparity {a}: {share} within 0.05 px");
         assert!(c.iter().all(|c| (0.0..=1.0).contains(c)));
         assert!(d.iter().all(|d| (-3.0..=3.0).contains(d)));
     }
+}
+
+#[test]
+fn fronto_parallel_planes_are_recovered() {
+    assert_fronto_parallel_planes_recovered(enabled());
 }
 
 #[test]
@@ -160,10 +166,13 @@ fn any_banding_gives_the_same_bits() {
     }
 }
 
-#[test]
-fn kept_rows_give_the_bits_of_converting_per_hypothesis() {
-    // 200 rows: at ±9 px the outer column views reach beyond the rows the scratch keeps
-    // for them (sized for ±8 px), so those views are read from the light field.
+/// Sweeps a slanted plane of 24×200 pixels with `params` over ±1.5 and ±9 px from
+/// `f32` and from 8-bit views, with the views' rows kept per band and converted per
+/// hypothesis, and asserts that both give the same bits; returns each range's `f32`
+/// and 8-bit disparity bits. 200 rows: at ±9 px the outer column views reach beyond
+/// the rows the scratch keeps for them (sized for ±8 px), so those views are read from
+/// the light field.
+fn assert_kept_rows_give_the_bits_of_conversion(params: PlaneSweepParams) -> Vec<[Vec<u32>; 2]> {
     let (data, layout, _) = plane(24, 200, -0.4, 0.015);
     let levels: Vec<u8> = data
         .iter()
@@ -171,21 +180,29 @@ fn kept_rows_give_the_bits_of_converting_per_hypothesis() {
         .collect();
     let lf = LightField::new(&data[..], layout).unwrap();
     let lf8 = LightField::new(&levels[..], layout).unwrap();
-    let setup = TestSetup::new(layout, enabled());
+    let setup = TestSetup::new(layout, params);
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let mut maps = Vec::new();
     for range in [(-1.5, 1.5), (-9.0, 9.0)] {
         let kept = estimate_with(&setup, &lf, range, BAND_ROWS, true);
         let converted = estimate_with(&setup, &lf, range, BAND_ROWS, false);
         assert_eq!(bits(&kept.0), bits(&converted.0), "f32, {range:?}");
         assert_eq!(bits(&kept.1), bits(&converted.1), "f32, {range:?}");
-        let kept = estimate_with(&setup, &lf8, range, BAND_ROWS, true);
-        let converted = estimate_with(&setup, &lf8, range, BAND_ROWS, false);
-        assert_eq!(bits(&kept.0), bits(&converted.0), "u8, {range:?}");
-        assert_eq!(bits(&kept.1), bits(&converted.1), "u8, {range:?}");
-        // The 8-bit map differs from the f32 one (the kept rows are the samples'
-        // own values, not one type's).
-        let f32_map = estimate_with(&setup, &lf, range, BAND_ROWS, true);
-        assert_ne!(bits(&kept.0), bits(&f32_map.0), "{range:?}");
+        let kept8 = estimate_with(&setup, &lf8, range, BAND_ROWS, true);
+        let converted8 = estimate_with(&setup, &lf8, range, BAND_ROWS, false);
+        assert_eq!(bits(&kept8.0), bits(&converted8.0), "u8, {range:?}");
+        assert_eq!(bits(&kept8.1), bits(&converted8.1), "u8, {range:?}");
+        maps.push([bits(&kept.0), bits(&kept8.0)]);
+    }
+    maps
+}
+
+#[test]
+fn kept_rows_give_the_bits_of_converting_per_hypothesis() {
+    for [f32_map, u8_map] in assert_kept_rows_give_the_bits_of_conversion(enabled()) {
+        // The 8-bit map differs from the f32 one (the kept rows are the samples' own
+        // values, not one type's).
+        assert_ne!(u8_map, f32_map);
     }
 }
 
@@ -648,15 +665,7 @@ fn gray() -> PlaneSweepParams {
 
 #[test]
 fn gray_matching_recovers_fronto_parallel_planes() {
-    for a in [-1.3f32, 0.0, 0.8, 2.6] {
-        let (data, layout, gt) = plane(64, 48, a, 0.0);
-        let lf = LightField::new(&data[..], layout).unwrap();
-        let setup = TestSetup::new(layout, gray());
-        let (d, c) = estimate(&setup, &lf, (-3.0, 3.0), BAND_ROWS);
-        let share = within(&d, &gt, 64, 0.05);
-        assert!(share >= 0.99, "disparity {a}: {share} within 0.05 px");
-        assert!(c.iter().all(|c| (0.0..=1.0).contains(c)));
-    }
+    assert_fronto_parallel_planes_recovered(gray());
 }
 
 #[test]
@@ -690,24 +699,7 @@ fn gray_matching_gives_the_same_bits_for_any_banding_and_row_conversion() {
     }
     // Beyond ±8 px the outer column views are converted per hypothesis (as in
     // `kept_rows_give_the_bits_of_converting_per_hypothesis`), to luminance likewise.
-    let (data, layout, _) = plane(24, 200, -0.4, 0.015);
-    let levels: Vec<u8> = data
-        .iter()
-        .map(|&v| libm::roundf(v * 255.0).clamp(0.0, 255.0) as u8)
-        .collect();
-    let lf = LightField::new(&data[..], layout).unwrap();
-    let lf8 = LightField::new(&levels[..], layout).unwrap();
-    let setup = TestSetup::new(layout, gray());
-    for range in [(-1.5, 1.5), (-9.0, 9.0)] {
-        let kept = estimate_with(&setup, &lf, range, BAND_ROWS, true);
-        let converted = estimate_with(&setup, &lf, range, BAND_ROWS, false);
-        assert_eq!(bits(&kept.0), bits(&converted.0), "f32, {range:?}");
-        assert_eq!(bits(&kept.1), bits(&converted.1), "f32, {range:?}");
-        let kept = estimate_with(&setup, &lf8, range, BAND_ROWS, true);
-        let converted = estimate_with(&setup, &lf8, range, BAND_ROWS, false);
-        assert_eq!(bits(&kept.0), bits(&converted.0), "u8, {range:?}");
-        assert_eq!(bits(&kept.1), bits(&converted.1), "u8, {range:?}");
-    }
+    assert_kept_rows_give_the_bits_of_conversion(gray());
 }
 
 #[test]
