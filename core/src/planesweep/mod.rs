@@ -63,15 +63,24 @@
 //! exactly up to 2²⁴ and rounded beyond). Its scratch is the run's `f32` map scratch,
 //! the integer rows reinterpreted in place.
 
+mod costs;
+mod fixedpoint;
 mod params;
+mod rows;
 #[cfg(test)]
 pub(crate) mod tests;
+mod volume;
 
 use core::ops::Range;
 
 use crate::error::{check_scratch, checked_product, Error, Result};
-use crate::lightfield::{LightField, Sample, View};
+use crate::lightfield::{LightField, Sample};
 use crate::setup::{DisparityOut, Setup};
+
+use costs::{pixel_costs, source_row, Shift, SweepView};
+use fixedpoint::{channel_sums, fixed_scale};
+use rows::{Luma, RowCache};
+use volume::{Source, Volume};
 
 pub use params::{PlaneSweepParams, SweepColor, MAX_CANDIDATE, MAX_LINE, MAX_RADIUS};
 
@@ -82,9 +91,6 @@ pub const STAGE: &str = "sweep";
 /// (`2 · radius`) are computed again by the next band, so a band should be much taller
 /// than the window.
 pub const BAND_ROWS: usize = 64;
-
-/// `√2`: the noise weight of a whole-pixel shift is 1.
-const NOISE_SCALE: f32 = core::f32::consts::SQRT_2;
 
 /// `1/√3`: the luminance difference's truncation relative to a channel's
 /// ([`SweepColor::Gray`]).
@@ -213,180 +219,6 @@ fn hypotheses(step: f32, min: f32, max: f32) -> (usize, f32) {
     (intervals + 1, span / intervals as f32)
 }
 
-/// One view of the sweep: its image and camera offset from the centre, the current
-/// hypothesis's shift and where the band keeps its rows in unit intensity.
-#[derive(Clone, Copy)]
-struct SweepView<'a, S: Sample> {
-    view: View<'a, S>,
-    u: f32,
-    v: f32,
-    /// 0 for the centre row's views, 1 for the centre column's.
-    group: usize,
-    /// The current hypothesis's shift ([`Shift::at`]).
-    shift: Shift,
-    /// The view's rows the band converted ([`RowCache`]).
-    rows: RowCache,
-}
-
-/// A view's shift `t = −d·u` (row views) or `−d·v` (column views) at hypothesis `d`,
-/// split into `⌊t⌋` and the blend weights `f = t − ⌊t⌋`, `g = 1 − f`, and the noise
-/// weight `w = √2 / √(1 + g² + f²)`.
-#[derive(Clone, Copy, Default)]
-struct Shift {
-    floor: f32,
-    f: f32,
-    g: f32,
-    w: f32,
-}
-
-impl Shift {
-    fn at(d: f32, offset: f32) -> Self {
-        let t = -d * offset;
-        let floor = libm::floorf(t);
-        let f = t - floor;
-        let g = 1.0 - f;
-        // Under i.i.d. noise of deviation σ the residual's deviation is
-        // σ·√(1 + g² + f²): linear interpolation averages noise away at half-pixel
-        // shifts, which would pull faint texture towards those hypotheses.
-        let w = NOISE_SCALE / libm::sqrtf(1.0 + g * g + f * f);
-        Shift { floor, f, g, w }
-    }
-}
-
-/// Rows `first..first + rows` of a view in unit intensity ([`Sample::to_unit`]), kept
-/// for a band at `start` of the cache (`row_len` values a row); `rows` 0 where the
-/// cache had no room: that view is read and converted per hypothesis, to the same bits.
-#[derive(Clone, Copy, Default)]
-struct RowCache {
-    start: usize,
-    first: usize,
-    rows: usize,
-}
-
-impl RowCache {
-    /// Row `y` from `cache`, if kept.
-    fn row<'c>(&self, cache: &'c [f32], y: usize, row_len: usize) -> Option<&'c [f32]> {
-        let k = y.checked_sub(self.first).filter(|&k| k < self.rows)?;
-        let at = self.start.checked_add(k.checked_mul(row_len)?)?;
-        cache.get(at..at.checked_add(row_len)?)
-    }
-
-    /// Takes room for rows `rows` of `view` from `cache[*used..]` and converts them
-    /// ([`unit_row`]); no room leaves the view uncached.
-    fn fill<S: Sample>(
-        view: &View<'_, S>,
-        rows: Range<usize>,
-        cache: &mut [f32],
-        used: &mut usize,
-        row_len: usize,
-        luma: Option<Luma>,
-    ) -> Self {
-        let Some(len) = rows.len().checked_mul(row_len) else {
-            return RowCache::default();
-        };
-        let start = *used;
-        let Some(room) = start
-            .checked_add(len)
-            .and_then(|end| cache.get_mut(start..end))
-        else {
-            return RowCache::default();
-        };
-        for (to, y) in room.chunks_exact_mut(row_len.max(1)).zip(rows.clone()) {
-            match view.row(y) {
-                Some(from) => unit_row(from, to, luma),
-                None => return RowCache::default(),
-            }
-        }
-        *used = start + len;
-        RowCache {
-            start,
-            first: rows.start,
-            rows: rows.len(),
-        }
-    }
-}
-
-/// Matching on luminance ([`SweepColor::Gray`]): the views' interleaved `channels`, of
-/// which the first `channels.min(3)` (the colour channels, as the RGB matching's) are
-/// averaged.
-#[derive(Clone, Copy)]
-struct Luma {
-    channels: usize,
-}
-
-impl Luma {
-    /// The luminance matching of views with `channels` interleaved samples under
-    /// `params`: with [`SweepColor::Gray`] and more than one channel (one channel is
-    /// matched as it is).
-    fn of(params: &PlaneSweepParams, channels: usize) -> Option<Luma> {
-        (params.color == SweepColor::Gray && channels != 1).then_some(Luma { channels })
-    }
-
-    /// Values per pixel that the sweep matches (and keeps in a band's converted rows)
-    /// of views with `channels` interleaved samples: one with `luma`, else every sample.
-    fn values(luma: Option<Luma>, channels: usize) -> usize {
-        if luma.is_some() {
-            1
-        } else {
-            channels
-        }
-    }
-}
-
-/// A view's row `from` in unit intensity into `to` ([`Sample::to_unit`]): its samples as
-/// they are, or with `luma` one value per pixel, the mean of its colour channels (the
-/// same bits wherever a row is converted).
-fn unit_row<S: Sample>(from: &[S], to: &mut [f32], luma: Option<Luma>) {
-    match luma {
-        None => {
-            for (t, s) in to.iter_mut().zip(from) {
-                *t = s.to_unit();
-            }
-        }
-        // The usual channel counts as literals: `luma_row` is inlined, so the pixel's
-        // width is known to the compiler and the loop over its channels unrolls (the
-        // loop with a run-time width costs more instructions than the one-channel
-        // matching it feeds, docs/stages/sweep.md).
-        Some(Luma { channels: 3 }) => luma_row(from, to, 3),
-        Some(Luma { channels: 4 }) => luma_row(from, to, 4),
-        Some(Luma { channels }) => luma_row(from, to, channels),
-    }
-}
-
-/// [`unit_row`]'s luminance for pixels of `channels` interleaved samples.
-#[inline(always)]
-fn luma_row<S: Sample>(from: &[S], to: &mut [f32], channels: usize) {
-    let used = channels.min(3);
-    let scale = mean_scale::<S>(used);
-    for (t, px) in to.iter_mut().zip(from.chunks_exact(channels.max(1))) {
-        *t = pixel_mean(px.get(..used).unwrap_or(px), scale);
-    }
-}
-
-/// What [`pixel_mean`] multiplies the sum of `used` samples by: `1/used`, and for 8-bit
-/// levels, summed as they are, `1/255` as well.
-fn mean_scale<S: Sample>(used: usize) -> f32 {
-    let used = used.max(1) as f32;
-    if S::IS_U8 {
-        1.0 / (255.0 * used)
-    } else {
-        1.0 / used
-    }
-}
-
-/// The mean of a pixel's colour `channels` in unit intensity (`scale` from
-/// [`mean_scale`]): 8-bit levels summed as integers (exact) and scaled once, other
-/// samples summed in unit intensity in channel order.
-#[inline(always)]
-fn pixel_mean<S: Sample>(channels: &[S], scale: f32) -> f32 {
-    if S::IS_U8 {
-        let sum = channels.iter().fold(0u32, |a, s| a + u32::from(s.level()));
-        sum as f32 * scale
-    } else {
-        channels.iter().fold(0.0f32, |a, s| a + s.to_unit()) * scale
-    }
-}
-
 /// Estimates rows `rows` (at most [`BAND_ROWS`]) of the disparity of `lf`'s centre view
 /// over the hypotheses of `range` (`(min, max)`, px) into `out` (one value per pixel of
 /// the rows), with `scratch` ([`scratch_len`] `f32` elements). The per-pixel candidate
@@ -490,39 +322,8 @@ fn estimate_band<S: Sample>(
         return Ok(());
     }
 
-    let grid = lf.grid();
-    let (r0, c0) = grid.center();
     let centre = lf.center_view();
-    let mut views: heapless::Vec<SweepView<'_, S>, { 2 * crate::lightfield::GRID_MAX }> =
-        heapless::Vec::new();
-    for c in (0..grid.cols).filter(|&c| c != c0) {
-        let view = lf.view(r0, c)?;
-        let u = c as f32 - c0 as f32;
-        views
-            .push(SweepView {
-                view,
-                u,
-                v: 0.0,
-                group: 0,
-                shift: Shift::default(),
-                rows: RowCache::default(),
-            })
-            .map_err(|_| Error::SizeOverflow { what: "the views" })?;
-    }
-    for r in (0..grid.rows).filter(|&r| r != r0) {
-        let view = lf.view(r, c0)?;
-        let v = r as f32 - r0 as f32;
-        views
-            .push(SweepView {
-                view,
-                u: 0.0,
-                v,
-                group: 1,
-                shift: Shift::default(),
-                rows: RowCache::default(),
-            })
-            .map_err(|_| Error::SizeOverflow { what: "the views" })?;
-    }
+    let mut views = cross_views(lf)?;
 
     let r = params.radius;
     let tau = params.truncate;
@@ -666,6 +467,60 @@ fn estimate_band<S: Sample>(
     for volume in volumes.iter_mut() {
         volume.finish(mean_scale, min, max, spacing);
     }
+    write_winners(&volumes, params.select, out, candidate)?;
+    Ok(())
+}
+
+/// The views of the centre row (group 0) and column (group 1) but the centre, with their
+/// camera offsets.
+fn cross_views<'a, S: Sample>(
+    lf: &LightField<'a, S>,
+) -> Result<heapless::Vec<SweepView<'a, S>, { 2 * crate::lightfield::GRID_MAX }>> {
+    let grid = lf.grid();
+    let (r0, c0) = grid.center();
+    let mut views: heapless::Vec<SweepView<'_, S>, { 2 * crate::lightfield::GRID_MAX }> =
+        heapless::Vec::new();
+    for c in (0..grid.cols).filter(|&c| c != c0) {
+        let view = lf.view(r0, c)?;
+        let u = c as f32 - c0 as f32;
+        views
+            .push(SweepView {
+                view,
+                u,
+                v: 0.0,
+                group: 0,
+                shift: Shift::default(),
+                rows: RowCache::default(),
+            })
+            .map_err(|_| Error::SizeOverflow { what: "the views" })?;
+    }
+    for r in (0..grid.rows).filter(|&r| r != r0) {
+        let view = lf.view(r, c0)?;
+        let v = r as f32 - r0 as f32;
+        views
+            .push(SweepView {
+                view,
+                u: 0.0,
+                v,
+                group: 1,
+                shift: Shift::default(),
+                rows: RowCache::default(),
+            })
+            .map_err(|_| Error::SizeOverflow { what: "the views" })?;
+    }
+
+    Ok(views)
+}
+
+/// The map from the finished volumes: per pixel the combined volume's winner unless a
+/// one-axis volume's confidence exceeds the combined one's times `select` (and the other
+/// one-axis volumes'), and the per-pixel candidate where asked for.
+fn write_winners(
+    volumes: &[Volume<'_>],
+    select: f32,
+    out: DisparityOut<'_>,
+    candidate: Option<&mut [f32]>,
+) -> Result<()> {
     let (winners, extra) = volumes
         .split_at_checked(VOLUMES.min(volumes.len()))
         .unwrap_or((&[], &[]));
@@ -684,7 +539,7 @@ fn estimate_band<S: Sample>(
             .zip(all.sum.iter())
             .zip(volume.best_at.iter().zip(volume.sum.iter()));
         for (((d, c), &ca), (&dv, &cv)) in pixels {
-            if cv > ca * params.select && cv > *c {
+            if cv > ca * select && cv > *c {
                 *d = dv;
                 *c = cv;
             }
@@ -702,350 +557,6 @@ fn estimate_band<S: Sample>(
         }
     }
     Ok(())
-}
-
-/// The views a cost volume sums.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Source {
-    All,
-    Horizontal,
-    Vertical,
-}
-
-/// One cost volume's rows and per-pixel winners over a band.
-struct Volume<'a> {
-    /// Which views it sums.
-    source: Source,
-    /// Window radii along x and y.
-    rx: usize,
-    ry: usize,
-    /// One row of fixed-point pixel costs, padded by the radius on each side (unused
-    /// when `rx` is 0: the costs go straight into their filtered row).
-    padded: &'a mut [i32],
-    /// Two rows of partial window sums along x ([`window_sum`]).
-    partial: [&'a mut [i32]; 2],
-    /// Horizontally filtered cost rows of the band and its halo.
-    costs: &'a mut [i32],
-    /// The window sum of the band row last aggregated ([`Volume::aggregate`]), in its
-    /// first `width` values (a padded row's room).
-    column: &'a mut [i32],
-    best: &'a mut [f32],
-    best_at: &'a mut [f32],
-    before: &'a mut [f32],
-    after: &'a mut [f32],
-    last: &'a mut [f32],
-    /// The sum of the costs over the hypotheses (then the confidence).
-    sum: &'a mut [f32],
-}
-
-impl<'a> Volume<'a> {
-    fn take(
-        s: &'a mut [f32],
-        source: Source,
-        (rx, ry): (usize, usize),
-        padded: usize,
-        costs: usize,
-        len: usize,
-    ) -> Result<(Self, &'a mut [f32])> {
-        let (padded, s) = take(s, padded)?;
-        let (partial0, s) = take(s, padded.len())?;
-        let (partial1, s) = take(s, padded.len())?;
-        let (costs, s) = take(s, costs)?;
-        let (column, s) = take(s, padded.len())?;
-        let (best, s) = take(s, len)?;
-        let (best_at, s) = take(s, len)?;
-        let (before, s) = take(s, len)?;
-        let (after, s) = take(s, len)?;
-        let (last, s) = take(s, len)?;
-        let (sum, s) = take(s, len)?;
-        best.fill(f32::INFINITY);
-        best_at.fill(0.0);
-        before.fill(f32::INFINITY);
-        after.fill(f32::INFINITY);
-        last.fill(f32::INFINITY);
-        sum.fill(0.0);
-        Ok((
-            Volume {
-                source,
-                rx,
-                ry,
-                padded: ints(padded)?,
-                partial: [ints(partial0)?, ints(partial1)?],
-                costs: ints(costs)?,
-                column: ints(column)?,
-                best,
-                best_at,
-                before,
-                after,
-                last,
-                sum,
-            },
-            s,
-        ))
-    }
-
-    /// Where the fixed-point pixel costs of region row `k` go: the unpadded part of the
-    /// padded row, or for a window one pixel wide (`rx` 0) the filtered row `k` itself.
-    fn body_mut(&mut self, width: usize, k: usize) -> &mut [i32] {
-        let r = self.rx;
-        if r == 0 {
-            let at = k.saturating_mul(width);
-            self.costs
-                .get_mut(at..at.saturating_add(width))
-                .unwrap_or(&mut [])
-        } else {
-            self.padded.get_mut(r..r + width).unwrap_or(&mut [])
-        }
-    }
-
-    /// Pads the pixel-cost row with its end values and sums its windows along x into
-    /// cost row `k` (a window one pixel wide is already there).
-    fn filter_row(&mut self, width: usize, k: usize) -> Result<()> {
-        let r = self.rx;
-        if r == 0 {
-            return Ok(());
-        }
-        let (lead, tail) = take_ints(self.padded, r)?;
-        let (body, trail) = take_ints(tail, width)?;
-        lead.fill(body.first().copied().unwrap_or(0));
-        trail.fill(body.last().copied().unwrap_or(0));
-        let row = self
-            .costs
-            .get_mut(k * width..(k + 1) * width)
-            .ok_or(Error::SizeOverflow { what: "a cost row" })?;
-        let [p0, p1] = &mut self.partial;
-        window_sum(self.padded, 2 * r + 1, row, p0, p1);
-        Ok(())
-    }
-
-    /// The window sum over rows `y − r ..= y + r` (clamped to the image) into
-    /// `column`: from the previous row's sum (`next`, the band row above `y` was the last
-    /// aggregated) by adding the entering row and subtracting the leaving one, else tap
-    /// by tap. The sums are exact in integers, so both give the same value.
-    fn aggregate(
-        &mut self,
-        width: usize,
-        height: usize,
-        y: usize,
-        first: usize,
-        next: bool,
-    ) -> Result<()> {
-        let r = self.ry;
-        let costs = &*self.costs;
-        let row = |yy: usize| {
-            let k = yy.min(height.saturating_sub(1)).saturating_sub(first);
-            costs
-                .get(k * width..(k + 1) * width)
-                .ok_or(Error::SizeOverflow { what: "a cost row" })
-        };
-        if next {
-            let enter = row(y + r)?;
-            let leave = row(y.saturating_sub(1).saturating_sub(r))?;
-            for ((c, &e), &l) in self.column.iter_mut().zip(enter).zip(leave) {
-                *c = c.wrapping_sub(l).wrapping_add(e);
-            }
-        } else {
-            for j in 0..=2 * r {
-                let src = row((y + j).saturating_sub(r))?;
-                if j == 0 {
-                    copy(self.column, src);
-                } else {
-                    for (c, &s) in self.column.iter_mut().zip(src) {
-                        *c = c.wrapping_add(s);
-                    }
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Takes hypothesis `at`'s costs of band row `band` from the filtered rows `row`
-    /// (a window one row tall).
-    fn update_from_row(&mut self, row: Range<usize>, band: Range<usize>, at: f32) -> Result<()> {
-        let costs = core::mem::take(&mut self.costs);
-        let result = match costs.get(row) {
-            Some(row) => {
-                self.update(row, band, at);
-                Ok(())
-            }
-            None => Err(Error::SizeOverflow { what: "a cost row" }),
-        };
-        self.costs = costs;
-        result
-    }
-
-    /// Takes hypothesis `at`'s window sums of band row `band` from `column`.
-    fn update_from_column(&mut self, band: Range<usize>, at: f32) {
-        let column = core::mem::take(&mut self.column);
-        self.update(column, band, at);
-        self.column = column;
-    }
-
-    /// Takes hypothesis `at`'s window sums `agg` (fixed point) of band row `band`.
-    fn update(&mut self, agg: &[i32], band: Range<usize>, at: f32) {
-        let best = self.best.get_mut(band.clone()).unwrap_or(&mut []);
-        let best_at = self.best_at.get_mut(band.clone()).unwrap_or(&mut []);
-        let before = self.before.get_mut(band.clone()).unwrap_or(&mut []);
-        let after = self.after.get_mut(band.clone()).unwrap_or(&mut []);
-        let last = self.last.get_mut(band.clone()).unwrap_or(&mut []);
-        let sum = self.sum.get_mut(band).unwrap_or(&mut []);
-        let state = best
-            .iter_mut()
-            .zip(best_at.iter_mut())
-            .zip(before.iter_mut())
-            .zip(after.iter_mut())
-            .zip(last.iter_mut())
-            .zip(sum.iter_mut());
-        for ((((((b, bi), be), af), l), s), &a) in state.zip(agg.iter()) {
-            // Window sums are below 2³¹ ([`fixed_scale`]): one conversion per lane.
-            let a = a as f32;
-            let better = a < *b;
-            let next = *bi + 1.0 == at;
-            *af = if better {
-                f32::INFINITY
-            } else if next {
-                a
-            } else {
-                *af
-            };
-            *be = if better { *l } else { *be };
-            *b = if better { a } else { *b };
-            *bi = if better { at } else { *bi };
-            *l = a;
-            *s += a;
-        }
-    }
-
-    /// Turns the winners into disparities (in `best_at`) and confidences (in `sum`).
-    fn finish(&mut self, mean_scale: f32, min: f32, max: f32, spacing: f32) {
-        let pixels = self.best_at.iter_mut().zip(self.sum.iter_mut()).zip(
-            self.best
-                .iter()
-                .zip(self.before.iter().zip(self.after.iter())),
-        );
-        for ((bi, c), (&b, (&be, &af))) in pixels {
-            let curvature = 2.0 * (be.max(af) - b);
-            let offset = if be.is_finite() && af.is_finite() && curvature > 0.0 {
-                ((be - af) / curvature).clamp(-0.5, 0.5)
-            } else {
-                0.0
-            };
-            *bi = (min + (*bi + offset) * spacing).max(min).min(max);
-            let mean = *c * mean_scale;
-            *c = if mean > 0.0 {
-                (1.0 - b / mean).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-        }
-    }
-}
-
-/// Largest window sum of fixed-point costs ([`fixed_scale`]): half the range of `i32`,
-/// leaving room for the rounding of each pixel's cost.
-const WINDOW_LIMIT: f32 = (1u32 << 30) as f32;
-
-/// Largest fixed-point cost of a pixel ([`fixed_scale`]): half of `2²³`, below which
-/// [`fixed`] rounds exactly.
-const PIXEL_LIMIT: f32 = (1u32 << 22) as f32;
-
-/// `2²³`: an `f32` in `[2²³, 2²⁴)` holds whole numbers, its low mantissa bits the
-/// integer.
-const ROUNDING: f32 = (1u32 << 23) as f32;
-
-/// The fixed-point scale of the pixel costs: a pixel's cost, the sum of `terms`
-/// truncated differences (every view and channel, each at most `tau`), stays below
-/// [`PIXEL_LIMIT`], and a window of `taps` such pixels below [`WINDOW_LIMIT`], so the
-/// window sums never overflow `i32` and convert to `f32` in one instruction. For the
-/// defaults (9×9 views, RGB, `τ` 0.1) one unit is 1.1·10⁻⁶ of a pixel's cost (whose
-/// typical values are 0.1–2).
-fn fixed_scale(taps: usize, terms: usize, tau: f32) -> f32 {
-    let per_pixel = (WINDOW_LIMIT / taps.max(1) as f32).min(PIXEL_LIMIT);
-    per_pixel / (terms.max(1) as f32 * tau)
-}
-
-/// A pixel's summed cost in fixed point, rounded to the nearest unit (ties to even):
-/// `cost · scale` lies in `[0, 2²³)` ([`fixed_scale`]; the differences are truncated,
-/// so `cost` is finite and ≥ 0), where adding `2²³` leaves the rounded integer in the
-/// mantissa. Three vector instructions per eight lanes, where `as i32` (saturating) is
-/// not vectorised.
-#[inline(always)]
-fn fixed(cost: f32, scale: f32) -> i32 {
-    ((cost * scale + ROUNDING).to_bits() as i32).wrapping_sub(ROUNDING.to_bits() as i32)
-}
-
-/// Per pixel, the sum of the first `used` of its `channels` interleaved samples, in
-/// channel order (the common layouts unrolled), in fixed point at `scale`.
-fn channel_sums(sum: &mut [i32], costs: &[f32], channels: usize, used: usize, scale: f32) {
-    match (channels, used) {
-        (3, 3) => {
-            for (s, px) in sum.iter_mut().zip(costs.chunks_exact(3)) {
-                if let [a, b, c] = *px {
-                    *s = fixed(a + b + c, scale);
-                }
-            }
-        }
-        (1, 1) => {
-            for (s, &c) in sum.iter_mut().zip(costs) {
-                *s = fixed(c, scale);
-            }
-        }
-        _ => {
-            for (s, px) in sum.iter_mut().zip(costs.chunks_exact(channels.max(1))) {
-                *s = fixed(px.iter().take(used).sum(), scale);
-            }
-        }
-    }
-}
-
-/// `out[x] = Σ a[x + j]` over `j < n` (`a` at least `out.len() + n − 1` long): by
-/// doubling, the sums of 2, 4, 8, … taps each one pass over the previous (in `p0`, `p1`
-/// in turn), and per set bit of `n` one pass adding that many taps to `out` (the first
-/// two in one pass). Integer sums are exact, so the order of the taps does not matter.
-fn window_sum(a: &[i32], n: usize, out: &mut [i32], p0: &mut [i32], p1: &mut [i32]) {
-    let (mut current, mut spare) = (p0, p1);
-    // `span` taps per sum; the sums start at `a` itself.
-    let mut span = 1;
-    let mut from_a = true;
-    let mut offset = 0;
-    // `out` holds nothing yet; `a` is its first term, still to be added (bit 0).
-    let (mut empty, mut a_pending) = (true, false);
-    loop {
-        let sums: &[i32] = if from_a { a } else { current };
-        if n & span != 0 {
-            let src = sums.get(offset..).unwrap_or(&[]);
-            if from_a {
-                a_pending = true;
-            } else if a_pending {
-                for ((o, &x), &s) in out.iter_mut().zip(a).zip(src) {
-                    *o = x.wrapping_add(s);
-                }
-                a_pending = false;
-                empty = false;
-            } else if empty {
-                copy(out, src);
-                empty = false;
-            } else {
-                for (o, &s) in out.iter_mut().zip(src) {
-                    *o = o.wrapping_add(s);
-                }
-            }
-            offset += span;
-        }
-        if span > n / 2 {
-            break;
-        }
-        let ahead = sums.get(span..).unwrap_or(&[]);
-        for ((t, &l), &h) in spare.iter_mut().zip(sums).zip(ahead) {
-            *t = l.wrapping_add(h);
-        }
-        core::mem::swap(&mut current, &mut spare);
-        from_a = false;
-        span *= 2;
-    }
-    if a_pending {
-        copy(out, a);
-    }
 }
 
 /// Copies what `from` and `to` have in common (no length check that could panic).
@@ -1074,249 +585,4 @@ fn ints(s: &mut [f32]) -> Result<&mut [i32]> {
     bytemuck::try_cast_slice_mut(s).map_err(|_| Error::SizeOverflow {
         what: "the plane sweep's integer rows",
     })
-}
-
-/// Row `y + floor + dy` of a view `height` rows tall, clamped to the image: the first
-/// (`dy` 0) and second (`dy` 1) row a column view blends for row `y`.
-fn source_row(y: usize, floor: f32, dy: f32, height: usize) -> usize {
-    (y as f32 + floor + dy).min(height as f32 - 1.0).max(0.0) as usize
-}
-
-/// The weighted, truncated absolute differences of row `y` of the centre view to every
-/// view at the current hypothesis (each view's [`SweepView::shift`]), per interleaved
-/// sample, summed over the centre row's views into the first row of `acc` and over the
-/// centre column's into the second (one value per pixel with `luma`, else per sample).
-/// Rows the band kept in `cache` are read from there, the others converted here (with
-/// `luma` into two rows of `acc` after the centre row).
-#[allow(clippy::too_many_arguments)]
-fn pixel_costs<S: Sample>(
-    centre: &View<'_, S>,
-    centre_rows: RowCache,
-    cache: &[f32],
-    views: &[SweepView<'_, S>],
-    y: usize,
-    tau: f32,
-    luma: Option<Luma>,
-    acc: &mut [f32],
-) -> Result<()> {
-    let missing = Error::InvalidParameter {
-        name: "light field",
-        reason: "holds fewer rows than its layout: build the light field from the whole frame",
-    };
-    let width = centre.width();
-    let row_len = width * Luma::values(luma, centre.channels());
-    let (acc, rest) = take(acc, GROUPS * row_len)?;
-    let (cen, spare) = take(rest, row_len)?;
-    let cen = match centre_rows.row(cache, y, row_len) {
-        Some(row) => row,
-        None => {
-            // The centre row in unit intensity, converted once for every view.
-            let c_row = centre.row(y).ok_or(missing)?;
-            unit_row(c_row, cen, luma);
-            &*cen
-        }
-    };
-    // The first view of a group stores its terms, the others add theirs (bit-identical
-    // to adding to zero: the terms are never −0); a group without views is zeroed.
-    let mut seen = [false; GROUPS];
-    for sv in views {
-        let acc = acc
-            .get_mut(sv.group * row_len..(sv.group + 1) * row_len)
-            .ok_or(Error::ScratchTooSmall {
-                needed: GROUPS * row_len,
-                got: 0,
-            })?;
-        let first = match seen.get_mut(sv.group) {
-            Some(seen) => !core::mem::replace(seen, true),
-            None => false,
-        };
-        let read = Read {
-            cache,
-            luma,
-            missing,
-        };
-        if first {
-            view_costs::<S, true>(sv, read, cen, y, tau, acc, spare)?;
-        } else {
-            view_costs::<S, false>(sv, read, cen, y, tau, acc, spare)?;
-        }
-    }
-    for (group, seen) in acc.chunks_mut(row_len.max(1)).zip(seen) {
-        if !seen {
-            group.fill(0.0);
-        }
-    }
-    Ok(())
-}
-
-/// `x.min(tau)` as one `minps`: `x` when below `tau`, else `tau` (also for a NaN `x`,
-/// as `f32::min` gives), the same bits as `f32::min` for the non-negative `x` and
-/// positive `tau` here without its extra NaN test.
-#[inline(always)]
-fn truncated(x: f32, tau: f32) -> f32 {
-    if x < tau {
-        x
-    } else {
-        tau
-    }
-}
-
-/// Adds `term` to `a`, or stores it for a group's first view.
-#[inline(always)]
-fn put<const FIRST: bool>(a: &mut f32, term: f32) {
-    if FIRST {
-        *a = term;
-    } else {
-        *a += term;
-    }
-}
-
-/// Where [`view_costs`] reads a view's rows: the band's converted rows, the
-/// luminance matching if on, the error for a row the view lacks.
-#[derive(Clone, Copy)]
-struct Read<'c> {
-    cache: &'c [f32],
-    luma: Option<Luma>,
-    missing: Error,
-}
-
-/// One view's weighted, truncated absolute differences to the centre row `cen` at its
-/// current shift into its group's row `acc` (stored if `FIRST`, else added), from the
-/// band's converted rows in `read.cache` where kept, else from the view: its samples
-/// converted as they are read, or with luminance matching its rows converted into
-/// `spare` first ([`unit_row`], the same bits as the kept rows).
-fn view_costs<S: Sample, const FIRST: bool>(
-    sv: &SweepView<'_, S>,
-    read: Read<'_>,
-    cen: &[f32],
-    y: usize,
-    tau: f32,
-    acc: &mut [f32],
-    spare: &mut [f32],
-) -> Result<()> {
-    let Read {
-        cache,
-        luma,
-        missing,
-    } = read;
-    let width = sv.view.width();
-    let row_len = width * Luma::values(luma, sv.view.channels());
-    let shift = sv.shift;
-    if sv.v == 0.0 {
-        // Source x = x + t, t = −d·u: the row shifted by ⌊t⌋ and blended by f.
-        match sv.rows.row(cache, y, row_len) {
-            Some(src) => shifted::<f32, FIRST>(src, width, shift, cen, tau, acc),
-            None => {
-                let src = sv.view.row(y).ok_or(missing)?;
-                if luma.is_some() {
-                    let (row, _) = take(spare, row_len)?;
-                    unit_row(src, row, luma);
-                    shifted::<f32, FIRST>(row, width, shift, cen, tau, acc);
-                } else {
-                    shifted::<S, FIRST>(src, width, shift, cen, tau, acc);
-                }
-            }
-        }
-    } else {
-        // Source y + t, t = −d·v: a blend of two rows (clamped to the image).
-        let height = sv.view.height();
-        let (y0, y1) = (
-            source_row(y, shift.floor, 0.0, height),
-            source_row(y, shift.floor, 1.0, height),
-        );
-        match (
-            sv.rows.row(cache, y0, row_len),
-            sv.rows.row(cache, y1, row_len),
-        ) {
-            (Some(s0), Some(s1)) => blend::<f32, FIRST>(s0, s1, shift, cen, tau, acc),
-            _ => {
-                let s0 = sv.view.row(y0).ok_or(missing)?;
-                let s1 = sv.view.row(y1).ok_or(missing)?;
-                if luma.is_some() {
-                    let (r0, rest) = take(spare, row_len)?;
-                    let (r1, _) = take(rest, row_len)?;
-                    unit_row(s0, r0, luma);
-                    unit_row(s1, r1, luma);
-                    blend::<f32, FIRST>(r0, r1, shift, cen, tau, acc);
-                } else {
-                    blend::<S, FIRST>(s0, s1, shift, cen, tau, acc);
-                }
-            }
-        }
-    }
-    Ok(())
-}
-
-/// `min(w·|g·s0 + f·s1 − c|, τ)` per sample into `acc` (stored if `FIRST`, else added):
-/// the kernel of every view, on rows in unit intensity (`T = f32`) or converted here.
-#[inline(always)]
-fn blend<T: Sample, const FIRST: bool>(
-    s0: &[T],
-    s1: &[T],
-    shift: Shift,
-    cen: &[f32],
-    tau: f32,
-    acc: &mut [f32],
-) {
-    let Shift { f, g, w, .. } = shift;
-    for (((a, &p0), &p1), &c) in acc.iter_mut().zip(s0).zip(s1).zip(cen) {
-        let value = g * p0.to_unit() + f * p1.to_unit();
-        put::<FIRST>(a, truncated(w * libm::fabsf(value - c), tau));
-    }
-}
-
-/// A row view's costs: its row `src` (`width` pixels) shifted by `⌊t⌋` pixels and
-/// blended by `f`, the taps clamped to the row at its ends.
-fn shifted<T: Sample, const FIRST: bool>(
-    src: &[T],
-    width: usize,
-    shift: Shift,
-    cen: &[f32],
-    tau: f32,
-    acc: &mut [f32],
-) {
-    let channels = src.len() / width.max(1);
-    let k = shift.floor as isize;
-    // Pixels whose two taps x + k and x + k + 1 lie inside the row.
-    let lo = (-k).max(0).min(width as isize) as usize;
-    let hi = (width as isize - 1 - k)
-        .min(width as isize)
-        .max(lo as isize) as usize;
-    let inner = lo * channels..hi * channels;
-    let from = (lo as isize + k).max(0) as usize * channels;
-    let s0 = src.get(from..from + inner.len()).unwrap_or(&[]);
-    let s1 = src
-        .get(from + channels..from + channels + inner.len())
-        .unwrap_or(&[]);
-    let c_in = cen.get(inner.clone()).unwrap_or(&[]);
-    blend::<T, FIRST>(
-        s0,
-        s1,
-        shift,
-        c_in,
-        tau,
-        acc.get_mut(inner).unwrap_or(&mut []),
-    );
-    // The edges, with the taps clamped to the row: left of `lo` they are the row's first
-    // two pixels, from `hi` on its last pixel twice, so per channel one blended value.
-    let Shift { f, g, w, .. } = shift;
-    let last = width.saturating_sub(1);
-    for (edge, (x0, x1)) in [(0..lo, (0, last.min(1))), (hi..width, (last, last))] {
-        let mut values = [0.0f32; 4];
-        for (ch, value) in values.iter_mut().enumerate().take(channels) {
-            let p0 = src.get(x0 * channels + ch).map_or(0.0, |s| s.to_unit());
-            let p1 = src.get(x1 * channels + ch).map_or(0.0, |s| s.to_unit());
-            *value = g * p0 + f * p1;
-        }
-        let span = edge.start * channels..edge.end * channels;
-        let (Some(a), Some(c)) = (acc.get_mut(span.clone()), cen.get(span)) else {
-            continue;
-        };
-        let n = channels.max(1);
-        for (a, c) in a.chunks_exact_mut(n).zip(c.chunks_exact(n)) {
-            for ((a, &c), &value) in a.iter_mut().zip(c).zip(&values) {
-                put::<FIRST>(a, truncated(w * libm::fabsf(value - c), tau));
-            }
-        }
-    }
 }

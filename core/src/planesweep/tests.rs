@@ -2,6 +2,8 @@ extern crate std;
 use std::vec;
 use std::vec::Vec;
 
+use super::fixedpoint::{fixed, window_sum};
+use super::rows::unit_row;
 use super::*;
 use crate::lightfield::{Grid, Layout};
 use crate::setup::TestSetup;
