@@ -1,78 +1,24 @@
 //! Criterion benchmark of the edge-snapping weighted median (`median/…`): the default
 //! stage (four passes, radius 7, planar votes) on one thread over the disparity it really
-//! filters, the photometric refinement's output after the geodesic refill (when the
-//! default parameters enable it, as the pipeline runs them), of HCI cotton when `../shared/data` is
+//! filters, the default pipeline's (plane sweep, photometric refinement, geodesic refill:
+//! `support/stage_inputs.rs`), of HCI cotton when `../shared/data` is
 //! present, else of a synthetic 9×9×512×512 Mixed scene; passes after the first as the
 //! engine runs them (`filter_pass`, remembering settled pixels) and in full (`filter`).
 //! The reported times are the benchmark thread's CPU time (`/proc/thread-self/schedstat`),
 //! not wall time: the machine is shared, and waiting for a core is no cost of the median.
 
+#[path = "support/stage_inputs.rs"]
+mod stage_inputs;
 #[path = "../tests/tv_support.rs"]
 mod tv_support;
 
-use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use lfdepth::median::{self, MedianParams};
-use lfdepth::setup::DisparityOut;
-use lfdepth::{epi, geofill, refine, LightField, Params, Plan};
-use lfdepth_cli::engine::{estimate, EstimateOptions, Stages};
-
-/// The median's input in the default pipeline: EPI, the photometric refinement, then the
-/// geodesic refill when enabled.
-fn refined(lf: &LightField<'_, u8>, plan: &Plan) -> Vec<f32> {
-    let options = EstimateOptions {
-        params: *plan.params(),
-        stage: Stages::Epi,
-        threads: None,
-    };
-    let epi_estimate = estimate(lf, &options, &mut |_, _, _| {}).unwrap();
-    let mut scratch = vec![0.0f32; epi::scratch_len(plan.epi())];
-    let hyps = epi::hypotheses(plan.epi(), lf, &mut scratch).unwrap();
-    let mut scratch = vec![0.0f32; refine::scratch_len(plan.refine())];
-    let mut disparity = vec![0.0f32; plan.pixels()];
-    let mut confidence = vec![0.0f32; plan.pixels()];
-    refine::refine_with_progress(
-        plan.refine(),
-        lf,
-        (hyps.min(), hyps.max()),
-        &epi_estimate.disparity,
-        DisparityOut {
-            disparity: &mut disparity,
-            confidence: &mut confidence,
-        },
-        &mut scratch,
-        &mut |_| ControlFlow::Continue(()),
-    )
-    .unwrap();
-    if !plan.params().geofill.enabled {
-        return disparity;
-    }
-    let mut filled = vec![0.0f32; plan.pixels()];
-    let mut scratch = vec![0.0f32; geofill::scratch_len(plan.geofill())];
-    geofill::fill(
-        plan.geofill(),
-        &lf.center_view(),
-        &disparity,
-        &mut filled,
-        &mut scratch,
-    )
-    .unwrap();
-    filled
-}
-
-/// CPU time of the calling thread.
-fn thread_cpu() -> Duration {
-    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
-    let ns = stat
-        .split_whitespace()
-        .next()
-        .and_then(|v| v.parse::<u64>().ok())
-        .unwrap_or(0);
-    Duration::from_nanos(ns)
-}
+use lfdepth::{LightField, Params, Plan};
+use stage_inputs::thread_cpu;
 
 /// Every pass as the engine runs them: each pass after the first knows the one before's
 /// input (`a`) and which pixels it settled (`settled`), its own input (`b`) is that
@@ -160,9 +106,9 @@ fn median_stage(c: &mut Criterion) {
     let lf = LightField::new(&views, layout).unwrap();
     let plan = Plan::new(layout, Params::default()).unwrap();
     let start = Instant::now();
-    let input = refined(&lf, &plan);
+    let input = stage_inputs::before_median(&lf, &plan).median_input;
     eprintln!(
-        "median input (EPI, refinement, refill) in {:.1?}",
+        "median input (plane sweep, refinement, refill) in {:.1?}",
         start.elapsed()
     );
     let passes = MedianParams::default().passes;
@@ -202,7 +148,7 @@ fn median_backgammon(c: &mut Criterion) {
     let (views, layout) = tv_support::load_hci(&dir);
     let lf = LightField::new(&views, layout).unwrap();
     let plan = Plan::new(layout, Params::default()).unwrap();
-    let input = refined(&lf, &plan);
+    let input = stage_inputs::before_median(&lf, &plan).median_input;
     let mut group = median_group(c);
     bench_engine_passes(&mut group, "backgammon", &plan, &lf, &input);
     group.finish();
