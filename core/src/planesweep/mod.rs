@@ -51,11 +51,13 @@
 //! overflow `i32`), and the windows are summed in integers, which is exact: along x by
 //! doubling (sums of 2, 4, 8, … taps), along y as a running sum per band row (the
 //! entering row added, the leaving one subtracted). So the map is bit-identical for any
-//! banding and thread count whatever order the taps are added in. Before the
-//! hypotheses a band converts the view rows it reads to unit intensity once (the
-//! centre's and the row views' rows of the band and its halo, each column view's rows
-//! that those reach at any hypothesis), so the per-hypothesis pass over a row reads
-//! `f32` values: the same bits as converting the taps per hypothesis.
+//! banding and thread count whatever order the taps are added in. Matching on
+//! luminance, a band converts the view rows it reads to luminance once before the
+//! hypotheses (the centre's and the row views' rows of the band and its halo, each
+//! column view's rows that those reach at any hypothesis), so the per-hypothesis pass
+//! over a row reads one `f32` value per pixel: the same bits as converting per
+//! hypothesis. Per-channel matching reads the views' own samples at every hypothesis
+//! ([`keeps_rows`] says why).
 //!
 //! # Numbers
 //! The stage matches in `f32` and sums the windows in `i32` fixed point whatever the
@@ -147,13 +149,14 @@ pub struct SweepOut<'a> {
 /// the two groups' fixed-point pixel costs of a row, per volume (with the candidate's,
 /// when on) four padded rows (the pixel costs, two of partial window sums along x and
 /// the running window sum along y), the filtered rows of the band and its halo and six
-/// values per pixel of the band, and the views' rows in unit intensity that a band keeps
-/// (`cache_rows` rows of interleaved samples, one value per pixel with
-/// [`SweepColor::Gray`]).
+/// values per pixel of the band, and with [`SweepColor::Gray`] the views' rows in
+/// luminance that a band keeps (`cache_rows` rows of one value per pixel,
+/// [`keeps_rows`]).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
-    let matched = Luma::values(Luma::of(setup.params(), channels), channels);
+    let luma = Luma::of(setup.params(), channels);
+    let matched = Luma::values(luma, channels);
     let line = setup.params().line * setup.params().radius;
     let rows = BAND_ROWS.min(layout.height);
     let volume = [
@@ -169,10 +172,24 @@ pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
         width.saturating_mul(channels).saturating_mul(GROUPS + 1),
         width.saturating_mul(GROUPS),
         volume.saturating_mul(volume_count(setup.params())),
-        cache_rows(layout.grid, height_rows(layout.height, line), layout.height)
-            .saturating_mul(width.saturating_mul(matched)),
+        if keeps_rows(luma) {
+            cache_rows(layout.grid, height_rows(layout.height, line), layout.height)
+                .saturating_mul(width.saturating_mul(matched))
+        } else {
+            0
+        },
     ];
     parts.iter().fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// Whether a band converts the views' rows it reads once and keeps them ([`RowCache`]):
+/// only to luminance. Per-channel matching reads the views' own rows at every
+/// hypothesis: kept rows of `f32` samples are four times the bytes of 8-bit views, and
+/// streaming them once per hypothesis, beyond the L2 cache, costs more time than
+/// converting each tap (docs/stages/sweep.md, "Kept rows"). Luminance rows are one value
+/// per pixel and save the averaging of the channels at every hypothesis.
+fn keeps_rows(luma: Option<Luma>) -> bool {
+    luma.is_some()
 }
 
 /// Rows a band computes costs for, halo included: at most [`BAND_ROWS`] `+ 2·line`,
@@ -258,8 +275,9 @@ pub fn estimate_rows_with_candidate<S: Sample>(
     estimate_band(setup, range, lf, rows, out, scratch, true)
 }
 
-/// [`estimate_rows`], converting the views' rows once for the band into the scratch
-/// (`keep_rows`) or per hypothesis as they are read: the same bits either way.
+/// [`estimate_rows`], converting the views' rows to luminance once for the band into the
+/// scratch (`keep_rows`, where [`keeps_rows`]) or per hypothesis as they are read: the
+/// same bits either way.
 fn estimate_band<S: Sample>(
     setup: Setup<'_, PlaneSweepParams>,
     range: (f32, f32),
@@ -390,7 +408,11 @@ fn estimate_band<S: Sample>(
     // The band's rows of every view in unit intensity, converted once for all
     // hypotheses: the centre's and the row views' rows of the region, each column
     // view's rows that the region reaches at any hypothesis.
-    let cache: &mut [f32] = if keep_rows { rest } else { &mut [] };
+    let cache: &mut [f32] = if keep_rows && keeps_rows(luma) {
+        rest
+    } else {
+        &mut []
+    };
     let mut used_cache = 0;
     let centre_rows = RowCache::fill(
         &centre,
