@@ -502,35 +502,30 @@ fn cross_views<'a, S: Sample>(
     let (r0, c0) = grid.center();
     let mut views: heapless::Vec<SweepView<'_, S>, { 2 * crate::lightfield::GRID_MAX }> =
         heapless::Vec::new();
-    for c in (0..grid.cols).filter(|&c| c != c0) {
-        let view = lf.view(r0, c)?;
-        let u = c as f32 - c0 as f32;
+    // (row, column, camera offset along the group's axis, group)
+    let row_views = (0..grid.cols)
+        .filter(|&c| c != c0)
+        .map(|c| (r0, c, c as f32 - c0 as f32, 0));
+    let column_views = (0..grid.rows)
+        .filter(|&r| r != r0)
+        .map(|r| (r, c0, r as f32 - r0 as f32, 1));
+    for (r, c, offset, group) in row_views.chain(column_views) {
+        let (u, v) = if group == 0 {
+            (offset, 0.0)
+        } else {
+            (0.0, offset)
+        };
         views
             .push(SweepView {
-                view,
+                view: lf.view(r, c)?,
                 u,
-                v: 0.0,
-                group: 0,
-                shift: Shift::default(),
-                rows: RowCache::default(),
-            })
-            .map_err(|_| Error::SizeOverflow { what: "the views" })?;
-    }
-    for r in (0..grid.rows).filter(|&r| r != r0) {
-        let view = lf.view(r, c0)?;
-        let v = r as f32 - r0 as f32;
-        views
-            .push(SweepView {
-                view,
-                u: 0.0,
                 v,
-                group: 1,
+                group,
                 shift: Shift::default(),
                 rows: RowCache::default(),
             })
             .map_err(|_| Error::SizeOverflow { what: "the views" })?;
     }
-
     Ok(views)
 }
 
