@@ -57,7 +57,7 @@
 //! column view's rows that those reach at any hypothesis), so the per-hypothesis pass
 //! over a row reads one `f32` value per pixel: the same bits as converting per
 //! hypothesis. Per-channel matching reads the views' own samples at every hypothesis
-//! ([`keeps_rows`] says why).
+//! (`keeps_rows` says why).
 //!
 //! # Numbers
 //! The stage matches in `f32` and sums the windows in `i32` fixed point whatever the
@@ -151,7 +151,7 @@ pub struct SweepOut<'a> {
 /// the running window sum along y), the filtered rows of the band and its halo and six
 /// values per pixel of the band, and with [`SweepColor::Gray`] the views' rows in
 /// luminance that a band keeps (`cache_rows` rows of one value per pixel,
-/// [`keeps_rows`]).
+/// `keeps_rows`).
 pub fn scratch_len(setup: Setup<'_, PlaneSweepParams>) -> usize {
     let layout = setup.layout();
     let (width, channels) = (layout.width, layout.channels);
