@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::lightfield::{Sample, View};
 
 /// `√2`: the noise weight of a whole-pixel shift is 1.
-pub(super) const NOISE_SCALE: f32 = core::f32::consts::SQRT_2;
+const NOISE_SCALE: f32 = core::f32::consts::SQRT_2;
 
 /// One view of the sweep: its image and camera offset from the centre, the current
 /// hypothesis's shift and where the band keeps its rows in unit intensity.
@@ -29,10 +29,10 @@ pub(super) struct SweepView<'a, S: Sample> {
 /// weight `w = √2 / √(1 + g² + f²)`.
 #[derive(Clone, Copy, Default)]
 pub(super) struct Shift {
-    pub(super) floor: f32,
-    pub(super) f: f32,
-    pub(super) g: f32,
-    pub(super) w: f32,
+    floor: f32,
+    f: f32,
+    g: f32,
+    w: f32,
 }
 
 impl Shift {
@@ -126,7 +126,7 @@ pub(super) fn pixel_costs<S: Sample>(
 /// as `f32::min` gives), the same bits as `f32::min` for the non-negative `x` and
 /// positive `tau` here without its extra NaN test.
 #[inline(always)]
-pub(super) fn truncated(x: f32, tau: f32) -> f32 {
+fn truncated(x: f32, tau: f32) -> f32 {
     if x < tau {
         x
     } else {
@@ -136,7 +136,7 @@ pub(super) fn truncated(x: f32, tau: f32) -> f32 {
 
 /// Adds `term` to `a`, or stores it for a group's first view.
 #[inline(always)]
-pub(super) fn put<const FIRST: bool>(a: &mut f32, term: f32) {
+fn put<const FIRST: bool>(a: &mut f32, term: f32) {
     if FIRST {
         *a = term;
     } else {
@@ -148,9 +148,9 @@ pub(super) fn put<const FIRST: bool>(a: &mut f32, term: f32) {
 /// luminance matching if on, the error for a row the view lacks.
 #[derive(Clone, Copy)]
 pub(super) struct Read<'c> {
-    pub(super) cache: &'c [f32],
-    pub(super) luma: Option<Luma>,
-    pub(super) missing: Error,
+    cache: &'c [f32],
+    luma: Option<Luma>,
+    missing: Error,
 }
 
 /// One view's weighted, truncated absolute differences to the centre row `cen` at its
@@ -158,7 +158,7 @@ pub(super) struct Read<'c> {
 /// band's converted rows in `read.cache` where kept, else from the view: its samples
 /// converted as they are read, or with luminance matching its rows converted into
 /// `spare` first ([`unit_row`], the same bits as the kept rows).
-pub(super) fn view_costs<S: Sample, const FIRST: bool>(
+fn view_costs<S: Sample, const FIRST: bool>(
     sv: &SweepView<'_, S>,
     read: Read<'_>,
     cen: &[f32],
@@ -223,7 +223,7 @@ pub(super) fn view_costs<S: Sample, const FIRST: bool>(
 /// `min(w·|g·s0 + f·s1 − c|, τ)` per sample into `acc` (stored if `FIRST`, else added):
 /// the kernel of every view, on rows in unit intensity (`T = f32`) or converted here.
 #[inline(always)]
-pub(super) fn blend<T: Sample, const FIRST: bool>(
+fn blend<T: Sample, const FIRST: bool>(
     s0: &[T],
     s1: &[T],
     shift: Shift,
@@ -240,7 +240,7 @@ pub(super) fn blend<T: Sample, const FIRST: bool>(
 
 /// A row view's costs: its row `src` (`width` pixels) shifted by `⌊t⌋` pixels and
 /// blended by `f`, the taps clamped to the row at its ends.
-pub(super) fn shifted<T: Sample, const FIRST: bool>(
+fn shifted<T: Sample, const FIRST: bool>(
     src: &[T],
     width: usize,
     shift: Shift,

@@ -5,15 +5,15 @@ use super::copy;
 
 /// Largest window sum of fixed-point costs ([`fixed_scale`]): half the range of `i32`,
 /// leaving room for the rounding of each pixel's cost.
-pub(super) const WINDOW_LIMIT: f32 = (1u32 << 30) as f32;
+const WINDOW_LIMIT: f32 = (1u32 << 30) as f32;
 
 /// Largest fixed-point cost of a pixel ([`fixed_scale`]): half of `2²³`, below which
 /// [`fixed`] rounds exactly.
-pub(super) const PIXEL_LIMIT: f32 = (1u32 << 22) as f32;
+const PIXEL_LIMIT: f32 = (1u32 << 22) as f32;
 
 /// `2²³`: an `f32` in `[2²³, 2²⁴)` holds whole numbers, its low mantissa bits the
 /// integer.
-pub(super) const ROUNDING: f32 = (1u32 << 23) as f32;
+const ROUNDING: f32 = (1u32 << 23) as f32;
 
 /// The fixed-point scale of the pixel costs: a pixel's cost, the sum of `terms`
 /// truncated differences (every view and channel, each at most `tau`), stays below

@@ -11,9 +11,9 @@ use crate::lightfield::{Sample, View};
 /// cache had no room: that view is read and converted per hypothesis, to the same bits.
 #[derive(Clone, Copy, Default)]
 pub(super) struct RowCache {
-    pub(super) start: usize,
-    pub(super) first: usize,
-    pub(super) rows: usize,
+    start: usize,
+    first: usize,
+    rows: usize,
 }
 
 impl RowCache {
@@ -108,7 +108,7 @@ pub(super) fn unit_row<S: Sample>(from: &[S], to: &mut [f32], luma: Option<Luma>
 
 /// [`unit_row`]'s luminance for pixels of `channels` interleaved samples.
 #[inline(always)]
-pub(super) fn luma_row<S: Sample>(from: &[S], to: &mut [f32], channels: usize) {
+fn luma_row<S: Sample>(from: &[S], to: &mut [f32], channels: usize) {
     let used = channels.min(3);
     let scale = mean_scale::<S>(used);
     for (t, px) in to.iter_mut().zip(from.chunks_exact(channels.max(1))) {
@@ -118,7 +118,7 @@ pub(super) fn luma_row<S: Sample>(from: &[S], to: &mut [f32], channels: usize) {
 
 /// What [`pixel_mean`] multiplies the sum of `used` samples by: `1/used`, and for 8-bit
 /// levels, summed as they are, `1/255` as well.
-pub(super) fn mean_scale<S: Sample>(used: usize) -> f32 {
+fn mean_scale<S: Sample>(used: usize) -> f32 {
     let used = used.max(1) as f32;
     if S::IS_U8 {
         1.0 / (255.0 * used)
@@ -131,7 +131,7 @@ pub(super) fn mean_scale<S: Sample>(used: usize) -> f32 {
 /// [`mean_scale`]): 8-bit levels summed as integers (exact) and scaled once, other
 /// samples summed in unit intensity in channel order.
 #[inline(always)]
-pub(super) fn pixel_mean<S: Sample>(channels: &[S], scale: f32) -> f32 {
+fn pixel_mean<S: Sample>(channels: &[S], scale: f32) -> f32 {
     if S::IS_U8 {
         let sum = channels.iter().fold(0u32, |a, s| a + u32::from(s.level()));
         sum as f32 * scale

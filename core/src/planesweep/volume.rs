@@ -20,23 +20,23 @@ pub(super) struct Volume<'a> {
     /// Which views it sums.
     pub(super) source: Source,
     /// Window radii along x and y.
-    pub(super) rx: usize,
+    rx: usize,
     pub(super) ry: usize,
     /// One row of fixed-point pixel costs, padded by the radius on each side (unused
     /// when `rx` is 0: the costs go straight into their filtered row).
-    pub(super) padded: &'a mut [i32],
+    padded: &'a mut [i32],
     /// Two rows of partial window sums along x ([`window_sum`]).
-    pub(super) partial: [&'a mut [i32]; 2],
+    partial: [&'a mut [i32]; 2],
     /// Horizontally filtered cost rows of the band and its halo.
-    pub(super) costs: &'a mut [i32],
+    costs: &'a mut [i32],
     /// The window sum of the band row last aggregated ([`Volume::aggregate`]), in its
     /// first `width` values (a padded row's room).
-    pub(super) column: &'a mut [i32],
-    pub(super) best: &'a mut [f32],
+    column: &'a mut [i32],
+    best: &'a mut [f32],
     pub(super) best_at: &'a mut [f32],
-    pub(super) before: &'a mut [f32],
-    pub(super) after: &'a mut [f32],
-    pub(super) last: &'a mut [f32],
+    before: &'a mut [f32],
+    after: &'a mut [f32],
+    last: &'a mut [f32],
     /// The sum of the costs over the hypotheses (then the confidence).
     pub(super) sum: &'a mut [f32],
 }
@@ -190,7 +190,7 @@ impl<'a> Volume<'a> {
     }
 
     /// Takes hypothesis `at`'s window sums `agg` (fixed point) of band row `band`.
-    pub(super) fn update(&mut self, agg: &[i32], band: Range<usize>, at: f32) {
+    fn update(&mut self, agg: &[i32], band: Range<usize>, at: f32) {
         let best = self.best.get_mut(band.clone()).unwrap_or(&mut []);
         let best_at = self.best_at.get_mut(band.clone()).unwrap_or(&mut []);
         let before = self.before.get_mut(band.clone()).unwrap_or(&mut []);
