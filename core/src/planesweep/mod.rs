@@ -405,38 +405,39 @@ fn estimate_band<S: Sample>(
 
     let (count, spacing) = hypotheses(params.step, min, max);
 
-    // The band's rows of every view in unit intensity, converted once for all
-    // hypotheses: the centre's and the row views' rows of the region, each column
-    // view's rows that the region reaches at any hypothesis.
-    let cache: &mut [f32] = if keep_rows && keeps_rows(luma) {
-        rest
-    } else {
-        &mut []
-    };
-    let mut used_cache = 0;
-    let centre_rows = RowCache::fill(
-        &centre,
-        region.clone(),
-        cache,
-        &mut used_cache,
-        row_len,
-        luma,
-    );
-    for sv in views.iter_mut() {
-        let reach = if sv.v == 0.0 {
-            region.clone()
-        } else {
-            let (mut lo, mut hi) = (height, 0);
-            let last = region.end.saturating_sub(1);
-            for i in 0..count {
-                let d = min + i as f32 * spacing;
-                let floor = libm::floorf(-d * sv.v);
-                lo = lo.min(source_row(region.start, floor, 0.0, height));
-                hi = hi.max(source_row(last, floor, 1.0, height));
-            }
-            lo..(hi + 1).max(lo)
-        };
-        sv.rows = RowCache::fill(&sv.view, reach, cache, &mut used_cache, row_len, luma);
+    // With luminance (`keeps_rows`), the band's rows of every view converted once for
+    // all hypotheses: the centre's and the row views' rows of the region, each column
+    // view's rows that the region reaches at any hypothesis. Without, every view is
+    // read and converted per hypothesis.
+    let keep = keep_rows && keeps_rows(luma);
+    let cache: &mut [f32] = if keep { rest } else { &mut [] };
+    let mut centre_rows = RowCache::default();
+    if keep {
+        let mut used_cache = 0;
+        centre_rows = RowCache::fill(
+            &centre,
+            region.clone(),
+            cache,
+            &mut used_cache,
+            row_len,
+            luma,
+        );
+        for sv in views.iter_mut() {
+            let reach = if sv.v == 0.0 {
+                region.clone()
+            } else {
+                let (mut lo, mut hi) = (height, 0);
+                let last = region.end.saturating_sub(1);
+                for i in 0..count {
+                    let d = min + i as f32 * spacing;
+                    let floor = libm::floorf(-d * sv.v);
+                    lo = lo.min(source_row(region.start, floor, 0.0, height));
+                    hi = hi.max(source_row(last, floor, 1.0, height));
+                }
+                lo..(hi + 1).max(lo)
+            };
+            sv.rows = RowCache::fill(&sv.view, reach, cache, &mut used_cache, row_len, luma);
+        }
     }
     let cache = &*cache;
 
@@ -502,19 +503,14 @@ fn cross_views<'a, S: Sample>(
     let (r0, c0) = grid.center();
     let mut views: heapless::Vec<SweepView<'_, S>, { 2 * crate::lightfield::GRID_MAX }> =
         heapless::Vec::new();
-    // (row, column, camera offset along the group's axis, group)
+    // (row, column, camera offset (u, v), group)
     let row_views = (0..grid.cols)
         .filter(|&c| c != c0)
-        .map(|c| (r0, c, c as f32 - c0 as f32, 0));
+        .map(|c| (r0, c, (c as f32 - c0 as f32, 0.0), 0));
     let column_views = (0..grid.rows)
         .filter(|&r| r != r0)
-        .map(|r| (r, c0, r as f32 - r0 as f32, 1));
-    for (r, c, offset, group) in row_views.chain(column_views) {
-        let (u, v) = if group == 0 {
-            (offset, 0.0)
-        } else {
-            (0.0, offset)
-        };
+        .map(|r| (r, c0, (0.0, r as f32 - r0 as f32), 1));
+    for (r, c, (u, v), group) in row_views.chain(column_views) {
         views
             .push(SweepView {
                 view: lf.view(r, c)?,
