@@ -18,7 +18,6 @@ use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion};
 use lfdepth::median::{self, MedianParams};
 use lfdepth::{LightField, Params, Plan};
-use stage_inputs::thread_cpu;
 
 /// Every pass as the engine runs them: each pass after the first knows the one before's
 /// input (`a`) and which pixels it settled (`settled`), its own input (`b`) is that
@@ -90,14 +89,8 @@ fn bench_engine_passes(
     let mut scratch = vec![0.0f32; median::scratch_len(plan.median())];
     let mut maps = [input.to_vec(), input.to_vec(), input.to_vec()];
     let mut settled = vec![0u8; plan.pixels()];
-    group.bench_function(format!("{scene}_{passes}passes_1t"), |bench| {
-        bench.iter_custom(|iters| {
-            let start = thread_cpu();
-            for _ in 0..iters {
-                engine_passes(plan, lf, input, &mut maps, &mut settled, &mut scratch);
-            }
-            thread_cpu() - start
-        })
+    stage_inputs::bench_thread_cpu(group, format!("{scene}_{passes}passes_1t"), || {
+        engine_passes(plan, lf, input, &mut maps, &mut settled, &mut scratch);
     });
 }
 
@@ -118,18 +111,12 @@ fn median_stage(c: &mut Criterion) {
     let mut group = median_group(c);
     bench_engine_passes(&mut group, name, &plan, &lf, &input);
     // As the serial core pipeline and the page's workers run it: every pass in full.
-    group.bench_function(format!("{name}_{passes}passes_full_1t"), |bench| {
-        bench.iter_custom(|iters| {
-            let start = thread_cpu();
-            for _ in 0..iters {
-                a.copy_from_slice(&input);
-                for _ in 0..passes {
-                    median::filter(plan.median(), &guide, &a, &mut b, &mut scratch).unwrap();
-                    std::mem::swap(&mut a, &mut b);
-                }
-            }
-            thread_cpu() - start
-        })
+    stage_inputs::bench_thread_cpu(&mut group, format!("{name}_{passes}passes_full_1t"), || {
+        a.copy_from_slice(&input);
+        for _ in 0..passes {
+            median::filter(plan.median(), &guide, &a, &mut b, &mut scratch).unwrap();
+            std::mem::swap(&mut a, &mut b);
+        }
     });
     group.finish();
 }

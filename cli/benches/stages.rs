@@ -17,7 +17,6 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use lfdepth::{geofill, planesweep, refine, LightField, Params, Plan};
-use stage_inputs::thread_cpu;
 
 fn stages(c: &mut Criterion) {
     let (views, layout, name) = tv_support::bench_scene();
@@ -38,70 +37,40 @@ fn stages(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(10))
         .warm_up_time(Duration::from_secs(1));
 
-    group.bench_function(format!("{name}_range_1t"), |bench| {
-        bench.iter_custom(|iters| {
-            let start = thread_cpu();
-            for _ in 0..iters {
-                std::hint::black_box(stage_inputs::range(&lf, &plan));
-            }
-            thread_cpu() - start
-        })
+    stage_inputs::bench_thread_cpu(&mut group, format!("{name}_range_1t"), || {
+        std::hint::black_box(stage_inputs::range(&lf, &plan));
     });
 
     let (mut disparity, mut confidence) = (vec![0.0f32; n], vec![0.0f32; n]);
     let mut scratch = vec![0.0f32; planesweep::scratch_len(plan.sweep())];
-    group.bench_function(format!("{name}_sweep_1t"), |bench| {
-        bench.iter_custom(|iters| {
-            let start = thread_cpu();
-            for _ in 0..iters {
-                stage_inputs::sweep_into(
-                    &lf,
-                    &plan,
-                    inputs.range,
-                    (&mut disparity, &mut confidence),
-                    &mut scratch,
-                );
-            }
-            thread_cpu() - start
-        })
+    stage_inputs::bench_thread_cpu(&mut group, format!("{name}_sweep_1t"), || {
+        stage_inputs::sweep_into(
+            &lf,
+            &plan,
+            inputs.range,
+            (&mut disparity, &mut confidence),
+            &mut scratch,
+        );
     });
     assert_eq!(disparity, inputs.sweep, "the sweep is deterministic");
 
     let mut scratch = vec![0.0f32; refine::scratch_len(plan.refine())];
-    group.bench_function(format!("{name}_refine_1t"), |bench| {
-        bench.iter_custom(|iters| {
-            let start = thread_cpu();
-            for _ in 0..iters {
-                stage_inputs::refine_into(
-                    &lf,
-                    &plan,
-                    inputs.range,
-                    &inputs.sweep,
-                    (&mut disparity, &mut confidence),
-                    &mut scratch,
-                );
-            }
-            thread_cpu() - start
-        })
+    stage_inputs::bench_thread_cpu(&mut group, format!("{name}_refine_1t"), || {
+        stage_inputs::refine_into(
+            &lf,
+            &plan,
+            inputs.range,
+            &inputs.sweep,
+            (&mut disparity, &mut confidence),
+            &mut scratch,
+        );
     });
     assert_eq!(disparity, inputs.refined, "the refinement is deterministic");
 
     if plan.params().geofill.enabled {
         let mut scratch = vec![0.0f32; geofill::scratch_len(plan.geofill())];
-        group.bench_function(format!("{name}_refill_1t"), |bench| {
-            bench.iter_custom(|iters| {
-                let start = thread_cpu();
-                for _ in 0..iters {
-                    stage_inputs::refill_into(
-                        &lf,
-                        &plan,
-                        &inputs.refined,
-                        &mut disparity,
-                        &mut scratch,
-                    );
-                }
-                thread_cpu() - start
-            })
+        stage_inputs::bench_thread_cpu(&mut group, format!("{name}_refill_1t"), || {
+            stage_inputs::refill_into(&lf, &plan, &inputs.refined, &mut disparity, &mut scratch);
         });
         assert_eq!(
             disparity, inputs.median_input,

@@ -1,18 +1,22 @@
 //! The maps each stage of the default pipeline reads, computed serially on one thread by
 //! the core's stage functions in the pipeline's order (range → plane sweep → refinement
-//! → refill), and the calling thread's CPU time: shared by the per-stage benches
+//! → refill), and benchmarks timed by the calling thread's CPU time: shared by the
+//! per-stage benches
 //! (included with `#[path]`).
 #![allow(dead_code)]
 
 use std::ops::ControlFlow;
 use std::time::Duration;
 
+use criterion::measurement::WallTime;
+use criterion::BenchmarkGroup;
+
 use lfdepth::setup::DisparityOut;
 use lfdepth::{geofill, planesweep, refine, schedule, LightField, Plan};
 
 /// CPU time of the calling thread (`/proc/thread-self/schedstat`): the machines the
 /// benches run on are shared, and waiting for a core is no cost of a stage.
-pub fn thread_cpu() -> Duration {
+fn thread_cpu() -> Duration {
     let stat = std::fs::read_to_string("/proc/thread-self/schedstat").unwrap_or_default();
     let ns = stat
         .split_whitespace()
@@ -20,6 +24,24 @@ pub fn thread_cpu() -> Duration {
         .and_then(|v| v.parse::<u64>().ok())
         .unwrap_or(0);
     Duration::from_nanos(ns)
+}
+
+/// Benchmark `id` of `group`, timed by the calling thread's CPU time ([`thread_cpu`]):
+/// `run` once per iteration.
+pub fn bench_thread_cpu(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    id: String,
+    mut run: impl FnMut(),
+) {
+    group.bench_function(id, |bench| {
+        bench.iter_custom(|iters| {
+            let start = thread_cpu();
+            for _ in 0..iters {
+                run();
+            }
+            thread_cpu() - start
+        })
+    });
 }
 
 /// The disparity range the plan's hypotheses span (the schedule's first step).
